@@ -1,0 +1,46 @@
+# dempath: two commands for users, `make demo` and `make test`; both set up .venv on first use.
+SHELL := /bin/bash
+PYTHON ?= $(shell command -v python3.11 || command -v python3)
+VENV := .venv
+BIN := $(VENV)/bin
+PKGS := dempath dempath_calib dempath_recon dempath_sim dempath_compare
+MSG_FILES := $(wildcard src/dempath_msgs/msg/*.msg) src/dempath_msgs/CMakeLists.txt src/dempath_msgs/pyproject.toml
+PKG_FILES := $(foreach p,$(PKGS),src/$(p)/setup.py)
+
+# ROS discovery stays on this machine unless the user deploys across machines and overrides it.
+export ROS_AUTOMATIC_DISCOVERY_RANGE ?= LOCALHOST
+export AMENT_PREFIX_PATH ?= $(abspath $(VENV))
+
+.PHONY: demo test lint bench setup clean
+demo: $(VENV)/.installed
+	$(BIN)/dempath demo
+
+test: $(VENV)/.installed
+	$(BIN)/python -m pytest
+
+lint: $(VENV)/.installed
+	$(BIN)/ruff check src tests bench
+	$(BIN)/mypy
+
+bench: $(VENV)/.installed
+	for b in bench/*.py; do $(BIN)/python $$b || exit 1; done
+
+setup: $(VENV)/.installed
+
+$(VENV)/.deps: requirements.txt requirements-build.txt constraints.txt
+	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --disable-pip-version-check \
+	  -r requirements.txt -r requirements-build.txt -c constraints.txt
+	touch $@
+
+$(VENV)/.msgs: $(VENV)/.deps $(MSG_FILES)
+	$(BIN)/python -m pip install --quiet --disable-pip-version-check --no-build-isolation --no-deps ./src/dempath_msgs
+	touch $@
+
+$(VENV)/.installed: $(VENV)/.msgs $(PKG_FILES)
+	$(BIN)/python -m pip install --quiet --disable-pip-version-check --no-build-isolation --no-deps \
+	  $(foreach p,$(PKGS),-e src/$(p))
+	touch $@
+
+clean:
+	rm -rf $(VENV) build src/dempath_msgs/build

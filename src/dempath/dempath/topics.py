@@ -1,0 +1,30 @@
+"""Default topic names of the dempath graph, in one place so that nodes, bags and tests agree."""
+
+from __future__ import annotations
+
+CAMERAS = ('cam_side', 'cam_front')  # Cam 1 (side) and Cam 2 (front) of the paper
+
+IMAGE_RAW = '/{camera}/image_raw'  # sensor_msgs/Image
+IMAGE_COMPRESSED = '/{camera}/image_raw/compressed'  # sensor_msgs/CompressedImage
+CAMERA_INFO = '/{camera}/camera_info'  # sensor_msgs/CameraInfo, transient local
+PIXEL_POINTS = '/{camera}/pixel_points'  # dempath_msgs/PixelPoints
+
+MARKER_POINTS = '/markers/points3d'  # dempath_msgs/MarkerPoints3D
+MARKER_VIZ = '/markers/visualization'  # visualization_msgs/MarkerArray
+
+SIM_STATES = '/sim/particle_states'  # dempath_msgs/ParticleStates
+SIM_TOOL_FORCE = '/sim/tool_force'  # dempath_msgs/ToolForce
+SIM_TOOL_POSE = '/sim/tool_pose'  # geometry_msgs/PoseStamped
+SIM_RUN_EVENTS = '/sim/run_events'  # dempath_msgs/RunEvent
+SIM_VIZ = '/sim/visualization'  # visualization_msgs/MarkerArray
+
+COMPARE_SCORES = '/compare/scores'  # dempath_msgs/TrajectoryScoreArray
+COMPARE_VIZ = '/compare/visualization'  # visualization_msgs/MarkerArray
+DIAGNOSIS = '/diagnosis'  # dempath_msgs/Diagnosis
+
+CLOCK = '/clock'  # rosgraph_msgs/Clock, published by the player
+
+
+def camera_topic(template: str, camera: str) -> str:
+    """Fill a per-camera topic template, e.g. ``camera_topic(IMAGE_RAW, 'cam_side')``."""
+    return template.format(camera=camera)

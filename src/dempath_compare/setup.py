@@ -1,0 +1,27 @@
+"""ament_python package dempath_compare."""
+
+from setuptools import find_packages, setup
+
+PACKAGE = 'dempath_compare'
+
+setup(
+    name=PACKAGE,
+    version='0.1.0',
+    packages=find_packages(exclude=['test']),
+    package_data={PACKAGE: ['py.typed']},
+    data_files=[
+        ('share/ament_index/resource_index/packages', [f'resource/{PACKAGE}']),
+        (f'share/{PACKAGE}', ['package.xml']),
+    ],
+    install_requires=['setuptools'],
+    zip_safe=False,
+    maintainer='dempath developers',
+    maintainer_email='dempath@users.noreply.github.com',
+    description=open('package.xml').read().split('<description>')[1].split('</description>')[0],
+    license='Apache-2.0',
+    entry_points={
+        'console_scripts': [
+
+        ],
+    },
+)
