@@ -1,1 +1,1 @@
-"""Two-camera ChArUco calibration for dempath: synthetic rig, intrinsics, stereo extrinsics, world frame."""
+"""Two-camera ChArUco calibration for dempath: twin rig, intrinsics, stereo, world frame."""
