@@ -1,0 +1,13 @@
+"""Errors of the DEM engine. Messages name the input and what is wrong with it."""
+
+from __future__ import annotations
+
+from dempath.errors import DempathError
+
+
+class SimulationError(DempathError):
+    """The simulation is unstable or cannot start (time step, overlaps, energy blow-up, inputs)."""
+
+
+class GeometryError(DempathError):
+    """A geometry input (STL file, mesh, wall) is malformed."""

@@ -1,0 +1,126 @@
+"""Simulation parameters of the DEM engine: materials, pair interactions, gravity, time step.
+
+`SimParams` is a frozen record validated in `__post_init__`. Materials are referred to by their
+index in `SimParams.materials` (particles, walls and the tool alike); `interactions` maps an
+index pair (i, j) to an `Interaction` and is symmetric (giving (i, j) also defines (j, i)).
+Rolling resistance and cohesion are on for the engine when any interaction has a non-zero
+coefficient (`rolling_enabled`, `cohesion_enabled`); 0 means off.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+from dempath_sim.errors import SimulationError
+from dempath_sim.materials import Interaction, Material
+
+Vec3 = tuple[float, float, float]
+
+
+def _finite_vec(name: str, value: Vec3) -> Vec3:
+    vec = tuple(float(v) for v in value)
+    if len(vec) != 3 or not all(math.isfinite(v) for v in vec):
+        msg = f'SimParams.{name} must be 3 finite numbers, got {value!r}'
+        raise ValueError(msg)
+    return vec  # type: ignore[return-value]
+
+
+@dataclass(frozen=True)
+class SimParams:
+    """Physical and numerical parameters of one simulation.
+
+    Attributes:
+        materials: All materials (particles, walls, tool); referred to by index.
+        interactions: (i, j) -> Interaction for material indices i, j; symmetric.
+        gravity: Gravity vector (3,) [m/s^2], along -Y by default.
+        dt: Time step [s]; None = Rayleigh time step of the finest particle * rayleigh_safety.
+        rayleigh_safety: Fraction of the Rayleigh time step used when dt is None [-].
+        skin: Neighbour-list skin as a fraction of the largest particle radius [-];
+            the list is rebuilt when a particle has moved more than skin/2.
+        domain_min: Lower corner (3,) of the domain box [m]; particles leaving it are removed.
+        domain_max: Upper corner (3,) of the domain box [m].
+        max_overlap_fraction: Largest overlap / radius accepted before SimulationError [-].
+    """
+
+    materials: tuple[Material, ...]
+    interactions: Mapping[tuple[int, int], Interaction]
+    gravity: Vec3 = (0.0, -9.81, 0.0)
+    dt: float | None = None
+    rayleigh_safety: float = 0.2
+    skin: float = 0.3
+    domain_min: Vec3 = (-1e3, -1e3, -1e3)
+    domain_max: Vec3 = (1e3, 1e3, 1e3)
+    max_overlap_fraction: float = 0.05
+    _table: dict[tuple[int, int], Interaction] = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        """Validate every field; raise ValueError naming the field and its value."""
+        if not self.materials or not all(isinstance(m, Material) for m in self.materials):
+            msg = f'SimParams.materials must be a non-empty tuple of Material, ' \
+                  f'got {self.materials!r}'
+            raise ValueError(msg)
+        object.__setattr__(self, 'materials', tuple(self.materials))
+        object.__setattr__(self, '_table', self._symmetric_table())
+        object.__setattr__(self, 'gravity', _finite_vec('gravity', self.gravity))
+        object.__setattr__(self, 'domain_min', _finite_vec('domain_min', self.domain_min))
+        object.__setattr__(self, 'domain_max', _finite_vec('domain_max', self.domain_max))
+        if any(lo >= hi for lo, hi in zip(self.domain_min, self.domain_max, strict=True)):
+            msg = f'SimParams.domain_min {self.domain_min!r} must be below domain_max ' \
+                  f'{self.domain_max!r} on every axis'
+            raise ValueError(msg)
+        if self.dt is not None and not (math.isfinite(self.dt) and self.dt > 0):
+            msg = f'SimParams.dt must be None or a finite number > 0, got {self.dt!r}'
+            raise ValueError(msg)
+        for name, lo, hi in (('rayleigh_safety', 1e-4, 1.0), ('skin', 0.01, 5.0),
+                             ('max_overlap_fraction', 1e-4, 1.0)):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and lo <= value <= hi):
+                msg = f'SimParams.{name} must be in [{lo}, {hi}], got {value!r}'
+                raise ValueError(msg)
+
+    def _symmetric_table(self) -> dict[tuple[int, int], Interaction]:
+        table: dict[tuple[int, int], Interaction] = {}
+        n = len(self.materials)
+        for (i, j), inter in dict(self.interactions).items():
+            if not (0 <= i < n and 0 <= j < n):
+                msg = f'SimParams.interactions key {(i, j)!r} is not a pair of material ' \
+                      f'indices in [0, {n})'
+                raise ValueError(msg)
+            if not isinstance(inter, Interaction):
+                msg = f'SimParams.interactions[{(i, j)!r}] must be an Interaction, got {inter!r}'
+                raise ValueError(msg)
+            other = table.get((j, i))
+            if other is not None and other != inter and i != j:
+                msg = f'SimParams.interactions {(i, j)!r} and {(j, i)!r} differ; give one'
+                raise ValueError(msg)
+            table[(i, j)] = table[(j, i)] = inter
+        return table
+
+    def interaction(self, i: int, j: int) -> Interaction:
+        """Return the interaction of material indices i and j.
+
+        Raises:
+            SimulationError: The pair is not in `interactions`.
+        """
+        try:
+            return self._table[(i, j)]
+        except KeyError as err:
+            names = (self.materials[i].name, self.materials[j].name)
+            msg = f'SimParams.interactions has no entry for materials {(i, j)!r} {names!r}'
+            raise SimulationError(msg) from err
+
+    def has_interaction(self, i: int, j: int) -> bool:
+        """Whether material indices i and j have an interaction."""
+        return (i, j) in self._table
+
+    @property
+    def rolling_enabled(self) -> bool:
+        """Whether any pair has a rolling resistance coefficient > 0."""
+        return any(x.rolling_friction > 0 for x in self._table.values())
+
+    @property
+    def cohesion_enabled(self) -> bool:
+        """Whether any pair has a cohesion energy density > 0."""
+        return any(x.cohesion_energy_density > 0 for x in self._table.values())
