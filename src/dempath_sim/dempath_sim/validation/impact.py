@@ -1,0 +1,155 @@
+"""Two-sphere normal impact: contact duration and restitution against Hertz theory.
+
+Two identical spheres approach head-on along X at relative speed v (no gravity, no friction
+effect in a central impact). Measured: the contact duration (overlap > 0) and the restitution
+(rebound / impact relative speed). References (``hertz`` module): the analytic Hertz duration for
+e = 1, the damped-ODE duration for e < 1, and the set restitution e.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from dempath_sim.liggghts import commands as cmd
+from dempath_sim.liggghts.runner import run_deck
+from dempath_sim.materials import Interaction, Material
+from dempath_sim.params import SimParams
+from dempath_sim.validation.hertz import HertzPair, contact_time, damped_impact, sphere_pair
+
+
+@dataclass(frozen=True)
+class ImpactCase:
+    """One impact: sand-like spheres (paper Table 2 / 6 values by default).
+
+    Attributes:
+        speed: Relative approach speed v [m/s].
+        restitution: Set coefficient of restitution e [-].
+        radius: Sphere radius [m].
+        density: Solid density [kg/m^3].
+        youngs: Young's modulus [Pa].
+        poisson: Poisson's ratio [-].
+        steps_per_contact: Time steps per analytic contact duration.
+    """
+
+    speed: float
+    restitution: float
+    radius: float = 0.002
+    density: float = 2650.0
+    youngs: float = 1.7e6
+    poisson: float = 0.25
+    steps_per_contact: int = 400
+
+    @property
+    def pair(self) -> HertzPair:
+        """Effective contact quantities of the two spheres."""
+        return sphere_pair(self.radius, self.density, self.youngs, self.poisson,
+                           self.restitution)
+
+    @property
+    def dt(self) -> float:
+        """Time step [s]: the analytic duration / steps_per_contact."""
+        return contact_time(self.pair, self.speed) / self.steps_per_contact
+
+    def params(self) -> SimParams:
+        """One material, one interaction, no gravity."""
+        sand = Material('sand', self.density, self.youngs, self.poisson)
+        inter = Interaction(self.restitution, 0.5, 0.5)
+        return SimParams(materials=(sand,), interactions={(0, 0): inter},
+                         gravity=(0.0, 0.0, 0.0), dt=self.dt)
+
+
+@dataclass(frozen=True)
+class ImpactResult:
+    """Measured and reference values of one impact.
+
+    Attributes:
+        engine: 'dempath' or 'liggghts'.
+        case: The impact set-up.
+        duration: Measured contact duration [s].
+        restitution: Measured restitution [-].
+        reference_duration: Analytic (e = 1) or damped-ODE (e < 1) duration [s].
+    """
+
+    engine: str
+    case: ImpactCase
+    duration: float
+    restitution: float
+    reference_duration: float
+
+    @property
+    def duration_error(self) -> float:
+        """Relative error of the duration [-]."""
+        return abs(self.duration / self.reference_duration - 1.0)
+
+    @property
+    def restitution_error(self) -> float:
+        """Relative error of the restitution against the set value [-]."""
+        return abs(self.restitution / self.case.restitution - 1.0)
+
+
+def reference_duration(case: ImpactCase) -> float:
+    """Analytic Hertz duration for e = 1, damped-ODE duration otherwise [s]."""
+    if case.restitution >= 1.0:
+        return contact_time(case.pair, case.speed)
+    return damped_impact(case.pair, case.speed)[0]
+
+
+def measure(engine: str, case: ImpactCase, times: np.ndarray, gaps: np.ndarray,
+            rel_speed: np.ndarray) -> ImpactResult:
+    """Contact duration and restitution from a sampled run.
+
+    Args:
+        engine: Engine name.
+        case: The set-up.
+        times: (nt,) sample times [s], one per step.
+        gaps: (nt,) centre distance minus 2 radii [m] (< 0 in contact).
+        rel_speed: (nt,) closing speed v1x - v2x [m/s].
+    """
+    touching = gaps < 0.0
+    idx = np.flatnonzero(touching)
+    if idx.size == 0:
+        return ImpactResult(engine, case, math.nan, math.nan, reference_duration(case))
+    first, last = idx[0], idx[-1]
+    # Linear interpolation of the gap's zero crossings on either side of the contact.
+    t0 = np.interp(0.0, [gaps[first], gaps[first - 1]], [times[first], times[first - 1]])
+    t1 = np.interp(0.0, [gaps[last], gaps[last + 1]], [times[last], times[last + 1]])
+    rebound = -float(rel_speed[-1])
+    return ImpactResult(engine, case, float(t1 - t0), rebound / case.speed,
+                        reference_duration(case))
+
+
+def _liggghts_deck(case: ImpactCase) -> str:
+    params = case.params()
+    r, gap0 = case.radius, 0.05 * case.radius
+    x0 = r + gap0 / 2.0
+    steps = int(3 * case.steps_per_contact + gap0 / case.speed / case.dt) + 50
+    lines = cmd.header((-20 * r, -4 * r, -4 * r), (20 * r, 4 * r, 4 * r), 1, 0.5 * r,
+                       cmd.needs_soft(params))
+    lines += cmd.materials(params) + cmd.pair_style(params)
+    lines += [f'timestep {cmd.fmt(case.dt)}',
+              f'create_atoms 1 single {cmd.fmt(-x0)} 0 0 units box',
+              f'create_atoms 1 single {cmd.fmt(x0)} 0 0 units box',
+              f'set group all diameter {cmd.fmt(2 * r)} density {cmd.fmt(case.density)}',
+              f'set atom 1 vx {cmd.fmt(case.speed / 2)}',
+              f'set atom 2 vx {cmd.fmt(-case.speed / 2)}',
+              'fix integr all nve/sphere',
+              'variable t equal step*dt',
+              f'variable gap equal x[2]-x[1]-{cmd.fmt(2 * r)}',
+              'variable vrel equal vx[1]-vx[2]',
+              'fix out all print 1 "${t} ${gap} ${vrel}" file impact.txt screen no',
+              'thermo 100000', f'run {steps}']
+    return '\n'.join(lines) + '\n'
+
+
+def impact_liggghts(case: ImpactCase, workdir: Path) -> ImpactResult:
+    """Run the impact with LIGGGHTS in ``workdir`` and measure it."""
+    workdir.mkdir(parents=True, exist_ok=True)
+    deck = workdir / 'in.impact'
+    deck.write_text(_liggghts_deck(case))
+    run_deck(deck)
+    data = np.loadtxt(workdir / 'impact.txt', comments='#', ndmin=2)
+    return measure('liggghts', case, data[:, 0], data[:, 1], data[:, 2])
