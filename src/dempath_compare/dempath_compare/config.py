@@ -64,6 +64,8 @@ class CompareConfig:
         marker_ids: marker numbers that exist (the paper's 1-15 grid).
         range_kind: normaliser of nRMSE.
         min_points: fewest samples a trajectory needs to be scored.
+        match_speed: when both an experiment and a model run name a tool speed
+            (e.g. ``experiment_1ms`` and ``model_1ms``), compare only equal speeds.
     """
 
     top_n: int = 10
@@ -80,6 +82,7 @@ class CompareConfig:
     marker_ids: tuple[int, ...] = tuple(range(1, 16))
     range_kind: RangeKind = RangeKind.EXTENT
     min_points: int = 3
+    match_speed: bool = True
 
     def __post_init__(self) -> None:
         object.__setattr__(self, 'rank_by', _enum(RankBy, 'rank_by', self.rank_by))

@@ -87,7 +87,21 @@ def pair_mask(measured: TrajectorySet, model: TrajectorySet,
         from dempath_compare.correspondence import cube_candidates
 
         mask &= cube_candidates(measured.origins, model.origins, config.cube_size)
+    if config.match_speed:
+        mask &= same_speed(measured.groups, model.groups)
     return np.asarray(mask)
+
+
+def same_speed(groups_e: tuple[str, ...], groups_m: tuple[str, ...]) -> NDArray[np.bool_]:
+    """(n_e, n_m) False only where both names state a tool speed and the speeds differ."""
+    from dempath_compare.summary import speed_label
+
+    def speeds(groups: tuple[str, ...]) -> NDArray[np.str_]:
+        labels = {g: speed_label(g) for g in set(groups)}
+        return np.array([labels[g] if labels[g].endswith(' m/s') else '' for g in groups])
+
+    se, sm = speeds(groups_e), speeds(groups_m)
+    return np.asarray((se[:, None] == sm[None, :]) | (se[:, None] == '') | (sm[None, :] == ''))
 
 
 def dtw_distances(measured: TrajectorySet, model: TrajectorySet,

@@ -1,0 +1,174 @@
+"""Loading trajectories from CSV files, folders of CSV files and bags.
+
+CSV shapes (metres and seconds, header row, any column order, extra columns ignored):
+
+- measured: ``t,marker,x,y,z`` (one row per marker and time);
+- model: ``t,id,x,y,z``, optionally with a ``marker`` column naming the marker a particle is a
+  candidate of;
+- one trajectory per file: ``t,x,y,z``; the marker number / particle id is the last number in
+  the file name (the paper's layout).
+
+In a folder, as in the paper (sec. 2.5), files with "experiment" in the name are measured data
+and the others model data. Bags hold ``dempath_msgs/MarkerPoints3D`` (measured) and
+``dempath_msgs/ParticleStates`` (model) on the topics of :mod:`dempath.topics`.
+"""
+
+from __future__ import annotations
+
+import csv
+import logging
+import re
+from collections.abc import Iterable
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from dempath_compare.errors import InputError
+from dempath_compare.records import MEASURED, MODEL, Track
+
+log = logging.getLogger(__name__)
+
+EXPERIMENT_KEYWORD = 'experiment'
+ALIASES = {'time': 't', 't_s': 't', 'marker_id': 'marker', 'particle_id': 'id',
+           'x_m': 'x', 'y_m': 'y', 'z_m': 'z'}
+
+
+def read_csv_columns(path: Path) -> dict[str, NDArray[np.float64]]:
+    """Columns of a CSV file by lower-case header name, as float arrays (blank -> NaN)."""
+    try:
+        with path.open(newline='') as handle:
+            rows = list(csv.reader(handle))
+    except (OSError, UnicodeDecodeError) as err:
+        msg = f'{path}: cannot read CSV file ({err})'
+        raise InputError(msg) from err
+    rows = [r for r in rows if r and any(c.strip() for c in r)]
+    if not rows:
+        msg = f'{path}: empty CSV file'
+        raise InputError(msg)
+    header = [ALIASES.get(h.strip().lower(), h.strip().lower()) for h in rows[0]]
+    width = len(header)
+    if any(len(r) != width for r in rows[1:]):
+        bad = next(i for i, r in enumerate(rows[1:], 2) if len(r) != width)
+        msg = f'{path}: line {bad} has a different number of fields than the header'
+        raise InputError(msg)
+    try:
+        data = np.array([[float(c) if c.strip() else np.nan for c in r] for r in rows[1:]],
+                        dtype=np.float64).reshape(len(rows) - 1, width)
+    except ValueError as err:
+        msg = f'{path}: non-numeric value ({err})'
+        raise InputError(msg) from err
+    return {name: data[:, k] for k, name in enumerate(header)}
+
+
+def load_csv(path: str | Path, kind: str) -> list[Track]:
+    """Tracks of one CSV file.
+
+    Args:
+        path: CSV file in one of the module's shapes.
+        kind: ``MEASURED`` or ``MODEL`` (decides whether ``marker`` or ``id`` names a track).
+
+    Raises:
+        InputError: unreadable file, missing columns, non-integer ids.
+    """
+    path = Path(path)
+    cols = read_csv_columns(path)
+    missing = [c for c in ('t', 'x', 'y', 'z') if c not in cols]
+    if missing:
+        msg = f'{path}: missing column(s) {missing}; expected t,marker|id,x,y,z'
+        raise InputError(msg)
+    key = 'marker' if kind == MEASURED else ('id' if 'id' in cols else 'marker')
+    n_rows = len(cols['t'])
+    if key in cols:
+        idents = _integers(path, key, cols[key])
+    else:
+        idents = np.full(n_rows, _number_in_name(path), dtype=np.int64)
+    markers = _integers(path, 'marker', cols['marker']) if 'marker' in cols else None
+    xyz = np.stack([cols['x'], cols['y'], cols['z']], axis=1)
+    tracks = []
+    for ident in dict.fromkeys(idents.tolist()):
+        rows = np.flatnonzero(idents == ident)
+        marker = ident if kind == MEASURED else (int(markers[rows[0]]) if markers is not None
+                                                 else 0)
+        label = f'{path.stem}/marker{ident}' if kind == MEASURED else f'{path.stem}/{ident}'
+        tracks.append(Track(label, path.stem, int(ident), marker, cols['t'][rows], xyz[rows]))
+    return tracks
+
+
+def _integers(path: Path, name: str, values: NDArray[np.float64]) -> NDArray[np.int64]:
+    if not np.all(np.isfinite(values)) or np.any(values != np.round(values)):
+        msg = f'{path}: column {name!r} must hold integers'
+        raise InputError(msg)
+    return values.astype(np.int64)
+
+
+def _number_in_name(path: Path) -> int:
+    numbers = re.findall(r'\d+', path.stem)
+    return int(numbers[-1]) if numbers else 0
+
+
+def csv_files(folder: Path, kind: str) -> list[Path]:
+    """CSV files of ``kind`` in a folder: "experiment" in the name for measured, else model.
+
+    A folder without any "experiment" file is taken as entirely measured when ``kind`` is
+    measured (a folder given on purpose for the measured side).
+    """
+    files = sorted(p for p in folder.iterdir() if p.suffix.lower() == '.csv' and p.is_file())
+    if not files:
+        msg = f'{folder}: no CSV files in folder'
+        raise InputError(msg)
+    experiment = [p for p in files if EXPERIMENT_KEYWORD in p.name.lower()]
+    if kind == MEASURED:
+        return experiment or files
+    chosen = [p for p in files if p not in experiment]
+    if not chosen:
+        msg = f'{folder}: no model CSV files (every file has {EXPERIMENT_KEYWORD!r} in its name)'
+        raise InputError(msg)
+    return chosen
+
+
+def is_bag(path: Path) -> bool:
+    """A rosbag2 directory or a bare .mcap / .db3 file."""
+    return (path.is_dir() and (path / 'metadata.yaml').is_file()) or \
+        path.suffix.lower() in {'.mcap', '.db3'}
+
+
+def load_source(path: str | Path, kind: str) -> list[Track]:
+    """Tracks of ``kind`` from a CSV file, a folder of CSV files or a bag.
+
+    Raises:
+        InputError: missing path, empty folder, unreadable file, nothing of ``kind`` found.
+    """
+    path = Path(path)
+    if not path.exists():
+        msg = f'{path}: no such file or folder'
+        raise InputError(msg)
+    if is_bag(path):
+        from dempath_compare.bagload import load_bag
+
+        tracks = load_bag(path, kind)
+    elif path.is_dir():
+        tracks = [t for f in csv_files(path, kind) for t in load_csv(f, kind)]
+    elif path.suffix.lower() == '.csv':
+        tracks = load_csv(path, kind)
+    else:
+        msg = f'{path}: not a CSV file, folder of CSV files or bag'
+        raise InputError(msg)
+    if not tracks:
+        msg = f'{path}: no {kind} trajectories found'
+        raise InputError(msg)
+    _check_unique(path, tracks)
+    log.info('%s: %d %s trajectories', path, len(tracks), kind)
+    return tracks
+
+
+def _check_unique(path: Path, tracks: Iterable[Track]) -> None:
+    seen: set[str] = set()
+    for track in tracks:
+        if track.label in seen:
+            msg = f'{path}: trajectory {track.label} appears twice'
+            raise InputError(msg)
+        seen.add(track.label)
+
+
+__all__ = ['MEASURED', 'MODEL', 'csv_files', 'is_bag', 'load_csv', 'load_source']
