@@ -28,3 +28,21 @@ CLOCK = '/clock'  # rosgraph_msgs/Clock, published by the player
 def camera_topic(template: str, camera: str) -> str:
     """Fill a per-camera topic template, e.g. ``camera_topic(IMAGE_RAW, 'cam_side')``."""
     return template.format(camera=camera)
+
+PLAYER_EVENTS = '/player/events'  # dempath_msgs/RunEvent, transient local: STARTED, FINISHED, ABORTED
+
+
+def dempath_namespaces() -> tuple[str, ...]:
+    """The first-level namespaces of every dempath topic (``/cam_side``, ``/sim``, ...).
+
+    The recorder records every topic under these namespaces when no topic list is given; ``/clock``
+    is not among them.
+    """
+    names = [camera_topic(t, c) for t in (IMAGE_RAW, PIXEL_POINTS) for c in CAMERAS]
+    names += [MARKER_POINTS, SIM_STATES, COMPARE_SCORES, DIAGNOSIS, PLAYER_EVENTS]
+    return tuple(dict.fromkeys('/' + n.split('/')[1] for n in names))
+
+
+def is_dempath_topic(topic: str) -> bool:
+    """Whether ``topic`` lies under one of :func:`dempath_namespaces` (or is one of them)."""
+    return any(topic == ns or topic.startswith(ns + '/') for ns in dempath_namespaces())

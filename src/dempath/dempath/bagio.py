@@ -1,0 +1,321 @@
+"""Bag input and output without ROS: a typestore with dempath_msgs, validated reading, writers.
+
+The typestore is rosbags' ROS 2 Jazzy store plus every ``dempath_msgs`` type parsed from its
+``.msg`` text (installed under ``sys.prefix/share/dempath_msgs/msg``, or the source tree). Types
+defined in a bag itself (its ``ros2msg`` schemas) are registered when the bag is opened, so bags
+with custom types read without any package installed.
+
+Every fault is a :class:`dempath.errors.BagError` whose one-line message names the file and what
+is wrong with it: missing path, truncated or corrupt file, no ``metadata.yaml``, a message type
+with no definition, a requested topic the bag does not have.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import struct
+import sys
+from collections.abc import Iterable, Iterator, Sequence
+from pathlib import Path
+from typing import Any, NamedTuple
+
+from rosbags.interfaces import MessageDefinitionFormat
+from rosbags.rosbag2 import Reader, ReaderError, StoragePlugin, Writer, WriterError
+from rosbags.typesys import Stores, TypesysError, get_types_from_msg, get_typestore
+from rosbags.typesys.store import Typestore
+
+from dempath.errors import BagError
+
+LOG = logging.getLogger(__name__)
+
+MSG_PACKAGE = 'dempath_msgs'
+SOURCE_MSG_DIR = Path(__file__).resolve().parents[2] / MSG_PACKAGE / 'msg'
+PRIMITIVES = frozenset(
+    'bool byte char float32 float64 int8 uint8 int16 uint16 int32 uint32 int64 uint64 string '
+    'wstring'.split())
+# What a damaged bag can raise inside rosbags, besides its own ReaderError.
+READ_FAULTS = (ReaderError, OSError, EOFError, ValueError, KeyError, IndexError, struct.error,
+               UnicodeDecodeError, TypesysError)
+
+
+class TopicInfo(NamedTuple):
+    """One topic of a bag: name, ``pkg/msg/Name`` type, message count, ros2msg text or ''."""
+
+    name: str
+    msgtype: str
+    count: int
+    msgdef: str
+
+
+class RawMessage(NamedTuple):
+    """One serialized message: topic, type, bag (receive) time [ns] and its CDR bytes."""
+
+    topic: str
+    msgtype: str
+    log_time_ns: int
+    data: bytes
+
+
+def share_dirs() -> list[Path]:
+    """Install prefixes' ``share`` folders: this interpreter's, then ``AMENT_PREFIX_PATH``."""
+    prefixes = [sys.prefix, *os.environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep)]
+    return [Path(p) / 'share' for p in dict.fromkeys(prefixes) if p]
+
+
+def find_msg_file(msgtype: str) -> Path | None:
+    """The ``.msg`` file defining ``pkg/msg/Name`` in an install prefix (or dempath's sources)."""
+    pkg, _, name = msgtype.split('/')
+    dirs = [d / pkg / 'msg' for d in share_dirs()]
+    if pkg == MSG_PACKAGE:
+        dirs.append(SOURCE_MSG_DIR)
+    return next((d / f'{name}.msg' for d in dirs if (d / f'{name}.msg').is_file()), None)
+
+
+def dempath_msg_dir() -> Path:
+    """The folder holding the ``dempath_msgs`` .msg files (installed copy first)."""
+    for folder in [d / MSG_PACKAGE / 'msg' for d in share_dirs()] + [SOURCE_MSG_DIR]:
+        if any(folder.glob('*.msg')):
+            return folder
+    msg = f'{SOURCE_MSG_DIR}: no dempath_msgs .msg files found (nor under {sys.prefix}/share)'
+    raise BagError(msg)
+
+
+def make_typestore() -> Typestore:
+    """A fresh ROS 2 Jazzy typestore with every dempath_msgs type registered from its .msg text."""
+    store = get_typestore(Stores.ROS2_JAZZY)
+    types: dict[str, Any] = {}
+    for path in sorted(dempath_msg_dir().glob('*.msg')):
+        types.update(get_types_from_msg(path.read_text(), f'{MSG_PACKAGE}/msg/{path.stem}'))
+    store.register(types)
+    return store
+
+
+def _dependencies(text: str, pkg: str) -> set[str]:
+    """Message types a .msg text refers to, as ``pkg/msg/Name``."""
+    deps = set()
+    for line in text.splitlines():
+        words = line.split('#', 1)[0].split()
+        if len(words) < 2 or '=' in words[1] or '=' in words[0]:
+            continue
+        base = words[0].split('[', 1)[0].split('<=', 1)[0]
+        if base in PRIMITIVES or base.startswith(('string<', 'wstring<')):
+            continue
+        if base == 'Header':
+            deps.add('std_msgs/msg/Header')
+        elif '/' in base:
+            dep_pkg, dep_name = base.split('/')[0], base.split('/')[-1]
+            deps.add(f'{dep_pkg}/msg/{dep_name}')
+        else:
+            deps.add(f'{pkg}/msg/{base}')
+    return deps
+
+
+def ensure_type(store: Typestore, msgtype: str) -> bool:
+    """Register ``msgtype`` and its dependencies from installed .msg files if the store lacks it.
+
+    Returns:
+        Whether the store knows the type afterwards.
+    """
+    if msgtype in store.fielddefs:
+        return True
+    path = find_msg_file(msgtype)
+    if path is None:
+        return False
+    text = path.read_text()
+    known = all(ensure_type(store, dep) for dep in _dependencies(text, msgtype.split('/')[0]))
+    store.register(get_types_from_msg(text, msgtype))
+    return known
+
+
+def message_definition(store: Typestore, msgtype: str) -> str:
+    """The full ros2msg text of ``msgtype`` with its dependencies (what Foxglove reads), or ''."""
+    if not ensure_type(store, msgtype):
+        return ''
+    try:
+        text, _ = store.generate_msgdef(msgtype, ros_version=2)
+    except (KeyError, TypesysError):
+        return ''
+    return text
+
+
+def _storage_file(path: Path) -> Path:
+    """The storage file to name in messages: the bag's single .mcap/.db3, else the bag itself."""
+    if path.is_dir():
+        files = sorted([*path.glob('*.mcap'), *path.glob('*.db3')])
+        if len(files) == 1:
+            return files[0]
+    return path
+
+
+def _open_reader(path: Path) -> Reader:
+    if not path.exists():
+        msg = f'{path}: no such bag (neither a bag directory nor a .mcap/.db3 file)'
+        raise BagError(msg)
+    if path.is_dir() and not (path / 'metadata.yaml').is_file():
+        hint = (f'; an interrupted recording? run: dempath bag-recover {path}'
+                if any(path.glob('*.mcap')) else '')
+        msg = f'{path}: not a rosbag2 bag: no metadata.yaml{hint}'
+        raise BagError(msg)
+    reader = Reader(path)
+    try:
+        reader.open()
+    except READ_FAULTS as err:
+        hint = f'; if it is an interrupted recording, run: dempath bag-recover {path}'
+        msg = f'{_storage_file(path)}: truncated or corrupt bag ({err}){hint}'
+        raise BagError(msg) from err
+    return reader
+
+
+class BagReader:
+    """An open, validated bag; make it with :func:`open_bag`, close it (or use ``with``).
+
+    Attributes:
+        path: The bag directory or file.
+        topics: Every topic of the bag by name.
+        typestore: Store that can deserialize every known type of this bag.
+        start_ns: Bag time of the first message [ns].
+        end_ns: Bag time just after the last message [ns].
+        unknown: Topics whose type has no definition anywhere (raw bytes still readable).
+    """
+
+    def __init__(self, path: Path, reader: Reader, typestore: Typestore) -> None:
+        self.path = path
+        self._reader = reader
+        self.typestore = typestore
+        self.topics = {
+            name: TopicInfo(name, info.msgtype or '', info.msgcount,
+                            next((c.msgdef.data for c in info.connections
+                                  if c.msgdef.format == MessageDefinitionFormat.MSG), ''))
+            for name, info in reader.topics.items()}
+        self.start_ns = reader.start_time if reader.message_count else 0
+        self.end_ns = reader.end_time if reader.message_count else 0
+        self.message_count = reader.message_count
+        self.unknown = {t.name: t.msgtype for t in self.topics.values()
+                        if not self._register(t)}
+
+    def _register(self, topic: TopicInfo) -> bool:
+        if topic.msgdef and topic.msgtype not in self.typestore.fielddefs:
+            try:
+                self.typestore.register(get_types_from_msg(topic.msgdef, topic.msgtype))
+            except TypesysError as err:
+                LOG.warning('%s: topic %s: bad definition of %s in the bag: %s',
+                            self.path, topic.name, topic.msgtype, err)
+        return ensure_type(self.typestore, topic.msgtype)
+
+    def select(self, topics: Sequence[str] = ()) -> list[TopicInfo]:
+        """The requested topics (all when empty), checked against the bag.
+
+        Raises:
+            BagError: A requested topic is not in the bag (the message lists the ones that are).
+        """
+        missing = [t for t in topics if t not in self.topics]
+        if missing:
+            have = ', '.join(sorted(self.topics)) or 'none'
+            msg = f'{self.path}: topic {missing[0]} not in bag; topics in the bag: {have}'
+            raise BagError(msg)
+        return [self.topics[t] for t in (topics or sorted(self.topics))]
+
+    def messages(self, topics: Sequence[str] = (),
+                 start_offset_s: float = 0.0) -> Iterator[RawMessage]:
+        """Yield the raw messages of ``topics`` (all when empty) in bag-time order.
+
+        Args:
+            topics: Topic names to read.
+            start_offset_s: Skip messages earlier than bag start + this offset [s].
+
+        Raises:
+            BagError: The data is corrupt or truncated (names the file and how far it read).
+        """
+        wanted = {t.name for t in self.select(topics)}
+        conns = [c for c in self._reader.connections if c.topic in wanted]
+        if not conns:
+            return
+        start = self.start_ns + int(round(start_offset_s * 1e9)) if start_offset_s > 0 else None
+        count = 0
+        try:
+            for conn, t_ns, raw in self._reader.messages(connections=conns, start=start):
+                count += 1
+                yield RawMessage(conn.topic, conn.msgtype, t_ns, bytes(raw))
+        except READ_FAULTS as err:
+            msg = f'{_storage_file(self.path)}: corrupt data after {count} messages ({err})'
+            raise BagError(msg) from err
+
+    def deserialize(self, message: RawMessage) -> Any:
+        """A rosbags message object (numpy arrays for primitive arrays) from a raw message."""
+        return self.typestore.deserialize_cdr(message.data, message.msgtype)
+
+    def close(self) -> None:
+        """Close the underlying files."""
+        self._reader.close()
+
+    def __enter__(self) -> BagReader:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def open_bag(path: str | Path, topics: Sequence[str] = (), *, strict_types: bool = True,
+             typestore: Typestore | None = None) -> BagReader:
+    """Open and validate a rosbag2 bag (MCAP or sqlite3 directory, or a bare .mcap/.db3 file).
+
+    Args:
+        path: Bag directory (with metadata.yaml) or storage file.
+        topics: Topics that must be in the bag (empty: no requirement).
+        strict_types: Fail when a requested topic's type has no definition in the bag, the
+            installed interfaces or the Jazzy store (otherwise it is listed in ``unknown``).
+        typestore: Store to extend; a fresh :func:`make_typestore` by default.
+
+    Raises:
+        BagError: One line naming the file and the fault.
+    """
+    path = Path(path)
+    reader = _open_reader(path)
+    try:
+        bag = BagReader(path, reader, typestore or make_typestore())
+        selected = bag.select(topics)
+        bad = [t for t in selected if t.name in bag.unknown]
+        if strict_types and bad:
+            msg = (f'{path}: topic {bad[0].name} has unknown message type {bad[0].msgtype} '
+                   '(no definition in the bag nor in the installed interfaces)')
+            raise BagError(msg)
+    except BaseException:
+        reader.close()
+        raise
+    return bag
+
+
+def write_bag(path: str | Path, messages: Iterable[tuple[str, str, int, Any]], *,
+              typestore: Typestore | None = None, storage: str = 'mcap') -> Path:
+    """Write a new bag from ``(topic, msgtype, time_ns, message)`` tuples (tests and tools).
+
+    Args:
+        path: Bag directory to create (must not exist).
+        messages: ``message`` is a rosbags message object or already serialized CDR bytes.
+        typestore: Store knowing every type; :func:`make_typestore` by default.
+        storage: ``'mcap'`` or ``'sqlite3'``.
+
+    Returns:
+        The bag directory.
+
+    Raises:
+        BagError: The bag cannot be created or a type is unknown.
+    """
+    path = Path(path)
+    store = typestore or make_typestore()
+    plugin = StoragePlugin.MCAP if storage == 'mcap' else StoragePlugin.SQLITE3
+    try:
+        with Writer(path, version=9, storage_plugin=plugin) as writer:
+            conns: dict[str, Any] = {}
+            for topic, msgtype, t_ns, message in messages:
+                if topic not in conns:
+                    ensure_type(store, msgtype)
+                    conns[topic] = writer.add_connection(topic, msgtype, typestore=store)
+                data = message if isinstance(message, bytes | bytearray | memoryview) else \
+                    store.serialize_cdr(message, msgtype)
+                writer.write(conns[topic], t_ns, data)
+    except (WriterError, OSError, KeyError, TypesysError) as err:
+        msg = f'{path}: cannot write bag: {err}'
+        raise BagError(msg) from err
+    return path

@@ -1,0 +1,138 @@
+"""Player node: replays a rosbag2 bag (MCAP or sqlite3) with its original timing and stamps.
+
+The raw CDR bytes of each message are published as they are (header stamps unchanged), /clock
+follows the bag time, and ``/player/events`` (dempath_msgs/RunEvent, transient local) says
+STARTED, then FINISHED or ABORTED, so that pipelines know when the bag is done. A topic whose
+message class cannot be imported is skipped with one error line; the rest plays. A bad bag
+logs one error line and an ABORTED event; the node stays up and harms no other node.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from typing import Any
+
+import rclpy
+from builtin_interfaces.msg import Time
+from dempath_msgs.msg import RunEvent
+from rcl_interfaces.msg import ParameterDescriptor
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.node import Node
+from rosgraph_msgs.msg import Clock
+
+from dempath import topics
+from dempath.bagio import RawMessage, open_bag
+from dempath.errors import DempathError
+from dempath.nodes.msgtypes import import_message_class, reliable_qos
+from dempath.playback import Playback, PlayerConfig
+from dempath.rosenv import apply_ros_defaults
+
+PARAMETERS = [
+    ('bag', '', 'bag directory or .mcap/.db3 file'),
+    ('rate', 1.0, 'playback speed factor; 0 = as fast as possible'),
+    ('start_offset_s', 0.0, 'skip the first seconds of the bag [s]'),
+    ('loop', False, 'start again at the end'),
+    ('topics', [''], 'topics to play; empty = all'),
+    ('queue_depth', 50, 'publisher history depth (reliable)'),
+    ('wait_for_subscribers', 0, 'wait until each topic has this many subscribers'),
+    ('wait_timeout_s', 10.0, 'longest wait for those subscribers [s]'),
+    ('clock_hz', 100.0, 'highest /clock rate [Hz]'),
+    ('prefetch', 16, 'messages read ahead'),
+]
+
+
+class PlayerNode(Node):
+    """Publishes a bag's messages on their topics from a playback thread."""
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__('dempath_player', **kwargs)
+        self.declare_parameters('', [(n, d, ParameterDescriptor(description=t))
+                                     for n, d, t in PARAMETERS])
+        self.finished = threading.Event()
+        self.stats: Any = None
+        self._event_pub = self.create_publisher(RunEvent, topics.PLAYER_EVENTS,
+                                             reliable_qos(10, latched=True))
+        self._clock_pub = self.create_publisher(Clock, topics.CLOCK, 10)
+        self._last_clock = 0.0
+        self._topic_pubs: dict[str, Any] = {}
+        self._playback: Playback | None = None
+        try:
+            self.config = PlayerConfig.from_params(
+                **{n: self.get_parameter(n).value for n, _, _ in PARAMETERS})
+            self._bag = open_bag(self.config.bag, self.config.topics, strict_types=False)
+        except (DempathError, ValueError) as err:
+            self._end(RunEvent.ABORTED, str(err), error=True)
+            return
+        for info in self._bag.select(self.config.topics):
+            try:
+                cls = import_message_class(info.msgtype)
+            except DempathError as err:
+                self.get_logger().error(f'{self.config.bag}: topic {info.name} skipped: {err}')
+                continue
+            self._topic_pubs[info.name] = self.create_publisher(
+                cls, info.name, reliable_qos(self.config.queue_depth))
+        self._playback = Playback(self._bag, self.config, sorted(self._topic_pubs))
+        threading.Thread(target=self._run, name='player', daemon=True).start()
+
+    def _end(self, event: int, detail: str, error: bool = False) -> None:
+        (self.get_logger().error if error else self.get_logger().info)(detail)
+        self._event(event, detail)
+        self.finished.set()
+
+    def _event(self, event: int, detail: str) -> None:
+        msg = RunEvent(run_id=str(self.get_parameter('bag').value), event=event, detail=detail)
+        msg.header.stamp = self.get_clock().now().to_msg()
+        self._event_pub.publish(msg)
+
+    def _wait_for_subscribers(self) -> None:
+        need, deadline = self.config.wait_for_subscribers, time.monotonic() + \
+            self.config.wait_timeout_s
+        while need and time.monotonic() < deadline and any(
+                p.get_subscription_count() < need for p in self._topic_pubs.values()):
+            time.sleep(0.02)
+
+    def _publish(self, message: RawMessage) -> None:
+        now = time.monotonic()
+        if now - self._last_clock >= 1.0 / self.config.clock_hz:
+            self._last_clock = now
+            sec, nsec = divmod(message.log_time_ns, 1_000_000_000)
+            self._clock_pub.publish(Clock(clock=Time(sec=sec, nanosec=nsec)))
+        self._topic_pubs[message.topic].publish(message.data)
+
+    def _run(self) -> None:
+        assert self._playback is not None
+        self._wait_for_subscribers()
+        self._event(RunEvent.STARTED, f'playing {len(self._topic_pubs)} topics')
+        self.stats = self._playback.run(self._publish)
+        self._bag.close()
+        if self.stats.error:
+            self._end(RunEvent.ABORTED, self.stats.error, error=True)
+        else:
+            self._end(RunEvent.FINISHED, f'{self.config.bag}: published {self.stats.total} '
+                      f'messages on {len(self._topic_pubs)} topics')
+
+    def destroy_node(self) -> None:
+        """Stop the playback thread, then destroy the node."""
+        if self._playback is not None:
+            self._playback.stop.set()
+            self.finished.wait(timeout=5.0)
+        super().destroy_node()
+
+
+def main(args: list[str] | None = None) -> None:
+    """Console script ``dempath_player``: play, then exit when finished (or on Ctrl-C)."""
+    apply_ros_defaults()
+    rclpy.init(args=args)
+    node = PlayerNode()
+    executor = SingleThreadedExecutor()
+    executor.add_node(node)
+    try:
+        while rclpy.ok() and not node.finished.is_set():
+            executor.spin_once(timeout_sec=0.1)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        executor.shutdown()
+        node.destroy_node()
+        rclpy.try_shutdown()

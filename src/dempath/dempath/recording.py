@@ -1,0 +1,233 @@
+"""The recorder's core: accounting of every message and a writer thread behind a byte budget.
+
+The node hands each received CDR message to :meth:`BagRecorder.submit` and returns at once; a
+worker thread writes the MCAP (:class:`dempath.mcapbag.McapBagWriter`) and closes a chunk at
+least every ``flush_period_s``, so that a SIGKILL loses at most that much. Nothing is dropped
+silently: per topic the recorder counts messages received, written, dropped (queue over budget,
+a write failure, lost in transport as the node reports it) and late (received more than
+``late_threshold_s`` after they were sent; they are still written).
+"""
+
+from __future__ import annotations
+
+import logging
+import queue
+import threading
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from rosbags.typesys.store import Typestore
+
+from dempath.bagio import make_typestore, message_definition
+from dempath.errors import OutputError
+from dempath.mcapbag import COMPRESSIONS, McapBagWriter, check_output_dir
+from dempath.topics import is_dempath_topic
+
+LOG = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class RecorderConfig:
+    """Recorder settings (ROS parameters of the recorder node).
+
+    Attributes:
+        output: Bag directory to create.
+        topics: Topics to record; empty means every topic under the dempath namespaces.
+        discovery_period_s: How often new topics are looked for [s].
+        flush_period_s: Longest time a written message waits before its chunk is closed [s].
+        chunk_size_bytes: Size that closes a chunk by itself [bytes].
+        compression: Chunk compression: none, zstd or lz4.
+        max_queue_bytes: Budget of messages waiting for the writer [bytes]; beyond it they are
+            dropped and counted.
+        late_threshold_s: A message received this long after it was sent counts as late [s].
+    """
+
+    output: str
+    topics: tuple[str, ...] = ()
+    discovery_period_s: float = 0.5
+    flush_period_s: float = 1.0
+    chunk_size_bytes: int = 4 << 20
+    compression: str = 'none'
+    max_queue_bytes: int = 1 << 30
+    late_threshold_s: float = 0.5
+
+    def __post_init__(self) -> None:
+        if not self.output:
+            raise ValueError(f'output: a bag directory is required, got {self.output!r}')
+        for name in ('discovery_period_s', 'flush_period_s', 'late_threshold_s'):
+            if not getattr(self, name) > 0:
+                raise ValueError(f'{name}: must be > 0, got {getattr(self, name)!r}')
+        if self.chunk_size_bytes < 1024 or self.max_queue_bytes < 1 << 20:
+            raise ValueError(f'chunk_size_bytes/max_queue_bytes too small: '
+                             f'{self.chunk_size_bytes!r}, {self.max_queue_bytes!r}')
+        if self.compression not in COMPRESSIONS:
+            raise ValueError(f'compression: one of {sorted(COMPRESSIONS)}, '
+                             f'got {self.compression!r}')
+
+    @classmethod
+    def from_params(cls, **params: Any) -> RecorderConfig:
+        """Build from ROS parameter values (``topics`` as a list, ignored entries '')."""
+        params['topics'] = tuple(t for t in params.get('topics', ()) if t)
+        return cls(**params)
+
+    def wants(self, topic: str) -> bool:
+        """Whether ``topic`` is to be recorded."""
+        return topic in self.topics if self.topics else is_dempath_topic(topic)
+
+
+@dataclass
+class TopicStats:
+    """Message accounting of one topic."""
+
+    received: int = 0
+    written: int = 0
+    dropped: int = 0
+    late: int = 0
+    last_sequence: int = field(default=-1, repr=False)
+
+
+_STOP = object()
+
+
+class BagRecorder:
+    """Records CDR messages into one MCAP bag from any thread; writes in its own thread.
+
+    Args:
+        config: Recorder settings.
+        typestore: Store used to find message definitions; a fresh one by default.
+    """
+
+    def __init__(self, config: RecorderConfig, typestore: Typestore | None = None) -> None:
+        self.config = config
+        self.stats: dict[str, TopicStats] = {}
+        self.failure: str | None = None
+        self._store = typestore
+        self._writer = McapBagWriter(config.output, config.chunk_size_bytes, config.compression)
+        self._channels: dict[str, int] = {}
+        self._queue: queue.SimpleQueue[Any] = queue.SimpleQueue()
+        self._queued_bytes = 0
+        self._lock = threading.Lock()
+        self._thread: threading.Thread | None = None
+
+    def open(self) -> None:
+        """Create the bag and start the writer thread.
+
+        Raises:
+            OutputError: The output directory cannot be created or written.
+        """
+        check_output_dir(Path(self.config.output))
+        self._writer.open()
+        self._store = self._store or make_typestore()
+        self._thread = threading.Thread(target=self._run, name='bag-writer', daemon=True)
+        self._thread.start()
+
+    def add_topic(self, topic: str, msgtype: str, offered_qos: str = '') -> None:
+        """Start a topic (its schema is the full definition of ``msgtype`` when known)."""
+        assert self._store is not None, 'open() first'
+        msgdef = message_definition(self._store, msgtype)
+        if not msgdef:
+            LOG.warning('%s: no definition of %s found; recording %s without schema',
+                        self.config.output, msgtype, topic)
+        with self._lock:
+            self.stats.setdefault(topic, TopicStats())
+            self._queue.put(('topic', topic, msgtype, msgdef, offered_qos))
+
+    def submit(self, topic: str, data: bytes, log_time_ns: int, publish_time_ns: int = 0,
+               sequence: int = -1, latency_ns: int = 0) -> bool:
+        """Queue one message for writing; False if it had to be dropped (and was counted).
+
+        Args:
+            topic: A topic given to :meth:`add_topic`.
+            data: CDR bytes.
+            log_time_ns: Receive time [ns] (bag time).
+            publish_time_ns: Send time [ns] (0: unknown).
+            sequence: Publisher's sequence number; gaps count as dropped (-1: unknown).
+            latency_ns: Receive minus send time [ns] (0: unknown); above the threshold the
+                message counts as late.
+        """
+        with self._lock:
+            st = self.stats[topic]
+            st.received += 1
+            if sequence >= 0 and st.last_sequence >= 0 and sequence > st.last_sequence + 1:
+                st.dropped += sequence - st.last_sequence - 1
+            st.last_sequence = sequence if sequence >= 0 else st.last_sequence
+            if latency_ns > self.config.late_threshold_s * 1e9:
+                st.late += 1
+            full = self._queued_bytes + len(data) > self.config.max_queue_bytes
+            if self.failure is not None or full:
+                st.dropped += 1
+                return False
+            self._queued_bytes += len(data)
+        self._queue.put(('msg', topic, data, log_time_ns, publish_time_ns, sequence))
+        return True
+
+    def count_lost(self, topic: str, count: int) -> None:
+        """Count messages the transport reports lost before they reached the recorder."""
+        with self._lock:
+            self.stats.setdefault(topic, TopicStats()).dropped += count
+
+    def _handle(self, item: tuple[Any, ...]) -> None:
+        if item[0] == 'topic':
+            _, topic, msgtype, msgdef, qos = item
+            self._channels[topic] = self._writer.add_topic(topic, msgtype, msgdef, qos)
+            return
+        _, topic, data, log_ns, pub_ns, seq = item
+        with self._lock:
+            self._queued_bytes -= len(data)
+        if self.failure is not None:
+            with self._lock:
+                self.stats[topic].dropped += 1
+            return
+        self._writer.write(self._channels[topic], log_ns, data, pub_ns, max(seq, 0))
+        with self._lock:
+            self.stats[topic].written += 1
+
+    def _run(self) -> None:
+        last_flush = time.monotonic()
+        while True:
+            timeout = max(0.0, last_flush + self.config.flush_period_s - time.monotonic())
+            try:
+                item = self._queue.get(timeout=timeout)
+            except queue.Empty:
+                item = None
+            if item is _STOP:
+                break
+            try:
+                if item is not None:
+                    self._handle(item)
+                if time.monotonic() - last_flush >= self.config.flush_period_s:
+                    self._writer.flush()
+                    last_flush = time.monotonic()
+            except OSError as err:
+                self.failure = f'{self.config.output}: writing failed: {err}'
+                LOG.error('%s; later messages are counted as dropped', self.failure)
+
+    def close(self) -> dict[str, TopicStats]:
+        """Write what is queued, finalise the MCAP and metadata.yaml; return the counts.
+
+        Raises:
+            OutputError: The bag could not be finalised (what was flushed stays readable).
+        """
+        if self._thread is not None:
+            self._queue.put(_STOP)
+            self._thread.join()
+            self._thread = None
+            try:
+                self._writer.close()
+            except OSError as err:
+                msg = f'{self.config.output}: cannot finalise the bag: {err}'
+                raise OutputError(msg) from err
+        return self.stats
+
+    def summary(self) -> str:
+        """One line per topic plus a total: received, written, dropped and late messages."""
+        with self._lock:
+            rows = sorted(self.stats.items())
+        lines = [f'{t}: received {s.received}, written {s.written}, dropped {s.dropped}, '
+                 f'late {s.late}' for t, s in rows]
+        total = [sum(getattr(s, k) for _, s in rows)
+                 for k in ('received', 'written', 'dropped', 'late')]
+        lines.append('total: received {}, written {}, dropped {}, late {}'.format(*total))
+        return '\n'.join(lines)
