@@ -1,0 +1,51 @@
+"""Registry of physical effects, discovered from the modules of this package.
+
+Every public module here defines ``EFFECT``, an instance of :class:`~.base.Effect`; adding an
+effect means adding one module. Other distributions can add effects through the entry-point
+group ``dempath_sim.effects`` (``name = module:EFFECT``).
+
+Example:
+    >>> from dempath_sim.effects import all_effects
+    >>> sorted(all_effects())[:3]
+    ['cohesion', 'particle_friction', 'particle_size']
+"""
+
+from __future__ import annotations
+
+import importlib
+import pkgutil
+from functools import cache
+from importlib.metadata import entry_points
+
+from dempath_sim.effects.base import ContactPair, Effect, ParameterSpec, PhysicsModel
+
+__all__ = ['ContactPair', 'Effect', 'ParameterSpec', 'PhysicsModel', 'all_effects', 'get_effect']
+
+ENTRY_POINT_GROUP = 'dempath_sim.effects'
+
+
+@cache
+def all_effects() -> dict[str, Effect]:
+    """Every known effect by name, in alphabetical order."""
+    found: dict[str, Effect] = {}
+    for info in pkgutil.iter_modules(__path__):
+        if info.name.startswith('_') or info.name == 'base':
+            continue
+        module = importlib.import_module(f'{__name__}.{info.name}')
+        effect = getattr(module, 'EFFECT', None)
+        if isinstance(effect, Effect):
+            found[effect.name] = effect
+    for ep in entry_points(group=ENTRY_POINT_GROUP):
+        effect = ep.load()
+        if isinstance(effect, Effect):
+            found.setdefault(effect.name, effect)
+    return dict(sorted(found.items()))
+
+
+def get_effect(name: str) -> Effect:
+    """The effect called ``name``; KeyError listing the known names otherwise."""
+    effects = all_effects()
+    if name not in effects:
+        msg = f'unknown effect {name!r}; known: {", ".join(effects)}'
+        raise KeyError(msg)
+    return effects[name]

@@ -1,0 +1,26 @@
+"""Coulomb friction between particles and the tool (sand on steel)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+from dempath_sim.effects._friction import apply_values, friction_parameters, set_friction
+from dempath_sim.effects.base import Effect, PhysicsModel
+
+
+class ToolFriction(Effect):
+    """Particle-tool sliding friction; off means a frictionless tool surface."""
+
+    name = 'tool_friction'
+    description = 'Coulomb friction between particles and the tool (static and dynamic)'
+    # Kuře & Kuřetová 2025, Table 2, particles x boundary: static 0.40, dynamic 0.30.
+    parameters = friction_parameters(0.40, 0.30, 'paper Table 2, particles x boundary')
+
+    def apply(self, model: PhysicsModel, values: Mapping[str, float]) -> PhysicsModel:
+        return apply_values(model, 'tool', values, self.name)
+
+    def apply_off(self, model: PhysicsModel) -> PhysicsModel:
+        return set_friction(model, 'tool', 0.0, 0.0, self.name)
+
+
+EFFECT = ToolFriction()
