@@ -1,0 +1,166 @@
+"""Per-camera detection streams, pairing by timestamp, and the start offset between cameras.
+
+Each camera's frames are detected on their own (a stream of ``(stamp_s, corners)``), so the two
+recordings never need to be read in step. Frames are then paired by time: front stamp + offset
+against side stamp, mutual nearest within a tolerance. When the offset is unknown it is
+estimated from the board's motion seen by both cameras: the board's image speed divided by its
+image size is nearly the same signal in both views, and its cross-correlation peaks at the
+offset.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from dempath_calib.errors import CalibrationError
+
+LOG = logging.getLogger(__name__)
+FloatArray = NDArray[np.float64]
+
+
+@dataclass
+class DetectionStream:
+    """One camera's detections, in arrival order.
+
+    Attributes:
+        n_corners: corners on the board.
+        stamps: list of frame times [s].
+        corners: list of (n_corners, 2) px arrays, NaN where unseen.
+    """
+
+    n_corners: int
+    stamps: list[float] = field(default_factory=list)
+    corners: list[FloatArray] = field(default_factory=list)
+
+    def add(self, stamp_s: float, corners: FloatArray) -> None:
+        """Append one frame's detection."""
+        self.stamps.append(float(stamp_s))
+        self.corners.append(np.asarray(corners, dtype=np.float64))
+
+    def arrays(self) -> tuple[FloatArray, FloatArray]:
+        """(n,) stamps [s] and (n, n_corners, 2) corners, sorted by time."""
+        t = np.array(self.stamps, dtype=np.float64)
+        c = np.array(self.corners).reshape(-1, self.n_corners, 2)
+        order = np.argsort(t, kind='stable')
+        return t[order], c[order]
+
+    def __len__(self) -> int:
+        return len(self.stamps)
+
+
+def pair_frames(side: DetectionStream, front: DetectionStream, offset_s: float = 0.0,
+                tol_s: float | None = None) -> tuple[FloatArray, FloatArray]:
+    """Pair the two streams by time; unpaired frames are kept with NaN for the other camera.
+
+    Args:
+        side: side-camera detections.
+        front: front-camera detections.
+        offset_s: added to the front stamps to bring them onto the side camera's clock [s].
+        tol_s: largest stamp difference of a pair [s]; half the smaller frame period by default.
+
+    Returns:
+        ``(stamps (n,) s, corners (n, 2, n_corners, 2) px)``.
+    """
+    ts, cs = side.arrays()
+    tf, cf = front.arrays()
+    tf = tf + offset_s
+    if tol_s is None:
+        periods = [np.median(np.diff(t)) for t in (ts, tf) if len(t) > 1]
+        tol_s = 0.5 * min(periods) if periods else 1e-3
+    pairs = _mutual_nearest(ts, tf, tol_s)
+    k = side.n_corners
+    paired_s = {i for i, _ in pairs}
+    paired_f = {j for _, j in pairs}
+    rows: list[tuple[float, FloatArray, FloatArray]] = []
+    nan = np.full((k, 2), np.nan)
+    rows += [(ts[i], cs[i], cf[j]) for i, j in pairs]
+    rows += [(ts[i], cs[i], nan) for i in range(len(ts)) if i not in paired_s]
+    rows += [(tf[j], nan, cf[j]) for j in range(len(tf)) if j not in paired_f]
+    rows.sort(key=lambda r: r[0])
+    stamps = np.array([r[0] for r in rows])
+    corners = np.array([np.stack([r[1], r[2]]) for r in rows]).reshape(-1, 2, k, 2)
+    LOG.info('paired %d of %d side and %d front frames (offset %.3f s, tolerance %.3f s)',
+             len(pairs), len(ts), len(tf), offset_s, tol_s)
+    return stamps, corners
+
+
+def _mutual_nearest(ta: FloatArray, tb: FloatArray, tol: float) -> list[tuple[int, int]]:
+    if len(ta) == 0 or len(tb) == 0:
+        return []
+    ja = np.clip(np.searchsorted(tb, ta), 1, max(len(tb) - 1, 1))
+    cand = np.where(np.abs(tb[ja - 1] - ta) <= np.abs(tb[np.minimum(ja, len(tb) - 1)] - ta),
+                    ja - 1, np.minimum(ja, len(tb) - 1))
+    ib = np.clip(np.searchsorted(ta, tb), 1, max(len(ta) - 1, 1))
+    back = np.where(np.abs(ta[ib - 1] - tb) <= np.abs(ta[np.minimum(ib, len(ta) - 1)] - tb),
+                    ib - 1, np.minimum(ib, len(ta) - 1))
+    return [(i, int(j)) for i, j in enumerate(cand)
+            if back[j] == i and abs(tb[j] - ta[i]) <= tol]
+
+
+def motion_signal(stamps: FloatArray, corners: FloatArray) -> FloatArray:
+    """(n,) board image speed over board image size [1/s]; NaN where the board is not seen."""
+    seen = ~np.isnan(corners[..., 0])
+    n = len(stamps)
+    centre = np.full((n, 2), np.nan)
+    size = np.full(n, np.nan)
+    for i in np.flatnonzero(seen.sum(1) >= 4):
+        pts = corners[i, seen[i]]
+        centre[i] = pts.mean(0)
+        size[i] = np.sqrt(np.prod(np.ptp(pts, axis=0)) + 1.0)
+    speed = np.full(n, np.nan)
+    if n > 2:
+        dt = np.gradient(stamps)
+        vel = np.gradient(centre, axis=0) / dt[:, None]
+        speed = np.linalg.norm(vel, axis=1) / size
+    return speed
+
+
+def estimate_offset(side: DetectionStream, front: DetectionStream,
+                    max_offset_s: float = 2.0) -> float:
+    """Start offset to add to the front stamps [s], from the board motion in both cameras.
+
+    Raises:
+        CalibrationError: too few frames with the board in both streams to correlate.
+    """
+    ts, cs = side.arrays()
+    tf, cf = front.arrays()
+    a, b = motion_signal(ts, cs), motion_signal(tf, cf)
+    if np.isfinite(a).sum() < 5 or np.isfinite(b).sum() < 5:
+        msg = 'offset: fewer than 5 frames with a moving board in a camera; give --offset'
+        raise CalibrationError(msg)
+    dt = 0.25 * min(np.median(np.diff(ts)), np.median(np.diff(tf)))
+    grid = np.arange(min(ts[0], tf[0]) - max_offset_s, max(ts[-1], tf[-1]) + max_offset_s, dt)
+    sa = _resample(ts, a, grid)
+    lags = np.arange(-round(max_offset_s / dt), round(max_offset_s / dt) + 1)
+    scores = np.array([_ncc(sa, _resample(tf + lag * dt, b, grid)) for lag in lags])
+    best = int(np.nanargmax(scores))
+    offset = float(lags[best] * dt)
+    if 0 < best < len(lags) - 1 and np.all(np.isfinite(scores[best - 1:best + 2])):
+        y0, y1, y2 = scores[best - 1:best + 2]
+        den = y0 - 2 * y1 + y2
+        offset += float(0.5 * (y0 - y2) / den * dt) if den < 0 else 0.0
+    LOG.info('estimated front-camera offset %.4f s (correlation %.2f)', offset, scores[best])
+    return offset
+
+
+def _resample(t: FloatArray, y: FloatArray, grid: FloatArray) -> FloatArray:
+    ok = np.isfinite(y)
+    out = np.interp(grid, t[ok], y[ok], left=np.nan, right=np.nan)
+    tk = t[ok]
+    idx = np.clip(np.searchsorted(tk, grid), 1, len(tk) - 1)
+    gap = tk[idx] - tk[idx - 1]  # no data across gaps longer than two frame periods
+    out[gap > 2 * np.median(np.diff(t))] = np.nan
+    return out
+
+
+def _ncc(a: FloatArray, b: FloatArray) -> float:
+    ok = np.isfinite(a) & np.isfinite(b)
+    if ok.sum() < 5:
+        return np.nan
+    x, y = a[ok] - a[ok].mean(), b[ok] - b[ok].mean()
+    den = np.sqrt((x * x).sum() * (y * y).sum())
+    return float((x * y).sum() / den) if den > 0 else np.nan
