@@ -25,5 +25,12 @@ setup(
         'dempath_player = dempath.nodes.player:main',
         'dempath_recorder = dempath.nodes.recorder:main',
         ],
+        'dempath.commands': [
+            'play = dempath.commands:play_main',
+            'record = dempath.commands:record_main',
+            'bag-info = dempath.commands:bag_info_main',
+            'bag-recover = dempath.commands:bag_recover_main',
+            'demo = dempath.demo:demo_main',
+        ],
     },
 )
