@@ -20,10 +20,10 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+from dempath.bagio import make_typestore, write_bag
 from numpy.typing import NDArray
 
 from dempath import topics
-from dempath.bagio import make_typestore, write_bag
 
 WIDTH, HEIGHT, FPS, SECONDS = 640, 360, 50, 2.0
 START_NS = 1_700_000_000_000_000_000  # fixed epoch so that the bag is reproducible
@@ -91,7 +91,7 @@ def render(camera: str, uv: NDArray, radii: NDArray, base: NDArray[np.uint8]) ->
     return jpeg.tobytes()
 
 
-def messages(store):  # noqa: ANN001, ANN201 - rosbags message classes are generated
+def messages(store):
     """Yield (topic, msgtype, t_ns, message) for both cameras, frame by frame."""
     types = store.types
     header_t, time_t = types['std_msgs/msg/Header'], types['builtin_interfaces/msg/Time']
@@ -111,7 +111,8 @@ def messages(store):  # noqa: ANN001, ANN201 - rosbags message classes are gener
                    'sensor_msgs/msg/CompressedImage', t_ns,
                    image_t(header=header, format='jpeg', data=jpeg))
             yield (topics.camera_topic(topics.PIXEL_POINTS, cam), 'dempath_msgs/msg/PixelPoints',
-                   t_ns, points_t(header=header, marker_ids=ids, u=uv[:, 0].copy(), v=uv[:, 1].copy(),
+                   t_ns, points_t(header=header, marker_ids=ids,
+                                  u=uv[:, 0].copy(), v=uv[:, 1].copy(),
                                   confidence=np.ones(15, np.float32),
                                   source=np.zeros(15, np.uint8)))
 

@@ -1,5 +1,7 @@
 """ament_python package dempath."""
 
+from pathlib import Path
+
 from setuptools import find_packages, setup
 
 PACKAGE = 'dempath'
@@ -17,7 +19,7 @@ setup(
     zip_safe=False,
     maintainer='dempath developers',
     maintainer_email='dempath@users.noreply.github.com',
-    description=open('package.xml').read().split('<description>')[1].split('</description>')[0],
+    description=Path('package.xml').read_text().split('<description>')[1].split('</description>')[0],
     license='Apache-2.0',
     entry_points={
         'console_scripts': [

@@ -1,1 +1,1 @@
-"""Shared ROS plumbing of dempath (bag player, recorder, conversions, executor helpers) and the dempath command."""
+"""Shared ROS plumbing of dempath: bag I/O, player and recorder, executor helpers, the command."""

@@ -27,16 +27,22 @@ from rosbags.typesys.store import Typestore
 
 from dempath.errors import BagError
 
+if sys.version_info >= (3, 14):  # pragma: no cover
+    from compression.zstd import ZstdError
+else:
+    from backports.zstd import ZstdError
+
 LOG = logging.getLogger(__name__)
 
 MSG_PACKAGE = 'dempath_msgs'
 SOURCE_MSG_DIR = Path(__file__).resolve().parents[2] / MSG_PACKAGE / 'msg'
 PRIMITIVES = frozenset(
-    'bool byte char float32 float64 int8 uint8 int16 uint16 int32 uint32 int64 uint64 string '
-    'wstring'.split())
-# What a damaged bag can raise inside rosbags, besides its own ReaderError.
+    ['bool', 'byte', 'char', 'float32', 'float64', 'int8', 'uint8', 'int16', 'uint16', 'int32',
+     'uint32', 'int64', 'uint64', 'string', 'wstring'])
+# What a damaged bag can raise inside rosbags, besides its own ReaderError (lz4 raises
+# RuntimeError on bad frames).
 READ_FAULTS = (ReaderError, OSError, EOFError, ValueError, KeyError, IndexError, struct.error,
-               UnicodeDecodeError, TypesysError)
+               UnicodeDecodeError, TypesysError, ZstdError, RuntimeError)
 
 
 class TopicInfo(NamedTuple):
@@ -231,7 +237,7 @@ class BagReader:
         conns = [c for c in self._reader.connections if c.topic in wanted]
         if not conns:
             return
-        start = self.start_ns + int(round(start_offset_s * 1e9)) if start_offset_s > 0 else None
+        start = self.start_ns + round(start_offset_s * 1e9) if start_offset_s > 0 else None
         count = 0
         try:
             for conn, t_ns, raw in self._reader.messages(connections=conns, start=start):

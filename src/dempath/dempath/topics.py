@@ -29,7 +29,8 @@ def camera_topic(template: str, camera: str) -> str:
     """Fill a per-camera topic template, e.g. ``camera_topic(IMAGE_RAW, 'cam_side')``."""
     return template.format(camera=camera)
 
-PLAYER_EVENTS = '/player/events'  # dempath_msgs/RunEvent, transient local: STARTED, FINISHED, ABORTED
+# dempath_msgs/RunEvent from the player, transient local: STARTED, then FINISHED or ABORTED
+PLAYER_EVENTS = '/player/events'
 
 
 def dempath_namespaces() -> tuple[str, ...]:

@@ -8,9 +8,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from rosbags.rosbag2 import StoragePlugin, Writer
-from rosbags.typesys import get_types_from_msg
-
 from dempath.bagio import (
     dempath_msg_dir,
     ensure_type,
@@ -21,6 +18,8 @@ from dempath.bagio import (
 )
 from dempath.errors import BagError
 from dempath.testbags import START_NS, images, pixel_points
+from rosbags.rosbag2 import StoragePlugin, Writer
+from rosbags.typesys import get_types_from_msg
 
 BLOB_MSG = 'std_msgs/Header header\nfloat64[3] xyz\nstring note\n'
 
@@ -141,9 +140,8 @@ def test_corrupt_sqlite(tmp_path: Path) -> None:
     bag_path = make_points_bag(tmp_path / 'bag', storage='sqlite3')
     db3 = next(bag_path.glob('*.db3'))
     db3.write_bytes(b'this is not sqlite' * 100)
-    with pytest.raises(BagError, match=r'\.db3: truncated or corrupt'):
-        with open_bag(bag_path) as bag:
-            list(bag.messages())
+    with pytest.raises(BagError, match=r'\.db3: truncated or corrupt'), open_bag(bag_path) as bag:
+        list(bag.messages())
 
 
 def test_unknown_type(tmp_path: Path) -> None:

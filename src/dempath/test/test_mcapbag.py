@@ -7,13 +7,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from mcap.reader import make_reader
-from mcap_ros2.decoder import DecoderFactory
-
 from dempath.bagio import make_typestore, message_definition, open_bag
 from dempath.errors import BagError, OutputError
 from dempath.mcapbag import McapBagWriter, check_output_dir, recover_bag, write_metadata
 from dempath.testbags import pixel_points
+from mcap.reader import make_reader
+from mcap_ros2.decoder import DecoderFactory
 
 TOPIC, MSGTYPE = '/cam_side/pixel_points', 'dempath_msgs/msg/PixelPoints'
 
@@ -94,7 +93,7 @@ def test_recover_leaves_intact_bag(tmp_path: Path) -> None:
 
 def test_recover_needs_mcap(tmp_path: Path) -> None:
     """A folder without .mcap files cannot be recovered and says so."""
-    with pytest.raises(BagError, match='no .mcap files to recover'):
+    with pytest.raises(BagError, match=r'no \.mcap files to recover'):
         recover_bag(tmp_path)
 
 

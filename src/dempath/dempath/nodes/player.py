@@ -15,7 +15,6 @@ from typing import Any
 
 import rclpy
 from builtin_interfaces.msg import Time
-from dempath_msgs.msg import RunEvent
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
@@ -27,6 +26,7 @@ from dempath.errors import DempathError
 from dempath.nodes.msgtypes import import_message_class, reliable_qos
 from dempath.playback import Playback, PlayerConfig
 from dempath.rosenv import apply_ros_defaults
+from dempath_msgs.msg import RunEvent
 
 PARAMETERS = [
     ('bag', '', 'bag directory or .mcap/.db3 file'),
