@@ -25,6 +25,8 @@ CELL_NAMES = (('top-left', 'top', 'top-right'), ('left', 'centre', 'right'),
               ('bottom-left', 'bottom', 'bottom-right'))
 MIN_POSE_SPREAD_PX = 3.0  # views whose common corners all move less than this are one pose
 MIN_TILT_SPREAD_DEG = 5.0  # board orientations must differ by at least this much
+OUTLIER_FACTOR = 3.0  # a view whose RMSE exceeds this many times the median is dropped...
+OUTLIER_FLOOR_PX = 0.5  # ...if its RMSE is also above this [px] (grazing or blurred views)
 
 
 class DistortionModel(Enum):
@@ -155,18 +157,34 @@ def calibrate_intrinsics(name: str, corners: FloatArray, board: BoardSpec,
         obj.append(obj_all[seen])
         img.append(corners[i, seen].astype(np.float32))
     k0 = np.array([[size[0], 0, size[0] / 2], [0, size[0], size[1] / 2], [0, 0, 1.0]])
+    result = _solve(name, obj, img, views, size, k0, model)
+    bad = result.view_rmse_px > max(OUTLIER_FACTOR * np.median(result.view_rmse_px),
+                                    OUTLIER_FLOOR_PX)
+    if bad.any() and (~bad).sum() >= min_views:
+        LOG.info('%s: dropping %d outlier views (RMSE > %.2f px): %s', name, int(bad.sum()),
+                 OUTLIER_FACTOR * np.median(result.view_rmse_px), views[bad].tolist())
+        keep = np.flatnonzero(~bad)
+        result = _solve(name, [obj[i] for i in keep], [img[i] for i in keep], views[keep],
+                        size, result.K, model)
+    _check_tilt_spread(name, result.rvecs)
+    LOG.info('%s: intrinsics from %d views, RMSE %.3f px', name, len(result.views),
+             result.rmse_px)
+    return result
+
+
+def _solve(name: str, obj: list[NDArray[np.float32]], img: list[NDArray[np.float32]],
+           views: NDArray[np.int64], size: tuple[int, int], k0: FloatArray,
+           model: DistortionModel) -> IntrinsicResult:
     criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 200, 1e-12)
     try:
         rms, k, dist, rvecs, tvecs, _, _, per_view = cv2.calibrateCameraExtended(
-            obj, img, size, k0, np.zeros(5), flags=model.cv_flags, criteria=criteria)
+            obj, img, size, k0.copy(), np.zeros(5), flags=model.cv_flags, criteria=criteria)
     except cv2.error as err:
         msg = f'{name}: OpenCV calibration failed on {len(views)} views ({err})'
         raise CalibrationError(msg) from err
-    rvecs_a = np.array(rvecs).reshape(-1, 3)
-    _check_tilt_spread(name, rvecs_a)
-    LOG.info('%s: intrinsics from %d views, RMSE %.3f px', name, len(views), rms)
     return IntrinsicResult(k, dist.ravel()[:5], float(rms), np.asarray(per_view).ravel(),
-                           views.astype(np.int64), rvecs_a, np.array(tvecs).reshape(-1, 3))
+                           views.astype(np.int64), np.array(rvecs).reshape(-1, 3),
+                           np.array(tvecs).reshape(-1, 3))
 
 
 def _check_tilt_spread(name: str, rvecs: FloatArray) -> None:

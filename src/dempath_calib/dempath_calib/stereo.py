@@ -3,8 +3,9 @@
 Unknowns: each camera's intrinsics (fx, fy, cx, cy and the free distortion coefficients), the
 front camera's pose relative to the side camera (6), and every frame's board pose in the side
 camera's frame (6 per frame). Residuals: reprojection of every detected corner in every camera,
-with a Huber loss. Solved by ``scipy.optimize.least_squares`` (trust-region reflective) with the
-sparse Jacobian pattern, started from the per-camera intrinsic results.
+with a Huber loss. Solved by a robust Levenberg-Marquardt (iteratively reweighted) whose
+Jacobian is sparse (forward differences, one residual evaluation per group of independent
+columns) and whose small normal matrix is solved exactly; started from the per-camera results.
 """
 
 from __future__ import annotations
@@ -15,8 +16,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 from numpy.typing import NDArray
-from scipy.optimize import least_squares
-from scipy.sparse import coo_matrix
+from scipy.sparse import csr_matrix
 
 from dempath_calib.board import BoardSpec
 from dempath_calib.errors import CalibrationError, NotEnoughViewsError
@@ -76,25 +76,89 @@ class _Problem:
         p[front] = rotate(np.repeat(rel[None, :3], front.sum(), 0), p[front]) + rel[3:]
         return (distort_project(p, intr[self.cam]) - self.uv).ravel()
 
-    def sparsity(self) -> coo_matrix:
-        """0/1 pattern of the Jacobian (residual rows x parameters)."""
+    def jacobian(self, x: FloatArray, base: FloatArray, r0: FloatArray) -> csr_matrix:
+        """Sparse forward-difference Jacobian (2m, n_params), one evaluation per column group.
+
+        Columns that never share a residual row are perturbed together: each intrinsic and
+        relative-pose parameter alone, and the k-th pose parameter of every frame at once.
+        """
         n_i = int(self.free.sum())
         m = len(self.frame)
         col_of = np.cumsum(self.free.ravel()).reshape(2, 9) - 1
-        rows, cols = [], []
-        for obs_row in (2 * np.arange(m), 2 * np.arange(m) + 1):
-            for c in range(2):
-                sel = obs_row[self.cam == c]
-                for col in col_of[c][self.free[c]]:
-                    rows.append(sel)
-                    cols.append(np.full(len(sel), col))
-            sel = obs_row[self.cam == 1]
-            for k in range(6):
-                rows += [sel, obs_row]
-                cols += [np.full(len(sel), n_i + k), n_i + 6 + 6 * self.frame + k]
-        r, c = np.concatenate(rows), np.concatenate(cols)
-        return coo_matrix((np.ones(len(r), np.int8), (r, c)),
-                          shape=(2 * m, n_i + 6 + 6 * self.n_frames))
+        cam2 = np.repeat(self.cam, 2)
+        frame2 = np.repeat(self.frame, 2)
+        rows_all = np.arange(2 * m)
+        groups: list[tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]] = []
+        for c in range(2):
+            for col in col_of[c][self.free[c]]:
+                sel = rows_all[cam2 == c]
+                groups.append((np.array([col]), sel, np.full(len(sel), col)))
+        front = rows_all[cam2 == 1]
+        for k in range(6):
+            groups.append((np.array([n_i + k]), front, np.full(len(front), n_i + k)))
+        for k in range(6):
+            cols = n_i + 6 + 6 * np.arange(self.n_frames) + k
+            groups.append((cols, rows_all, n_i + 6 + 6 * frame2 + k))
+        data, rr, cc = [], [], []
+        for cols, rows, row_cols in groups:
+            step = self.FD_STEP * np.maximum(1.0, np.abs(x[cols]))
+            xp = x.copy()
+            xp[cols] += step
+            deriv = (self.residuals(xp, base) - r0)[rows]
+            full_step = np.zeros(len(x))
+            full_step[cols] = step
+            data.append(deriv / full_step[row_cols])
+            rr.append(rows)
+            cc.append(row_cols)
+        return csr_matrix((np.concatenate(data), (np.concatenate(rr), np.concatenate(cc))),
+                          shape=(2 * m, len(x)))
+
+    FD_STEP = 1e-7  # relative forward-difference step
+
+
+def _huber_weights(r: FloatArray, scale: float) -> FloatArray:
+    """(2m,) IRLS weights of the Huber loss on each 2-D residual's length."""
+    norm = np.repeat(np.linalg.norm(r.reshape(-1, 2), axis=1), 2)
+    return np.where(norm <= scale, 1.0, scale / np.maximum(norm, 1e-12))
+
+
+def _huber_cost(r: FloatArray, scale: float) -> float:
+    norm = np.linalg.norm(r.reshape(-1, 2), axis=1)
+    return float(np.sum(np.where(norm <= scale, 0.5 * norm ** 2, scale * (norm - 0.5 * scale))))
+
+
+def levenberg_marquardt(prob: _Problem, x0: FloatArray, base: FloatArray, robust_px: float,
+                        max_iter: int = 100, tol: float = 1e-10) -> tuple[FloatArray, int]:
+    """Robust (Huber, IRLS) Levenberg-Marquardt with Marquardt's diagonal scaling.
+
+    The normal matrix is small (parameters squared), so each step is an exact dense solve.
+
+    Returns:
+        ``(x, iterations)``.
+    """
+    x, lam = x0.copy(), 1e-3
+    r = prob.residuals(x, base)
+    cost = _huber_cost(r, robust_px)
+    for it in range(1, max_iter + 1):
+        jac = prob.jacobian(x, base, r)
+        w = _huber_weights(r, robust_px)
+        a = (jac.T @ jac.multiply(w[:, None])).toarray()
+        g = jac.T @ (w * r)
+        diag = np.maximum(np.diag(a), 1e-12)
+        while True:
+            dx = np.linalg.solve(a + lam * np.diag(diag), -g)
+            r_new = prob.residuals(x + dx, base)
+            cost_new = _huber_cost(r_new, robust_px)
+            if cost_new <= cost or lam > 1e12:
+                break
+            lam *= 10
+        if cost_new > cost:
+            return x, it
+        done = cost - cost_new <= tol * max(cost, 1e-12)
+        x, r, cost, lam = x + dx, r_new, cost_new, max(lam / 10, 1e-9)
+        if done:
+            return x, it
+    return x, max_iter
 
 
 @dataclass(frozen=True)
@@ -130,7 +194,7 @@ def _pose_inits(corners: FloatArray, board: BoardSpec, intr: list[IntrinsicResul
     poses = np.full((n, 2, 6), np.nan)
     obj = board.object_points()
     for c in range(2):
-        for i in range(n):
+        for i in intr[c].views:
             seen = ~np.isnan(corners[i, c, :, 0])
             if seen.sum() < min_corners:
                 continue
@@ -193,14 +257,12 @@ def bundle_adjust(corners: FloatArray, board: BoardSpec, intr: list[IntrinsicRes
     base = np.array([[r.K[0, 0], r.K[1, 1], r.K[0, 2], r.K[1, 2], *r.dist] for r in intr])
     x0 = np.concatenate([base[free], rel, init.ravel()])
     try:
-        sol = least_squares(prob.residuals, x0, jac_sparsity=prob.sparsity(), args=(base,),
-                            method='trf', loss='huber', f_scale=robust_px, x_scale='jac',
-                            max_nfev=200, xtol=1e-10, ftol=1e-10)
-    except (ValueError, np.linalg.LinAlgError) as err:
+        x, n_iter = levenberg_marquardt(prob, x0, base, robust_px)
+    except np.linalg.LinAlgError as err:
         msg = f'stereo: bundle adjustment over {len(frames)} frames failed ({err})'
         raise CalibrationError(msg) from err
-    intr_x, rel_x, poses = prob.unpack(sol.x, base)
-    res = sol.fun.reshape(-1, 2)
+    intr_x, rel_x, poses = prob.unpack(x, base)
+    res = prob.residuals(x, base).reshape(-1, 2)
     sq = np.sum(res ** 2, axis=1)
     rmse = np.array([np.sqrt(sq[prob.cam == c].mean()) for c in range(2)])
     frame_rmse = np.full((len(frames), 2), np.nan)
@@ -210,8 +272,8 @@ def bundle_adjust(corners: FloatArray, board: BoardSpec, intr: list[IntrinsicRes
         counts = np.bincount(prob.frame[sel], minlength=len(frames))
         with np.errstate(invalid='ignore', divide='ignore'):
             frame_rmse[:, c] = np.sqrt(sums / counts)
-    LOG.info('stereo: %d frames (%d shared), RMSE side %.3f px, front %.3f px, %d evaluations',
-             len(frames), int(shared.sum()), rmse[0], rmse[1], sol.nfev)
+    LOG.info('stereo: %d frames (%d shared), RMSE side %.3f px, front %.3f px, %d iterations',
+             len(frames), int(shared.sum()), rmse[0], rmse[1], n_iter)
     return StereoResult(intr_x, rel_x[:3].copy(), rel_x[3:].copy(), frames, poses[:, :3].copy(),
                         poses[:, 3:].copy(), rmse, frame_rmse)
 
