@@ -1,8 +1,12 @@
 """ament_python package dempath_recon."""
 
+from pathlib import Path
+
 from setuptools import find_packages, setup
 
 PACKAGE = 'dempath_recon'
+DESCRIPTION = Path(__file__).with_name('package.xml').read_text().split(
+    '<description>')[1].split('</description>')[0]
 
 setup(
     name=PACKAGE,
@@ -17,11 +21,16 @@ setup(
     zip_safe=False,
     maintainer='dempath developers',
     maintainer_email='dempath@users.noreply.github.com',
-    description=open('package.xml').read().split('<description>')[1].split('</description>')[0],
+    description=DESCRIPTION,
     license='Apache-2.0',
     entry_points={
         'console_scripts': [
-
+            'dempath_reconstructor = dempath_recon.nodes.reconstructor:main',
+        ],
+        'dempath.commands': [
+            'reconstruct = dempath_recon.cli:reconstruct_main',
+            'recon-train = dempath_recon.cli:train_main',
+            'recon-report = dempath_recon.cli:report_main',
         ],
     },
 )

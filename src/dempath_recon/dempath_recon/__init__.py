@@ -1,1 +1,1 @@
-"""Marker detection, clicking and pixel-to-3D reconstruction (triangulation and the paper's MLP) for dempath."""
+"""Pixel-to-3D reconstruction for dempath: triangulation, the paper's MLP and better methods."""
