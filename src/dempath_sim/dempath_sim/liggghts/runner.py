@@ -19,8 +19,6 @@ from dempath_sim.liggghts.install import LiggghtsInstall, ensure_liggghts
 
 logger = logging.getLogger(__name__)
 
-LOG_NAME = 'log.liggghts'
-SCREEN_NAME = 'screen.liggghts'
 
 
 @dataclass(frozen=True)
@@ -43,7 +41,7 @@ class RunOutput:
 
 
 def _command(inst: LiggghtsInstall, deck: Path, nprocs: int) -> list[str]:
-    base = [inst.binary, '-in', deck.name, '-log', LOG_NAME, '-echo', 'none']
+    base = [inst.binary, '-in', deck.name, '-log', f'log.{deck.name}', '-echo', 'none']
     if nprocs <= 1:
         return base
     if inst.mpirun is None:
@@ -91,8 +89,8 @@ def run_deck(deck: Path, nprocs: int = 1, timeout_s: float = 3600.0,
     cmd = _command(inst, deck, nprocs)
     env = {**os.environ, 'OMP_NUM_THREADS': '1', 'OMPI_MCA_btl_vader_single_copy_mechanism':
            'none', 'OMPI_ALLOW_RUN_AS_ROOT': '1', 'OMPI_ALLOW_RUN_AS_ROOT_CONFIRM': '1'}
-    log_path = deck.parent / LOG_NAME
-    screen = deck.parent / SCREEN_NAME
+    log_path = deck.parent / f'log.{deck.name}'
+    screen = deck.parent / f'screen.{deck.name}'
     logger.info('running %s in %s', ' '.join(cmd), deck.parent)
     start = time.perf_counter()
     try:

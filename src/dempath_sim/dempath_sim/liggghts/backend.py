@@ -1,0 +1,200 @@
+"""Run a dempath scene on LIGGGHTS 3.8 and read it back as a :class:`SimResult`.
+
+``run_scene_liggghts(scene, workdir)`` writes and runs the fill deck, picks the markers and
+candidates on the settled LIGGGHTS bed with dempath's own rules (``markers.select_markers``),
+places the tool at the scene's depth below the settled surface, writes and runs the tool deck,
+and reads the tracked dump and the tool force file into the same record the dempath engine
+returns. Differences from the dempath engine are listed in ``docs/liggghts.md``.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from dempath_sim.effects import PhysicsModel
+from dempath_sim.effects.base import ContactPair
+from dempath_sim.fill import PARTICLES, TOOL, WALLS, measure, target_solid_fraction
+from dempath_sim.liggghts import deck as dk
+from dempath_sim.liggghts.commands import write_ascii_stl
+from dempath_sim.liggghts.dumps import frames_by_id, read_dump, read_print
+from dempath_sim.liggghts.runner import RunOutput, run_deck
+from dempath_sim.markers import select_markers
+from dempath_sim.materials import Interaction, Material
+from dempath_sim.params import SimParams
+from dempath_sim.profiles import ToolPath
+from dempath_sim.results import SimResult
+from dempath_sim.scene_spec import SceneSpec
+from dempath_sim.state import SimState
+from dempath_sim.stl import read_stl
+
+logger = logging.getLogger(__name__)
+
+
+def _interaction(pair: ContactPair) -> Interaction:
+    return Interaction(restitution=max(pair.restitution, 1e-6),
+                       static_friction=pair.static_friction,
+                       dynamic_friction=min(pair.dynamic_friction, pair.static_friction),
+                       rolling_friction=pair.rolling_resistance,
+                       cohesion_energy_density=pair.cohesion_energy_density_j_m3)
+
+
+def scene_params(scene: SceneSpec, model: PhysicsModel, dt: float | None = None) -> SimParams:
+    """Engine parameters of a scene: materials PARTICLES, WALLS, TOOL and their pairs."""
+    wall = scene.materials['walls']
+    mats = (Material('particles', model.particle_density_kg_m3,
+                     model.particle_youngs_modulus_pa, model.particle_poisson),
+            Material('walls', wall.density_kg_m3, model.wall_youngs_modulus_pa,
+                     model.wall_poisson),
+            Material('tool', model.tool_density_kg_m3, model.tool_youngs_modulus_pa,
+                     model.tool_poisson))
+    pairs = {(PARTICLES, PARTICLES): _interaction(model.particle_particle),
+             (PARTICLES, WALLS): _interaction(model.particle_wall),
+             (PARTICLES, TOOL): _interaction(model.particle_tool)}
+    w, floor = scene.bin.width_x_m / 2, -scene.bed_thickness_m
+    return SimParams(materials=mats, interactions=pairs, dt=dt,
+                     rayleigh_safety=scene.sim.rayleigh_safety,
+                     domain_min=(-w - 0.1, floor - 0.1, -0.1),
+                     domain_max=(w + 0.1, floor + scene.bin.height_y_m + 1.0,
+                                 scene.bin.length_z_m + 0.1))
+
+
+def scene_time_step(scene: SceneSpec, model: PhysicsModel) -> float:
+    """The scene's time step, or rayleigh_safety x the Rayleigh step of the finest sphere [s]."""
+    if scene.sim.time_step_s is not None:
+        return scene.sim.time_step_s
+    d_min = min(min(dk.layer_templates(layer, model.coarse_grain if layer.coarse_grained
+                                       else 1.0)[0]) for layer in scene.layers)
+    shear = model.particle_youngs_modulus_pa / (2 * (1 + model.particle_poisson))
+    nu = model.particle_poisson
+    dt_r = math.pi * d_min / 2 * math.sqrt(model.particle_density_kg_m3 / shear) / (
+        0.1631 * nu + 0.8766)
+    return scene.sim.rayleigh_safety * dt_r
+
+
+@dataclass(frozen=True)
+class SettledBed:
+    """The LIGGGHTS bed after the fill: ids (n,), positions (n, 3) m, radii (n,) m, report,
+    the step number it ended on."""
+
+    step: int
+    ids: np.ndarray
+    positions: np.ndarray
+    radii: np.ndarray
+    report: dict[str, float]
+    run: RunOutput
+
+
+def fill_liggghts(scene: SceneSpec, workdir: Path, nprocs: int = 1,
+                  friction: str = 'static') -> SettledBed:
+    """Write and run ``in.fill``; return the settled bed and its surface/bulk-density report."""
+    model = scene.physics_model()
+    params = scene_params(scene, model)
+    dt0 = scene_time_step(scene, model)
+    dt = scene.output.interval_s / max(1, math.ceil(scene.output.interval_s / dt0))
+    plan = dk.fill_plan(scene, model.coarse_grain, target_solid_fraction(scene, model))
+    workdir.mkdir(parents=True, exist_ok=True)
+    extent = tool_sweep(scene, model)
+    (workdir / 'in.fill').write_text(dk.fill_deck(scene, params, dt, plan, friction, extent))
+    run = run_deck(workdir / 'in.fill', nprocs=nprocs)
+    frame = read_dump(workdir / dk.FILL_DUMP)[-1]
+    ids = frame.column('id').astype(np.int64)
+    pos = frame.data[:, [frame.columns.index(c) for c in ('x', 'y', 'z')]]
+    radii = frame.column('radius')
+    state = SimState.from_spheres(pos, radii, PARTICLES, params, ids=ids)
+    top_r = max(plan.diameters[-1]) / 2
+    state.extra['layer'] = np.where(radii >= 0.999 * min(plan.diameters[-1]) / 2,
+                                    len(scene.layers) - 1, 0).astype(np.int32)
+    report = {**measure(scene, model, state), 'n_particles': float(len(ids)),
+              'top_radius_m': top_r, 'dt_s': dt}
+    logger.info('liggghts fill: %d particles, surface %.4f m, bulk density %.0f kg/m^3',
+                len(ids), report['surface_height_m'], report['bulk_density_kg_m3'])
+    return SettledBed(frame.step, ids, pos, radii, report, run)
+
+
+def tool_sweep(scene: SceneSpec, model: PhysicsModel,
+               slack_m: float = 0.1) -> tuple[list[float], list[float]]:
+    """Bounding box (lo, hi) [m] the tool sweeps during the pass, with ``slack_m`` in Y for the
+    unknown settled surface (the fill box must contain it; see deck.box_bounds)."""
+    verts = read_stl(scene.tool.mesh).reshape(-1, 3) * scene.tool.scale
+    path = tool_path(scene, model, 0.0)
+    start = np.asarray(path.start_position_m)
+    lo = verts.min(axis=0) + start
+    hi = verts.max(axis=0) + start
+    hi[2] += scene.tool.travel_m
+    lo[1] -= slack_m
+    hi[1] += slack_m
+    return lo.tolist(), hi.tolist()
+
+
+def tool_path(scene: SceneSpec, model: PhysicsModel, surface_y: float) -> ToolPath:
+    """Tip path: depth below the settled (or nominal, shifted) surface, profile x speed_scale."""
+    tool = scene.tool
+    if tool.depth_reference == 'settled_surface':
+        y = surface_y - tool.depth_m
+    else:
+        y = -tool.depth_m + tool.settling_offset_m
+    profile = tool.profile.scaled(model.speed_scale) if model.speed_scale != 1.0 else tool.profile
+    return ToolPath(profile, (tool.x_m, y, tool.start_z_m), tool.profile_offset_m)
+
+
+def run_scene_liggghts(scene: SceneSpec, workdir: str | Path, nprocs: int = 1,
+                       friction: str = 'static') -> SimResult:
+    """Fill, place markers and the tool, run the pass on LIGGGHTS; return the SimResult.
+
+    Args:
+        scene: The scene (effects applied through ``scene.physics_model()``).
+        workdir: Directory for decks, logs and dumps (kept for inspection).
+        nprocs: MPI processes.
+        friction: Which dempath friction coefficient LIGGGHTS uses ('static' or 'dynamic').
+
+    Raises:
+        LiggghtsNotFoundError: LIGGGHTS or mpirun missing.
+        LiggghtsRunError: A LIGGGHTS run failed (names the log).
+        DumpError: A dump is missing or malformed.
+    """
+    workdir = Path(workdir)
+    model = scene.physics_model()
+    bed = fill_liggghts(scene, workdir, nprocs, friction)
+    sel = select_markers(bed.positions, bed.radii, bed.ids, scene.markers)
+    ids, roles, marker_ids = sel.tracked(scene.output.candidates)
+    path = tool_path(scene, model, bed.report['surface_height_m'])
+    tris = read_stl(scene.tool.mesh) * scene.tool.scale + np.asarray(path.start_position_m)
+    write_ascii_stl(str(workdir / dk.TOOL_STL), tris.tolist(), 'tool')
+    dt = bed.report['dt_s']
+    every = round(scene.output.interval_s / dt)
+    snap = round(scene.output.snapshot_interval_s / dt)
+    duration = path.time_to_travel(scene.tool.travel_m)
+    stage = dk.ToolStage(path, ids, bed.step, duration, dt, every, snap)
+    params = scene_params(scene, model)
+    (workdir / 'in.tool').write_text(dk.tool_deck(scene, params, stage, friction))
+    run = run_deck(workdir / 'in.tool', nprocs=nprocs)
+    return _result(workdir, stage, ids, roles, marker_ids, bed, run, scene)
+
+
+def _result(workdir: Path, stage: dk.ToolStage, ids: np.ndarray, roles: np.ndarray,
+            marker_ids: np.ndarray, bed: SettledBed, run: RunOutput,
+            scene: SceneSpec) -> SimResult:
+    frames = read_dump(workdir / dk.TRACKED_DUMP)
+    data = frames_by_id(frames, ids, ('x', 'y', 'z', 'vx', 'vy', 'vz'))
+    times = (np.array([f.step for f in frames], dtype=np.float64) - stage.start_step) * stage.dt
+    tool = read_print(workdir / dk.TOOL_FILE, 10)
+    force = np.zeros((len(times), 9))
+    k = np.searchsorted(times, tool[:, 0] - 0.5 * stage.dt)
+    ok = k < len(times)
+    force[k[ok]] = tool[ok, 1:]
+    force[0, 6:] = stage.path.start_position_m
+    radius_of = dict(zip(bed.ids.tolist(), bed.radii.tolist(), strict=True))
+    meta = {'engine': 'liggghts', 'scene': scene.name, 'seed': scene.seed,
+            'fill': bed.report, 'dt_s': stage.dt, 'nprocs': run.nprocs,
+            'fill_loop_time_s': bed.run.loop_time_s, 'pass_loop_time_s': run.loop_time_s,
+            'workdir': str(workdir)}
+    return SimResult(times=times, ids=ids, roles=roles, marker_ids=marker_ids,
+                     radii=np.array([radius_of[int(i)] for i in ids]),
+                     positions=data[..., :3], velocities=data[..., 3:],
+                     tool_position=force[:, 6:9], tool_force=force[:, 0:3],
+                     tool_torque=force[:, 3:6], meta=meta)

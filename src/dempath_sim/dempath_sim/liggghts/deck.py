@@ -1,0 +1,275 @@
+"""Scene -> LIGGGHTS 3.8 input decks: a fill deck (pour and settle) and a tool deck (the pass).
+
+The run has two stages, as the dempath engine has (fill, then the tool pass on the settled bed):
+
+1. ``in.fill``: the bin as primitive ``wall/gran`` planes (floor, four sides, open top), each
+   layer inserted by ``fix insert/pack`` into its own loose slab (all layers at once, stacked
+   bottom to top, like dempath's lattice pour) with the same particle count as dempath's pour
+   (target solid fraction x layer volume), then settled until the fastest particle is slower
+   than ``fill.settle_speed_m_s`` (checked every 0.02 s, at least 0.1 s, at most
+   ``fill.max_settle_time_s``); ``write_restart`` and a dump of every particle.
+2. ``in.tool``: ``read_restart``, the same physics, the tool STL (ASCII, placed in world
+   coordinates) as ``fix mesh/surface/stress`` with its reference point at the tip, moved by
+   ``fix move/mesh linear/variable`` with the piecewise speed profile, a dump of the tracked ids
+   and a force/torque print every output interval, full-bed snapshots.
+
+Material types: 1 particles, 2 walls, 3 tool (dempath indices + 1).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from dempath_sim.liggghts import commands as cmd
+from dempath_sim.params import SimParams
+from dempath_sim.profiles import ToolPath
+from dempath_sim.scene_spec import LayerSpec, SceneSpec
+
+FILL_DUMP = 'fill.dump'
+FILL_RESTART = 'fill.restart'
+TRACKED_DUMP = 'tracked.dump'
+SNAPSHOT_DUMP = 'snapshots.dump'
+TOOL_FILE = 'tool.txt'
+TOOL_STL = 'tool.stl'
+INSERT_SOLID_FRACTION = 0.35  # loose packing of the insertion slabs
+DISCRETE_BINS = 5  # templates approximating a uniform size distribution
+SETTLE_CHECK_S = 0.02  # as dempath_sim.fill
+MIN_SETTLE_S = 0.1
+
+
+@dataclass(frozen=True)
+class FillPlan:
+    """Particle templates and counts per layer, and the slabs they are inserted into.
+
+    Attributes:
+        diameters: Per layer, the template diameters [m].
+        fractions: Per layer, the mass fraction of each template [1].
+        counts: Particles per layer.
+        slabs: Per layer, (y_low, y_high) of the insertion slab [m].
+    """
+
+    diameters: tuple[tuple[float, ...], ...]
+    fractions: tuple[tuple[float, ...], ...]
+    counts: tuple[int, ...]
+    slabs: tuple[tuple[float, float], ...]
+
+    @property
+    def top(self) -> float:
+        """Top of the highest insertion slab [m]."""
+        return self.slabs[-1][1]
+
+
+def layer_templates(layer: LayerSpec, factor: float) -> tuple[tuple[float, ...],
+                                                              tuple[float, ...]]:
+    """Template diameters [m] and mass fractions of a layer (uniform -> DISCRETE_BINS bins)."""
+    d0, dist = layer.diameter_m * factor, layer.distribution
+    if dist.kind == 'discrete':
+        w = np.asarray(dist.mass_fractions, dtype=float)
+        return tuple(d * factor for d in dist.diameters_m), tuple(w / w.sum())
+    if dist.kind == 'uniform' and dist.spread > 0:
+        # Uniform in d: equal number per bin, mass fraction proportional to d^3.
+        edges = np.linspace(1 - dist.spread, 1 + dist.spread, DISCRETE_BINS + 1)
+        d = d0 * 0.5 * (edges[1:] + edges[:-1])
+        return tuple(d), tuple(d ** 3 / np.sum(d ** 3))
+    return (d0,), (1.0,)
+
+
+def fill_plan(scene: SceneSpec, coarse_grain: float, solid_fraction: float) -> FillPlan:
+    """Counts per layer as dempath's pour (solid fraction x layer volume) and stacked slabs."""
+    area = scene.bin.width_x_m * scene.bin.length_z_m
+    y = -scene.bed_thickness_m
+    diam, frac, counts, slabs = [], [], [], []
+    for layer in scene.layers:
+        factor = coarse_grain if layer.coarse_grained else 1.0
+        d, w = layer_templates(layer, factor)
+        # Mean particle volume of the mass-weighted mix: sum(w) / sum(w / v).
+        v = (math.pi / 6) * np.asarray(d) ** 3
+        mean_v = 1.0 / float(np.sum(np.asarray(w) / v))
+        solid = solid_fraction * area * layer.thickness_m
+        counts.append(max(1, round(solid / mean_v)))
+        height = solid / (INSERT_SOLID_FRACTION * area) + max(d)
+        slabs.append((y, y + height))
+        diam.append(d)
+        frac.append(w)
+        y += height
+    return FillPlan(tuple(diam), tuple(frac), tuple(counts), tuple(slabs))
+
+
+def primes_from(seed: int, count: int) -> list[int]:
+    """``count`` distinct primes > 10000 derived from ``seed`` (LIGGGHTS wants prime seeds)."""
+    out, n = [], 10007 + 7919 * (seed % 100000)
+    while len(out) < count:
+        if n > 1 and all(n % k for k in range(2, math.isqrt(n) + 1)):
+            out.append(n)
+        n += 2 if n % 2 else 1
+    return out
+
+
+def box_bounds(scene: SceneSpec, top: float, margin: float,
+               extent: tuple[Sequence[float], Sequence[float]] | None = None,
+               ) -> tuple[list[float], list[float]]:
+    """Simulation box: the bin plus ``margin`` up to ``top`` [m], grown to hold ``extent``.
+
+    LIGGGHTS deletes mesh elements outside the box, so ``extent`` is the (lo, hi) bounding box
+    the tool sweeps during the pass; the box is fixed in the restart file of the fill.
+    """
+    w, floor = scene.bin.width_x_m / 2, -scene.bed_thickness_m
+    lo = [-w - margin, floor - margin, -margin]
+    hi = [w + margin, max(top, floor + scene.bin.height_y_m) + margin,
+          scene.bin.length_z_m + margin]
+    if extent is not None:
+        lo = [min(a, b - margin) for a, b in zip(lo, extent[0], strict=True)]
+        hi = [max(a, b + margin) for a, b in zip(hi, extent[1], strict=True)]
+    return lo, hi
+
+
+def physics(params: SimParams, dt: float, friction: str) -> list[str]:
+    """Materials, contact law, gravity, time step and the integrator."""
+    return [*cmd.materials(params, friction), *cmd.pair_style(params), *cmd.gravity(params),
+            f'timestep {cmd.fmt(dt)}', 'fix integr all nve/sphere']
+
+
+def bin_walls(scene: SceneSpec, params: SimParams, wall_type: int) -> list[str]:
+    """Floor and four side walls of the bin as primitive planes (open top)."""
+    w, floor = scene.bin.width_x_m / 2, -scene.bed_thickness_m
+    planes = (('y', floor), ('x', -w), ('x', w), ('z', 0.0), ('z', scene.bin.length_z_m))
+    return [cmd.plane_wall(f'wall{k}', params, axis, off, wall_type)
+            for k, (axis, off) in enumerate(planes)]
+
+
+def _insert_lines(scene: SceneSpec, plan: FillPlan) -> list[str]:
+    w, length = scene.bin.width_x_m / 2, scene.bin.length_z_m
+    seeds = iter(primes_from(scene.seed, 64))
+    lines: list[str] = []
+    for k, (ds, ws) in enumerate(zip(plan.diameters, plan.fractions, strict=True)):
+        names = []
+        for t, d in enumerate(ds):
+            names.append(f'pts{k}_{t}')
+            lines.append(f'fix {names[-1]} all particletemplate/sphere {next(seeds)} atom_type 1 '
+                         f'density constant {{rho}} radius constant {cmd.fmt(d / 2)}')
+        mix = ' '.join(f'{n} {cmd.fmt(x)}' for n, x in zip(names, ws, strict=True))
+        lines.append(f'fix pdd{k} all particledistribution/discrete {next(seeds)} '
+                     f'{len(names)} {mix}')
+        gap = max(ds) / 2 * 1.01
+        y0, y1 = plan.slabs[k]
+        lines += [f'region slab{k} block {cmd.fmt(-w + gap)} {cmd.fmt(w - gap)} '
+                  f'{cmd.fmt(y0 + gap)} {cmd.fmt(y1 - gap)} {cmd.fmt(gap)} '
+                  f'{cmd.fmt(length - gap)} units box',
+                  f'fix ins{k} all insert/pack seed {next(seeds)} distributiontemplate pdd{k} '
+                  f'maxattempt 200 insert_every once overlapcheck yes all_in yes '
+                  f'vel constant 0 0 0 region slab{k} particles_in_region {plan.counts[k]} '
+                  f'ntry_mc 10000']
+    return lines
+
+
+def fill_deck(scene: SceneSpec, params: SimParams, dt: float, plan: FillPlan,
+              friction: str = 'static',
+              extent: tuple[Sequence[float], Sequence[float]] | None = None) -> str:
+    """The ``in.fill`` deck text (see the module docstring); ``extent`` as in box_bounds."""
+    big = max(max(d) for d in plan.diameters)
+    lo, hi = box_bounds(scene, plan.top, 2 * big, extent)
+    rho = params.materials[0].density
+    # Every run is a multiple of the output period, so the tool stage starts on an output step.
+    every = max(1, round(scene.output.interval_s / dt))
+    check = every * max(1, round(SETTLE_CHECK_S / dt / every))
+    min_checks = math.ceil(MIN_SETTLE_S / SETTLE_CHECK_S)
+    max_checks = max(min_checks, math.ceil(scene.fill.max_settle_time_s / SETTLE_CHECK_S))
+    lines = cmd.header(lo, hi, len(params.materials), 0.3 * big, cmd.needs_soft(params))
+    lines += ['hard_particles yes', *physics(params, dt, friction),
+              *bin_walls(scene, params, 1)]
+    lines += [s.replace('{rho}', cmd.fmt(rho)) for s in _insert_lines(scene, plan)]
+    lines += ['variable sp atom sqrt(vx*vx+vy*vy+vz*vz)', 'compute vmax all reduce max v_sp',
+              'thermo_style custom step atoms ke c_vmax', 'thermo_modify lost ignore norm no',
+              f'thermo {check}', f'run {check}',
+              *[f'unfix ins{k}' for k in range(len(plan.counts))],
+              f'run {check * min_checks}',
+              f'variable k loop {max_checks - min_checks}', 'label settle',
+              'variable vm equal c_vmax',
+              f'if "${{vm}} < {cmd.fmt(scene.fill.settle_speed_m_s)}" then "jump SELF settled"',
+              f'run {check}', 'next k', 'jump SELF settle', 'label settled',
+              f'write_restart {FILL_RESTART}',
+              f'write_dump all custom {FILL_DUMP} id type x y z vx vy vz radius']
+    return '\n'.join(lines) + '\n'
+
+
+def velocity_expression(path: ToolPath) -> str:
+    """LIGGGHTS equal-style expression of the tool speed [m/s] at ``v_t`` (sim time)."""
+    p = path.profile
+    t0 = path.start_time_s
+    t1 = p.acceleration_time_s
+    t2 = t1 + p.steady_time_s
+    t3 = t2 + p.deceleration_time_s
+    tp = f'(v_t+{cmd.fmt(t0)})'
+    acc = f'({tp}<{cmd.fmt(t1)})*{cmd.fmt(p.acceleration_m_s2)}*{tp}'
+    steady = f'({tp}>={cmd.fmt(t1)})*({tp}<{cmd.fmt(t2)})*{cmd.fmt(p.speed_m_s)}'
+    dec = (f'({tp}>={cmd.fmt(t2)})*({tp}<{cmd.fmt(t3)})*({cmd.fmt(p.speed_m_s)}-'
+           f'{cmd.fmt(p.deceleration_m_s2)}*({tp}-{cmd.fmt(t2)}))')
+    return f'{acc}+{steady}+{dec}'
+
+
+def group_lines(name: str, ids: Sequence[int], per_line: int = 200) -> list[str]:
+    """``group NAME id ...`` split over several lines (a group adds up)."""
+    ids = [int(i) for i in ids]
+    return [f'group {name} id ' + ' '.join(str(i) for i in ids[k:k + per_line])
+            for k in range(0, len(ids), per_line)]
+
+
+@dataclass(frozen=True)
+class ToolStage:
+    """What the tool deck needs beyond the scene.
+
+    Attributes:
+        path: Tool reference point (tip) path in world coordinates.
+        tracked_ids: LIGGGHTS ids of the markers and candidates.
+        start_step: Step number at the end of the fill (time 0 of the pass).
+        duration_s: Simulated time of the pass [s].
+        dt: Time step [s] (divides the output interval).
+        output_every: Steps between outputs.
+        snapshot_every: Steps between full-bed snapshots (0 = none).
+    """
+
+    path: ToolPath
+    tracked_ids: NDArray[np.int64]
+    start_step: int
+    duration_s: float
+    dt: float
+    output_every: int
+    snapshot_every: int
+
+
+def tool_deck(scene: SceneSpec, params: SimParams, stage: ToolStage,
+              friction: str = 'static') -> str:
+    """The ``in.tool`` deck text (see the module docstring)."""
+    tip = [cmd.fmt(v) for v in stage.path.start_position_m]
+    steps = math.ceil(stage.duration_s / stage.dt / stage.output_every) * stage.output_every
+    lines = ['atom_style granular', 'atom_modify map array', 'boundary f f f', 'newton off',
+             'communicate single vel yes', 'units si']
+    lines += ['soft_particles yes'] if cmd.needs_soft(params) else []
+    big = 2 * max(max(layer.diameter_m for layer in scene.layers), 1e-3)
+    lines += ['hard_particles yes', f'read_restart {FILL_RESTART}',
+              f'neighbor {cmd.fmt(0.3 * big)} bin', 'neigh_modify delay 0',
+              *physics(params, stage.dt, friction), *bin_walls(scene, params, 1),
+              f'fix tool all mesh/surface/stress file {TOOL_STL} type 3 reference_point '
+              f'{" ".join(tip)}', cmd.mesh_wall('toolwall', params, ['tool']),
+              f'variable t equal (step-{stage.start_step})*dt',
+              f'variable vz equal {velocity_expression(stage.path)}',
+              'variable zero equal 0',
+              'fix mv all move/mesh mesh tool linear/variable v_zero v_zero v_vz',
+              *group_lines('tracked', stage.tracked_ids),
+              f'dump dtr tracked custom {stage.output_every} {TRACKED_DUMP} id x y z vx vy vz',
+              'dump_modify dtr sort id']
+    if stage.snapshot_every:
+        lines += [f'dump dsn all custom {stage.snapshot_every} {SNAPSHOT_DUMP} id x y z',
+                  'dump_modify dsn sort id']
+    lines += [f'variable f{k} equal f_tool[{k}]' for k in range(1, 10)]
+    vals = ' '.join(f'${{f{k}}}' for k in range(1, 10))
+    lines += [f'fix ftool all print {stage.output_every} "${{t}} {vals}" file {TOOL_FILE} '
+              'screen no', 'thermo_style custom step atoms ke',
+              'thermo_modify lost ignore norm no', f'thermo {stage.output_every * 10}',
+              f'run {steps}']
+    return '\n'.join(lines) + '\n'
