@@ -1,0 +1,79 @@
+"""bag -> player -> recorder -> new bag: identical payloads and header stamps, in one process."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from dempath_msgs.msg import RunEvent
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from rosgraph_msgs.msg import Clock
+
+from dempath import topics
+from dempath.bagio import make_typestore, open_bag, write_bag
+from dempath.nodes.harness import RosHarness
+from dempath.nodes.pipeline import replay_and_record
+from dempath.nodes.player import PlayerNode
+from dempath.nodes.recorder import RecorderNode
+from dempath.testbags import START_NS, images, pixel_points
+
+LATCHED = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE,
+                     durability=DurabilityPolicy.TRANSIENT_LOCAL)
+
+
+def make_input_bag(path: Path) -> Path:
+    """Two cameras' PixelPoints (dempath_msgs) and small JPEG frames, interleaved, 20 ms apart."""
+    store = make_typestore()
+    msgs = [*pixel_points(store, 12, camera='cam_side', seed=1),
+            *pixel_points(store, 12, camera='cam_front', seed=2),
+            *images(store, 12, 160, 90, camera='cam_side', jpeg=True, seed=3)]
+    return write_bag(path, sorted(msgs, key=lambda m: m[2]), typestore=store)
+
+
+def by_topic(bag_path: Path) -> dict[str, list[bytes]]:
+    """Every message's CDR bytes per topic, in bag order."""
+    out: dict[str, list[bytes]] = {}
+    with open_bag(bag_path) as bag:
+        for message in bag.messages():
+            out.setdefault(message.topic, []).append(message.data)
+    return out
+
+
+def test_round_trip_identical_payloads_and_stamps(tmp_path: Path) -> None:
+    """Every played message is recorded byte for byte, so its header stamp is unchanged."""
+    source = make_input_bag(tmp_path / 'in')
+    wanted = sorted(by_topic(source))
+    result = replay_and_record(source, tmp_path / 'out', wanted, rate=1.0, timeout_s=60)
+    assert result.complete, result.summary
+    sent, got = by_topic(source), by_topic(tmp_path / 'out')
+    assert sorted(got) == wanted
+    for topic in wanted:
+        assert got[topic] == sent[topic], topic
+    with open_bag(tmp_path / 'out') as bag:
+        stamps = [bag.deserialize(m).header.stamp for m in bag.messages([wanted[0]])]
+    assert [s.sec * 10**9 + s.nanosec for s in stamps] == \
+        [START_NS + i * 20_000_000 for i in range(12)]
+    assert all(s.dropped == 0 and s.written == s.received for s in result.recorded.values())
+
+
+def test_clock_events_and_default_topics(tmp_path: Path, ros_harness: RosHarness) -> None:
+    """/clock carries bag time, FINISHED is latched, and the default recorder skips /clock."""
+    source = make_input_bag(tmp_path / 'in')
+    clocks = ros_harness.collect(Clock, topics.CLOCK)
+    recorder = ros_harness.start(RecorderNode, output=str(tmp_path / 'out'))
+    ros_harness.spin_for(0.2)
+    player = ros_harness.start(PlayerNode, bag=str(source), rate=0.0, wait_for_subscribers=1)
+    assert ros_harness.spin_until(player.finished.is_set, timeout_s=30)
+    events = ros_harness.collect(RunEvent, topics.PLAYER_EVENTS, LATCHED)
+    assert ros_harness.spin_until(
+        lambda: any(e.event == RunEvent.FINISHED for e in events), timeout_s=10)
+    assert 'published 36 messages' in events[-1].detail
+    assert ros_harness.spin_until(lambda: sum(
+        s.received for s in recorder.recorder.stats.values()) >= 36 + 2, timeout_s=10)
+    recorder.finish()
+    assert clocks, 'no /clock message'
+    assert all(START_NS <= c.clock.sec * 10**9 + c.clock.nanosec <= START_NS + 11 * 20_000_000
+               for c in clocks)
+    recorded = by_topic(tmp_path / 'out')
+    assert topics.CLOCK not in recorded
+    assert recorded['/cam_side/pixel_points'] == by_topic(source)['/cam_side/pixel_points']
+    assert len(recorded[topics.PLAYER_EVENTS]) == 2  # STARTED and FINISHED
