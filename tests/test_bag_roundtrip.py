@@ -4,17 +4,17 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from dempath_msgs.msg import RunEvent
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-from rosgraph_msgs.msg import Clock
-
-from dempath import topics
 from dempath.bagio import make_typestore, open_bag, write_bag
 from dempath.nodes.harness import RosHarness
 from dempath.nodes.pipeline import replay_and_record
 from dempath.nodes.player import PlayerNode
 from dempath.nodes.recorder import RecorderNode
 from dempath.testbags import START_NS, images, pixel_points
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from rosgraph_msgs.msg import Clock
+
+from dempath import topics
+from dempath_msgs.msg import RunEvent
 
 LATCHED = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE,
                      durability=DurabilityPolicy.TRANSIENT_LOCAL)
