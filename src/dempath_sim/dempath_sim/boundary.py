@@ -1,0 +1,234 @@
+"""Particle-plane and particle-triangle-mesh contact forces (one parallel per-particle loop).
+
+Each particle tests the planes and the tool triangles of its grid cell (tool frame). Contacts with
+one mesh are filtered so that a flat or convex patch made of several triangles acts once: the
+candidate closest points are taken nearest first, and a candidate is dropped when its closest
+point does not lie above the tangent plane of a contact already kept ((q_b - q_a) . n_a <= tol);
+concave corners (two faces facing the particle) keep both contacts.
+Contact history lives in G slots per particle keyed by plane index or n_planes + triangle index;
+when all slots are busy the contact runs without history (counted in `worst[:, 3]`).
+Laws (same as particle-particle, per-pair materials): see `contact.py`, with R* = r and m* = m
+(rigid, infinitely heavy wall). The contact point lies at the wall surface, r - delta from the
+centre (as LIGGGHTS). The reaction on the tool is summed per chunk: force (3,) and torque (3,)
+about the tool origin.
+"""
+
+from __future__ import annotations
+
+from numba import njit, prange
+
+from dempath_sim.cohesion_sjkr import sjkr_area_wall
+from dempath_sim.contact import resolve_contact
+from dempath_sim.mesh import closest_point_triangle
+
+N_SLOTS = 4  # geometry contacts with history per particle
+MAX_CANDIDATES = 16  # mesh triangles within reach of one particle
+
+
+@njit(cache=True)
+def find_slot(keys, i, key, used):  # pragma: no cover - compiled
+    """History slot of contact `key` for particle i (claims a free one); -1 if all are busy."""
+    for s in range(keys.shape[1]):
+        if keys[i, s] == key:
+            return s
+    for s in range(keys.shape[1]):
+        if keys[i, s] == -1 and not (used >> s) & 1:
+            keys[i, s] = key
+            return s
+    return -1
+
+
+@njit(fastmath=True, cache=True)
+def _apply(i, c, key, delta, lever, nx, ny, nz, vx, vy, vz, wx, wy, wz, a, b, rad, mass,
+           gkey, ght, ghr, tmp_t, tmp_r, tab, dt, rolling, cohesion, used,
+           force, torque, worst):  # pragma: no cover - compiled
+    """Resolve one geometry contact of particle i; returns (fx, fy, fz, mx, my, mz, used)."""
+    s = find_slot(gkey, i, key, used)
+    if s >= 0:
+        used |= 1 << s
+        ht = ght[i]
+        hr = ghr[i]
+        row = s
+    else:
+        worst[c, 3] += 1.0
+        for q in range(3):
+            tmp_t[c, 0, q] = 0.0
+            tmp_r[c, 0, q] = 0.0
+        ht = tmp_t[c]
+        hr = tmp_r[c]
+        row = 0
+    area = sjkr_area_wall(rad[i], delta) if cohesion else 0.0
+    fx, fy, fz, mx, my, mz, _ = resolve_contact(
+        tab, a, b, delta, rad[i], mass[i], area, nx, ny, nz, vx, vy, vz, wx, wy, wz,
+        ht, hr, row, dt, rolling)
+    ratio = delta / rad[i]
+    if ratio > worst[c, 0]:
+        worst[c, 0] = ratio
+        worst[c, 1] = i
+        worst[c, 2] = -1 - key
+    force[i, 0] += fx
+    force[i, 1] += fy
+    force[i, 2] += fz
+    torque[i, 0] += -lever * (ny * fz - nz * fy) + mx
+    torque[i, 1] += -lever * (nz * fx - nx * fz) + my
+    torque[i, 2] += -lever * (nx * fy - ny * fx) + mz
+    return fx, fy, fz, mx, my, mz, used
+
+
+@njit(fastmath=True, cache=True)
+def _plane_contacts(i, c, pos, vel, omg, rad, mass, mat, planes, plane_mat, gkey, ght, ghr,
+                    tmp_t, tmp_r, tab, dt, rolling, cohesion, used, force, torque,
+                    worst):  # pragma: no cover - compiled
+    """All plane contacts of particle i; returns the updated slot mask."""
+    for p in range(planes.shape[0]):
+        nx, ny, nz = planes[p, 3], planes[p, 4], planes[p, 5]
+        s = ((pos[i, 0] - planes[p, 0]) * nx + (pos[i, 1] - planes[p, 1]) * ny
+             + (pos[i, 2] - planes[p, 2]) * nz)
+        delta = rad[i] - s
+        if delta <= 0.0:
+            continue
+        # v_rel = v_i + w_i x (-s n)
+        vx = vel[i, 0] - s * (omg[i, 1] * nz - omg[i, 2] * ny)
+        vy = vel[i, 1] - s * (omg[i, 2] * nx - omg[i, 0] * nz)
+        vz = vel[i, 2] - s * (omg[i, 0] * ny - omg[i, 1] * nx)
+        r = _apply(i, c, p, delta, s, nx, ny, nz, vx, vy, vz, omg[i, 0], omg[i, 1], omg[i, 2],
+                   mat[i], plane_mat[p], rad, mass, gkey, ght, ghr, tmp_t, tmp_r, tab, dt,
+                   rolling, cohesion, used, force, torque, worst)
+        used = r[6]
+    return used
+
+
+@njit(fastmath=True, cache=True)
+def _collect_candidates(px, py, pz, r, tris, g_lo, g_cell, g_dims, g_start, g_tris,
+                        cand):  # pragma: no cover - compiled
+    """Triangles within r of p (tool frame), sorted by distance into cand (rows: t, d2, q)."""
+    gx = int((px - g_lo[0]) / g_cell)
+    gy = int((py - g_lo[1]) / g_cell)
+    gz = int((pz - g_lo[2]) / g_cell)
+    if px < g_lo[0] or py < g_lo[1] or pz < g_lo[2]:
+        return 0
+    if gx >= g_dims[0] or gy >= g_dims[1] or gz >= g_dims[2]:
+        return 0
+    cell = (gx * g_dims[1] + gy) * g_dims[2] + gz
+    nc = 0
+    for q in range(g_start[cell], g_start[cell + 1]):
+        t = g_tris[q]
+        qx, qy, qz = closest_point_triangle(px, py, pz, tris[t])
+        d2 = (px - qx) ** 2 + (py - qy) ** 2 + (pz - qz) ** 2
+        if d2 >= r * r or d2 == 0.0 or nc == cand.shape[0]:
+            continue
+        pos = nc
+        while pos > 0 and cand[pos - 1, 1] > d2:  # insertion sort, nearest first
+            for col in range(5):
+                cand[pos, col] = cand[pos - 1, col]
+            pos -= 1
+        cand[pos, 0] = t
+        cand[pos, 1] = d2
+        cand[pos, 2] = qx
+        cand[pos, 3] = qy
+        cand[pos, 4] = qz
+        nc += 1
+    return nc
+
+
+@njit(fastmath=True, cache=True)
+def _mesh_contacts(i, c, pos, vel, omg, rad, mass, mat, tris, tri_mat, n_planes, g_lo, g_cell,
+                   g_dims, g_start, g_tris, tool, gkey, ght, ghr, tmp_t, tmp_r, tab, dt, rolling,
+                   cohesion, used, force, torque, worst, cand,
+                   tool_acc):  # pragma: no cover - compiled
+    """All tool-mesh contacts of particle i; tool: (18,) position, velocity, omega, R."""
+    rx = pos[i, 0] - tool[0]
+    ry = pos[i, 1] - tool[1]
+    rz = pos[i, 2] - tool[2]
+    # p_local = R^T (x - t); R stored row-major in tool[9:18]
+    px = tool[9] * rx + tool[12] * ry + tool[15] * rz
+    py = tool[10] * rx + tool[13] * ry + tool[16] * rz
+    pz = tool[11] * rx + tool[14] * ry + tool[17] * rz
+    nc = _collect_candidates(px, py, pz, rad[i], tris, g_lo, g_cell, g_dims, g_start, g_tris,
+                             cand)
+    tol = 1e-6 * rad[i]
+    for b in range(nc):
+        d = cand[b, 1] ** 0.5
+        lnx = (px - cand[b, 2]) / d
+        lny = (py - cand[b, 3]) / d
+        lnz = (pz - cand[b, 4]) / d
+        cand[b, 6], cand[b, 7], cand[b, 8] = lnx, lny, lnz
+        cand[b, 5] = 1.0
+        for a in range(b):
+            if cand[a, 5] > 0.0 and ((cand[b, 2] - cand[a, 2]) * cand[a, 6]
+                                     + (cand[b, 3] - cand[a, 3]) * cand[a, 7]
+                                     + (cand[b, 4] - cand[a, 4]) * cand[a, 8]) <= tol:
+                cand[b, 5] = 0.0  # shadowed by a nearer contact (same patch or convex edge)
+                break
+        if cand[b, 5] == 0.0:
+            continue
+        nx = tool[9] * lnx + tool[10] * lny + tool[11] * lnz
+        ny = tool[12] * lnx + tool[13] * lny + tool[14] * lnz
+        nz = tool[15] * lnx + tool[16] * lny + tool[17] * lnz
+        cx = pos[i, 0] - d * nx - tool[0]  # contact point relative to the tool origin
+        cy = pos[i, 1] - d * ny - tool[1]
+        cz = pos[i, 2] - d * nz - tool[2]
+        vx = vel[i, 0] - d * (omg[i, 1] * nz - omg[i, 2] * ny) - (tool[3] + tool[7] * cz
+                                                                   - tool[8] * cy)
+        vy = vel[i, 1] - d * (omg[i, 2] * nx - omg[i, 0] * nz) - (tool[4] + tool[8] * cx
+                                                                   - tool[6] * cz)
+        vz = vel[i, 2] - d * (omg[i, 0] * ny - omg[i, 1] * nx) - (tool[5] + tool[6] * cy
+                                                                   - tool[7] * cx)
+        fx, fy, fz, mx, my, mz, used = _apply(
+            i, c, n_planes + int(cand[b, 0]), rad[i] - d, d, nx, ny, nz, vx, vy, vz,
+            omg[i, 0] - tool[6], omg[i, 1] - tool[7], omg[i, 2] - tool[8], mat[i], tri_mat,
+            rad, mass, gkey, ght, ghr, tmp_t, tmp_r, tab, dt, rolling, cohesion, used,
+            force, torque, worst)
+        tool_acc[c, 0] -= fx
+        tool_acc[c, 1] -= fy
+        tool_acc[c, 2] -= fz
+        tool_acc[c, 3] -= cy * fz - cz * fy + mx
+        tool_acc[c, 4] -= cz * fx - cx * fz + my
+        tool_acc[c, 5] -= cx * fy - cy * fx + mz
+    return used
+
+
+@njit(parallel=True, fastmath=True, cache=True)
+def boundary_forces(pos, vel, omg, rad, mass, mat, planes, plane_mat, tris, tri_mat, g_lo,
+                    g_cell, g_dims, g_start, g_tris, tool, gkey, ght, ghr, tab, dt, rolling,
+                    cohesion, force, torque, tool_acc, worst, cand, tmp_t,
+                    tmp_r):  # pragma: no cover - compiled
+    """Add plane and tool-mesh contact forces to force/torque (n, 3); tool reaction per chunk.
+
+    Args:
+        pos, vel, omg, rad, mass, mat: Particle arrays (see SimState).
+        planes: (n_planes, 6) point and inward unit normal; plane_mat: (n_planes,) materials.
+        tris: (n_tri, 3, 3) tool triangles in the tool frame [m]; tri_mat: tool material.
+        g_lo, g_cell, g_dims, g_start, g_tris: Triangle grid (see mesh.TriangleGrid).
+        tool: (18,) tool position [m], velocity [m/s], angular velocity [rad/s], rotation
+            tool->world row-major.
+        gkey, ght, ghr: (n, N_SLOTS) contact keys and (n, N_SLOTS, 3) springs.
+        tab, dt, rolling, cohesion: Pair table, time step [s] and law switches.
+        force, torque: (n, 3) accumulated in place [N], [N m].
+        tool_acc: (n_chunks, 6) out: force [N] and torque [N m] on the tool.
+        worst: (n_chunks, 4) in/out: largest overlap ratio, i, -1-key, slot overflows.
+        cand: (n_chunks, MAX_CANDIDATES, 9) scratch; tmp_t, tmp_r: (n_chunks, 1, 3) scratch.
+    """
+    n_chunks = tool_acc.shape[0]
+    n = pos.shape[0]
+    n_planes = planes.shape[0]
+    for c in prange(n_chunks):
+        for q in range(6):
+            tool_acc[c, q] = 0.0
+        for i in range(c * n // n_chunks, (c + 1) * n // n_chunks):
+            used = 0
+            if n_planes > 0:
+                used = _plane_contacts(i, c, pos, vel, omg, rad, mass, mat, planes, plane_mat,
+                                       gkey, ght, ghr, tmp_t, tmp_r, tab, dt, rolling, cohesion,
+                                       used, force, torque, worst)
+            if tris.shape[0] > 0:
+                used = _mesh_contacts(i, c, pos, vel, omg, rad, mass, mat, tris, tri_mat,
+                                      n_planes, g_lo, g_cell, g_dims, g_start, g_tris, tool,
+                                      gkey, ght, ghr, tmp_t, tmp_r, tab, dt, rolling, cohesion,
+                                      used, force, torque, worst, cand[c], tool_acc)
+            for s in range(gkey.shape[1]):
+                if not (used >> s) & 1:
+                    gkey[i, s] = -1
+                    for q in range(3):
+                        ght[i, s, q] = 0.0
+                        ghr[i, s, q] = 0.0

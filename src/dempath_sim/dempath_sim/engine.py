@@ -1,0 +1,373 @@
+"""The DEM engine: soft spheres, plane walls and a kinematic triangle-mesh tool.
+
+Model assumptions: rigid spheres that overlap softly (Hertz-Mindlin with restitution damping,
+optional EPSD2 rolling resistance and SJKR cohesion; see `contact.py`); walls are infinite planes
+and the tool a rigid triangle mesh moved kinematically (its motion is imposed, not computed);
+gravity is uniform (default -Y); no fluid, no particle breakage. Units SI; frame X lateral, Y up,
+Z tool travel.
+
+One `Engine.step` is the named stages of a velocity-Verlet step (see `integrate.py`):
+`integrate_first_half` (half kick + drift, domain and blow-up checks), `find_contacts`
+(neighbour-list rebuild when a particle moved more than skin / 2, history carried over),
+`contact_forces` (particle-particle, particle-plane, particle-tool), `integrate_second_half`.
+The arrays of `SimState` are updated in place; when particles leave the domain box they are
+removed with a warning and a new, compacted state is returned, so always use the returned state.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+from numpy.typing import NDArray
+
+from dempath_sim.boundary import MAX_CANDIDATES, N_SLOTS, boundary_forces
+from dempath_sim.contact import TAB_OK, build_pair_table
+from dempath_sim.errors import SimulationError
+from dempath_sim.integrate import first_half, second_half
+from dempath_sim.mesh import TriangleMesh, build_triangle_grid, mesh_margin
+from dempath_sim.neighbors import build_neighbor_list, transfer_history
+from dempath_sim.pair_forces import pair_forces, reduce_buffers
+from dempath_sim.params import SimParams
+from dempath_sim.state import SimState
+from dempath_sim.timestep import rayleigh_time_step
+from dempath_sim.walls import Plane, pack_planes
+
+logger = logging.getLogger(__name__)
+
+F64 = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class ToolPose:
+    """Kinematic pose of the tool frame in the world.
+
+    Attributes:
+        position: (3,) origin of the tool frame [m].
+        velocity: (3,) velocity of that origin [m/s].
+        rotation: (3, 3) rotation tool -> world; identity if None.
+        angular_velocity: (3,) [rad/s] about the tool origin; zero if None.
+    """
+
+    position: F64
+    velocity: F64
+    rotation: F64 | None = None
+    angular_velocity: F64 | None = None
+
+    def packed(self) -> F64:
+        """(18,) position, velocity, angular velocity, rotation row-major (kernel layout)."""
+        rot = np.eye(3) if self.rotation is None else np.asarray(self.rotation, np.float64)
+        omega = np.zeros(3) if self.angular_velocity is None else self.angular_velocity
+        out = np.concatenate([np.asarray(self.position, np.float64).reshape(3),
+                              np.asarray(self.velocity, np.float64).reshape(3),
+                              np.asarray(omega, np.float64).reshape(3), rot.reshape(9)])
+        if not np.isfinite(out).all():
+            msg = f'ToolPose must be finite, got {self!r}'
+            raise SimulationError(msg)
+        return out
+
+
+class Engine:
+    """Steps a `SimState` in time with walls and an optional kinematic tool.
+
+    Attributes:
+        dt: Time step [s] (set when the first state is bound; see `time_step`).
+        tool_force: (3,) force of the particles on the tool after the last step [N].
+        tool_torque: (3,) torque on the tool about its origin after the last step [N m].
+        removed_count: Particles removed because they left the domain box.
+        n_rebuilds: Neighbour-list builds so far.
+        slot_overflows: Geometry contacts resolved without history (all slots busy).
+    """
+
+    BLOWUP_COURANT = 0.5  # |v| dt / r above this is an energy blow-up
+
+    def __init__(self, params: SimParams, walls: Sequence[Plane] = (),
+                 tool: TriangleMesh | None = None) -> None:
+        """Keep the set-up; no allocation until a state is stepped.
+
+        Args:
+            params: Physical and numerical parameters.
+            walls: Plane walls (see `walls.box_walls`).
+            tool: Tool mesh in its own frame, moved by the ToolPose of each step, or None.
+        """
+        self.params = params
+        self.walls = tuple(walls)
+        self.tool = tool
+        self._tab = build_pair_table(params)
+        self._planes, self._plane_mat = pack_planes(self.walls)
+        for m in (*(p.material for p in self.walls), *(() if tool is None else (tool.material,))):
+            if not 0 <= m < len(params.materials):
+                msg = f'Engine: wall/tool material index {m} is not in SimParams.materials'
+                raise SimulationError(msg)
+        self.dt: float | None = None
+        self.tool_force = np.zeros(3)
+        self.tool_torque = np.zeros(3)
+        self.tool_pose = ToolPose(np.zeros(3), np.zeros(3))
+        self.removed_count = 0
+        self.n_rebuilds = 0
+        self.slot_overflows = 0
+        self._bound: SimState | None = None
+
+    # ----------------------------------------------------------------- set-up
+    def time_step(self, state: SimState) -> float:
+        """The time step for this state: params.dt, or rayleigh_safety * Rayleigh time step [s].
+
+        Raises:
+            SimulationError: params.dt exceeds the Rayleigh time step (message gives the limit).
+        """
+        dt_r = rayleigh_time_step(state.radii, state.material, self.params)
+        if self.params.dt is None:
+            return self.params.rayleigh_safety * dt_r
+        if self.params.dt > dt_r:
+            msg = (f'SimParams.dt = {self.params.dt:.3e} s exceeds the Rayleigh time step '
+                   f'{dt_r:.3e} s of the finest particle: unstable; stable dt <= '
+                   f'{dt_r:.3e} s (recommended {self.params.rayleigh_safety * dt_r:.3e} s)')
+            raise SimulationError(msg)
+        return self.params.dt
+
+    def _check_pairs(self, state: SimState) -> None:
+        used = np.unique(state.material)
+        others = [*(p.material for p in self.walls)]
+        if self.tool is not None:
+            others.append(self.tool.material)
+        for a in used:
+            for b in (*used, *others):
+                if self._tab[a, b, TAB_OK] == 0:
+                    self.params.interaction(int(a), int(b))  # raises naming the pair
+
+    def bind(self, state: SimState) -> None:
+        """Allocate buffers and the neighbour list for `state` and compute its forces at t."""
+        self._check_pairs(state)
+        self.dt = self.time_step(state)
+        n = state.n
+        self._n_chunks = max(1, min(numba.get_num_threads(), n))
+        self._force = np.zeros((n, 3))
+        self._torque = np.zeros((n, 3))
+        self._fbuf = np.zeros((self._n_chunks, n, 3))
+        self._tbuf = np.zeros((self._n_chunks, n, 3))
+        self._gkey = np.full((n, N_SLOTS), -1, np.int32)
+        self._ght = np.zeros((n, N_SLOTS, 3))
+        self._ghr = np.zeros((n, N_SLOTS, 3))
+        self._scratch()
+        self._skin = self.params.skin * (float(state.radii.min()) if n else 0.0)
+        self._start = np.zeros(n + 1, np.int64)
+        self._nbr = np.zeros(0, np.int32)
+        self._ht = np.zeros((0, 3))
+        self._hr = np.zeros((0, 3))
+        self._grid = None if self.tool is None else build_triangle_grid(
+            self.tool, mesh_margin(state.radii))
+        self._bound = state
+        self.find_contacts(state, np.arange(n))
+        self.contact_forces(state, self.tool_pose, dt=0.0)
+
+    def _scratch(self) -> None:
+        nc = self._n_chunks
+        self._worst = np.zeros((nc, 4))
+        self._stats = np.zeros((nc, 4))
+        self._tool_acc = np.zeros((nc, 6))
+        self._cand = np.zeros((nc, MAX_CANDIDATES, 9))
+        self._tmp_t = np.zeros((nc, 1, 3))
+        self._tmp_r = np.zeros((nc, 1, 3))
+
+    # ----------------------------------------------------------------- stages
+    def find_contacts(self, state: SimState, new_to_old: NDArray[np.int64]) -> None:
+        """Rebuild the half neighbour list and carry the contact springs over.
+
+        Args:
+            state: The bound state.
+            new_to_old: (n,) index of each current particle in the arrays of the previous list.
+        """
+        start, nbr = build_neighbor_list(state.positions, state.radii, self._skin)
+        ht = np.empty((len(nbr), 3))
+        hr = np.empty((len(nbr), 3))
+        transfer_history(new_to_old.astype(np.int64), self._start, self._nbr, self._ht, self._hr,
+                         start, nbr, ht, hr)
+        self._start, self._nbr, self._ht, self._hr = start, nbr, ht, hr
+        self._pos_build = state.positions.copy()
+        self.n_rebuilds += 1
+
+    def contact_forces(self, state: SimState, pose: ToolPose, dt: float) -> None:
+        """Forces and torques of all contacts into the engine's force/torque arrays.
+
+        Args:
+            state: The bound state at the new positions.
+            pose: Tool pose at the same time.
+            dt: Time step used to advance the contact springs [s] (0 to evaluate only).
+
+        Raises:
+            SimulationError: An overlap exceeds params.max_overlap_fraction of a radius.
+        """
+        rolling = self.params.rolling_enabled
+        cohesion = self.params.cohesion_enabled
+        pair_forces(state.positions, state.velocities, state.angular_velocities, state.radii,
+                    state.masses, state.material, self._start, self._nbr, self._ht, self._hr,
+                    self._tab, dt, rolling, cohesion, self._fbuf, self._tbuf, self._worst)
+        reduce_buffers(self._fbuf, self._tbuf, self._force, self._torque)
+        tris = np.zeros((0, 3, 3)) if self.tool is None else self.tool.triangles
+        grid = self._grid
+        g_args = ((np.zeros(3), 1.0, np.ones(3, np.int64), np.zeros(2, np.int64),
+                   np.zeros(0, np.int32)) if grid is None else
+                  (grid.lo, grid.cell, grid.dims, grid.cell_start, grid.cell_tris))
+        tri_mat = 0 if self.tool is None else self.tool.material
+        self._worst[:, 3] = 0.0
+        boundary_forces(state.positions, state.velocities, state.angular_velocities,
+                        state.radii, state.masses, state.material, self._planes,
+                        self._plane_mat, tris, tri_mat, *g_args, pose.packed(), self._gkey,
+                        self._ght, self._ghr, self._tab, dt, rolling, cohesion, self._force,
+                        self._torque, self._tool_acc, self._worst, self._cand, self._tmp_t,
+                        self._tmp_r)
+        total = self._tool_acc.sum(axis=0)
+        self.tool_force = total[:3].copy()
+        self.tool_torque = total[3:].copy()
+        self.slot_overflows += int(self._worst[:, 3].sum())
+        self._check_overlap(state)
+
+    def _check_overlap(self, state: SimState) -> None:
+        c = int(np.argmax(self._worst[:, 0]))
+        ratio, i, other = self._worst[c, :3]
+        if ratio <= self.params.max_overlap_fraction:
+            return
+        what = (f'particle {state.ids[int(other)]}' if other >= 0 else
+                f'plane {int(-1 - other)}' if -1 - other < len(self.walls) else 'the tool')
+        msg = (f'overlap of {100 * ratio:.1f}% of the radius between particle '
+               f'{state.ids[int(i)]} and {what} at t = {state.time:.6f} s exceeds '
+               f'SimParams.max_overlap_fraction = {self.params.max_overlap_fraction}: the '
+               f'contacts are too soft or the time step too large (dt = {self.dt:.3e} s, '
+               f'stable dt <= {self._stable_dt(state):.3e} s)')
+        raise SimulationError(msg)
+
+    def _stable_dt(self, state: SimState) -> float:
+        return self.params.rayleigh_safety * rayleigh_time_step(state.radii, state.material,
+                                                                self.params)
+
+    def integrate_first_half(self, state: SimState) -> tuple[float, int]:
+        """Half kick and drift; returns (max displacement since the list build [m], n_out).
+
+        Raises:
+            SimulationError: Non-finite velocities or |v| dt / r > BLOWUP_COURANT.
+        """
+        p = self.params
+        first_half(state.positions, state.velocities, state.angular_velocities, self._force,
+                   self._torque, state.masses, state.inertias, state.radii,
+                   np.asarray(p.gravity), self.dt, self._pos_build, np.asarray(p.domain_min),
+                   np.asarray(p.domain_max), self._stats)
+        courant = float(self._stats[:, 1].max())
+        if self._stats[:, 3].sum() > 0 or courant > self.BLOWUP_COURANT:
+            msg = (f'energy blow-up at t = {state.time:.6f} s: a particle moves '
+                   f'{courant:.2f} radii per step (non-finite: {int(self._stats[:, 3].sum())}); '
+                   f'dt = {self.dt:.3e} s, stable dt <= {self._stable_dt(state):.3e} s')
+            raise SimulationError(msg)
+        return math.sqrt(float(self._stats[:, 0].max())), int(self._stats[:, 2].sum())
+
+    def integrate_second_half(self, state: SimState) -> None:
+        """Second half kick with the new forces; advances time and step."""
+        second_half(state.velocities, state.angular_velocities, self._force, self._torque,
+                    state.masses, state.inertias, np.asarray(self.params.gravity), self.dt)
+        state.time += self.dt
+        state.step += 1
+
+    # ----------------------------------------------------------------- stepping
+    def step(self, state: SimState, tool_pose: ToolPose | None = None) -> SimState:
+        """Advance one time step.
+
+        Args:
+            state: The state (bound on first use; a different object is bound afresh, which
+                resets the contact history).
+            tool_pose: Tool pose at state.time + dt; the previous pose if None.
+
+        Returns:
+            The state after the step: the same object, or a compacted copy if particles left
+            the domain (they are removed with a warning and counted in removed_count).
+
+        Raises:
+            SimulationError: Unstable time step, excessive overlap or energy blow-up.
+        """
+        if state is not self._bound or self._force.shape[0] != state.n:
+            self.bind(state)
+        if tool_pose is not None:
+            self.tool_pose = tool_pose
+        moved, n_out = self.integrate_first_half(state)
+        if n_out:
+            state = self._remove_outside(state)
+        elif moved > 0.5 * self._skin:
+            self.find_contacts(state, np.arange(state.n))
+        self.contact_forces(state, self.tool_pose, self.dt)
+        self.integrate_second_half(state)
+        return state
+
+    def _remove_outside(self, state: SimState) -> SimState:
+        lo = np.asarray(self.params.domain_min)
+        hi = np.asarray(self.params.domain_max)
+        keep = np.all((state.positions >= lo) & (state.positions <= hi), axis=1)
+        gone = state.ids[~keep]
+        self.removed_count += len(gone)
+        logger.warning('removed %d particle(s) that left the domain box at t = %.6f s (ids %s)',
+                       len(gone), state.time, gone[:10].tolist())
+        new = state.subset(keep)
+        new_to_old = np.flatnonzero(keep)
+        self._force, self._torque = self._force[keep], self._torque[keep]
+        self._gkey, self._ght, self._ghr = self._gkey[keep], self._ght[keep], self._ghr[keep]
+        self._n_chunks = max(1, min(self._n_chunks, new.n))
+        self._fbuf = np.zeros((self._n_chunks, new.n, 3))
+        self._tbuf = np.zeros((self._n_chunks, new.n, 3))
+        self._scratch()
+        self._bound = new
+        self.find_contacts(new, new_to_old)
+        return new
+
+    def run(self, state: SimState, n_steps: int,
+            tool_motion: Callable[[float], ToolPose] | None = None,
+            callback: Callable[[SimState, Engine], None] | None = None,
+            callback_every: int = 1) -> SimState:
+        """Advance n_steps steps; the tool follows tool_motion(t) (pose at time t).
+
+        Args:
+            state: Initial state.
+            n_steps: Number of steps.
+            tool_motion: Tool pose as a function of time [s]; the tool stays put if None.
+            callback: Called as callback(state, engine) after every callback_every steps.
+            callback_every: Steps between callbacks.
+
+        Returns:
+            The final state (see `step`).
+        """
+        if callback_every < 1:
+            msg = f'Engine.run: callback_every must be >= 1, got {callback_every!r}'
+            raise SimulationError(msg)
+        if state is not self._bound:
+            self.bind(state)
+        for k in range(n_steps):
+            pose = None if tool_motion is None else tool_motion(state.time + self.dt)
+            state = self.step(state, pose)
+            if callback is not None and (k + 1) % callback_every == 0:
+                callback(state, self)
+        return state
+
+    # ----------------------------------------------------------------- introspection
+    @property
+    def forces(self) -> tuple[F64, F64]:
+        """(force (n, 3) [N], torque (n, 3) [N m]) of the contacts at the last evaluation."""
+        return self._force, self._torque
+
+    @property
+    def n_contacts(self) -> int:
+        """Particle-particle pairs currently overlapping (from the stored springs' list)."""
+        return int(self._nbr.size)
+
+    def memory_bytes(self) -> dict[str, int]:
+        """Bytes held: per-particle arrays of engine + state, and neighbour-list entries."""
+        st = self._bound
+        per_particle = (self._force.nbytes + self._torque.nbytes + self._fbuf.nbytes
+                        + self._tbuf.nbytes + self._gkey.nbytes + self._ght.nbytes
+                        + self._ghr.nbytes + self._pos_build.nbytes + self._start.nbytes)
+        if st is not None:
+            per_particle += sum(a.nbytes for a in (
+                st.positions, st.velocities, st.angular_velocities, st.radii, st.masses,
+                st.inertias, st.material, st.ids))
+        pairs = self._nbr.nbytes + self._ht.nbytes + self._hr.nbytes
+        return {'particle_arrays': int(per_particle), 'pair_arrays': int(pairs),
+                'pairs': int(self._nbr.size)}
