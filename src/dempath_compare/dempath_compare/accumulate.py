@@ -25,6 +25,11 @@ class TrajectoryAccumulator:
     def __len__(self) -> int:
         return len(self._times)
 
+    @property
+    def n_samples(self) -> int:
+        """Samples collected over all trajectories."""
+        return sum(len(v) for v in self._times.values())
+
     def add_markers(self, group: str, t: float, marker_ids: NDArray[np.int64],
                     xyz: NDArray[np.float64]) -> None:
         """Add one measured time step: (n,) marker numbers, (n, 3) m positions at time t [s]."""

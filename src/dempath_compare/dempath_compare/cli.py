@@ -31,6 +31,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument('--trim-y-drop', type=float, default=None,
                         help='trim measured ends once Y falls this far below its max [m]')
     parser.add_argument('--rest-samples', type=int, default=5, help='rest-phase samples [5]')
+    parser.add_argument('--no-plots', action='store_true', help='skip the PNG figures')
     return parser
 
 
@@ -70,7 +71,7 @@ def compare_main(argv: list[str]) -> int:
                                trim_y_drop=args.trim_y_drop, rest_samples=args.rest_samples)
         result = compare_paths(args.measured, args.model, config)
         print_ranking(result, args.top)
-        outputs = write_outputs(result, args.out)
+        outputs = write_outputs(result, args.out, plots=not args.no_plots)
     except DempathError as err:
         print(f'error: {err}', file=sys.stderr)
         return 1

@@ -35,8 +35,8 @@ def safe_name(label: str) -> str:
     return re.sub(r'[^A-Za-z0-9._-]+', '_', label).strip('_') or 'trajectory'
 
 
-def write_outputs(result: CompareResult, out_dir: str | Path) -> Outputs:
-    """Write CSVs, workbook, Table 7, PNG figures and ``report.md`` into ``out_dir``.
+def write_outputs(result: CompareResult, out_dir: str | Path, plots: bool = True) -> Outputs:
+    """Write CSVs, workbook, Table 7, PNG figures (unless ``plots`` is False) and ``report.md``.
 
     Raises:
         OutputError: the folder cannot be created or written.
@@ -54,9 +54,9 @@ def write_outputs(result: CompareResult, out_dir: str | Path) -> Outputs:
     table7_md.write_text(table7_markdown(table))
     workbook = write_workbook(out / 'compare.xlsx', result, table)
     best = [plot_best(result, e, out / 'plots' / f'{safe_name(label)}_xz_yz.png')
-            for e, label in enumerate(result.measured.labels) if len(result.best(e))]
+            for e, label in enumerate(result.measured.labels) if plots and len(result.best(e))]
     groups = sorted({g for g, n in zip(result.measured.groups, result.measured.lengths,
-                                       strict=True) if n > 0})
+                                       strict=True) if n > 0 and plots})
     tracked = [plot_tracked_3d(result, g, out / 'plots' / f'tracked_3d_{safe_name(g)}.png')
                for g in groups]
     outputs = Outputs(scores_csv, table7_csv, table7_md, workbook, best, tracked,
