@@ -1,4 +1,4 @@
-"""A real recorder process: SIGKILL keeps every flushed chunk (after bag-recover), SIGINT closes."""
+"""A real recorder process: SIGKILL keeps each flushed chunk (via bag-recover), SIGINT closes."""
 
 from __future__ import annotations
 
