@@ -17,11 +17,15 @@ setup(
     zip_safe=False,
     maintainer='dempath developers',
     maintainer_email='dempath@users.noreply.github.com',
-    description=open('package.xml').read().split('<description>')[1].split('</description>')[0],
+    description='Two-camera ChArUco calibration for dempath: twin rig, intrinsics, stereo.',
     license='Apache-2.0',
     entry_points={
         'console_scripts': [
-
+            'dempath_calibrator = dempath_calib.nodes.calibrator:main',
+        ],
+        'dempath.commands': [
+            'calibrate = dempath_calib.cli:calibrate_main',
+            'rig = dempath_calib.cli:rig_main',
         ],
     },
 )

@@ -1,0 +1,146 @@
+"""``dempath calibrate`` (calibrate from a bag, frame folder or two videos) and ``dempath rig``
+(the twin rig's cameras, or its calibration bag with the truth)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import sys
+from collections.abc import Iterator
+from dataclasses import replace
+from itertools import chain
+from pathlib import Path
+
+import yaml
+from tqdm import tqdm
+
+from dempath_calib.board import CALISCOPE_BOARD, PAPER_BOARD, BoardKind, BoardSpec
+from dempath_calib.calibrator import CalibrationConfig, Calibrator
+from dempath_calib.errors import CalibrationError
+from dempath_calib.intrinsics import DistortionModel
+from dempath_calib.outputs import save_result
+from dempath_calib.rig import paper_rig
+from dempath_calib.sources import Frame, open_source
+from dempath_calib.twinbag import truth_path, write_calibration_bag
+
+BOARDS = {'paper': PAPER_BOARD, 'caliscope': CALISCOPE_BOARD}
+
+
+def _board(args: argparse.Namespace) -> BoardSpec:
+    board = BOARDS[args.board]
+    changes = {k: v for k, v in (('columns', args.columns), ('rows', args.rows),
+                                 ('square_m', args.square), ('marker_m', args.marker),
+                                 ('dictionary', args.dictionary)) if v is not None}
+    if args.chessboard:
+        changes['kind'] = BoardKind.CHESSBOARD
+    if args.inverted:
+        changes['inverted'] = True
+    return replace(board, **changes) if changes else board
+
+
+def calibrate_parser() -> argparse.ArgumentParser:
+    """Options of ``dempath calibrate``."""
+    p = argparse.ArgumentParser(prog='dempath calibrate', description='Two-camera calibration '
+                                'from a bag, a folder of frames (cam_side/, cam_front/) or two '
+                                'videos (side first).')
+    p.add_argument('inputs', nargs='+', help='bag | frame folder | side.mp4 front.mp4')
+    p.add_argument('--out', required=True, help='output folder')
+    p.add_argument('--board', choices=sorted(BOARDS), default='paper',
+                   help='preset board (paper: 7x5 40.4 mm DICT_5X5_100)')
+    p.add_argument('--columns', type=int, help='squares along x')
+    p.add_argument('--rows', type=int, help='squares along y')
+    p.add_argument('--square', type=float, help='square side [m]')
+    p.add_argument('--marker', type=float, help='marker side [m]')
+    p.add_argument('--dictionary', help='OpenCV dictionary, e.g. DICT_5X5_100')
+    p.add_argument('--chessboard', action='store_true', help='plain chessboard target')
+    p.add_argument('--inverted', action='store_true', help='board printed white on black')
+    p.add_argument('--distortion', default='k1k2p1p2k3',
+                   choices=[m.value for m in DistortionModel], help='distortion model')
+    p.add_argument('--world', default='surface', choices=['surface', 'side'],
+                   help='world frame: board on the sand in the first frames, or side camera')
+    p.add_argument('--offset', default='0', help="front clock offset [s], or 'auto'")
+    p.add_argument('--timestamps', help='CSV with cam_id,frame_time per video frame')
+    p.add_argument('--fps', type=float, default=30.0, help='frame rate of a frame folder')
+    p.add_argument('--every', type=int, default=1, help='use every n-th image')
+    p.add_argument('--width', type=int, help='image width [px] (default: from the images)')
+    p.add_argument('--height', type=int, help='image height [px]')
+    p.add_argument('--min-views', type=int, default=8, help='least usable views per camera')
+    return p
+
+
+def _config(args: argparse.Namespace, size: tuple[int, int]) -> CalibrationConfig:
+    try:
+        offset = None if args.offset == 'auto' else float(args.offset)
+        return CalibrationConfig(board=_board(args), distortion=DistortionModel(args.distortion),
+                                 world=args.world, offset_s=offset, image_size=size,
+                                 min_views=args.min_views)
+    except ValueError as err:
+        msg = f'options: {err}'
+        raise CalibrationError(msg) from err
+
+
+def calibrate_main(argv: list[str]) -> int:
+    """``dempath calibrate INPUT... --out DIR``: calibrate and write the output files."""
+    args = calibrate_parser().parse_args(argv)
+    logging.basicConfig(level=logging.INFO, format='%(levelname)s %(name)s: %(message)s')
+    try:
+        source = open_source(args.inputs, args.fps, args.timestamps)
+        frames = source.frames()
+        first = next(frames, None)
+        if first is None:
+            msg = f'{args.inputs[0]}: no images'
+            raise CalibrationError(msg)
+        size = (args.width or first[2].shape[1], args.height or first[2].shape[0])
+        cal = Calibrator(_config(args, size))
+        _collect(cal, first, frames, source.count(), args.every)
+        result = cal.solve()
+        paths = save_result(result, args.out, {'inputs': args.inputs})
+    except CalibrationError as err:
+        print(f'error: {err}', file=sys.stderr)
+        return 1
+    rep = result.report
+    print(json.dumps({'rmse_px': rep['rmse_px'], 'views': rep['views'],
+                      'corner_spacing_mm': rep['corner_spacing'].get('mean_mm'),
+                      'point_set_size': rep['point_set_size'],
+                      'outputs': [str(p) for p in paths.values()]}))
+    return 0
+
+
+def _collect(cal: Calibrator, first: Frame, frames: Iterator[Frame], total: int,
+             every: int) -> None:
+    """Feed every ``every``-th image per camera to the calibrator with a progress bar."""
+    counts = [0, 0]
+    with tqdm(total=total, unit='img', desc='detecting') as bar:
+        for cam, stamp, image in chain([first], frames):
+            if counts[cam] % every == 0:
+                cal.add_image(cam, stamp, image)
+            counts[cam] += 1
+            bar.update(1)
+            bar.set_postfix_str(cal.progress().line(), refresh=False)
+
+
+def rig_main(argv: list[str]) -> int:
+    """``dempath rig [OUT_BAG]``: print the twin rig's cameras, or write its calibration bag."""
+    p = argparse.ArgumentParser(prog='dempath rig', description='The twin rig: print its true '
+                                'cameras (YAML), or render its calibration recording into a '
+                                'rosbag2 MCAP bag with the truth JSON beside it.')
+    p.add_argument('bag', nargs='?', help='bag folder to create')
+    p.add_argument('--views', type=int, default=40, help='board poses')
+    p.add_argument('--seed', type=int, default=0)
+    p.add_argument('--raw', action='store_true', help='mono8 Image instead of JPEG')
+    p.add_argument('--front-delay', type=float, default=0.0, help='front clock delay [s]')
+    args = p.parse_args(argv)
+    if args.bag is None:
+        print(yaml.safe_dump(paper_rig().to_dict(), sort_keys=False))
+        return 0
+    if Path(args.bag).exists():
+        print(f'error: {args.bag}: already exists', file=sys.stderr)
+        return 1
+    if args.views < 1:
+        print(f'error: --views: must be >= 1, got {args.views}', file=sys.stderr)
+        return 1
+    bag = write_calibration_bag(args.bag, args.views, args.seed, not args.raw,
+                                front_delay_s=args.front_delay)
+    print(json.dumps({'bag': str(bag), 'truth': str(truth_path(bag))}))
+    return 0

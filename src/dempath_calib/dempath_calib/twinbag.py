@@ -1,0 +1,145 @@
+"""Write the twin's calibration recording as a rosbag2 MCAP bag or as two videos.
+
+The bag has both cameras' image topics (``dempath.topics``), as JPEG ``CompressedImage`` or
+``mono8`` ``Image``; the truth (cameras, board, poses) goes to ``<bag>.truth.json`` beside it.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Iterator
+from itertools import pairwise
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+from dempath.bagio import write_bag
+from numpy.typing import NDArray
+from rosbags.typesys import Stores, get_typestore
+
+from dempath import topics
+from dempath_calib.board import PAPER_BOARD, BoardSpec
+from dempath_calib.camera import StereoCalibration
+from dempath_calib.rig import paper_rig
+from dempath_calib.twin import BoardPose, calibration_poses, render_views, save_truth
+
+LOG = logging.getLogger(__name__)
+JPEG_QUALITY = 92  # GoPro-like compression; corners stay within ~0.05 px
+
+
+def truth_path(bag: str | Path) -> Path:
+    """Where the truth JSON of a twin bag lives: ``<bag>.truth.json`` beside the bag folder."""
+    bag = Path(bag)
+    return bag.with_name(bag.name + '.truth.json')
+
+
+def image_messages(image: NDArray[np.uint8], camera: str, stamp_ns: int,
+                   compressed: bool) -> tuple[str, str, Any]:
+    """``(topic, msgtype, rosbags message)`` of one grey image (Jazzy typestore)."""
+    store = get_typestore(Stores.ROS2_JAZZY)
+    t = store.types
+    header = t['std_msgs/msg/Header'](
+        stamp=t['builtin_interfaces/msg/Time'](sec=stamp_ns // 10**9, nanosec=stamp_ns % 10**9),
+        frame_id=f'{camera}_optical')
+    if compressed:
+        _, buf = cv2.imencode('.jpg', image, [cv2.IMWRITE_JPEG_QUALITY, JPEG_QUALITY])
+        msg = t['sensor_msgs/msg/CompressedImage'](
+            header=header, format='mono8; jpeg compressed mono8', data=buf.ravel())
+        return (topics.camera_topic(topics.IMAGE_COMPRESSED, camera),
+                'sensor_msgs/msg/CompressedImage', msg)
+    h, w = image.shape
+    msg = t['sensor_msgs/msg/Image'](header=header, height=h, width=w, encoding='mono8',
+                                     is_bigendian=0, step=w, data=image.ravel())
+    return topics.camera_topic(topics.IMAGE_RAW, camera), 'sensor_msgs/msg/Image', msg
+
+
+def write_calibration_bag(path: str | Path, n_views: int = 40, seed: int = 0,
+                          compressed: bool = True, period_s: float = 0.5,
+                          front_delay_s: float = 0.0, rig: StereoCalibration | None = None,
+                          board: BoardSpec = PAPER_BOARD) -> Path:
+    """Render a twin calibration recording into a new bag and write its truth beside it.
+
+    Args:
+        path: bag folder to create.
+        n_views: number of board poses (frames per camera).
+        seed: random seed (poses and imaging conditions).
+        compressed: JPEG CompressedImage (else raw mono8 Image).
+        period_s: time between views [s].
+        front_delay_s: added to the front camera's stamps (an unsynchronised clock) [s].
+        rig: true cameras (``paper_rig()`` by default).
+        board: the target.
+
+    Returns:
+        The bag folder.
+    """
+    rig = rig or paper_rig()
+    poses = calibration_poses(n_views, seed, rig, board)
+    write_bag(path, _messages(poses, seed, rig, board, compressed, period_s, front_delay_s))
+    save_truth(truth_path(path), rig, board, poses)
+    LOG.info('wrote %d views to %s', n_views, path)
+    return Path(path)
+
+
+def _messages(poses: list[BoardPose], seed: int, rig: StereoCalibration, board: BoardSpec,
+              compressed: bool, period_s: float,
+              front_delay_s: float) -> Iterator[tuple[str, str, int, Any]]:
+    for i, images in enumerate(render_views(poses, seed, rig, board)):
+        for cam, image in enumerate(images):
+            stamp = round((1.0 + i * period_s + (front_delay_s if cam else 0.0)) * 1e9)
+            topic, msgtype, msg = image_messages(image, rig.cameras[cam].name, stamp,
+                                                 compressed)
+            yield topic, msgtype, stamp, msg
+
+
+def smooth_poses(keys: list[BoardPose], steps: int,
+                 board: BoardSpec = PAPER_BOARD) -> list[BoardPose]:
+    """Board poses moving smoothly through ``keys``: ``steps`` frames per segment.
+
+    Rotation is interpolated on the geodesic, position linearly with smooth-step easing.
+    """
+    out = []
+    mid = board.center_m
+    for a, b in pairwise(keys):
+        rel = cv2.Rodrigues(b.rot @ a.rot.T)[0].ravel()
+        ca, cb = a.t + a.rot @ mid, b.t + b.rot @ mid
+        for k in range(steps):
+            s = k / steps
+            s = s * s * (3 - 2 * s)
+            rot = cv2.Rodrigues(rel * s)[0] @ a.rot
+            centre = (1 - s) * ca + s * cb
+            out.append(BoardPose(rot, centre - rot @ mid, 'moving'))
+    return out
+
+
+def write_twin_videos(folder: str | Path, n_keys: int = 6, steps: int = 12, seed: int = 0,
+                      front_delay_frames: int = 0, fps: float = 10.0,
+                      scale: float = 0.5) -> tuple[Path, Path]:
+    """Two MP4 videos of the board moving smoothly through the shared view.
+
+    The front video starts ``front_delay_frames`` frames later than the side one (its frame 0
+    shows the board where the side video's frame ``front_delay_frames`` does), so its true
+    offset is ``+front_delay_frames / fps`` seconds. Frames are downscaled by ``scale``.
+
+    Returns:
+        (side, front) video paths.
+    """
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    rig = paper_rig()
+    keys = [p for p in calibration_poses(n_keys + 3, seed, rig, n_surface=3,
+                                         shared_fraction=1.0) if p.phase == 'shared']
+    poses = smooth_poses(keys, steps)
+    paths = (folder / 'cam_side.mp4', folder / 'cam_front.mp4')
+    size = (round(rig.side.width * scale), round(rig.side.height * scale))
+    writers = [cv2.VideoWriter(str(p), cv2.VideoWriter_fourcc(*'mp4v'), fps, size)
+               for p in paths]
+    for i, images in enumerate(render_views(poses, seed, rig)):
+        for cam, img in enumerate(images):
+            if cam == 1 and i < front_delay_frames:
+                continue
+            small = cv2.resize(img, size, interpolation=cv2.INTER_AREA)
+            writers[cam].write(cv2.cvtColor(small, cv2.COLOR_GRAY2BGR))
+    for w in writers:
+        w.release()
+    return paths
