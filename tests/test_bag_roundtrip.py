@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
 from dempath.bagio import make_typestore, open_bag, write_bag
 from dempath.nodes.harness import RosHarness
 from dempath.nodes.pipeline import replay_and_record
@@ -20,13 +21,13 @@ LATCHED = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE,
                      durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 
-def make_input_bag(path: Path) -> Path:
+def make_input_bag(path: Path, storage: str = 'mcap') -> Path:
     """Two cameras' PixelPoints (dempath_msgs) and small JPEG frames, interleaved, 20 ms apart."""
     store = make_typestore()
     msgs = [*pixel_points(store, 12, camera='cam_side', seed=1),
             *pixel_points(store, 12, camera='cam_front', seed=2),
             *images(store, 12, 160, 90, camera='cam_side', jpeg=True, seed=3)]
-    return write_bag(path, sorted(msgs, key=lambda m: m[2]), typestore=store)
+    return write_bag(path, sorted(msgs, key=lambda m: m[2]), typestore=store, storage=storage)
 
 
 def by_topic(bag_path: Path) -> dict[str, list[bytes]]:
@@ -38,9 +39,10 @@ def by_topic(bag_path: Path) -> dict[str, list[bytes]]:
     return out
 
 
-def test_round_trip_identical_payloads_and_stamps(tmp_path: Path) -> None:
+@pytest.mark.parametrize('storage', ['mcap', 'sqlite3'])
+def test_round_trip_identical_payloads_and_stamps(tmp_path: Path, storage: str) -> None:
     """Every played message is recorded byte for byte, so its header stamp is unchanged."""
-    source = make_input_bag(tmp_path / 'in')
+    source = make_input_bag(tmp_path / 'in', storage)
     wanted = sorted(by_topic(source))
     result = replay_and_record(source, tmp_path / 'out', wanted, rate=1.0, timeout_s=60)
     assert result.complete, result.summary

@@ -108,6 +108,9 @@ class PlayerNode(Node):
         self._bag.close()
         if self.stats.error:
             self._end(RunEvent.ABORTED, self.stats.error, error=True)
+        elif self._playback.stop.is_set():
+            self._end(RunEvent.ABORTED, f'{self.config.bag}: stopped after '
+                      f'{self.stats.total} messages')
         else:
             self._end(RunEvent.FINISHED, f'{self.config.bag}: published {self.stats.total} '
                       f'messages on {len(self._topic_pubs)} topics')
