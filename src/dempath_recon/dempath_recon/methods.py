@@ -70,7 +70,7 @@ def load_calibration(path: str | Path) -> Any:
     try:
         return StereoCalibration.load(path)
     except CalibrationFileError as err:
-        raise ModelFileError(str(err)) from err
+        raise ModelFileError(' '.join(str(err).split())) from err  # YAML errors span lines
 
 
 def load_reconstructor(method: str, calibration_file: str = '', model_file: str = '',

@@ -31,6 +31,8 @@ from dempath_recon.errors import NotFittedError, PixelInputError, Reconstruction
 
 FloatArray = NDArray[np.float64]
 logger = logging.getLogger(__name__)
+UNDISTORT_ITERATIONS = 20  # fixed-point steps of cv2.undistortPointsIter (stops earlier at eps)
+UNDISTORT_EPS = 1e-10  # its convergence threshold
 
 
 class Camera(Protocol):
@@ -141,7 +143,8 @@ def undistort_normalized(cam: Camera, uv: FloatArray) -> FloatArray:
     out = np.full(uv.shape, np.nan)
     ok = np.isfinite(uv).all(axis=1)
     if ok.any():
-        criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 50, 1e-12)
+        criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, UNDISTORT_ITERATIONS,
+                    UNDISTORT_EPS)
         und = cv2.undistortPointsIter(uv[ok].reshape(-1, 1, 2), np.asarray(cam.K),
                                       np.asarray(cam.dist), None, None, criteria)
         out[ok] = und.reshape(-1, 2)
@@ -275,14 +278,15 @@ def reprojection_errors(cams: Sequence[Camera], views: FloatArray, xyz: FloatArr
     return np.where(count > 0, total / np.maximum(count, 1), np.nan)
 
 
-def triangulate_points(cams: Sequence[Camera], views: FloatArray,
-                       refine: bool = True) -> Triangulation:
+def triangulate_points(cams: Sequence[Camera], views: FloatArray, refine: bool = True,
+                       with_errors: bool = True) -> Triangulation:
     """Undistort, triangulate linearly and (optionally) refine; the one-call classical method.
 
     Args:
         cams: the calibrated cameras (at least two).
         views: (n_cams, n, 2) distorted pixels [px], NaN for a missing view.
         refine: run the Gauss-Newton refinement of the pixel reprojection error.
+        with_errors: compute the reprojection errors (else they are NaN; saves time).
 
     Returns:
         The :class:`Triangulation` (xyz (n, 3) m, reprojection_error (n,) px, n_views (n,)).
@@ -299,7 +303,7 @@ def triangulate_points(cams: Sequence[Camera], views: FloatArray,
     if refine:
         xyz = refine_points(cams, views, xyz)
     n_views = np.isfinite(views).all(axis=2).sum(axis=0).astype(np.int64)
-    err = reprojection_errors(cams, views, xyz)
+    err = reprojection_errors(cams, views, xyz) if with_errors else np.full(len(xyz), np.nan)
     return Triangulation(xyz, err, n_views)
 
 
@@ -354,4 +358,5 @@ class DLTTriangulator:
 
     def predict(self, pixels: FloatArray) -> FloatArray:
         """Pixels (n, 4) px (xs, ys, xf, yf) -> world points (n, 3) m."""
-        return self.triangulate(pixels).xyz
+        return triangulate_points(self._cams(), split_views(pixels), refine=self.refine,
+                                  with_errors=False).xyz
