@@ -104,7 +104,7 @@ def test_bad_nodes_do_not_harm_others(tmp_path: Path, ros_harness: RosHarness,
         and good.recorder.stats['/cam_side/pixel_points'].received == 8, timeout_s=30)
     good.finish()
     with open_bag(tmp_path / 'good') as bag:
-        assert {t: i.count for t, i in bag.topics.items()} == {
+        assert {t: i.msgcount for t, i in bag.topics.items()} == {
             '/cam_front/pixel_points': 8, '/cam_side/pixel_points': 8}
         stamps = np.array([bag.deserialize(m).header.stamp.nanosec
                            for m in bag.messages(['/cam_front/pixel_points'])])

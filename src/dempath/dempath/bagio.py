@@ -50,7 +50,7 @@ class TopicInfo(NamedTuple):
 
     name: str
     msgtype: str
-    count: int
+    msgcount: int
     msgdef: str
 
 
@@ -318,8 +318,8 @@ def write_bag(path: str | Path, messages: Iterable[tuple[str, str, int, Any]], *
                 if topic not in conns:
                     ensure_type(store, msgtype)
                     conns[topic] = writer.add_connection(topic, msgtype, typestore=store)
-                data = message if isinstance(message, bytes | bytearray | memoryview) else \
-                    store.serialize_cdr(message, msgtype)
+                data = bytes(message) if isinstance(message, bytes | bytearray | memoryview) \
+                    else store.serialize_cdr(message, msgtype)
                 writer.write(conns[topic], t_ns, data)
     except (WriterError, OSError, KeyError, TypesysError) as err:
         msg = f'{path}: cannot write bag: {err}'

@@ -35,7 +35,7 @@ def bag_info_main(argv: list[str]) -> int:
             print(f'duration: {(bag.end_ns - bag.start_ns) * 1e-9:.3f} s')
             print(f'messages: {bag.message_count}')
             for info in bag.select(args.topics):
-                print(f'  {info.name:<34} {info.msgtype:<36} {info.count:>8}')
+                print(f'  {info.name:<34} {info.msgtype:<36} {info.msgcount:>8}')
     except DempathError as err:
         return _fail(err)
     return 0
@@ -92,7 +92,7 @@ def play_main(argv: list[str]) -> int:
                         'start_offset_s': args.start_offset, 'topics': args.topics or [''],
                         'wait_for_subscribers': args.wait_for_subscribers})
     if stats is None or stats.error:
-        return _fail(stats.error if stats else f'{args.bag}: playback did not start')
+        return _fail(stats.error if stats and stats.error else f'{args.bag}: playback did not start')
     print(f'{args.bag}: published {stats.total} messages')
     return 0
 

@@ -22,7 +22,7 @@ from io import BufferedWriter
 from pathlib import Path
 from typing import Any
 
-import yaml
+import yaml  # type: ignore[import-untyped]
 from mcap.exceptions import McapError
 from mcap.records import Channel, Message, Schema
 from mcap.stream_reader import StreamReader
@@ -116,14 +116,14 @@ class McapBagWriter:
     def flush(self) -> None:
         """Close the chunk in progress and hand it to the OS: it survives a SIGKILL from now."""
         if self._writer is not None:
-            self._writer.flush()
+            self._writer.flush()  # type: ignore[no-untyped-call]
 
     def close(self, metadata: bool = True) -> None:
         """Write the MCAP summary and footer, close the file and write ``metadata.yaml``."""
         if self._writer is None or self._stream is None:
             return
         writer, self._writer = self._writer, None
-        writer.finish()
+        writer.finish()  # type: ignore[no-untyped-call]
         self._stream.close()
         if metadata:
             write_metadata(self.bag_dir)
@@ -149,7 +149,9 @@ def write_metadata(bag_dir: str | Path) -> dict[str, Any]:
         BagError: A .mcap file is missing its summary/footer or is corrupt.
     """
     bag_dir = Path(bag_dir)
-    files, topics, counts = [], {}, {}
+    files: list[dict[str, Any]] = []
+    topics: dict[str, Any] = {}
+    counts: dict[str, int] = {}
     for path in sorted(bag_dir.glob('*.mcap')):
         reader = McapReader(path)
         try:

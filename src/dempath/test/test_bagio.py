@@ -69,7 +69,7 @@ def test_round_trip(tmp_path: Path, storage: str) -> None:
             back = bag.deserialize(raw)
             np.testing.assert_array_equal(back.u, msg.u)
             assert back.header.stamp == msg.header.stamp
-        assert bag.topics['/cam_side/pixel_points'].count == 7
+        assert bag.topics['/cam_side/pixel_points'].msgcount == 7
 
 
 def test_start_offset_and_topic_selection(tmp_path: Path) -> None:

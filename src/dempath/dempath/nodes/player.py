@@ -24,7 +24,7 @@ from dempath import topics
 from dempath.bagio import RawMessage, open_bag
 from dempath.errors import DempathError
 from dempath.nodes.msgtypes import import_message_class, reliable_qos
-from dempath.playback import Playback, PlayerConfig
+from dempath.playback import Playback, PlaybackStats, PlayerConfig
 from dempath.rosenv import apply_ros_defaults
 from dempath_msgs.msg import RunEvent
 
@@ -50,7 +50,7 @@ class PlayerNode(Node):
         self.declare_parameters('', [(n, d, ParameterDescriptor(description=t))
                                      for n, d, t in PARAMETERS])
         self.finished = threading.Event()
-        self.stats: Any = None
+        self.stats: PlaybackStats | None = None
         self._event_pub = self.create_publisher(RunEvent, topics.PLAYER_EVENTS,
                                              reliable_qos(10, latched=True))
         self._clock_pub = self.create_publisher(Clock, topics.CLOCK, 10)
