@@ -91,8 +91,10 @@ def play_main(argv: list[str]) -> int:
     stats = run_player({'bag': str(args.bag), 'rate': args.rate, 'loop': args.loop,
                         'start_offset_s': args.start_offset, 'topics': args.topics or [''],
                         'wait_for_subscribers': args.wait_for_subscribers})
-    if stats is None or stats.error:
-        return _fail(stats.error if stats and stats.error else f'{args.bag}: playback did not start')
+    if stats is None:
+        return _fail(f'{args.bag}: playback did not start')
+    if stats.error:
+        return _fail(stats.error)
     print(f'{args.bag}: published {stats.total} messages')
     return 0
 
