@@ -1,1 +1,4 @@
-"""Trajectory comparison of measured markers and model particles (start detection, DTW, MAE, RMSE, nRMSE, ranking)."""
+"""Trajectory comparison of measured markers and model particles.
+
+Start detection, DTW, nearest-point distances, MAE, RMSE, nRMSE, ranking (Kuře & Kuřetová 2025).
+"""

@@ -7,6 +7,7 @@ import logging
 import sys
 
 from dempath.errors import DempathError
+
 from dempath_compare.config import CompareConfig, Matching, Pairing, RangeKind, RankBy
 from dempath_compare.scoring import CompareResult
 
@@ -31,6 +32,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument('--trim-y-drop', type=float, default=None,
                         help='trim measured ends once Y falls this far below its max [m]')
     parser.add_argument('--rest-samples', type=int, default=5, help='rest-phase samples [5]')
+    parser.add_argument('--dtw-engine', choices=['kernel', 'dtaidistance'], default='kernel',
+                        help='source of the DTW distances (identical numbers) [kernel]')
     parser.add_argument('--no-plots', action='store_true', help='skip the PNG figures')
     return parser
 
@@ -68,7 +71,8 @@ def compare_main(argv: list[str]) -> int:
         config = CompareConfig(top_n=args.top, sp=args.sp, z_weight=args.z_weight,
                                rank_by=args.rank_by, matching=args.matching,
                                pairing=args.pairing, range_kind=args.range_kind,
-                               trim_y_drop=args.trim_y_drop, rest_samples=args.rest_samples)
+                               trim_y_drop=args.trim_y_drop, rest_samples=args.rest_samples,
+                               dtw_engine=args.dtw_engine)
         result = compare_paths(args.measured, args.model, config)
         print_ranking(result, args.top)
         outputs = write_outputs(result, args.out, plots=not args.no_plots)

@@ -1,4 +1,7 @@
-"""Settings of the paper's trajectory comparison (Kuře & Kuřetová 2025, Technologies 13, 570, sec. 2.5)."""
+"""Settings of the paper's trajectory comparison.
+
+Kuře & Kuřetová 2025, Technologies 13, 570, sec. 2.5.
+"""
 
 from __future__ import annotations
 
@@ -36,6 +39,13 @@ class Pairing(str, Enum):
     CUBE = 'cube'  # model trajectories starting inside the Cube region around the marker start
 
 
+class DtwEngine(str, Enum):
+    """Where the DTW distances of the batched path come from (identical numbers, tested)."""
+
+    KERNEL = 'kernel'  # reuse the compiled kernel's DP (needed anyway for the warping path)
+    DTAIDISTANCE = 'dtaidistance'  # dtaidistance dtw_ndim.distance_matrix_fast (C, OpenMP)
+
+
 class RangeKind(str, Enum):
     """Normaliser of nRMSE ("trajectory range" in the paper's Table 7)."""
 
@@ -52,11 +62,11 @@ class CompareConfig:
         sp: sensitivity of the start-of-motion threshold v_thr = mean(v_z) + sp * std(v_z)
             over the rest phase (paper eq. 1; higher -> later detection).
         rest_samples: number of leading samples forming the rest phase of a model trajectory.
-        z_weight: weight w of the Z (travel) axis in d_i = sqrt(dx^2 + dy^2 + w dz^2) (paper eq. 3).
+        z_weight: weight w of Z (travel) in d_i = sqrt(dx^2 + dy^2 + w dz^2) (paper eq. 3).
         rank_by: rank by S_sum or S_mean (paper eq. 4).
         matching: where the nearest corresponding model point is searched.
         pairing: which model trajectories are compared with which marker.
-        cube_size: Cube candidate region (X, Y, Z) [m] centred on a marker start (paper: 30x20x10 mm).
+        cube_size: Cube region (X, Y, Z) [m] centred on a marker start (paper: 30x20x10 mm).
         trim_y_drop: trim the end of a measured trajectory once Y falls this far below its running
             maximum [m]; None disables trimming (the paper's optional, user-set trimming).
         detect_start_measured: also cut the rest phase of measured trajectories.
@@ -64,6 +74,8 @@ class CompareConfig:
         marker_ids: marker numbers that exist (the paper's 1-15 grid).
         range_kind: normaliser of nRMSE.
         min_points: fewest samples a trajectory needs to be scored.
+        dtw_engine: source of the DTW distances in the batched path; with matching NEAREST the
+            kernel builds no DTW matrix and dtaidistance is always used.
         match_speed: when both an experiment and a model run name a tool speed
             (e.g. ``experiment_1ms`` and ``model_1ms``), compare only equal speeds.
     """
@@ -83,12 +95,14 @@ class CompareConfig:
     range_kind: RangeKind = RangeKind.EXTENT
     min_points: int = 3
     match_speed: bool = True
+    dtw_engine: DtwEngine = DtwEngine.KERNEL
 
     def __post_init__(self) -> None:
         object.__setattr__(self, 'rank_by', _enum(RankBy, 'rank_by', self.rank_by))
         object.__setattr__(self, 'matching', _enum(Matching, 'matching', self.matching))
         object.__setattr__(self, 'pairing', _enum(Pairing, 'pairing', self.pairing))
         object.__setattr__(self, 'range_kind', _enum(RangeKind, 'range_kind', self.range_kind))
+        object.__setattr__(self, 'dtw_engine', _enum(DtwEngine, 'dtw_engine', self.dtw_engine))
         object.__setattr__(self, 'cube_size', tuple(float(v) for v in self.cube_size))
         object.__setattr__(self, 'marker_ids', tuple(int(v) for v in self.marker_ids))
         checks = [

@@ -31,11 +31,13 @@ def cube_candidates(marker_starts: NDArray[np.float64], particle_starts: NDArray
 def assign_markers(marker_ids: NDArray[np.int64], marker_starts: NDArray[np.float64],
                    particle_starts: NDArray[np.float64],
                    size: Sequence[float] = (0.030, 0.020, 0.010)) -> NDArray[np.int64]:
-    """(n_particles,) marker id whose Cube holds each particle start (nearest if several; 0: none)."""
+    """(n_particles,) marker whose Cube holds each particle start (nearest if several; 0: none)."""
     inside = cube_candidates(marker_starts, particle_starts, size)
     dist = np.linalg.norm(particle_starts[None, :, :] - marker_starts[:, None, :], axis=2)
     dist = np.where(inside, dist, np.inf)
     nearest = np.argmin(dist, axis=0)
-    found = np.isfinite(dist.min(axis=0)) if len(marker_ids) else np.zeros(len(particle_starts), bool)
-    out = np.where(found, marker_ids[nearest] if len(marker_ids) else 0, 0)
+    if len(marker_ids) == 0:
+        return np.zeros(len(particle_starts), dtype=np.int64)
+    found = np.isfinite(dist.min(axis=0))
+    out = np.where(found, marker_ids[nearest], 0)
     return np.asarray(out, dtype=np.int64)

@@ -37,7 +37,7 @@ def marker_start(marker: int) -> NDArray[np.float64]:
 
 def path_shape(s: NDArray[np.float64], marker: int, speed: float,
                scale: NDArray[np.float64]) -> NDArray[np.float64]:
-    """(k, 3) m displacement along a normalised time s in [0, 1] (forward push, lift, side drift)."""
+    """(k, 3) m displacement over normalised time s in [0, 1] (forward push, lift, side drift)."""
     side = marker_start(marker)[0]
     reach = 0.12 * speed * scale[0] + 0.04
     lift = 0.05 * speed * scale[1]
@@ -51,7 +51,8 @@ def measured_rows(rng: np.random.Generator, tag: str, speed: float,
     rows = []
     for marker, duration in markers.items():
         t = np.arange(0.0, duration + 1e-9, 1.0 / CAMERA_RATE_HZ)
-        xyz = marker_start(marker) + path_shape(t / duration, marker, speed, np.ones(3))
+        s = np.asarray(t / duration, dtype=np.float64)
+        xyz = marker_start(marker) + path_shape(s, marker, speed, np.ones(3))
         xyz += rng.normal(0.0, NOISE_M, xyz.shape) * (t[:, None] > 0)
         rows += [[round(ti, 4), marker, *np.round(p, 5)] for ti, p in zip(t, xyz, strict=True)]
     return rows
@@ -67,9 +68,10 @@ def model_rows(rng: np.random.Generator, speed: float, markers: dict[int, float]
             start = marker_start(marker) + rng.uniform(-cube / 2, cube / 2)
             length = duration * rng.uniform(0.9, 1.15)
             t = np.arange(0.0, REST_S + length + 1e-9, 1.0 / MODEL_RATE_HZ)
-            s = np.clip((t - REST_S) / length, 0.0, 1.0)
+            s = np.asarray(np.clip((t - REST_S) / length, 0.0, 1.0), dtype=np.float64)
             scale = rng.normal(1.0, 0.08, 3)
-            xyz = start + path_shape(s, marker, speed, scale) + rng.normal(0, SETTLE_M, (len(t), 3))
+            xyz = start + path_shape(s, marker, speed, scale)
+            xyz += rng.normal(0.0, SETTLE_M, xyz.shape)
             rows += [[round(ti, 4), pid, marker, *np.round(p, 6)] for ti, p in zip(t, xyz,
                                                                                    strict=True)]
             pid += 1

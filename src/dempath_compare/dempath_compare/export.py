@@ -27,7 +27,7 @@ TABLE7_COLUMNS = ('tool_speed', 'marker', 'experiment', 'n_best', 'mae_mean_mm',
 
 
 def score_rows(result: CompareResult, e: int | None = None) -> list[tuple[Any, ...]]:
-    """Rows of SCORE_COLUMNS for every compared pair (of experiment ``e`` only if given), by rank."""
+    """Rows of SCORE_COLUMNS for each compared pair (of experiment ``e`` if given), by rank."""
     s, meas, mod = result.scores, result.measured, result.model
     nrmse = s.nrmse
     rows = []

@@ -15,13 +15,13 @@ from numba import njit, prange
 from numpy.typing import NDArray
 
 
-@njit(cache=True, inline='always')
+@njit(cache=True, inline='always')  # type: ignore[misc]
 def _dist(a: NDArray[np.float64], b: NDArray[np.float64], w: float) -> float:
     dx, dy, dz = a[0] - b[0], a[1] - b[1], a[2] - b[2]
     return float(np.sqrt(dx * dx + dy * dy + w * dz * dz))
 
 
-@njit(cache=True)
+@njit(cache=True)  # type: ignore[misc]
 def _pair(exp: NDArray[np.float64], mod: NDArray[np.float64], w: float, use_path: bool,
           best: NDArray[np.float64]) -> float:
     n, k = exp.shape[0], mod.shape[0]
@@ -53,7 +53,7 @@ def _pair(exp: NDArray[np.float64], mod: NDArray[np.float64], w: float, use_path
     return float(np.sqrt(acc[n, k]))
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, parallel=True)  # type: ignore[misc]
 def pair_distances(exp: NDArray[np.float64], exp_len: NDArray[np.int64],
                    mod: NDArray[np.float64], mod_len: NDArray[np.int64],
                    pair_e: NDArray[np.int64], pair_m: NDArray[np.int64], w: float,

@@ -37,7 +37,7 @@ class PairScore(NamedTuple):
 
 def weighted_distances(exp: NDArray[np.float64], model: NDArray[np.float64],
                        z_weight: float) -> NDArray[np.float64]:
-    """(n, m) m: d(i, j) = sqrt(dx^2 + dy^2 + w dz^2) between exp (n, 3) and model (m, 3) points."""
+    """(n, m) m: d(i, j) = sqrt(dx^2 + dy^2 + w dz^2) of exp (n, 3) and model (m, 3) points."""
     diff = exp[:, None, :] - model[None, :, :]
     weights = np.array([1.0, 1.0, z_weight])
     return np.asarray(np.sqrt(np.sum(weights * diff * diff, axis=2)))

@@ -28,7 +28,8 @@ def plot_best(result: CompareResult, e: int, path: Path) -> Path:
     plt = _pyplot()
     meas, mod = result.measured, result.model
     best = result.best(e)
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2), constrained_layout=True)
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
+    fig.subplots_adjust(left=0.07, right=0.98, bottom=0.12, top=0.86, wspace=0.22)
     exp = meas.positions[e, : meas.lengths[e]]
     for ax, axis, name in ((axes[0], 0, 'X'), (axes[1], 1, 'Y')):
         for j in best:
@@ -43,7 +44,7 @@ def plot_best(result: CompareResult, e: int, path: Path) -> Path:
     axes[1].legend(fontsize=7, ncol=2, loc='best')
     fig.suptitle(f'{meas.labels[e]}: {len(best)} best model trajectories '
                  f'(ranked by S_{result.config.rank_by.value})')
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=100)
     plt.close(fig)
     return path
 
@@ -52,7 +53,7 @@ def plot_tracked_3d(result: CompareResult, group: str, path: Path) -> Path:
     """3D plot of the measured trajectories of one experiment group at their true positions."""
     plt = _pyplot()
     meas = result.measured
-    fig = plt.figure(figsize=(7, 6), constrained_layout=True)
+    fig = plt.figure(figsize=(7, 6))
     ax = fig.add_subplot(projection='3d')
     for e in [i for i, g in enumerate(meas.groups) if g == group and meas.lengths[i] > 0]:
         p = meas.positions[e, : meas.lengths[e]] + np.nan_to_num(meas.origins[e])
@@ -64,6 +65,6 @@ def plot_tracked_3d(result: CompareResult, group: str, path: Path) -> Path:
     ax.set_zlabel('Y [m] (up)')
     ax.set_title(f'tracked trajectories: {group}')
     ax.legend(fontsize=8)
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=100)
     plt.close(fig)
     return path

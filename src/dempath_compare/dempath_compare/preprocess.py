@@ -49,7 +49,7 @@ def motion_start_index(times: NDArray[np.float64], z: NDArray[np.float64], sp: f
 
 
 def trim_end_index(y: NDArray[np.float64], drop: float) -> int:
-    """Samples to keep: up to (excluding) the first Y more than ``drop`` [m] below its running max."""
+    """Samples to keep: up to (excluding) the first Y over ``drop`` [m] below its running max."""
     fallen = np.flatnonzero(y < np.maximum.accumulate(y) - drop)
     return int(fallen[0]) if len(fallen) else len(y)
 

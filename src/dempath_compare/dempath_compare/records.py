@@ -91,7 +91,8 @@ class TrajectorySet:
                      self.times[i, :k].copy(), self.positions[i, :k].copy(), self.problems[i],
                      self.notes[i])
 
-    def positions_list(self, index: Sequence[int] | NDArray[np.int64]) -> list[NDArray[np.float64]]:
+    def positions_list(self, index: Sequence[int] | NDArray[np.int64]
+                       ) -> list[NDArray[np.float64]]:
         """Valid (k, 3) m position arrays of the trajectories in ``index`` (C-contiguous)."""
         return [np.ascontiguousarray(self.positions[i, : self.lengths[i]]) for i in index]
 

@@ -8,8 +8,15 @@ from pathlib import Path
 from typing import NamedTuple
 
 from dempath.errors import OutputError
-from dempath_compare.export import (SCORE_COLUMNS, TABLE7_COLUMNS, score_rows, table7_rows,
-                                    write_csv, write_workbook)
+
+from dempath_compare.export import (
+    SCORE_COLUMNS,
+    TABLE7_COLUMNS,
+    score_rows,
+    table7_rows,
+    write_csv,
+    write_workbook,
+)
 from dempath_compare.pipeline import problems
 from dempath_compare.plots import plot_best, plot_tracked_3d
 from dempath_compare.scoring import CompareResult

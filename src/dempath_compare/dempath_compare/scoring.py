@@ -1,8 +1,11 @@
 """Scoring of many experiment-model pairs in one call, ranking and the N best.
 
-The DTW distances come from dtaidistance's C implementation (``dtw_ndim.distance_matrix_fast``,
-OpenMP-parallel, one block per experiment); the nearest-point distances from the compiled kernel
-in :mod:`dempath_compare.kernels`. There is no Python loop over pairs.
+The nearest-point distances come from the compiled, parallel kernel in
+:mod:`dempath_compare.kernels`, which also builds each pair's DTW matrix for the warping path and
+so returns the DTW distance as well (equal to dtaidistance ``dtw_ndim``, tested). With
+``dtw_engine='dtaidistance'``, or with spatial matching, the DTW distances come from
+dtaidistance's C implementation (``dtw_ndim.distance_matrix_fast``, OpenMP-parallel, one block per
+experiment). There is no Python loop over pairs.
 """
 
 from __future__ import annotations
@@ -15,7 +18,7 @@ from operator import itemgetter
 import numpy as np
 from numpy.typing import NDArray
 
-from dempath_compare.config import CompareConfig, Matching, Pairing, RankBy
+from dempath_compare.config import CompareConfig, DtwEngine, Matching, Pairing, RankBy
 from dempath_compare.metrics import trajectory_range
 from dempath_compare.records import TrajectorySet, concat_sets
 
@@ -106,7 +109,7 @@ def same_speed(groups_e: tuple[str, ...], groups_m: tuple[str, ...]) -> NDArray[
 
 def dtw_distances(measured: TrajectorySet, model: TrajectorySet,
                   mask: NDArray[np.bool_]) -> NDArray[np.float64]:
-    """(n_e, n_m) DTW distances [m] of the masked pairs (dtaidistance C, parallel), NaN elsewhere."""
+    """(n_e, n_m) DTW [m] of the masked pairs (dtaidistance C, parallel), NaN elsewhere."""
     from dtaidistance import dtw_ndim
 
     out = np.full(mask.shape, np.nan)
@@ -149,17 +152,20 @@ def score_sets(measured: TrajectorySet, model: TrajectorySet,
     mask = pair_mask(measured, model, config)
     pair_e, pair_m = (np.asarray(a, dtype=np.int64) for a in np.nonzero(mask))
     shape = mask.shape
-    s_sum, s_mean, rmse = (np.full(shape, np.nan) for _ in range(3))
+    s_sum, s_mean, rmse, dtw = (np.full(shape, np.nan) for _ in range(4))
+    use_path = config.matching is Matching.DTW
     if len(pair_e):
-        sums, squares, _ = pair_distances(
+        sums, squares, dtw_kernel = pair_distances(
             np.nan_to_num(measured.positions), measured.lengths,
             np.nan_to_num(model.positions), model.lengths, pair_e, pair_m,
-            float(config.z_weight), config.matching is Matching.DTW)
+            float(config.z_weight), use_path)
         count = measured.lengths[pair_e].astype(np.float64)
         s_sum[pair_e, pair_m] = sums
         s_mean[pair_e, pair_m] = sums / count
         rmse[pair_e, pair_m] = np.sqrt(squares / count)
-    dtw = dtw_distances(measured, model, mask)
+        dtw[pair_e, pair_m] = dtw_kernel
+    if not use_path or config.dtw_engine is DtwEngine.DTAIDISTANCE:
+        dtw = dtw_distances(measured, model, mask)
     ranges = np.array([trajectory_range(measured.positions[e, : measured.lengths[e]],
                                         config.range_kind) if measured.lengths[e] else np.nan
                        for e in range(len(measured))]).reshape(len(measured))

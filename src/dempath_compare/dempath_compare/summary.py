@@ -73,7 +73,8 @@ def build_table7(result: CompareResult, top_n: int | None = None) -> Table7:
 
 def table7_markdown(table: Table7) -> str:
     """Table 7 as Markdown, in millimetres like the paper."""
-    lines = ['| tool speed | marker | N | MAE (mm) | RMSE (mm) | trajectory range (mm) | nRMSE (%) |',
+    lines = ['| tool speed | marker | N | MAE (mm) | RMSE (mm) | trajectory range (mm) '
+             '| nRMSE (%) |',
              '| --- | ---: | ---: | ---: | ---: | ---: | ---: |']
     for r in table.rows:
         lines.append(f'| {r.speed} | {r.marker} | {r.n_best} | {r.mae_mean * 1e3:.2f} ± '

@@ -6,10 +6,18 @@ import math
 
 import numpy as np
 import pytest
-
 from dempath_compare.config import CompareConfig, Matching
-from dempath_compare.metrics import (dtw_path, nearest_distances, nrmse, rmse, s_mean, s_sum,
-                                     score_pair, trajectory_range, weighted_distances)
+from dempath_compare.metrics import (
+    dtw_path,
+    nearest_distances,
+    nrmse,
+    rmse,
+    s_mean,
+    s_sum,
+    score_pair,
+    trajectory_range,
+    weighted_distances,
+)
 
 EXP = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]])
 MODEL = np.array([[0.0, 0.0, 0.0], [2.0, 0.0, 0.0]])
@@ -46,7 +54,7 @@ def test_nearest_distances_spatial_and_along_path(strict_numpy: None) -> None:
 
 
 def test_path_matching_differs_from_spatial_nearest(strict_numpy: None) -> None:
-    """A model passing the experiment's last point early: spatial nearest finds it, DTW does not."""
+    """A model passing the last experimental point early: spatial nearest finds it, DTW not."""
     exp = np.array([[0.0, 0, 0], [0, 0, 1.0], [0, 0, 2.0]])
     model = np.array([[0.0, 0, 0], [0, 0, 2.0], [0, 3.0, 2.0], [0, 3.0, 3.0]])
     spatial = nearest_distances(exp, model, 1.0)
@@ -72,7 +80,7 @@ def test_range_extent_and_length(strict_numpy: None) -> None:
 
 
 def test_nrmse_reproduces_paper_table7_rows() -> None:
-    """nRMSE = RMSE / range * 100: Table 7 rows 10.78/216.80 -> 4.97 % and 28.92/258.82 -> 11.17 %."""
+    """nRMSE = RMSE / range * 100: Table 7 rows 10.78/216.80 -> 4.97 %, 28.92/258.82 -> 11.17 %."""
     assert nrmse(10.78, 216.80) == pytest.approx(4.97, abs=0.005)
     assert nrmse(28.92, 258.82) == pytest.approx(11.17, abs=0.005)
     assert math.isnan(nrmse(1.0, 0.0))

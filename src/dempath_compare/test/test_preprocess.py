@@ -4,10 +4,14 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from dempath_compare.config import CompareConfig
-from dempath_compare.preprocess import (motion_start_index, motion_threshold, prepare_set,
-                                        prepare_track, trim_end_index)
+from dempath_compare.preprocess import (
+    motion_start_index,
+    motion_threshold,
+    prepare_set,
+    prepare_track,
+    trim_end_index,
+)
 from dempath_compare.records import MEASURED, MODEL, Track
 
 

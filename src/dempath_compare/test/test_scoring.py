@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from dempath_compare.config import CompareConfig, Matching, RankBy
 from dempath_compare.correspondence import assign_markers, cube_candidates
 from dempath_compare.kernels import pair_distances
@@ -24,12 +23,13 @@ def random_walks(rng: np.random.Generator, n: int, prefix: str) -> list[Track]:
     return tracks
 
 
-@pytest.mark.parametrize(('matching', 'z_weight'), [(Matching.DTW, 1.0), (Matching.NEAREST, 1.0),
-                                                    (Matching.DTW, 2.5)])
-def test_fast_path_equals_per_pair_path(matching: Matching, z_weight: float) -> None:
-    """score_sets (dtaidistance C matrix + compiled kernel) gives the per-pair numbers."""
+@pytest.mark.parametrize(('matching', 'z_weight', 'engine'), [
+    (Matching.DTW, 1.0, 'kernel'), (Matching.DTW, 1.0, 'dtaidistance'),
+    (Matching.NEAREST, 1.0, 'kernel'), (Matching.DTW, 2.5, 'kernel')])
+def test_fast_path_equals_per_pair_path(matching: Matching, z_weight: float, engine: str) -> None:
+    """score_sets (compiled kernel, dtaidistance C matrix) gives the plain per-pair numbers."""
     rng = np.random.default_rng(11)
-    config = CompareConfig(matching=matching, z_weight=z_weight)
+    config = CompareConfig(matching=matching, z_weight=z_weight, dtw_engine=engine)
     meas = pack_tracks(random_walks(rng, 4, 'e'), shift_to_origin=True)
     model = pack_tracks(random_walks(rng, 25, 'm'), shift_to_origin=True)
     result = score_sets(meas, model, config)

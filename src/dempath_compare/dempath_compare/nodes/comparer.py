@@ -10,7 +10,7 @@ from __future__ import annotations
 from typing import Any
 
 import rclpy
-from dempath_msgs.msg import MarkerPoints3D, ParticleStates, RunEvent, TrajectoryScoreArray
+from dempath.rosenv import apply_ros_defaults
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
@@ -19,12 +19,17 @@ from std_srvs.srv import Trigger
 from visualization_msgs.msg import MarkerArray
 
 from dempath import topics
-from dempath.rosenv import apply_ros_defaults
 from dempath_compare.config import CompareConfig
 from dempath_compare.errors import CompareError
 from dempath_compare.live import LiveComparer
-from dempath_compare.nodes.convert import (best_markers_msg, marker_arrays, particle_arrays,
-                                           scores_msg, stamp_seconds)
+from dempath_compare.nodes.convert import (
+    best_markers_msg,
+    marker_arrays,
+    particle_arrays,
+    scores_msg,
+    stamp_seconds,
+)
+from dempath_msgs.msg import MarkerPoints3D, ParticleStates, RunEvent, TrajectoryScoreArray
 
 PARAMETERS = (
     ('top_n', 10, 'N best model trajectories kept per marker'),
@@ -72,7 +77,7 @@ class ComparerNode(Node):
             try:
                 self.publish_scores(msg.run_id or None)
             except CompareError as err:
-                self.get_logger().error(f'cannot score run {msg.run_id!r}: {err}')
+                self.get_logger().error(f'cannot score run {msg.run_id!r}: {err}')  # type: ignore[no-untyped-call]
 
     def on_trigger(self, request: Trigger.Request, response: Trigger.Response) -> Any:
         """Score every run received so far."""
@@ -91,7 +96,7 @@ class ComparerNode(Node):
         scores = scores_msg(result, run_id or '', header)
         self.scores_pub.publish(scores)
         self.viz_pub.publish(best_markers_msg(result, header))
-        self.get_logger().info(f'run {run_id or "all"}: published {len(scores.scores)} scores')
+        self.get_logger().info(f'run {run_id or "all"}: published {len(scores.scores)} scores')  # type: ignore[no-untyped-call]
         return len(scores.scores)
 
 
@@ -108,5 +113,5 @@ def main(args: list[str] | None = None) -> None:
         pass
     finally:
         executor.shutdown()
-        node.destroy_node()
-        rclpy.try_shutdown()
+        node.destroy_node()  # type: ignore[no-untyped-call]
+        rclpy.try_shutdown()  # type: ignore[attr-defined]

@@ -6,12 +6,13 @@ from typing import Any
 
 import numpy as np
 from builtin_interfaces.msg import Time
-from dempath_msgs.msg import TrajectoryScore, TrajectoryScoreArray
 from geometry_msgs.msg import Point
+from numpy.typing import NDArray
 from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
 
 from dempath_compare.scoring import CompareResult
+from dempath_msgs.msg import TrajectoryScore, TrajectoryScoreArray
 
 
 def stamp_seconds(stamp: Time) -> float:
@@ -19,13 +20,13 @@ def stamp_seconds(stamp: Time) -> float:
     return float(stamp.sec) + 1e-9 * float(stamp.nanosec)
 
 
-def marker_arrays(msg: Any) -> tuple[np.ndarray, np.ndarray]:
+def marker_arrays(msg: Any) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
     """(n,) marker ids and (n, 3) m positions of a MarkerPoints3D."""
     xyz = np.stack([np.asarray(msg.x), np.asarray(msg.y), np.asarray(msg.z)], axis=1)
     return np.asarray(msg.marker_ids, dtype=np.int64), xyz.reshape(-1, 3)
 
 
-def particle_arrays(msg: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def particle_arrays(msg: Any) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64]]:
     """(n,) ids, (n,) marker ids and (n, 3) m positions of a ParticleStates."""
     ids = np.asarray(msg.ids, dtype=np.int64)
     xyz = np.asarray(msg.positions, dtype=np.float64).reshape(len(ids), 3)
