@@ -11,6 +11,7 @@ and leaves the node idle, without disturbing other nodes in the process.
 
 from __future__ import annotations
 
+import sys
 from functools import partial
 from typing import Any
 
@@ -119,7 +120,8 @@ class RecorderNode(Node):
         except DempathError as err:
             self.get_logger().error(str(err))
         summary = recorder.summary()
-        self.get_logger().info(f'{self.config.output} closed:\n{summary}')
+        if self.context.ok():  # after SIGINT the context is gone; main prints the summary
+            self.get_logger().info(f'{self.config.output} closed:\n{summary}')
         return summary
 
     def destroy_node(self) -> None:
@@ -140,6 +142,8 @@ def main(args: list[str] | None = None) -> None:
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
+        summary = node.finish()
         executor.shutdown()
         node.destroy_node()
         rclpy.try_shutdown()
+        print(summary, file=sys.stderr)
