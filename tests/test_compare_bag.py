@@ -84,7 +84,8 @@ def test_bag_scores_equal_csv_scores(example_bag: Path) -> None:
     np.testing.assert_array_equal(from_bag.scores.rank, from_csv.scores.rank)
 
 
-def test_cli_on_bag(example_bag: Path, tmp_path: Path) -> None:
+def test_cli_on_bag(example_bag: Path, tmp_path: Path,
+                    capsys: pytest.CaptureFixture[str]) -> None:
     """dempath compare BAG BAG writes the workbook; a bag without the topic is one error line."""
     assert compare_main([str(example_bag), str(example_bag), '--out', str(tmp_path / 'o'),
                          '--no-plots']) == 0
@@ -93,4 +94,7 @@ def test_cli_on_bag(example_bag: Path, tmp_path: Path) -> None:
     only_model = write_bag(tmp_path / 'model_only', [
         m for m in bag_messages(store, [], load_source(EXAMPLE / 'model_1ms.csv', MODEL))],
         typestore=store)
+    capsys.readouterr()
     assert compare_main([str(only_model), str(example_bag), '--out', str(tmp_path / 'p')]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and 'no dempath_msgs/msg/MarkerPoints3D topic' in err[0], err

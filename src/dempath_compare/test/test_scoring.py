@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from dempath_compare.config import CompareConfig, Matching, RankBy
@@ -98,3 +100,43 @@ def test_cube_region_selects_candidates() -> None:
     markers = np.array([[0.0, 0, 0], [0.05, 0, 0]])
     assigned = assign_markers(np.array([4, 5]), markers, np.array([[0.049, 0, 0], [0.2, 0, 0]]))
     assert assigned.tolist() == [5, 0]
+
+
+def test_cube_pairing_end_to_end() -> None:
+    """With pairing 'cube', only untagged particles starting within 15/10/5 mm of the marker's
+    start are compared with it."""
+    from dempath_compare.config import Pairing
+    from dempath_compare.pipeline import compare_tracks
+
+    meas = line(0.0, 6, 'e/marker3', ident=3)
+    model = []
+    for k, start in enumerate(([0.01, 0.0, 0.0], [0.0, 0.009, 0.004], [0.02, 0.0, 0.0],
+                               [0.0, 0.0, 0.006])):
+        base = line(0.001 * (k + 1), 6, f'm/{k}', ident=k)
+        rest = np.repeat(base.positions[:1], 4, axis=0)
+        pos = np.vstack([rest, base.positions]) + start
+        model.append(Track(base.label, 'm', k, 0, np.arange(len(pos)) * 0.01, pos))
+    result = compare_tracks([meas], model, CompareConfig(pairing=Pairing.CUBE))
+    assert result.scores.compared[0].tolist() == [True, True, False, False]
+    assert result.best(0).tolist() == [0, 1]
+
+
+def test_live_comparer_equals_batch(example_dir: Path) -> None:
+    """The node's streaming core, fed sample by sample, scores like the batch pipeline."""
+    from dempath_compare.live import LiveComparer
+    from dempath_compare.loaders import load_source
+    from dempath_compare.pipeline import compare_tracks
+
+    measured = load_source(example_dir / 'experiment_1ms.csv', 'measured')
+    model = load_source(example_dir / 'model_1ms.csv', 'model')
+    live = LiveComparer(CompareConfig(), experiment='experiment_1ms')
+    for track in measured:
+        for t, p in zip(track.times, track.positions, strict=True):
+            live.add_markers(float(t), np.array([track.ident]), p[None, :])
+    for track in model:
+        for t, p in zip(track.times, track.positions, strict=True):
+            live.add_particles('model_1ms', float(t), np.array([track.ident]),
+                               np.array([track.marker_id]), p[None, :])
+    streamed, batch = live.finish('model_1ms'), compare_tracks(measured, model)
+    np.testing.assert_allclose(streamed.scores.s_sum, batch.scores.s_sum)
+    np.testing.assert_array_equal(streamed.scores.rank, batch.scores.rank)
