@@ -15,14 +15,13 @@ import queue
 import threading
 import time
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 from rosbags.typesys.store import Typestore
 
 from dempath.bagio import make_typestore, message_definition
 from dempath.errors import OutputError
-from dempath.mcapbag import COMPRESSIONS, McapBagWriter, check_output_dir
+from dempath.mcapbag import COMPRESSIONS, McapBagWriter
 from dempath.topics import is_dempath_topic
 
 LOG = logging.getLogger(__name__)
@@ -117,7 +116,6 @@ class BagRecorder:
         Raises:
             OutputError: The output directory cannot be created or written.
         """
-        check_output_dir(Path(self.config.output))
         self._writer.open()
         self._store = self._store or make_typestore()
         self._thread = threading.Thread(target=self._run, name='bag-writer', daemon=True)
