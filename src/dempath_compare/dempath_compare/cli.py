@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import logging
 import sys
+from typing import NoReturn
 
 from dempath.errors import DempathError
 
@@ -12,9 +13,17 @@ from dempath_compare.config import CompareConfig, Matching, Pairing, RangeKind, 
 from dempath_compare.scoring import CompareResult
 
 
+class OneLineParser(argparse.ArgumentParser):
+    """An argument parser whose usage errors are one ``error: ...`` line (exit code 2)."""
+
+    def error(self, message: str) -> NoReturn:
+        """Print one line and exit 2."""
+        self.exit(2, f'error: {self.prog}: {message}\n')
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``dempath compare``."""
-    parser = argparse.ArgumentParser(
+    parser = OneLineParser(
         prog='dempath compare',
         description='Score model particle trajectories against measured marker trajectories '
                     '(start of motion, DTW, nearest-point distances, MAE, RMSE, nRMSE, ranking).')

@@ -49,3 +49,21 @@ def test_cli_options_change_ranking(example_dir: Path, tmp_path: Path) -> None:
     second = (out2 / 'table7.csv').read_text().splitlines()
     assert first[0] == second[0] and first[1:] != second[1:]
     assert all(line.split(',')[3] == '3' for line in second[1:])
+
+
+@pytest.mark.parametrize(('args', 'code', 'words'), [
+    (['--top', '0'], 1, 'CompareConfig.top_n: invalid value 0'),
+    (['--z-weight', '-1'], 1, 'CompareConfig.z_weight'),
+    (['--rank-by', 'median'], 2, "invalid choice: 'median'"),
+])
+def test_cli_bad_options_one_line(example_dir: Path, tmp_path: Path, args: list[str], code: int,
+                                  words: str, capsys: pytest.CaptureFixture[str]) -> None:
+    """Bad option values end with one error line naming the option and value."""
+    argv = [str(example_dir), str(example_dir), '--out', str(tmp_path / 'o'), *args]
+    try:
+        got = compare_main(argv)
+    except SystemExit as exc:
+        got = int(exc.code or 0)
+    err = capsys.readouterr().err.strip().splitlines()
+    assert got == code
+    assert len(err) == 1 and err[0].startswith('error: ') and words in err[0], err
