@@ -18,6 +18,7 @@ from dempath_compare.records import MEASURED, Track
 
 MARKER_TYPE = 'dempath_msgs/msg/MarkerPoints3D'
 STATES_TYPE = 'dempath_msgs/msg/ParticleStates'
+ROLE_BED = 2  # ParticleStates.ROLE_BED: background particles, never candidates
 
 
 def load_bag(path: Path, kind: str) -> list[Track]:
@@ -44,7 +45,10 @@ def load_bag(path: Path, kind: str) -> list[Track]:
 
 
 def add_message(accumulator: TrajectoryAccumulator, message: Any, kind: str, group: str) -> None:
-    """Feed one deserialized MarkerPoints3D / ParticleStates (rosbags or rclpy object)."""
+    """Feed one deserialized MarkerPoints3D / ParticleStates (rosbags or rclpy object).
+
+    Bed particles (role ROLE_BED) are skipped: only markers and their candidates are compared.
+    """
     if kind == MEASURED:
         stamp = message.header.stamp
         t = float(stamp.sec) + 1e-9 * float(stamp.nanosec)
@@ -53,6 +57,7 @@ def add_message(accumulator: TrajectoryAccumulator, message: Any, kind: str, gro
     else:
         ids = np.asarray(message.ids, np.int64)
         xyz = np.asarray(message.positions, np.float64).reshape(len(ids), 3)
-        accumulator.add_particles(message.run_id or group, float(message.sim_time), ids,
-                                  np.asarray(message.marker_ids, np.int64), xyz)
+        keep = np.asarray(message.roles, np.uint8) != ROLE_BED
+        accumulator.add_particles(message.run_id or group, float(message.sim_time), ids[keep],
+                                  np.asarray(message.marker_ids, np.int64)[keep], xyz[keep])
 

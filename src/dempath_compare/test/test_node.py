@@ -38,7 +38,8 @@ def measured_msgs(markers: tuple[int, ...]) -> list[MarkerPoints3D]:
 
 
 def states_msgs(run_id: str, markers: tuple[int, ...]) -> list[ParticleStates]:
-    """5 rest steps then 20 moving steps; per marker one exact candidate and three offset ones."""
+    """5 rest steps then 20 moving steps; per marker one exact candidate and three offset ones,
+    plus one bed particle that the node must ignore."""
     ids = [100 * m + k for m in markers for k in range(len(OFFSETS))]
     owners = [m for m in markers for _ in OFFSETS]
     out = []
@@ -49,9 +50,10 @@ def states_msgs(run_id: str, markers: tuple[int, ...]) -> list[ParticleStates]:
             for off in OFFSETS:
                 p = marker_path(m, 20)[i] + ([off, 0.0, 0.0] if i > 0 else 0.0)
                 pos += [float(v) for v in p]
-        out.append(ParticleStates(run_id=run_id, sim_time=0.02 * step, ids=ids,
-                                  roles=[ParticleStates.ROLE_CANDIDATE] * len(ids),
-                                  marker_ids=owners, positions=pos))
+        roles = [ParticleStates.ROLE_CANDIDATE] * len(ids) + [ParticleStates.ROLE_BED]
+        out.append(ParticleStates(run_id=run_id, sim_time=0.02 * step, ids=[*ids, 9999],
+                                  roles=roles, marker_ids=[*owners, 0],
+                                  positions=[*pos, 0.0, -0.1, 0.0]))
     return out
 
 

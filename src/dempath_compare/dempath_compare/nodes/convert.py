@@ -12,7 +12,7 @@ from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
 
 from dempath_compare.scoring import CompareResult
-from dempath_msgs.msg import TrajectoryScore, TrajectoryScoreArray
+from dempath_msgs.msg import ParticleStates, TrajectoryScore, TrajectoryScoreArray
 
 
 def stamp_seconds(stamp: Time) -> float:
@@ -27,10 +27,12 @@ def marker_arrays(msg: Any) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
 
 
 def particle_arrays(msg: Any) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64]]:
-    """(n,) ids, (n,) marker ids and (n, 3) m positions of a ParticleStates."""
+    """(n,) ids, (n,) marker ids and (n, 3) m positions of a ParticleStates, bed particles
+    (role ROLE_BED) left out."""
     ids = np.asarray(msg.ids, dtype=np.int64)
     xyz = np.asarray(msg.positions, dtype=np.float64).reshape(len(ids), 3)
-    return ids, np.asarray(msg.marker_ids, dtype=np.int64), xyz
+    keep = np.asarray(msg.roles, dtype=np.uint8) != ParticleStates.ROLE_BED
+    return ids[keep], np.asarray(msg.marker_ids, dtype=np.int64)[keep], xyz[keep]
 
 
 def scores_msg(result: CompareResult, run_id: str, header: Any) -> TrajectoryScoreArray:
