@@ -104,7 +104,7 @@ def record_main(argv: list[str]) -> int:
     parser = argparse.ArgumentParser(prog='dempath record', description=record_main.__doc__)
     parser.add_argument('topics', nargs='*', help='topics (default: every dempath topic)')
     parser.add_argument('-o', '--output', type=Path, help='bag directory to create')
-    parser.add_argument('--compression', default='none', choices=['none', 'zstd', 'lz4'])
+    parser.add_argument('--compression', default='none', choices=['none', 'zstd'])
     parser.add_argument('--flush-period', type=float, default=1.0,
                         help='longest time before a message is on disk [s]')
     args = parser.parse_args(argv)

@@ -1,7 +1,7 @@
 """rosbag2 MCAP bags written incrementally, and recovery of interrupted ones.
 
 A bag is a directory ``NAME/`` holding ``NAME_0.mcap`` and ``metadata.yaml`` (rosbag2 format 9).
-:class:`McapBagWriter` writes the MCAP in chunks with the official ``mcap`` writer: schemas are
+:class:`McapBagWriter` writes the MCAP in chunks (:mod:`dempath.mcapwrite`): schemas are
 ``ros2msg`` with the full definition text (dependencies included, as Foxglove and
 ``mcap-ros2-support`` expect) and channels are CDR. :meth:`McapBagWriter.flush` closes the chunk
 in progress, so a process killed afterwards leaves every message written up to then readable.
@@ -26,18 +26,17 @@ import yaml  # type: ignore[import-untyped]
 from mcap.exceptions import McapError
 from mcap.records import Channel, Message, Schema
 from mcap.stream_reader import StreamReader
-from mcap.writer import CompressionType, Writer
 from rosbags.rosbag2 import ReaderError
 from rosbags.rosbag2.storage_mcap import McapReader
 from rosbags.typesys import TypesysError, get_types_from_msg
 
 from dempath.bagio import make_typestore
 from dempath.errors import BagError, OutputError
+from dempath.mcapwrite import McapStreamWriter
 
 LOG = logging.getLogger(__name__)
 
-COMPRESSIONS = {'none': CompressionType.NONE, 'zstd': CompressionType.ZSTD,
-                'lz4': CompressionType.LZ4}
+COMPRESSIONS = {'none': '', 'zstd': 'zstd'}  # recorder setting -> MCAP chunk compression
 
 
 def check_output_dir(bag_dir: Path) -> None:
@@ -57,7 +56,7 @@ class McapBagWriter:
     Args:
         bag_dir: Bag directory to create.
         chunk_size: Chunk size that closes a chunk by itself [bytes].
-        compression: ``'none'``, ``'zstd'`` or ``'lz4'`` (per chunk).
+        compression: ``'none'`` or ``'zstd'`` (per chunk).
         file_name: Name of the .mcap inside ``bag_dir`` (``<dir name>_0.mcap`` by default).
     """
 
@@ -68,7 +67,7 @@ class McapBagWriter:
         self.chunk_size = chunk_size
         self.compression = COMPRESSIONS[compression]
         self._stream: BufferedWriter | None = None
-        self._writer: Writer | None = None
+        self._writer: McapStreamWriter | None = None
         self._schemas: dict[str, int] = {}
 
     def open(self, create_dir: bool = True) -> None:
@@ -85,8 +84,7 @@ class McapBagWriter:
         except OSError as err:
             msg = f'{self.bag_dir}: cannot create the output bag: {err.strerror}'
             raise OutputError(msg) from err
-        self._writer = Writer(self._stream, chunk_size=self.chunk_size,
-                              compression=self.compression)
+        self._writer = McapStreamWriter(self._stream, self.chunk_size, self.compression)
         self._writer.start(profile='ros2', library='dempath')
 
     def add_topic(self, topic: str, msgtype: str, msgdef: str,
@@ -101,9 +99,9 @@ class McapBagWriter:
         """
         assert self._writer is not None, 'open() first'
         if msgtype not in self._schemas:
-            self._schemas[msgtype] = self._writer.register_schema(
+            self._schemas[msgtype] = self._writer.add_schema(
                 msgtype, 'ros2msg', msgdef.encode()) if msgdef else 0
-        return self._writer.register_channel(
+        return self._writer.add_channel(
             topic, 'cdr', self._schemas[msgtype], {'offered_qos_profiles': offered_qos})
 
     def write(self, channel_id: int, log_time_ns: int, data: bytes,
@@ -116,14 +114,14 @@ class McapBagWriter:
     def flush(self) -> None:
         """Close the chunk in progress and hand it to the OS: it survives a SIGKILL from now."""
         if self._writer is not None:
-            self._writer.flush()  # type: ignore[no-untyped-call]
+            self._writer.flush()
 
     def close(self, metadata: bool = True) -> None:
         """Write the MCAP summary and footer, close the file and write ``metadata.yaml``."""
         if self._writer is None or self._stream is None:
             return
         writer, self._writer = self._writer, None
-        writer.finish()  # type: ignore[no-untyped-call]
+        writer.finish()
         self._stream.close()
         if metadata:
             write_metadata(self.bag_dir)

@@ -37,7 +37,7 @@ class RecorderConfig:
         discovery_period_s: How often new topics are looked for [s].
         flush_period_s: Longest time a written message waits before its chunk is closed [s].
         chunk_size_bytes: Size that closes a chunk by itself [bytes].
-        compression: Chunk compression: none, zstd or lz4.
+        compression: Chunk compression: none or zstd.
         max_queue_bytes: Budget of messages waiting for the writer [bytes]; beyond it they are
             dropped and counted.
         late_threshold_s: A message received this long after it was sent counts as late [s].

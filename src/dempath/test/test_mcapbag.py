@@ -48,8 +48,11 @@ def test_written_bag_reads_in_rosbags_and_mcap_ros2(tmp_path: Path) -> None:
         assert bag.topics[TOPIC].msgdef.startswith('uint8 SOURCE_DETECTED=0')
     store = make_typestore()
     with (tmp_path / 'bag' / 'bag_0.mcap').open('rb') as stream:
-        reader = make_reader(stream, decoder_factories=[DecoderFactory()])
+        reader = make_reader(stream, validate_crcs=True, decoder_factories=[DecoderFactory()])
         decoded = [msg for _, _, _, msg in reader.iter_decoded_messages()]
+        summary = reader.get_summary()
+    assert summary is not None and summary.statistics is not None
+    assert summary.statistics.message_count == 6 and len(summary.chunk_indexes) == 2
     expected = store.deserialize_cdr(sent[4][1], MSGTYPE)
     np.testing.assert_array_equal(decoded[4].u, expected.u)
     assert decoded[4].header.frame_id == 'cam_side'

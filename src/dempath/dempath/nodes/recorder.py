@@ -32,7 +32,7 @@ PARAMETERS = [
     ('discovery_period_s', 0.5, 'how often new topics are looked for [s]'),
     ('flush_period_s', 1.0, 'longest time before a written message is on disk [s]'),
     ('chunk_size_bytes', 4 << 20, 'MCAP chunk size [bytes]'),
-    ('compression', 'none', 'chunk compression: none, zstd, lz4'),
+    ('compression', 'none', 'chunk compression: none or zstd'),
     ('max_queue_bytes', 1 << 30, 'budget of messages waiting for the writer [bytes]'),
     ('late_threshold_s', 0.5, 'received this long after sending counts as late [s]'),
 ]
