@@ -12,6 +12,7 @@ with no definition, a requested topic the bag does not have.
 
 from __future__ import annotations
 
+import heapq
 import logging
 import os
 import struct
@@ -20,11 +21,13 @@ from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import Any, NamedTuple
 
+import yaml  # type: ignore[import-untyped]
 from rosbags.interfaces import MessageDefinitionFormat
 from rosbags.rosbag2 import Reader, ReaderError, StoragePlugin, Writer, WriterError
 from rosbags.typesys import Stores, TypesysError, get_types_from_msg, get_typestore
 from rosbags.typesys.store import Typestore
 
+from dempath import mcapread
 from dempath.errors import BagError
 
 if sys.version_info >= (3, 14):  # pragma: no cover
@@ -71,7 +74,10 @@ def share_dirs() -> list[Path]:
 
 def find_msg_file(msgtype: str) -> Path | None:
     """The ``.msg`` file defining ``pkg/msg/Name`` in an install prefix (or dempath's sources)."""
-    pkg, _, name = msgtype.split('/')
+    parts = msgtype.split('/')
+    if len(parts) != 3 or not all(parts):
+        return None
+    pkg, _, name = parts
     dirs = [d / pkg / 'msg' for d in share_dirs()]
     if pkg == MSG_PACKAGE:
         dirs.append(SOURCE_MSG_DIR)
@@ -154,6 +160,21 @@ def _storage_file(path: Path) -> Path:
     return path
 
 
+def _fast_mcap_files(path: Path) -> list[Path]:
+    """The bag's MCAP files if :mod:`dempath.mcapread` can read them all, else []."""
+    if path.is_file():
+        files = [path] if path.suffix == '.mcap' else []
+    else:
+        try:
+            info = yaml.safe_load((path / 'metadata.yaml').read_text())
+            info = info['rosbag2_bagfile_information']
+            plain = info['storage_identifier'] == 'mcap' and not info.get('compression_mode')
+            files = [path / Path(f).name for f in info['relative_file_paths']] if plain else []
+        except (OSError, yaml.YAMLError, KeyError, TypeError):
+            files = []
+    return files if files and all(mcapread.readable(f) for f in files) else []
+
+
 def _open_reader(path: Path) -> Reader:
     if not path.exists():
         msg = f'{path}: no such bag (neither a bag directory nor a .mcap/.db3 file)'
@@ -199,6 +220,8 @@ class BagReader:
         self.message_count = reader.message_count
         self.unknown = {t.name: t.msgtype for t in self.topics.values()
                         if not self._register(t)}
+        self._fast_files = _fast_mcap_files(path)
+
 
     def _register(self, topic: TopicInfo) -> bool:
         if topic.msgdef and topic.msgtype not in self.typestore.fielddefs:
@@ -240,6 +263,12 @@ class BagReader:
         start = self.start_ns + round(start_offset_s * 1e9) if start_offset_s > 0 else None
         count = 0
         try:
+            if self._fast_files:
+                sources = [mcapread.iter_raw(f, wanted, start) for f in self._fast_files]
+                for topic, t_ns, raw in heapq.merge(*sources, key=lambda m: m[1]):
+                    count += 1
+                    yield RawMessage(topic, self.topics[topic].msgtype, t_ns, raw)
+                return
             for conn, t_ns, raw in self._reader.messages(connections=conns, start=start):
                 count += 1
                 yield RawMessage(conn.topic, conn.msgtype, t_ns, bytes(raw))

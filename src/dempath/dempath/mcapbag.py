@@ -94,13 +94,13 @@ class McapBagWriter:
         Args:
             topic: Topic name.
             msgtype: ``pkg/msg/Name``.
-            msgdef: Full ros2msg text with dependencies ('' when unknown: no schema).
+            msgdef: Full ros2msg text with dependencies ('' when unknown: the schema then
+                carries only the type name).
             offered_qos: rosbag2 YAML of the publishers' QoS profiles ('' when unknown).
         """
         assert self._writer is not None, 'open() first'
         if msgtype not in self._schemas:
-            self._schemas[msgtype] = self._writer.add_schema(
-                msgtype, 'ros2msg', msgdef.encode()) if msgdef else 0
+            self._schemas[msgtype] = self._writer.add_schema(msgtype, 'ros2msg', msgdef.encode())
         return self._writer.add_channel(
             topic, 'cdr', self._schemas[msgtype], {'offered_qos_profiles': offered_qos})
 

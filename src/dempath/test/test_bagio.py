@@ -17,9 +17,12 @@ from dempath.bagio import (
     write_bag,
 )
 from dempath.errors import BagError
+from dempath.mcapbag import McapBagWriter
 from dempath.testbags import START_NS, images, pixel_points
-from rosbags.rosbag2 import StoragePlugin, Writer
+from rosbags.rosbag2 import Reader, StoragePlugin, Writer
 from rosbags.typesys import get_types_from_msg
+
+from dempath import mcapread
 
 BLOB_MSG = 'std_msgs/Header header\nfloat64[3] xyz\nstring note\n'
 
@@ -173,3 +176,38 @@ def test_write_bag_refuses_existing(tmp_path: Path) -> None:
     with pytest.raises(BagError, match='exists already'):
         make_points_bag(bag_path)
     shutil.rmtree(bag_path)
+
+
+def test_fast_mcap_reading_agrees_with_rosbags(tmp_path: Path) -> None:
+    """The one-read-per-message MCAP path yields exactly what rosbags' own reader yields."""
+    store = make_typestore()
+    msgs = [*pixel_points(store, 30, camera='cam_side', seed=1),
+            *pixel_points(store, 30, camera='cam_front', seed=2),
+            *images(store, 30, 320, 240, seed=3)]  # 230 kB frames: several chunks
+    bag_path = write_bag(tmp_path / 'bag', sorted(msgs, key=lambda m: m[2]), typestore=store)
+    mcap = next(bag_path.glob('*.mcap'))
+    assert mcapread.readable(mcap)
+    selection = ['/cam_front/pixel_points', '/cam_side/image_raw']
+    start = START_NS + 100_000_000
+    with open_bag(bag_path) as bag:
+        got = [(m.topic, m.log_time_ns, m.data) for m in bag.messages(selection, 0.1)]
+    with Reader(bag_path) as reader:
+        conns = [c for c in reader.connections if c.topic in selection]
+        expected = [(c.topic, t, bytes(d)) for c, t, d in reader.messages(conns, start=start)]
+    assert len(got) == 50  # 25 of each topic from 100 ms on
+    assert got == expected
+
+
+def test_compressed_mcap_reads_through_rosbags(tmp_path: Path) -> None:
+    """A zstd-chunked bag is not for the fast path but reads all the same."""
+    store = make_typestore()
+    writer = McapBagWriter(tmp_path / 'bag', compression='zstd')
+    writer.open()
+    channel = writer.add_topic('/cam_side/pixel_points', 'dempath_msgs/msg/PixelPoints', '')
+    sent = [(t, bytes(store.serialize_cdr(m, k))) for _, k, t, m in pixel_points(store, 5)]
+    for t_ns, data in sent:
+        writer.write(channel, t_ns, data)
+    writer.close()
+    assert not mcapread.readable(writer.mcap_path)
+    with open_bag(tmp_path / 'bag') as bag:
+        assert [(m.log_time_ns, m.data) for m in bag.messages()] == sent
