@@ -4,15 +4,26 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 from dempath.bagio import make_typestore, open_bag, write_bag
 from dempath.nodes.harness import RosHarness
 from dempath.nodes.pipeline import replay_and_record
 from dempath.nodes.player import PlayerNode
 from dempath.nodes.recorder import RecorderNode
-from dempath.testbags import START_NS, images, pixel_points
+from dempath.testbags import START_NS, header, images, pixel_points
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from rosbags.interfaces import (
+    Qos,
+    QosDurability,
+    QosHistory,
+    QosLiveliness,
+    QosReliability,
+    QosTime,
+)
+from rosbags.rosbag2 import StoragePlugin, Writer
 from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import CameraInfo
 
 from dempath import topics
 from dempath_msgs.msg import RunEvent
@@ -79,3 +90,30 @@ def test_clock_events_and_default_topics(tmp_path: Path, ros_harness: RosHarness
     assert topics.CLOCK not in recorded
     assert recorded['/cam_side/pixel_points'] == by_topic(source)['/cam_side/pixel_points']
     assert len(recorded[topics.PLAYER_EVENTS]) == 2  # STARTED and FINISHED
+    with open_bag(tmp_path / 'out') as bag:  # the publishers' QoS is kept in the bag
+        assert bag.topics[topics.PLAYER_EVENTS].latched
+        assert not bag.topics['/cam_side/pixel_points'].latched
+
+
+def test_latched_topic_reaches_late_subscriber(tmp_path: Path, ros_harness: RosHarness) -> None:
+    """A topic recorded as transient local is replayed latched: a late subscriber gets it."""
+    store = make_typestore()
+    info = store.types['sensor_msgs/msg/CameraInfo'](
+        header=header(store, START_NS, 'cam_side'), height=1080, width=1920,
+        distortion_model='plumb_bob', d=np.zeros(5), k=np.eye(3).ravel(), r=np.eye(3).ravel(),
+        p=np.zeros(12), binning_x=0, binning_y=0,
+        roi=store.types['sensor_msgs/msg/RegionOfInterest'](
+            x_offset=0, y_offset=0, height=0, width=0, do_rectify=False))
+    latched = Qos(QosHistory.KEEP_LAST, 1, QosReliability.RELIABLE,
+                  QosDurability.TRANSIENT_LOCAL, QosTime(0, 0), QosTime(0, 0),
+                  QosLiveliness.AUTOMATIC, QosTime(0, 0), False)
+    topic = topics.camera_topic(topics.CAMERA_INFO, 'cam_side')
+    with Writer(tmp_path / 'in', version=9, storage_plugin=StoragePlugin.MCAP) as writer:
+        conn = writer.add_connection(topic, 'sensor_msgs/msg/CameraInfo', typestore=store,
+                                     offered_qos_profiles=[latched])
+        writer.write(conn, START_NS, store.serialize_cdr(info, 'sensor_msgs/msg/CameraInfo'))
+    player = ros_harness.start(PlayerNode, bag=str(tmp_path / 'in'), rate=0.0)
+    assert ros_harness.spin_until(player.finished.is_set, timeout_s=10)
+    got = ros_harness.collect(CameraInfo, topic, LATCHED)
+    assert ros_harness.spin_until(lambda: len(got) == 1, timeout_s=10)
+    assert (got[0].width, got[0].header.frame_id) == (1920, 'cam_side')

@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import Any, NamedTuple
 
 import yaml  # type: ignore[import-untyped]
-from rosbags.interfaces import MessageDefinitionFormat
+from rosbags.interfaces import MessageDefinitionFormat, QosDurability
 from rosbags.rosbag2 import Reader, ReaderError, StoragePlugin, Writer, WriterError
 from rosbags.typesys import Stores, TypesysError, get_types_from_msg, get_typestore
 from rosbags.typesys.store import Typestore
@@ -49,12 +49,17 @@ READ_FAULTS = (ReaderError, OSError, EOFError, ValueError, KeyError, IndexError,
 
 
 class TopicInfo(NamedTuple):
-    """One topic of a bag: name, ``pkg/msg/Name`` type, message count, ros2msg text or ''."""
+    """One topic of a bag: name, type, message count, ros2msg text or '', whether latched.
+
+    ``latched`` means every recorded publisher offered transient-local durability (a late
+    subscriber still gets the last messages), as for camera_info.
+    """
 
     name: str
     msgtype: str
     msgcount: int
     msgdef: str
+    latched: bool = False
 
 
 class RawMessage(NamedTuple):
@@ -175,6 +180,13 @@ def _fast_mcap_files(path: Path) -> list[Path]:
     return files if files and all(mcapread.readable(f) for f in files) else []
 
 
+def _latched(connections: Sequence[Any]) -> bool:
+    """Whether every offered QoS profile of these connections is transient local."""
+    profiles = [q for c in connections for q in getattr(c.ext, 'offered_qos_profiles', [])]
+    return bool(profiles) and all(q.durability == QosDurability.TRANSIENT_LOCAL
+                                  for q in profiles)
+
+
 def _open_reader(path: Path) -> Reader:
     if not path.exists():
         msg = f'{path}: no such bag (neither a bag directory nor a .mcap/.db3 file)'
@@ -213,7 +225,8 @@ class BagReader:
         self.topics = {
             name: TopicInfo(name, info.msgtype or '', info.msgcount,
                             next((c.msgdef.data for c in info.connections
-                                  if c.msgdef.format == MessageDefinitionFormat.MSG), ''))
+                                  if c.msgdef.format == MessageDefinitionFormat.MSG), ''),
+                            _latched(info.connections))
             for name, info in reader.topics.items()}
         self.start_ns = reader.start_time if reader.message_count else 0
         self.end_ns = reader.end_time if reader.message_count else 0

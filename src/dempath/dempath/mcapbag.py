@@ -27,6 +27,7 @@ from mcap.exceptions import McapError
 from mcap.records import Channel, Message, Schema
 from mcap.stream_reader import StreamReader
 from rosbags.rosbag2 import ReaderError
+from rosbags.rosbag2.metadata import dump_qos_v9
 from rosbags.rosbag2.storage_mcap import McapReader
 from rosbags.typesys import TypesysError, get_types_from_msg
 
@@ -179,7 +180,9 @@ def write_metadata(bag_dir: str | Path) -> dict[str, Any]:
         'message_count': sum(f['message_count'] for f in files),
         'topics_with_message_count': [
             {'topic_metadata': {'name': name, 'type': conn.msgtype,
-                                'serialization_format': 'cdr', 'offered_qos_profiles': [],
+                                'serialization_format': 'cdr',
+                                'offered_qos_profiles': dump_qos_v9(
+                                    conn.ext.offered_qos_profiles),
                                 'type_description_hash': _rihs01(conn.msgtype,
                                                                  conn.msgdef.data)},
              'message_count': counts[name]} for name, conn in topics.items()],

@@ -5,6 +5,8 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
+import yaml  # type: ignore[import-untyped]
+from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
@@ -48,3 +50,21 @@ def subscription_qos(node: Node, topic: str, depth: int) -> QoSProfile:
     if best_effort:
         qos.reliability = ReliabilityPolicy.BEST_EFFORT
     return qos
+
+
+def _sec_nsec(duration: Duration) -> dict[str, int]:
+    sec, nsec = divmod(duration.nanoseconds, 1_000_000_000)
+    return {'sec': sec, 'nsec': nsec}
+
+
+def offered_qos_yaml(node: Node, topic: str) -> str:
+    """The QoS profiles offered by the publishers of ``topic`` as rosbag2 (format 9) YAML."""
+    profiles = [{
+        'history': q.history.name.lower(), 'depth': q.depth,
+        'reliability': q.reliability.name.lower(), 'durability': q.durability.name.lower(),
+        'deadline': _sec_nsec(q.deadline), 'lifespan': _sec_nsec(q.lifespan),
+        'liveliness': q.liveliness.name.lower(),
+        'liveliness_lease_duration': _sec_nsec(q.liveliness_lease_duration),
+        'avoid_ros_namespace_conventions': q.avoid_ros_namespace_conventions,
+    } for q in (info.qos_profile for info in node.get_publishers_info_by_topic(topic))]
+    return str(yaml.safe_dump(profiles)) if profiles else ''

@@ -71,7 +71,7 @@ class PlayerNode(Node):
                 self.get_logger().error(f'{self.config.bag}: topic {info.name} skipped: {err}')
                 continue
             self._topic_pubs[info.name] = self.create_publisher(
-                cls, info.name, reliable_qos(self.config.queue_depth))
+                cls, info.name, reliable_qos(self.config.queue_depth, info.latched))
         self._playback = Playback(self._bag, self.config, sorted(self._topic_pubs))
         threading.Thread(target=self._run, name='player', daemon=True).start()
 

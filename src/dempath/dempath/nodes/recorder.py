@@ -22,7 +22,7 @@ from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 
 from dempath.errors import DempathError
-from dempath.nodes.msgtypes import import_message_class, subscription_qos
+from dempath.nodes.msgtypes import import_message_class, offered_qos_yaml, subscription_qos
 from dempath.recording import BagRecorder, RecorderConfig
 from dempath.rosenv import apply_ros_defaults
 
@@ -82,7 +82,7 @@ class RecorderNode(Node):
             self.get_logger().error(f'topic {topic} not recorded: {err}')
             self._skipped.add(topic)
             return
-        self.recorder.add_topic(topic, msgtype)
+        self.recorder.add_topic(topic, msgtype, offered_qos_yaml(self, topic))
         events = SubscriptionEventCallbacks(message_lost=partial(self._on_lost, topic))
         self._topic_subs[topic] = self.create_subscription(
             cls, topic, partial(self._on_message, topic),
