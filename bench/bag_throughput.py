@@ -62,7 +62,7 @@ def to_subscriber(bag: Path, topics: list[str], jpeg: bool) -> tuple[float, int]
 
 def to_recorder(bag: Path, topics: list[str], out: Path, rate: float) -> tuple[float, int]:
     """Frames/s written by the recorder (from the recorded receive times), and frames lost."""
-    result = replay_and_record(bag, out, topics, rate=rate, timeout_s=300)
+    result = replay_and_record(bag, out, topics, rate=rate, timeout_s=300, quiet=True)
     published = result.played.total if result.played else 0
     with open_bag(out) as recorded:
         times = [m.log_time_ns for m in recorded.messages()]

@@ -52,7 +52,7 @@ def replay_and_record_step(ctx: DemoContext) -> str:
     output = ctx.out / 'recorded'
     if output.exists():
         shutil.rmtree(output)
-    result = replay_and_record(ctx.bag, output, topics, rate=ctx.rate)
+    result = replay_and_record(ctx.bag, output, topics, rate=ctx.rate, quiet=True)
     ctx.results['recorded'] = output
     if not result.complete:
         msg = f'{output}: recording incomplete:\n{result.summary}'

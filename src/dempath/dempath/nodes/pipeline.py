@@ -15,6 +15,7 @@ from typing import Any
 
 import rclpy
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.logging import LoggingSeverity
 from rclpy.parameter import Parameter
 
 from dempath.nodes.harness import RosHarness
@@ -80,7 +81,7 @@ class ReplayResult:
 
 
 def replay_and_record(bag: str | Path, output: str | Path, topics: list[str],
-                      rate: float = 1.0, timeout_s: float = 120.0,
+                      rate: float = 1.0, timeout_s: float = 120.0, quiet: bool = False,
                       **recorder_params: Any) -> ReplayResult:
     """Play ``topics`` of ``bag`` into a recorder writing ``output``, in one process.
 
@@ -90,6 +91,7 @@ def replay_and_record(bag: str | Path, output: str | Path, topics: list[str],
         topics: Topics to play and record (both ends get this explicit list).
         rate: Playback speed factor (0: as fast as possible).
         timeout_s: Give up waiting for the end after this long [s].
+        quiet: Log only warnings and errors of the two nodes.
         recorder_params: Further recorder parameters (e.g. ``compression``).
     """
     with RosHarness() as harness:
@@ -101,6 +103,8 @@ def replay_and_record(bag: str | Path, output: str | Path, topics: list[str],
         start = time.monotonic()
         player = harness.start(PlayerNode, bag=str(bag), topics=list(topics), rate=float(rate),
                                wait_for_subscribers=1)
+        for node in (recorder, player) if quiet else ():
+            node.get_logger().set_level(LoggingSeverity.WARN)
 
         def received_all() -> bool:
             if not player.finished.is_set() or player.stats is None:
