@@ -19,8 +19,9 @@ from numpy.typing import NDArray
 
 from dempath_calib.board import PAPER_BOARD, BoardKind, BoardSpec, CornerDetector
 from dempath_calib.camera import CameraModel, StereoCalibration
+from dempath_calib.errors import CalibrationError
 from dempath_calib.intrinsics import DistortionModel, IntrinsicResult, calibrate_intrinsics
-from dempath_calib.pairing import DetectionStream, estimate_offset, pair_frames
+from dempath_calib.pairing import DetectionStream, pair_frames
 from dempath_calib.pointset import PointSet, make_point_set
 from dempath_calib.stereo import StereoResult, bundle_adjust
 from dempath_calib.twin import SURFACE_ROT
@@ -32,6 +33,7 @@ CAMERA_NAMES = ('cam_side', 'cam_front')
 WORLD_MODES = ('surface', 'side')
 STATIC_TOL_M = 0.002  # board moved less than this between frames: still lying on the surface
 STATIC_TOL_DEG = 0.5
+OFFSET_SEARCH_ITER = 8  # LM iterations per offset candidate (poses only; enough to rank them)
 
 
 @dataclass(frozen=True)
@@ -49,7 +51,7 @@ class CalibrationConfig:
         robust_px: Huber scale of the bundle adjustment [px].
         refine_intrinsics: let the bundle adjustment refine the intrinsics too.
         offset_s: front-camera clock offset [s] added to its stamps; None estimates it
-            (only when the streams are not already synchronised, see ``estimate_offset``).
+            (``estimate_offset``).
         max_offset_s: search range of the offset estimate [s].
         image_size: (width, height) px of both cameras.
     """
@@ -171,32 +173,76 @@ class Calibrator:
                         (float(self._cells[0].mean()), float(self._cells[1].mean())))
 
     def solve(self) -> CalibrationResult:
-        """Pair, calibrate, adjust and check (see ``calibrate_detections``)."""
-        offset = self.config.offset_s
+        """Calibrate each camera, find the clock offset if asked, pair, adjust and check."""
+        cfg = self.config
+        intr = tuple(calibrate_intrinsics(CAMERA_NAMES[c], self.streams[c].arrays()[1],
+                                          cfg.board, cfg.image_size, cfg.distortion,
+                                          cfg.min_views, cfg.min_corners) for c in range(2))
+        offset = cfg.offset_s
         if offset is None:
-            offset = estimate_offset(*self.streams, max_offset_s=self.config.max_offset_s)
+            offset = estimate_offset(self.streams, intr, cfg)
         stamps, corners = pair_frames(*self.streams, offset_s=offset)
-        result = calibrate_detections(corners, stamps, self.config)
+        result = calibrate_detections(corners, stamps, cfg, intr)
         result.report.update({'offset_s': offset, 'progress': self.progress()._asdict()})
         return result
 
 
-def calibrate_detections(corners: FloatArray, stamps: FloatArray,
-                         config: CalibrationConfig) -> CalibrationResult:
+def estimate_offset(streams: tuple[DetectionStream, DetectionStream],
+                    intr: tuple[IntrinsicResult, ...], config: CalibrationConfig) -> float:
+    """Front clock offset [s] that makes the two cameras agree best.
+
+    For each candidate offset (a quarter of the front frame period apart, within
+    ``config.max_offset_s``) the front corners are interpolated to the side frames' times and
+    a bundle adjustment with fixed intrinsics gives the reprojection RMSE; the minimum is
+    refined by a parabola through its neighbours.
+    """
+    tf = streams[1].arrays()[0]
+    step = 0.25 * float(np.median(np.diff(tf))) if len(tf) > 1 else 0.01
+    n = int(np.ceil(config.max_offset_s / step))
+    candidates = np.arange(-n, n + 1) * step
+    costs = np.full(len(candidates), np.inf)
+    fixed = np.zeros((2, 9), bool)
+    for k, off in enumerate(candidates):
+        _, corners = pair_frames(*streams, offset_s=float(off))
+        try:
+            st = bundle_adjust(corners, config.board, list(intr), fixed, config.min_corners,
+                               config.min_shared_views, config.robust_px, OFFSET_SEARCH_ITER)
+        except CalibrationError:
+            continue
+        costs[k] = float(np.mean(st.rmse_px))
+    if not np.isfinite(costs).any():
+        msg = (f'offset: no candidate within +-{config.max_offset_s} s gives '
+               f'{config.min_shared_views} frames seen by both cameras')
+        raise CalibrationError(msg)
+    best = int(np.argmin(costs))
+    offset = float(candidates[best])
+    if 0 < best < len(costs) - 1 and np.isfinite(costs[best - 1:best + 2]).all():
+        y0, y1, y2 = costs[best - 1:best + 2]
+        den = y0 - 2 * y1 + y2
+        offset += float(0.5 * (y0 - y2) / den * step) if den > 0 else 0.0
+    LOG.info('front clock offset %.4f s (RMSE %.3f px at the best candidate)', offset,
+             costs[best])
+    return offset
+
+
+def calibrate_detections(corners: FloatArray, stamps: FloatArray, config: CalibrationConfig,
+                         intr: tuple[IntrinsicResult, ...] | None = None) -> CalibrationResult:
     """Calibrate both cameras from paired detections.
 
     Args:
         corners: (n_frames, 2, n_corners, 2) px, NaN where unseen; camera 0 side, 1 front.
         stamps: (n_frames,) frame times [s].
         config: settings.
+        intr: per-camera intrinsic results if already computed (else from ``corners``).
 
     Raises:
         NotEnoughViewsError, DegenerateViewsError, CalibrationError.
     """
     board, size = config.board, config.image_size
-    intr = tuple(calibrate_intrinsics(CAMERA_NAMES[c], corners[:, c], board, size,
-                                      config.distortion, config.min_views, config.min_corners)
-                 for c in range(2))
+    if intr is None:
+        intr = tuple(calibrate_intrinsics(CAMERA_NAMES[c], corners[:, c], board, size,
+                                          config.distortion, config.min_views,
+                                          config.min_corners) for c in range(2))
     free = np.zeros((2, 9), bool)
     if config.refine_intrinsics:
         free[:, :4] = True

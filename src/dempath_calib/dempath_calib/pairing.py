@@ -20,6 +20,7 @@ from dempath_calib.errors import CalibrationError
 
 LOG = logging.getLogger(__name__)
 FloatArray = NDArray[np.float64]
+EXACT_S = 1e-3  # stamps closer than this are taken as simultaneous [s]
 
 
 @dataclass
@@ -53,14 +54,21 @@ class DetectionStream:
 
 
 def pair_frames(side: DetectionStream, front: DetectionStream, offset_s: float = 0.0,
-                tol_s: float | None = None) -> tuple[FloatArray, FloatArray]:
+                tol_s: float | None = None,
+                interpolate: bool = True) -> tuple[FloatArray, FloatArray]:
     """Pair the two streams by time; unpaired frames are kept with NaN for the other camera.
+
+    With ``interpolate``, a front frame that is not simultaneous with its side frame (stamps
+    more than ``EXACT_S`` apart) is replaced by the linear interpolation, at the side frame's
+    time, of the two front frames around it (NaN where either misses a corner): webcams and
+    GoPros expose at their own instants, and the board moves in between.
 
     Args:
         side: side-camera detections.
         front: front-camera detections.
         offset_s: added to the front stamps to bring them onto the side camera's clock [s].
         tol_s: largest stamp difference of a pair [s]; half the smaller frame period by default.
+        interpolate: interpolate the front corners to the side frame's time.
 
     Returns:
         ``(stamps (n,) s, corners (n, 2, n_corners, 2) px)``.
@@ -77,7 +85,10 @@ def pair_frames(side: DetectionStream, front: DetectionStream, offset_s: float =
     paired_f = {j for _, j in pairs}
     rows: list[tuple[float, FloatArray, FloatArray]] = []
     nan = np.full((k, 2), np.nan)
-    rows += [(ts[i], cs[i], cf[j]) for i, j in pairs]
+    if interpolate:
+        rows += [(ts[i], cs[i], _front_at(ts[i], j, tf, cf)) for i, j in pairs]
+    else:
+        rows += [(ts[i], cs[i], cf[j]) for i, j in pairs]
     rows += [(ts[i], cs[i], nan) for i in range(len(ts)) if i not in paired_s]
     rows += [(tf[j], nan, cf[j]) for j in range(len(tf)) if j not in paired_f]
     rows.sort(key=lambda r: r[0])
@@ -86,6 +97,20 @@ def pair_frames(side: DetectionStream, front: DetectionStream, offset_s: float =
     LOG.info('paired %d of %d side and %d front frames (offset %.3f s, tolerance %.3f s)',
              len(pairs), len(ts), len(tf), offset_s, tol_s)
     return stamps, corners
+
+
+def _front_at(t: float, j: int, tf: FloatArray, cf: FloatArray) -> FloatArray:
+    """Front corners at time ``t``: frame ``j`` if simultaneous, else interpolated."""
+    if abs(tf[j] - t) <= EXACT_S or len(tf) < 2:
+        return cf[j]
+    k = j if tf[j] <= t else j - 1
+    if k < 0 or k + 1 >= len(tf):
+        return np.full_like(cf[j], np.nan)
+    period = float(np.median(np.diff(tf)))
+    if tf[k + 1] - tf[k] > 1.5 * period:
+        return np.full_like(cf[j], np.nan)
+    a = (t - tf[k]) / (tf[k + 1] - tf[k])
+    return (1 - a) * cf[k] + a * cf[k + 1]
 
 
 def _mutual_nearest(ta: FloatArray, tb: FloatArray, tol: float) -> list[tuple[int, int]]:

@@ -20,7 +20,7 @@ from scipy.sparse import csr_matrix
 
 from dempath_calib.board import BoardSpec
 from dempath_calib.errors import CalibrationError, NotEnoughViewsError
-from dempath_calib.intrinsics import IntrinsicResult
+from dempath_calib.intrinsics import OUTLIER_FACTOR, OUTLIER_FLOOR_PX, IntrinsicResult
 
 LOG = logging.getLogger(__name__)
 FloatArray = NDArray[np.float64]
@@ -188,13 +188,17 @@ class StereoResult:
 
 def _pose_inits(corners: FloatArray, board: BoardSpec, intr: list[IntrinsicResult],
                 min_corners: int) -> tuple[NDArray[np.bool_], FloatArray]:
-    """(n_frames, 2) views each camera uses, and (n_frames, 2, 6) PnP board poses (NaN if none)."""
+    """(n_frames, 2) views each camera uses, and (n_frames, 2, 6) PnP board poses (NaN if none).
+
+    A view is dropped when its PnP reprojection RMSE is an outlier (as in the intrinsic step).
+    """
     n = corners.shape[0]
     used = np.zeros((n, 2), bool)
     poses = np.full((n, 2, 6), np.nan)
+    rmse = np.full((n, 2), np.nan)
     obj = board.object_points()
     for c in range(2):
-        for i in intr[c].views:
+        for i in range(n):
             seen = ~np.isnan(corners[i, c, :, 0])
             if seen.sum() < min_corners:
                 continue
@@ -203,6 +207,12 @@ def _pose_inits(corners: FloatArray, board: BoardSpec, intr: list[IntrinsicResul
             if ok and tvec[2, 0] > 0:
                 used[i, c] = True
                 poses[i, c] = np.concatenate([rvec.ravel(), tvec.ravel()])
+                uv = cv2.projectPoints(obj[seen], rvec, tvec, intr[c].K, intr[c].dist)[0]
+                rmse[i, c] = np.sqrt(np.mean(np.sum((uv.reshape(-1, 2)
+                                                     - corners[i, c, seen]) ** 2, axis=1)))
+        if used[:, c].any():
+            limit = max(OUTLIER_FACTOR * np.nanmedian(rmse[:, c]), OUTLIER_FLOOR_PX)
+            used[:, c] &= ~(rmse[:, c] > limit)
     return used, poses
 
 
@@ -227,7 +237,7 @@ def _compose(rel: FloatArray, front_pose: FloatArray) -> FloatArray:
 
 def bundle_adjust(corners: FloatArray, board: BoardSpec, intr: list[IntrinsicResult],
                   free: NDArray[np.bool_], min_corners: int = 6, min_shared: int = 3,
-                  robust_px: float = 1.0) -> StereoResult:
+                  robust_px: float = 1.0, max_iter: int = 100) -> StereoResult:
     """Refine both cameras and their relative pose over all frames.
 
     Args:
@@ -238,6 +248,7 @@ def bundle_adjust(corners: FloatArray, board: BoardSpec, intr: list[IntrinsicRes
         min_corners: least corners for a camera's view of a frame to be used.
         min_shared: least frames both cameras see.
         robust_px: scale of the Huber loss [px].
+        max_iter: iteration limit of the Levenberg-Marquardt solver.
 
     Raises:
         NotEnoughViewsError: fewer than ``min_shared`` frames seen by both cameras.
@@ -257,7 +268,7 @@ def bundle_adjust(corners: FloatArray, board: BoardSpec, intr: list[IntrinsicRes
     base = np.array([[r.K[0, 0], r.K[1, 1], r.K[0, 2], r.K[1, 2], *r.dist] for r in intr])
     x0 = np.concatenate([base[free], rel, init.ravel()])
     try:
-        x, n_iter = levenberg_marquardt(prob, x0, base, robust_px)
+        x, n_iter = levenberg_marquardt(prob, x0, base, robust_px, max_iter)
     except np.linalg.LinAlgError as err:
         msg = f'stereo: bundle adjustment over {len(frames)} frames failed ({err})'
         raise CalibrationError(msg) from err
