@@ -8,7 +8,7 @@ setup(
     name=PACKAGE,
     version='0.1.0',
     packages=find_packages(exclude=['test']),
-    package_data={PACKAGE: ['py.typed']},
+    package_data={PACKAGE: ['py.typed', 'data/*.stl', 'data/*.py', 'data/scenes/*.yaml']},
     data_files=[
         ('share/ament_index/resource_index/packages', [f'resource/{PACKAGE}']),
         (f'share/{PACKAGE}', ['package.xml']),
@@ -21,7 +21,11 @@ setup(
     license='Apache-2.0',
     entry_points={
         'console_scripts': [
-
+            'dempath_simulator = dempath_sim.nodes.simulator:main',
+        ],
+        'dempath.commands': [
+            'simulate = dempath_sim.cli:simulate_main',
+            'effects = dempath_sim.cli:effects_main',
         ],
     },
 )

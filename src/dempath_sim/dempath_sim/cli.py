@@ -1,0 +1,170 @@
+"""``dempath simulate`` and ``dempath effects``: run a scene offline, list the physical effects.
+
+``dempath simulate SCENE [--out DIR] [--seed N] [--effect EFFECT.PARAM=VALUE ...] [--off EFFECT]``
+fills (or reads the cached packing), drives the tool with a progress bar showing simulated time
+and the real-time factor, and writes ``model.csv`` (t,id,x,y,z), ``markers.csv``
+(t,marker,x,y,z), ``tool.csv``, ``result.npz`` and ``summary.json`` to DIR. SCENE is a scene
+file or the name of a shipped scene (``tiny``, ``reduced_1ms``, ...).
+
+``dempath effects [SCENE] [--json]`` prints every effect with its parameters, units, ranges and
+defaults, and, with a scene, whether each is on and the scene's values.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+from dempath.errors import DempathError
+
+from dempath_sim.effects import all_effects
+from dempath_sim.run import Progress, RunOptions, run_scene
+from dempath_sim.scene import SceneError, SceneSpec, bundled_scene, list_bundled_scenes, load_scene
+
+
+def resolve_scene(text: str) -> SceneSpec:
+    """Load a scene file, or a shipped scene by name."""
+    path = Path(text)
+    if path.is_file() or path.suffix in {'.yaml', '.yml'} or '/' in text:
+        return load_scene(path)
+    if text in list_bundled_scenes():
+        return bundled_scene(text)
+    msg = (f'{text}: neither a scene file nor a shipped scene; shipped: '
+           f'{", ".join(list_bundled_scenes())}')
+    raise SceneError(msg)
+
+
+def parse_overrides(items: list[str]) -> dict[str, float]:
+    """``['cohesion.energy_density_j_m3=5e4']`` -> ``{'cohesion.energy_density_j_m3': 5e4}``."""
+    out = {}
+    for item in items:
+        key, _, value = item.partition('=')
+        try:
+            number = float(value)
+        except ValueError:
+            number = None
+        if number is None or '.' not in key:
+            raise SceneError(f'--effect {item}: expected EFFECT.PARAMETER=NUMBER')
+        out[key.strip()] = number
+    return out
+
+
+def _simulate_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog='dempath simulate', description=__doc__.split('\n\n')[1])
+    p.add_argument('scene', help='scene file or shipped scene name')
+    p.add_argument('--out', type=Path, help='output directory (default: ./sim_<run id>)')
+    p.add_argument('--seed', type=int, help='packing seed (default: the scene seed)')
+    p.add_argument('--effect', action='append', default=[], metavar='EFFECT.PARAM=VALUE',
+                   help='set an effect parameter (switches the effect on); repeatable')
+    p.add_argument('--off', action='append', default=[], metavar='EFFECT',
+                   help='switch an effect off; repeatable')
+    p.add_argument('--on', action='append', default=[], metavar='EFFECT',
+                   help='switch an effect on with its scene/default values; repeatable')
+    p.add_argument('--cache-dir', type=Path, help='packing cache directory')
+    p.add_argument('--quiet', action='store_true', help='no progress bar')
+    return p
+
+
+def _progress_bar(quiet: bool) -> tuple[Any, Any]:
+    """A rich progress bar and its update callback (or nothing when quiet)."""
+    if quiet:
+        return None, None
+    from rich.progress import BarColumn, TextColumn, TimeElapsedColumn
+    from rich.progress import Progress as Bar
+
+    bar = Bar(TextColumn('{task.description:<6}'), BarColumn(),
+              TextColumn('{task.fields[sim]}'), TextColumn('RTF {task.fields[rtf]}'),
+              TimeElapsedColumn(), transient=False)
+    tasks: dict[str, Any] = {}
+
+    def update(p: Progress) -> None:
+        if p.phase not in tasks:
+            tasks[p.phase] = bar.add_task(p.phase, total=p.end_time_s, sim='', rtf='')
+        bar.update(tasks[p.phase], completed=min(p.sim_time_s, p.end_time_s),
+                   sim=f'{p.sim_time_s:.3f}/{p.end_time_s:.3f} s',
+                   rtf=f'{p.real_time_factor:.3g}')
+
+    return bar, update
+
+
+def simulate_main(argv: list[str]) -> int:
+    """Run a scene offline and write its outputs; 0 on success, 1 on bad input."""
+    args = _simulate_parser().parse_args(argv)
+    try:
+        scene = resolve_scene(args.scene).with_overrides(
+            parse_overrides(args.effect), off=args.off, on=args.on, seed=args.seed)
+        out = args.out or Path(f'sim_{scene.name}_s{scene.seed}')
+        out.mkdir(parents=True, exist_ok=True)
+        bar, update = _progress_bar(args.quiet)
+        options = RunOptions(cache_dir=args.cache_dir, progress=update)
+        if bar is not None:
+            with bar:
+                result = run_scene(scene, options)
+        else:
+            result = run_scene(scene, options)
+        result.write_model_csv(out / 'model.csv')
+        result.write_marker_csv(out / 'markers.csv')
+        result.write_tool_csv(out / 'tool.csv')
+        result.save_npz(out / 'result.npz')
+        summary = {**result.meta, 'outputs': str(out),
+                   'max_draft_force_n': float(max(result.draft_force(), default=0.0))}
+        (out / 'summary.json').write_text(json.dumps(summary, indent=2))
+    except (DempathError, OSError) as err:
+        print(f'error: {args.scene}: {err}', file=sys.stderr)
+        return 1
+    fill = result.meta['fill']
+    print(f"{result.meta['run_id']}: {result.meta['n_particles']} particles, bulk density "
+          f"{fill['bulk_density_kg_m3']:.0f} kg/m^3 (solid fraction {fill['solid_fraction']:.3f})"
+          f", {len(result.times)} frames, max draft {summary['max_draft_force_n']:.1f} N, "
+          f'outputs in {out}')
+    return 0
+
+
+def effect_rows(scene: SceneSpec | None) -> list[dict[str, Any]]:
+    """One row per effect parameter: effect, on, parameter, unit, low, high, default, value."""
+    rows = []
+    for name, effect in all_effects().items():
+        setting = scene.effects[name] if scene is not None else None
+        for spec in effect.parameters:
+            rows.append({
+                'effect': name, 'description': effect.description,
+                'switchable': effect.switchable,
+                'enabled': setting.enabled if setting else effect.default_enabled,
+                'parameter': spec.name, 'unit': spec.unit, 'low': spec.low, 'high': spec.high,
+                'default': spec.default,
+                'value': setting.values[spec.name] if setting else spec.default,
+                'doc': spec.doc})
+    return rows
+
+
+def effects_main(argv: list[str]) -> int:
+    """Print the effects table (or JSON); 0 on success, 1 on a bad scene."""
+    p = argparse.ArgumentParser(prog='dempath effects', description='List physical effects.')
+    p.add_argument('scene', nargs='?', help='scene file or shipped scene name')
+    p.add_argument('--json', action='store_true', help='print JSON rows instead of a table')
+    args = p.parse_args(argv)
+    try:
+        scene = resolve_scene(args.scene) if args.scene else None
+    except DempathError as err:
+        print(f'error: {args.scene}: {err}', file=sys.stderr)
+        return 1
+    rows = effect_rows(scene)
+    if args.json:
+        print(json.dumps(rows, indent=2))
+        return 0
+    from rich.console import Console
+    from rich.table import Table
+
+    title = f'effects in {scene.name}' if scene else 'effects (defaults)'
+    table = Table(title=title)
+    for col in ('effect', 'on', 'parameter', 'unit', 'range', 'default', 'value'):
+        table.add_column(col)
+    for r in rows:
+        on = ('on' if r['enabled'] else 'off') + ('' if r['switchable'] else ' (fixed)')
+        table.add_row(r['effect'], on, r['parameter'], r['unit'], f"{r['low']:g}..{r['high']:g}",
+                      f"{r['default']:g}", f"{r['value']:g}")
+    Console().print(table)
+    return 0

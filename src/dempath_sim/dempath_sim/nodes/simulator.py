@@ -1,0 +1,127 @@
+"""Simulation node: runs a scene in a worker thread and publishes what it records.
+
+Publishes ParticleStates (markers and candidates), ToolForce, the tool PoseStamped, RunEvent
+started / finished / aborted and a MarkerArray for Foxglove; logs sim time and the real-time
+factor. Parameters: ``scene`` (file or shipped name), ``seed``, ``effects``
+(EFFECT.PARAM=VALUE), ``off``, ``cache_dir``, ``candidates``, ``viz_every``.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+
+import rclpy
+from dempath.errors import DempathError
+from dempath.rosenv import apply_ros_defaults
+from geometry_msgs.msg import PoseStamped
+from rcl_interfaces.msg import ParameterDescriptor
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, QoSProfile
+from visualization_msgs.msg import MarkerArray
+
+from dempath import topics
+from dempath_msgs.msg import ParticleStates, RunEvent, ToolForce
+from dempath_sim.mesh import TriangleMesh
+from dempath_sim.nodes import convert
+from dempath_sim.run import Frame, Progress, RunOptions, run_id, run_scene
+from dempath_sim.simconfig import SimulatorConfig
+
+LOG_PERIOD_S = 1.0  # wall time between progress log lines
+
+
+class SimulatorNode(Node):
+    """Loads the scene of its parameters and runs it once in a worker thread."""
+
+    def __init__(self, **kwargs: object) -> None:
+        super().__init__('dempath_simulator', **kwargs)
+        d = SimulatorConfig()
+        self.declare_parameters('', [
+            ('scene', d.scene, ParameterDescriptor(description='scene file or shipped name')),
+            ('seed', d.seed, ParameterDescriptor(description='packing seed, -1: the scene')),
+            ('effects', [''], ParameterDescriptor(description='EFFECT.PARAM=VALUE overrides')),
+            ('off', [''], ParameterDescriptor(description='effects switched off')),
+            ('cache_dir', d.cache_dir, ParameterDescriptor(description='packing cache dir')),
+            ('candidates', d.candidates, ParameterDescriptor(description='publish candidates')),
+            ('viz_every', d.viz_every, ParameterDescriptor(description='frames per MarkerArray')),
+        ])
+        names = ('scene', 'seed', 'effects', 'off', 'cache_dir', 'candidates', 'viz_every')
+        self.config = SimulatorConfig.from_params(
+            {n: self.get_parameter(n).value for n in names})
+        latched = QoSProfile(depth=10, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+        self.pub_states = self.create_publisher(ParticleStates, topics.SIM_STATES, 50)
+        self.pub_force = self.create_publisher(ToolForce, topics.SIM_TOOL_FORCE, 50)
+        self.pub_pose = self.create_publisher(PoseStamped, topics.SIM_TOOL_POSE, 50)
+        self.pub_events = self.create_publisher(RunEvent, topics.SIM_RUN_EVENTS, latched)
+        self.pub_viz = self.create_publisher(MarkerArray, topics.SIM_VIZ, 5)
+        self.stop = threading.Event()
+        self.run_id = self.config.scene
+        self.frames = 0
+        self._last_log = 0.0
+        self.worker = threading.Thread(target=self.run, name='dempath_sim', daemon=True)
+        self.worker.start()
+
+    def run(self) -> None:
+        """Worker: load the scene, run it, publish events; package errors end the run."""
+        rid = self.config.scene
+        try:
+            scene = self.config.load_scene()
+            rid = run_id(scene)
+            self.run_id = rid
+            self.tool_triangles = TriangleMesh.from_stl(scene.tool.mesh,
+                                                        scale=scene.tool.scale).triangles
+            self._event(RunEvent.STARTED, f'scene {scene.name} seed {scene.seed}')
+            result = run_scene(scene, RunOptions(self.config.cache_path, self._progress,
+                                                 self._publish, self.stop))
+        except DempathError as err:
+            self.get_logger().error(f'run {rid} aborted: {err}')
+            self._event(RunEvent.ABORTED, str(err), rid)
+            return
+        fill = result.meta['fill']
+        self._event(RunEvent.FINISHED, f"{len(result.times)} frames, {result.meta['n_particles']}"
+                                       f" particles, bulk density {fill['bulk_density_kg_m3']:.0f}"
+                                       ' kg/m^3')
+
+    def _event(self, event: int, detail: str, rid: str | None = None) -> None:
+        stamp = self.get_clock().now().to_msg()
+        self.pub_events.publish(convert.run_event(rid or self.run_id, event, detail, stamp))
+
+    def _publish(self, frame: Frame) -> None:
+        stamp = self.get_clock().now().to_msg()
+        self.pub_states.publish(convert.particle_states(frame, self.run_id, stamp))
+        self.pub_force.publish(convert.tool_force(frame, self.run_id, stamp))
+        self.pub_pose.publish(convert.tool_pose(frame, stamp))
+        if self.frames % self.config.viz_every == 0:
+            self.pub_viz.publish(convert.marker_array(frame, self.tool_triangles, stamp))
+        self.frames += 1
+
+    def _progress(self, p: Progress) -> None:
+        now = time.monotonic()
+        if now - self._last_log >= LOG_PERIOD_S:
+            self._last_log = now
+            self.get_logger().info(f'{p.phase}: sim {p.sim_time_s:.3f}/{p.end_time_s:.3f} s, '
+                                   f'real-time factor {p.real_time_factor:.3g}')
+
+    def destroy_node(self) -> None:
+        """Stop the worker at its next frame, then destroy the node."""
+        self.stop.set()
+        self.worker.join(timeout=30.0)
+        super().destroy_node()
+
+
+def main(args: list[str] | None = None) -> None:
+    """Console script ``dempath_simulator``."""
+    apply_ros_defaults()
+    rclpy.init(args=args)
+    node = SimulatorNode()
+    executor = SingleThreadedExecutor()
+    executor.add_node(node)
+    try:
+        executor.spin()
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        executor.shutdown()
+        node.destroy_node()
+        rclpy.try_shutdown()
