@@ -202,3 +202,28 @@ def synthetic_point_set(n_samples: int, noise_px: float = 0.2, seed: int = 0,
         view += 1
     pix, pts, v, c = (np.concatenate(a)[:n_samples] for a in zip(*chunks, strict=True))
     return make_point_set(pix, pts, v, c)
+
+
+def project_views(poses: list[BoardPose], noise_px: float = 0.0, seed: int = 0,
+                  rig: StereoCalibration | None = None,
+                  board: BoardSpec = PAPER_BOARD) -> FloatArray:
+    """Ideal detections of each pose without rendering: projected corners plus Gaussian noise.
+
+    Returns:
+        (n_poses, 2, n_corners, 2) px, NaN where a corner falls outside an image or the board
+        faces away from the camera.
+    """
+    rig = rig or paper_rig()
+    rng = np.random.default_rng(seed)
+    obj = board.object_points()
+    out = np.full((len(poses), 2, board.n_corners, 2), np.nan)
+    for i, pose in enumerate(poses):
+        xyz = obj @ pose.rot.T + pose.t
+        for c, cam in enumerate(rig.cameras):
+            if not fits(cam, board, pose, whole=False):
+                continue
+            uv = cam.project(xyz) + noise_px * rng.standard_normal((len(obj), 2))
+            inside = (uv[:, 0] >= 0) & (uv[:, 0] < cam.width) & (uv[:, 1] >= 0) \
+                & (uv[:, 1] < cam.height)
+            out[i, c, inside] = uv[inside]
+    return out
