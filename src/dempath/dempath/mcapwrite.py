@@ -2,7 +2,7 @@
 
 Written from the MCAP format specification (https://mcap.dev/spec, version 0). A pending chunk
 is a list of byte pieces that references each message's data; closing the chunk computes its
-CRC-32 over the pieces (zlib releases the GIL on large buffers) and writes them, so a 6 MB
+CRC-32 over the pieces (zlib-ng, without the GIL on large buffers) and writes them, so a 6 MB
 camera frame is copied once, into the OS, instead of four times. Schema and channel records go
 straight into the data section (outside chunks) when they are added, so a file cut after any
 complete chunk can be read back by a streaming reader (see :mod:`dempath.mcapbag`).
@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import struct
 import sys
-import zlib
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import BinaryIO
@@ -25,6 +24,11 @@ if sys.version_info >= (3, 14):  # pragma: no cover
     from compression import zstd
 else:
     from backports import zstd
+
+try:  # zlib-ng's SIMD CRC-32 is about 4x faster than zlib's on camera frames
+    from zlib_ng.zlib_ng import crc32
+except ImportError:  # pragma: no cover
+    from zlib import crc32
 
 MAGIC = b'\x89MCAP0\r\n'
 OP_HEADER, OP_FOOTER, OP_SCHEMA, OP_CHANNEL, OP_MESSAGE = 0x01, 0x02, 0x03, 0x04, 0x05
@@ -130,7 +134,7 @@ class McapStreamWriter:
             return
         crc = 0
         for piece in chunk.pieces:
-            crc = zlib.crc32(piece, crc)
+            crc = crc32(piece, crc)
         body = chunk.pieces
         if self.compression:
             body = [COMPRESSORS[self.compression](b''.join(chunk.pieces))]
