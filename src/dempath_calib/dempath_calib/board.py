@@ -116,6 +116,7 @@ class CornerDetector:
         board: the target.
     """
 
+    CHESSBOARD_MAX_WIDTH = 1000  # wider images are searched at half size, then refined [px]
     MIN_HALF_WINDOW = 3  # smallest cornerSubPix half-window [px]
     MAX_HALF_WINDOW = 5  # largest cornerSubPix half-window [px]; 0.1 of a square in between
 
@@ -143,17 +144,25 @@ class CornerDetector:
             grey = 255 - grey
         out = np.full((self.board.n_corners, 2), np.nan)
         if self._charuco is None:
-            found, corners = cv2.findChessboardCornersSB(
-                grey, (self.board.columns - 1, self.board.rows - 1),
-                flags=cv2.CALIB_CB_ACCURACY | cv2.CALIB_CB_EXHAUSTIVE)
-            if found:
-                out[:] = corners.reshape(-1, 2)
-            return out
+            return self._detect_chessboard(grey, out)
         corners, ids, _, _ = self._charuco.detectBoard(grey)
         if ids is not None and len(ids) > 0:
             out[ids.ravel()] = corners.reshape(-1, 2)
             out = self.refine(grey, out)
         return out
+
+    def _detect_chessboard(self, grey: NDArray[np.uint8], out: FloatArray) -> FloatArray:
+        """findChessboardCornersSB on a half-size copy of large images, then cornerSubPix."""
+        scale = 2 if grey.shape[1] > self.CHESSBOARD_MAX_WIDTH else 1
+        small = cv2.resize(grey, None, fx=1 / scale, fy=1 / scale,
+                           interpolation=cv2.INTER_AREA) if scale > 1 else grey
+        found, corners = cv2.findChessboardCornersSB(
+            small, (self.board.columns - 1, self.board.rows - 1),
+            flags=cv2.CALIB_CB_ACCURACY | cv2.CALIB_CB_NORMALIZE_IMAGE)
+        if not found:
+            return out
+        out[:] = (corners.reshape(-1, 2) + 0.5) * scale - 0.5  # pixel centres at integers
+        return self.refine(grey, out)
 
     def refine(self, grey: NDArray[np.uint8], corners: FloatArray) -> FloatArray:
         """Re-run ``cv2.cornerSubPix`` on found corners, with a window fitted to the squares.
