@@ -84,6 +84,7 @@ class Engine:
     """
 
     BLOWUP_COURANT = 0.5  # |v| dt / r above this is an energy blow-up
+    SERIAL_BELOW = 4000  # fewer particles run on one thread (thread wake-up costs more)
 
     def __init__(self, params: SimParams, walls: Sequence[Plane] = (),
                  tool: TriangleMesh | None = None) -> None:
@@ -99,6 +100,11 @@ class Engine:
         self.tool = tool
         self._tab = build_pair_table(params)
         self._planes, self._plane_mat = pack_planes(self.walls)
+        self._gravity = np.asarray(params.gravity, np.float64)
+        self._dom_lo = np.asarray(params.domain_min, np.float64)
+        self._dom_hi = np.asarray(params.domain_max, np.float64)
+        self._tris = np.zeros((0, 3, 3)) if tool is None else tool.triangles
+        self._packed: tuple[ToolPose | None, F64] = (None, np.zeros(18))
         for m in (*(p.material for p in self.walls), *(() if tool is None else (tool.material,))):
             if not 0 <= m < len(params.materials):
                 msg = f'Engine: wall/tool material index {m} is not in SimParams.materials'
@@ -111,6 +117,8 @@ class Engine:
         self.n_rebuilds = 0
         self.slot_overflows = 0
         self._bound: SimState | None = None
+        self._no_grid = (np.zeros(3), 1.0, np.ones(3, np.int64), np.zeros(2, np.int64),
+                         np.zeros(0, np.int32))
 
     # ----------------------------------------------------------------- set-up
     def time_step(self, state: SimState) -> float:
@@ -144,7 +152,8 @@ class Engine:
         self._check_pairs(state)
         self.dt = self.time_step(state)
         n = state.n
-        self._n_chunks = max(1, min(numba.get_num_threads(), n))
+        self._threads = 1 if n < self.SERIAL_BELOW else numba.get_num_threads()
+        self._n_chunks = max(1, min(self._threads, n))
         self._force = np.zeros((n, 3))
         self._torque = np.zeros((n, 3))
         self._fbuf = np.zeros((self._n_chunks, n, 3))
@@ -207,30 +216,35 @@ class Engine:
                     state.masses, state.material, self._start, self._nbr, self._ht, self._hr,
                     self._tab, dt, rolling, cohesion, self._fbuf, self._tbuf, self._worst)
         reduce_buffers(self._fbuf, self._tbuf, self._force, self._torque)
-        tris = np.zeros((0, 3, 3)) if self.tool is None else self.tool.triangles
+        if self._packed[0] is not pose:
+            self._packed = (pose, pose.packed())
         grid = self._grid
-        g_args = ((np.zeros(3), 1.0, np.ones(3, np.int64), np.zeros(2, np.int64),
-                   np.zeros(0, np.int32)) if grid is None else
-                  (grid.lo, grid.cell, grid.dims, grid.cell_start, grid.cell_tris))
+        g_args = self._no_grid if grid is None else (grid.lo, grid.cell, grid.dims,
+                                                     grid.cell_start, grid.cell_tris)
         tri_mat = 0 if self.tool is None else self.tool.material
         self._worst[:, 3] = 0.0
         boundary_forces(state.positions, state.velocities, state.angular_velocities,
                         state.radii, state.masses, state.material, self._planes,
-                        self._plane_mat, tris, tri_mat, *g_args, pose.packed(), self._gkey,
+                        self._plane_mat, self._tris, tri_mat, *g_args, self._packed[1], self._gkey,
                         self._ght, self._ghr, self._tab, dt, rolling, cohesion, self._force,
                         self._torque, self._tool_acc, self._worst, self._cand, self._tmp_t,
                         self._tmp_r)
         total = self._tool_acc.sum(axis=0)
-        self.tool_force = total[:3].copy()
-        self.tool_torque = total[3:].copy()
-        self.slot_overflows += int(self._worst[:, 3].sum())
-        self._check_overlap(state)
+        self.tool_force = total[:3]
+        self.tool_torque = total[3:]
+        worst = self._worst
+        if worst.shape[0] == 1:
+            self.slot_overflows += int(worst[0, 3])
+            if worst[0, 0] > self.params.max_overlap_fraction:
+                self._overlap_error(state)
+        else:
+            self.slot_overflows += int(worst[:, 3].sum())
+            if worst[:, 0].max() > self.params.max_overlap_fraction:
+                self._overlap_error(state)
 
-    def _check_overlap(self, state: SimState) -> None:
+    def _overlap_error(self, state: SimState) -> None:
         c = int(np.argmax(self._worst[:, 0]))
         ratio, i, other = self._worst[c, :3]
-        if ratio <= self.params.max_overlap_fraction:
-            return
         what = (f'particle {state.ids[int(other)]}' if other >= 0 else
                 f'plane {int(-1 - other)}' if -1 - other < len(self.walls) else 'the tool')
         msg = (f'overlap of {100 * ratio:.1f}% of the radius between particle '
@@ -250,23 +264,23 @@ class Engine:
         Raises:
             SimulationError: Non-finite velocities or |v| dt / r > BLOWUP_COURANT.
         """
-        p = self.params
         first_half(state.positions, state.velocities, state.angular_velocities, self._force,
-                   self._torque, state.masses, state.inertias, state.radii,
-                   np.asarray(p.gravity), self.dt, self._pos_build, np.asarray(p.domain_min),
-                   np.asarray(p.domain_max), self._stats)
-        courant = float(self._stats[:, 1].max())
-        if self._stats[:, 3].sum() > 0 or courant > self.BLOWUP_COURANT:
+                   self._torque, state.masses, state.inertias, state.radii, self._gravity,
+                   self.dt, self._pos_build, self._dom_lo, self._dom_hi, self._stats)
+        stats = self._stats.max(axis=0) if self._stats.shape[0] > 1 else self._stats[0]
+        courant = float(stats[1])
+        if stats[3] > 0 or courant > self.BLOWUP_COURANT:
             msg = (f'energy blow-up at t = {state.time:.6f} s: a particle moves '
                    f'{courant:.2f} radii per step (non-finite: {int(self._stats[:, 3].sum())}); '
                    f'dt = {self.dt:.3e} s, stable dt <= {self._stable_dt(state):.3e} s')
             raise SimulationError(msg)
-        return math.sqrt(float(self._stats[:, 0].max())), int(self._stats[:, 2].sum())
+        n_out = int(self._stats[:, 2].sum()) if stats[2] > 0 else 0
+        return math.sqrt(float(stats[0])), n_out
 
     def integrate_second_half(self, state: SimState) -> None:
         """Second half kick with the new forces; advances time and step."""
         second_half(state.velocities, state.angular_velocities, self._force, self._torque,
-                    state.masses, state.inertias, np.asarray(self.params.gravity), self.dt)
+                    state.masses, state.inertias, self._gravity, self.dt)
         state.time += self.dt
         state.step += 1
 
@@ -290,13 +304,18 @@ class Engine:
             self.bind(state)
         if tool_pose is not None:
             self.tool_pose = tool_pose
-        moved, n_out = self.integrate_first_half(state)
-        if n_out:
-            state = self._remove_outside(state)
-        elif moved > 0.5 * self._skin:
-            self.find_contacts(state, np.arange(state.n))
-        self.contact_forces(state, self.tool_pose, self.dt)
-        self.integrate_second_half(state)
+        outer = numba.get_num_threads()
+        numba.set_num_threads(min(self._threads, outer))
+        try:
+            moved, n_out = self.integrate_first_half(state)
+            if n_out:
+                state = self._remove_outside(state)
+            elif moved > 0.5 * self._skin:
+                self.find_contacts(state, np.arange(state.n))
+            self.contact_forces(state, self.tool_pose, self.dt)
+            self.integrate_second_half(state)
+        finally:
+            numba.set_num_threads(outer)
         return state
 
     def _remove_outside(self, state: SimState) -> SimState:
