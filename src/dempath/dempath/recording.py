@@ -220,7 +220,7 @@ class BagRecorder:
         return self.stats
 
     def summary(self) -> str:
-        """One line per topic plus a total: received, written, dropped and late messages."""
+        """One line per topic, a total, and the requested topics that never appeared."""
         with self._lock:
             rows = sorted(self.stats.items())
         lines = [f'{t}: received {s.received}, written {s.written}, dropped {s.dropped}, '
@@ -228,4 +228,7 @@ class BagRecorder:
         total = [sum(getattr(s, k) for _, s in rows)
                  for k in ('received', 'written', 'dropped', 'late')]
         lines.append('total: received {}, written {}, dropped {}, late {}'.format(*total))
+        absent = [t for t in self.config.topics if t not in self.stats]
+        if absent:
+            lines.append(f'never seen (nothing recorded): {", ".join(absent)}')
         return '\n'.join(lines)

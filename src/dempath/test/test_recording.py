@@ -37,6 +37,14 @@ def test_all_written_in_order(tmp_path: Path) -> None:
     assert got == [(1_000 + i, payload(i)) for i in range(50)]
 
 
+def test_summary_names_topics_never_seen(tmp_path: Path) -> None:
+    """A requested topic that never appeared is named in the summary, not silently absent."""
+    recorder = open_recorder(tmp_path, topics=(TOPIC, '/sim/run_events'))
+    recorder.submit(TOPIC, payload(1), 10)
+    recorder.close()
+    assert recorder.summary().splitlines()[-1] == 'never seen (nothing recorded): /sim/run_events'
+
+
 def test_sequence_gaps_and_late_are_counted(tmp_path: Path) -> None:
     """A gap in the publisher's sequence counts as dropped; a slow delivery counts as late."""
     recorder = open_recorder(tmp_path, late_threshold_s=0.5)
