@@ -51,8 +51,8 @@ class PlayerNode(Node):
                                      for n, d, t in PARAMETERS])
         self.finished = threading.Event()
         self.stats: PlaybackStats | None = None
-        self._event_pub = self.create_publisher(RunEvent, topics.PLAYER_EVENTS,
-                                             reliable_qos(10, latched=True))
+        self._event_pub = self.create_publisher(
+            RunEvent, topics.PLAYER_EVENTS, reliable_qos(10, latched=True))
         self._clock_pub = self.create_publisher(Clock, topics.CLOCK, 10)
         self._last_clock = 0.0
         self._topic_pubs: dict[str, Any] = {}
@@ -86,8 +86,8 @@ class PlayerNode(Node):
         self._event_pub.publish(msg)
 
     def _wait_for_subscribers(self) -> None:
-        need, deadline = self.config.wait_for_subscribers, time.monotonic() + \
-            self.config.wait_timeout_s
+        need = self.config.wait_for_subscribers
+        deadline = time.monotonic() + self.config.wait_timeout_s
         while need and time.monotonic() < deadline and any(
                 p.get_subscription_count() < need for p in self._topic_pubs.values()):
             time.sleep(0.02)
