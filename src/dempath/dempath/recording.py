@@ -41,6 +41,7 @@ class RecorderConfig:
         max_queue_bytes: Budget of messages waiting for the writer [bytes]; beyond it they are
             dropped and counted.
         late_threshold_s: A message received this long after it was sent counts as late [s].
+        report_period_s: How often the node logs the counts [s].
     """
 
     output: str
@@ -51,11 +52,13 @@ class RecorderConfig:
     compression: str = 'none'
     max_queue_bytes: int = 1 << 30
     late_threshold_s: float = 0.5
+    report_period_s: float = 10.0
 
     def __post_init__(self) -> None:
         if not self.output:
             raise ValueError(f'output: a bag directory is required, got {self.output!r}')
-        for name in ('discovery_period_s', 'flush_period_s', 'late_threshold_s'):
+        for name in ('discovery_period_s', 'flush_period_s', 'late_threshold_s',
+                     'report_period_s'):
             if not getattr(self, name) > 0:
                 raise ValueError(f'{name}: must be > 0, got {getattr(self, name)!r}')
         if self.chunk_size_bytes < 1024 or self.max_queue_bytes < 1 << 20:

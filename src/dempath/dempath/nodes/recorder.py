@@ -35,6 +35,7 @@ PARAMETERS = [
     ('compression', 'none', 'chunk compression: none or zstd'),
     ('max_queue_bytes', 1 << 30, 'budget of messages waiting for the writer [bytes]'),
     ('late_threshold_s', 0.5, 'received this long after sending counts as late [s]'),
+    ('report_period_s', 10.0, 'how often the counts are logged [s]'),
 ]
 QUEUE_DEPTH = 100  # subscription history: about 2 s of two 50 FPS cameras
 
@@ -46,8 +47,6 @@ class RecorderNode(Node):
         super().__init__('dempath_recorder', **kwargs)
         self.declare_parameters('', [(n, d, ParameterDescriptor(description=t))
                                      for n, d, t in PARAMETERS])
-        self.declare_parameter('report_period_s', 10.0, ParameterDescriptor(
-            description='how often the counts are logged [s]'))
         self.recorder: BagRecorder | None = None
         self._topic_subs: dict[str, Any] = {}
         self._skipped: set[str] = set()
@@ -64,7 +63,7 @@ class RecorderNode(Node):
         self.get_logger().info(f'recording to {self.config.output}')
         self._discover()
         self.create_timer(self.config.discovery_period_s, self._discover)
-        self.create_timer(self.get_parameter('report_period_s').value, self._report)
+        self.create_timer(self.config.report_period_s, self._report)
 
     def _discover(self) -> None:
         for topic, types in self.get_topic_names_and_types():
