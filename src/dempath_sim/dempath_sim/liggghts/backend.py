@@ -17,50 +17,20 @@ from pathlib import Path
 import numpy as np
 
 from dempath_sim.effects import PhysicsModel
-from dempath_sim.effects.base import ContactPair
-from dempath_sim.fill import PARTICLES, TOOL, WALLS, measure, target_solid_fraction
+from dempath_sim.fill import PARTICLES, measure, target_solid_fraction
 from dempath_sim.liggghts import deck as dk
 from dempath_sim.liggghts.commands import write_ascii_stl
 from dempath_sim.liggghts.dumps import frames_by_id, read_dump, read_print
 from dempath_sim.liggghts.runner import RunOutput, run_deck
 from dempath_sim.markers import select_markers
-from dempath_sim.materials import Interaction, Material
-from dempath_sim.params import SimParams
 from dempath_sim.profiles import ToolPath
 from dempath_sim.results import SimResult
+from dempath_sim.run import build_params
 from dempath_sim.scene_spec import SceneSpec
 from dempath_sim.state import SimState
 from dempath_sim.stl import read_stl
 
 logger = logging.getLogger(__name__)
-
-
-def _interaction(pair: ContactPair) -> Interaction:
-    return Interaction(restitution=max(pair.restitution, 1e-6),
-                       static_friction=pair.static_friction,
-                       dynamic_friction=min(pair.dynamic_friction, pair.static_friction),
-                       rolling_friction=pair.rolling_resistance,
-                       cohesion_energy_density=pair.cohesion_energy_density_j_m3)
-
-
-def scene_params(scene: SceneSpec, model: PhysicsModel, dt: float | None = None) -> SimParams:
-    """Engine parameters of a scene: materials PARTICLES, WALLS, TOOL and their pairs."""
-    wall = scene.materials['walls']
-    mats = (Material('particles', model.particle_density_kg_m3,
-                     model.particle_youngs_modulus_pa, model.particle_poisson),
-            Material('walls', wall.density_kg_m3, model.wall_youngs_modulus_pa,
-                     model.wall_poisson),
-            Material('tool', model.tool_density_kg_m3, model.tool_youngs_modulus_pa,
-                     model.tool_poisson))
-    pairs = {(PARTICLES, PARTICLES): _interaction(model.particle_particle),
-             (PARTICLES, WALLS): _interaction(model.particle_wall),
-             (PARTICLES, TOOL): _interaction(model.particle_tool)}
-    w, floor = scene.bin.width_x_m / 2, -scene.bed_thickness_m
-    return SimParams(materials=mats, interactions=pairs, dt=dt,
-                     rayleigh_safety=scene.sim.rayleigh_safety,
-                     domain_min=(-w - 0.1, floor - 0.1, -0.1),
-                     domain_max=(w + 0.1, floor + scene.bin.height_y_m + 1.0,
-                                 scene.bin.length_z_m + 0.1))
 
 
 def scene_time_step(scene: SceneSpec, model: PhysicsModel) -> float:
@@ -93,7 +63,7 @@ def fill_liggghts(scene: SceneSpec, workdir: Path, nprocs: int = 1,
                   friction: str = 'static') -> SettledBed:
     """Write and run ``in.fill``; return the settled bed and its surface/bulk-density report."""
     model = scene.physics_model()
-    params = scene_params(scene, model)
+    params = build_params(scene, model)
     dt0 = scene_time_step(scene, model)
     dt = scene.output.interval_s / max(1, math.ceil(scene.output.interval_s / dt0))
     plan = dk.fill_plan(scene, model.coarse_grain, target_solid_fraction(scene, model))
@@ -114,6 +84,15 @@ def fill_liggghts(scene: SceneSpec, workdir: Path, nprocs: int = 1,
     logger.info('liggghts fill: %d particles, surface %.4f m, bulk density %.0f kg/m^3',
                 len(ids), report['surface_height_m'], report['bulk_density_kg_m3'])
     return SettledBed(frame.step, ids, pos, radii, report, run)
+
+
+def slot_ids(bed: SettledBed, triangles: np.ndarray) -> np.ndarray:
+    """Ids of the particles touching the tool's bounding box at its start (dempath's slot)."""
+    flat = triangles.reshape(-1, 3)
+    lo, hi = flat.min(axis=0), flat.max(axis=0)
+    r = bed.radii[:, None]
+    inside = np.all((bed.positions > lo - r) & (bed.positions < hi + r), axis=1)
+    return bed.ids[inside]
 
 
 def tool_sweep(scene: SceneSpec, model: PhysicsModel,
@@ -165,12 +144,13 @@ def run_scene_liggghts(scene: SceneSpec, workdir: str | Path, nprocs: int = 1,
     path = tool_path(scene, model, bed.report['surface_height_m'])
     tris = read_stl(scene.tool.mesh) * scene.tool.scale + np.asarray(path.start_position_m)
     write_ascii_stl(str(workdir / dk.TOOL_STL), tris.tolist(), 'tool')
+    slot = slot_ids(bed, tris)
     dt = bed.report['dt_s']
     every = round(scene.output.interval_s / dt)
     snap = round(scene.output.snapshot_interval_s / dt)
     duration = path.time_to_travel(scene.tool.travel_m)
-    stage = dk.ToolStage(path, ids, bed.step, duration, dt, every, snap)
-    params = scene_params(scene, model)
+    stage = dk.ToolStage(path, ids, bed.step, slot, duration, dt, every, snap)
+    params = build_params(scene, model)
     (workdir / 'in.tool').write_text(dk.tool_deck(scene, params, stage, friction))
     run = run_deck(workdir / 'in.tool', nprocs=nprocs)
     return _result(workdir, stage, ids, roles, marker_ids, bed, run, scene)

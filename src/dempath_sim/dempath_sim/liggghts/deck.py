@@ -219,6 +219,13 @@ def group_lines(name: str, ids: Sequence[int], per_line: int = 200) -> list[str]
             for k in range(0, len(ids), per_line)]
 
 
+def _slot_lines(ids: NDArray[np.int64]) -> list[str]:
+    if not len(ids):
+        return []
+    # After a read_restart, LIGGGHTS deletes atoms only after a first run (run 0 here).
+    return [*group_lines('slot', ids), 'run 0', 'delete_atoms group slot compress no']
+
+
 @dataclass(frozen=True)
 class ToolStage:
     """What the tool deck needs beyond the scene.
@@ -227,6 +234,7 @@ class ToolStage:
         path: Tool reference point (tip) path in world coordinates.
         tracked_ids: LIGGGHTS ids of the markers and candidates.
         start_step: Step number at the end of the fill (time 0 of the pass).
+        slot_ids: Ids removed before the pass (the tool's slot, as dempath's run does).
         duration_s: Simulated time of the pass [s].
         dt: Time step [s] (divides the output interval).
         output_every: Steps between outputs.
@@ -236,6 +244,7 @@ class ToolStage:
     path: ToolPath
     tracked_ids: NDArray[np.int64]
     start_step: int
+    slot_ids: NDArray[np.int64]
     duration_s: float
     dt: float
     output_every: int
@@ -254,6 +263,7 @@ def tool_deck(scene: SceneSpec, params: SimParams, stage: ToolStage,
     lines += ['hard_particles yes', f'read_restart {FILL_RESTART}',
               f'neighbor {cmd.fmt(0.3 * big)} bin', 'neigh_modify delay 0',
               *physics(params, stage.dt, friction), *bin_walls(scene, params, 1),
+              *_slot_lines(stage.slot_ids),
               f'fix tool all mesh/surface/stress file {TOOL_STL} type 3 reference_point '
               f'{" ".join(tip)}', cmd.mesh_wall('toolwall', params, ['tool']),
               f'variable t equal (step-{stage.start_step})*dt',
