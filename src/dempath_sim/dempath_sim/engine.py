@@ -373,9 +373,20 @@ class Engine:
         return self._force, self._torque
 
     @property
-    def n_contacts(self) -> int:
-        """Particle-particle pairs currently overlapping (from the stored springs' list)."""
+    def n_pairs(self) -> int:
+        """Entries of the neighbour list (pairs within the skin)."""
         return int(self._nbr.size)
+
+    @property
+    def n_contacts(self) -> int:
+        """Particle-particle pairs overlapping now (numpy over the neighbour list)."""
+        st = self._bound
+        if st is None or self._nbr.size == 0:
+            return 0
+        i = np.repeat(np.arange(st.n), np.diff(self._start))
+        j = self._nbr
+        d = np.linalg.norm(st.positions[i] - st.positions[j], axis=1)
+        return int(np.count_nonzero(d < st.radii[i] + st.radii[j]))
 
     def memory_bytes(self) -> dict[str, int]:
         """Bytes held: per-particle arrays of engine + state, and neighbour-list entries."""
