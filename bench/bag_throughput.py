@@ -68,6 +68,9 @@ def to_recorder(bag: Path, topics: list[str], out: Path, rate: float) -> tuple[f
         times = [m.log_time_ns for m in recorded.messages()]
     fps = (len(times) - 1) / ((times[-1] - times[0]) * 1e-9) if len(times) > 1 else 0.0
     dropped = sum(s.dropped for s in result.recorded.values())
+    if result.played and rate > 0:
+        print(f'{bag.name} at rate {rate}: {result.played.behind} frames behind schedule, '
+              f'max lag {result.played.max_lag_s:.3f} s', flush=True)
     return fps, max(dropped, published - len(times))
 
 

@@ -70,11 +70,17 @@ class PlayerConfig:
 
 @dataclass
 class PlaybackStats:
-    """What a playback did: messages per topic, loops completed, and the error if it stopped."""
+    """What a playback did: messages per topic, loops, lag behind the bag's timing, error.
+
+    ``behind`` counts messages handed over more than ``Playback.BEHIND_S`` after they were
+    due and ``max_lag_s`` is the largest such delay [s] (both 0 at rate 0, where nothing is due).
+    """
 
     published: dict[str, int] = field(default_factory=dict)
     loops: int = 0
     error: str | None = None
+    behind: int = 0
+    max_lag_s: float = 0.0
 
     @property
     def total(self) -> int:
@@ -112,6 +118,8 @@ class Playback:
         topics: Topics to play (the playable subset of ``config.topics`` or of the bag).
     """
 
+    BEHIND_S = 0.02  # a message later than this counts as behind schedule (one 50 FPS frame)
+
     def __init__(self, bag: BagReader, config: PlayerConfig, topics: list[str]) -> None:
         self.bag = bag
         self.config = config
@@ -145,7 +153,10 @@ class Playback:
                 t0_bag = item.log_time_ns if t0_bag is None else t0_bag
                 if self.config.rate > 0:
                     due = t0_wall + (item.log_time_ns - t0_bag) * 1e-9 / self.config.rate
-                    self.stop.wait(max(0.0, due - time.monotonic()))
+                    lag = time.monotonic() - due
+                    self.stop.wait(max(0.0, -lag))
+                    stats.max_lag_s = max(stats.max_lag_s, lag)
+                    stats.behind += lag > self.BEHIND_S
                 if self.stop.is_set():
                     break
                 sink(item)
@@ -165,4 +176,7 @@ class Playback:
             LOG.info('%s: looping (pass %d done)', self.bag.path, stats.loops)
         if stats.error:
             LOG.error('%s', stats.error)
+        if stats.behind:
+            LOG.warning('%s: %d messages published more than %.0f ms late (at most %.3f s)',
+                        self.bag.path, stats.behind, self.BEHIND_S * 1e3, stats.max_lag_s)
         return stats

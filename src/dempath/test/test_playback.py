@@ -42,11 +42,22 @@ def test_original_timing_is_a_lower_bound(two_camera_bag: Path) -> None:
         assert t_s >= (message.log_time_ns - START_NS) * 1e-9 / 2.0 - 1e-3
 
 
+def test_slow_sink_is_reported_behind_schedule(two_camera_bag: Path) -> None:
+    """A sink slower than the bag's pace is not hidden: messages are counted behind schedule."""
+    config = PlayerConfig(bag=str(two_camera_bag), rate=1.0)
+    with open_bag(two_camera_bag) as bag:
+        stats = Playback(bag, config, sorted(bag.topics)).run(lambda _: time.sleep(0.05))
+    assert stats.total == 20
+    assert stats.behind >= 10  # 20 messages in 0.2 s of bag time take at least 1 s
+    assert stats.max_lag_s >= 0.5
+
+
 def test_bag_order_and_bytes_preserved(two_camera_bag: Path) -> None:
     """Rate 0 plays everything, in bag-time order, byte for byte."""
-    got, _, _ = play(two_camera_bag, rate=0.0)
+    got, _, stats = play(two_camera_bag, rate=0.0)
     with open_bag(two_camera_bag) as bag:
         assert got == list(bag.messages())
+    assert stats.behind == 0 and stats.max_lag_s == 0.0  # type: ignore[attr-defined]
 
 
 def test_offset_and_topics(two_camera_bag: Path) -> None:

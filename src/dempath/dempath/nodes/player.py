@@ -113,7 +113,8 @@ class PlayerNode(Node):
                       f'{self.stats.total} messages')
         else:
             self._end(RunEvent.FINISHED, f'{self.config.bag}: published {self.stats.total} '
-                      f'messages on {len(self._topic_pubs)} topics')
+                      f'messages on {len(self._topic_pubs)} topics, {self.stats.behind} '
+                      f'behind schedule (max {self.stats.max_lag_s:.3f} s)')
 
     def destroy_node(self) -> None:
         """Stop the playback thread, then destroy the node."""
