@@ -53,7 +53,7 @@ def test_energy_blow_up_is_reported() -> None:
     params = SimParams((GRAIN,), {(0, 0): Interaction(1.0, 0.0, 0.0)}, dt=dt_r,
                        gravity=(0.0, 0.0, 0.0), max_overlap_fraction=1.0)
     engine = Engine(params)
-    with pytest.raises(SimulationError, match='energy blow-up.*stable dt'):
+    with pytest.raises(SimulationError, match=r'energy blow-up.*stable dt'):
         engine.run(_pair(params, -0.45 * RADIUS), 200)
 
 

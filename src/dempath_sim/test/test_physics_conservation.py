@@ -25,17 +25,19 @@ def _gas_in_box(rng: np.random.Generator, speed: float, params: SimParams) -> Si
 
 
 def test_energy_drift_below_one_percent_with_restitution_one() -> None:
-    """In a closed box with e = 1, no friction and gravity, energy drifts < 1% over 10,000 steps."""
+    """Closed box, e = 1, no friction, with gravity: energy drifts < 1% over 10,000 steps."""
     params = SimParams((GRAIN,), {(0, 0): Interaction(1.0, 0.0, 0.0)})
     walls = box_walls(*BOX, open_top=False)
     state = _gas_in_box(np.random.default_rng(1), 0.3, params)
     engine = Engine(params, walls=walls)
     energies = [total_energy(state, params, walls)]
+    contacts: list[int] = []
     for _ in range(20):
-        state = engine.run(state, 500)
+        state = engine.run(state, 500, callback=lambda _, e: contacts.append(e.n_contacts),
+                           callback_every=10)
         energies.append(total_energy(state, params, walls))
     assert state.step == 10_000
-    assert engine.n_contacts > 0
+    assert sum(contacts) > 10, 'the spheres must collide for the test to mean something'
     drift = np.abs(np.array(energies) / energies[0] - 1.0)
     assert drift.max() < 0.01, f'energy drift {drift.max():.2%}'
 
