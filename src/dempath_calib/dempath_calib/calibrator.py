@@ -269,7 +269,12 @@ def _world_cameras(st: StereoResult, corners: FloatArray, config: CalibrationCon
     r_sw, t_sw = np.eye(3), np.zeros(3)  # world -> side camera
     world = np.zeros(0, np.int64)
     if config.world == 'surface':
-        first = both[0]
+        first = both[0] if len(both) else -1
+        if first != 0:
+            msg = (f'world frame: the first board view (t = {st.frames[0]}) is not seen by both '
+                   'cameras; lay the board on the surface in view of both cameras at the start '
+                   "of the recording, or use the 'side' world frame")
+            raise CalibrationError(msg)
         r0, t0 = _pose_matrix(st.board_rvecs[first], st.board_tvecs[first])
         still = [first]
         for j in both[1:]:

@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import logging
 from collections.abc import Iterator
+from itertools import pairwise
 from pathlib import Path
 from typing import NamedTuple
 
@@ -28,6 +29,7 @@ LOG = logging.getLogger(__name__)
 FloatArray = NDArray[np.float64]
 SURFACE_ROT = np.array([[1.0, 0, 0], [0, 0, -1.0], [0, 1.0, 0]])  # board axes x,y,z -> X,Z,-Y
 MAX_INCIDENCE_DEG = 60.0  # largest angle between the board normal and a camera's line of sight
+DETECTABLE_DEG = 75.0  # incidence up to which project_views reports corners (detector limit)
 IMAGE_MARGIN_PX = 15.0  # board corners kept this far inside the image when the board must fit
 
 
@@ -62,13 +64,14 @@ def _tilt(direction: FloatArray, max_deg: float, rng: np.random.Generator) -> Fl
     return cv2.Rodrigues(axis)[0] @ direction
 
 
-def fits(camera: CameraModel, board: BoardSpec, pose: BoardPose, whole: bool = True) -> bool:
+def fits(camera: CameraModel, board: BoardSpec, pose: BoardPose, whole: bool = True,
+         max_incidence_deg: float = MAX_INCIDENCE_DEG) -> bool:
     """True when the board faces ``camera`` and (all / some) corners fall inside its image."""
     corners = board.object_points() @ pose.rot.T + pose.t
     sight = camera.center - corners.mean(0)
     normal = -pose.rot[:, 2]
     cos_inc = normal @ sight / np.linalg.norm(sight)
-    if cos_inc < np.cos(np.radians(MAX_INCIDENCE_DEG)):
+    if cos_inc < np.cos(np.radians(max_incidence_deg)):
         return False
     uv = camera.project(corners)
     m = IMAGE_MARGIN_PX
@@ -220,10 +223,30 @@ def project_views(poses: list[BoardPose], noise_px: float = 0.0, seed: int = 0,
     for i, pose in enumerate(poses):
         xyz = obj @ pose.rot.T + pose.t
         for c, cam in enumerate(rig.cameras):
-            if not fits(cam, board, pose, whole=False):
+            if not fits(cam, board, pose, whole=False, max_incidence_deg=DETECTABLE_DEG):
                 continue
             uv = cam.project(xyz) + noise_px * rng.standard_normal((len(obj), 2))
             inside = (uv[:, 0] >= 0) & (uv[:, 0] < cam.width) & (uv[:, 1] >= 0) \
                 & (uv[:, 1] < cam.height)
             out[i, c, inside] = uv[inside]
+    return out
+
+
+def smooth_poses(keys: list[BoardPose], steps: int,
+                 board: BoardSpec = PAPER_BOARD) -> list[BoardPose]:
+    """Board poses moving smoothly through ``keys``: ``steps`` frames per segment.
+
+    Rotation is interpolated on the geodesic, position linearly with smooth-step easing.
+    """
+    out = []
+    mid = board.center_m
+    for a, b in pairwise(keys):
+        rel = cv2.Rodrigues(b.rot @ a.rot.T)[0].ravel()
+        ca, cb = a.t + a.rot @ mid, b.t + b.rot @ mid
+        for k in range(steps):
+            s = k / steps
+            s = s * s * (3 - 2 * s)
+            rot = cv2.Rodrigues(rel * s)[0] @ a.rot
+            centre = (1 - s) * ca + s * cb
+            out.append(BoardPose(rot, centre - rot @ mid, 'moving'))
     return out

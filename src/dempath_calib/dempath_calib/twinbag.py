@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Iterator
-from itertools import pairwise
 from pathlib import Path
 from typing import Any
 
@@ -22,7 +21,13 @@ from dempath import topics
 from dempath_calib.board import PAPER_BOARD, BoardSpec
 from dempath_calib.camera import StereoCalibration
 from dempath_calib.rig import paper_rig
-from dempath_calib.twin import BoardPose, calibration_poses, render_views, save_truth
+from dempath_calib.twin import (
+    BoardPose,
+    calibration_poses,
+    render_views,
+    save_truth,
+    smooth_poses,
+)
 
 LOG = logging.getLogger(__name__)
 JPEG_QUALITY = 92  # GoPro-like compression; corners stay within ~0.05 px
@@ -90,26 +95,6 @@ def _messages(poses: list[BoardPose], seed: int, rig: StereoCalibration, board: 
             topic, msgtype, msg = image_messages(image, rig.cameras[cam].name, stamp,
                                                  compressed)
             yield topic, msgtype, stamp, msg
-
-
-def smooth_poses(keys: list[BoardPose], steps: int,
-                 board: BoardSpec = PAPER_BOARD) -> list[BoardPose]:
-    """Board poses moving smoothly through ``keys``: ``steps`` frames per segment.
-
-    Rotation is interpolated on the geodesic, position linearly with smooth-step easing.
-    """
-    out = []
-    mid = board.center_m
-    for a, b in pairwise(keys):
-        rel = cv2.Rodrigues(b.rot @ a.rot.T)[0].ravel()
-        ca, cb = a.t + a.rot @ mid, b.t + b.rot @ mid
-        for k in range(steps):
-            s = k / steps
-            s = s * s * (3 - 2 * s)
-            rot = cv2.Rodrigues(rel * s)[0] @ a.rot
-            centre = (1 - s) * ca + s * cb
-            out.append(BoardPose(rot, centre - rot @ mid, 'moving'))
-    return out
 
 
 def write_twin_videos(folder: str | Path, n_keys: int = 6, steps: int = 12, seed: int = 0,
