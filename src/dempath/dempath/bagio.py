@@ -24,7 +24,13 @@ from typing import Any, NamedTuple
 import yaml  # type: ignore[import-untyped]
 from rosbags.interfaces import MessageDefinitionFormat, QosDurability
 from rosbags.rosbag2 import Reader, ReaderError, StoragePlugin, Writer, WriterError
-from rosbags.typesys import Stores, TypesysError, get_types_from_msg, get_typestore
+from rosbags.typesys import (
+    Stores,
+    TypesysError,
+    get_types_from_idl,
+    get_types_from_msg,
+    get_typestore,
+)
 from rosbags.typesys.store import Typestore
 
 from dempath import mcapread
@@ -180,6 +186,21 @@ def _fast_mcap_files(path: Path) -> list[Path]:
     return files if files and all(mcapread.readable(f) for f in files) else []
 
 
+def _types_from_definition(msgdef: Any, msgtype: str) -> dict[str, Any]:
+    """Parse a connection's ros2msg or ros2idl definition (IDL may hold several sections)."""
+    if msgdef.format == MessageDefinitionFormat.MSG and msgdef.data:
+        return dict(get_types_from_msg(msgdef.data, msgtype))
+    if msgdef.format != MessageDefinitionFormat.IDL or not msgdef.data:
+        return {}
+    sep = '=' * 80 + '\n'
+    sections = [s.split('\n', 1)[1] for s in msgdef.data.split(sep)[1:]] \
+        if msgdef.data.startswith(sep + 'IDL: ') else [msgdef.data]
+    types: dict[str, Any] = {}
+    for idl in sections:
+        types.update(get_types_from_idl(idl))
+    return types
+
+
 def _latched(connections: Sequence[Any]) -> bool:
     """Whether every offered QoS profile of these connections is transient local."""
     profiles = [q for c in connections for q in getattr(c.ext, 'offered_qos_profiles', [])]
@@ -232,17 +253,18 @@ class BagReader:
         self.end_ns = reader.end_time if reader.message_count else 0
         self.message_count = reader.message_count
         self.unknown = {t.name: t.msgtype for t in self.topics.values()
-                        if not self._register(t)}
+                        if not self._register(t, reader.topics[t.name].connections)}
         self._fast_files = _fast_mcap_files(path)
 
-
-    def _register(self, topic: TopicInfo) -> bool:
-        if topic.msgdef and topic.msgtype not in self.typestore.fielddefs:
-            try:
-                self.typestore.register(get_types_from_msg(topic.msgdef, topic.msgtype))
-            except TypesysError as err:
-                LOG.warning('%s: topic %s: bad definition of %s in the bag: %s',
-                            self.path, topic.name, topic.msgtype, err)
+    def _register(self, topic: TopicInfo, connections: Sequence[Any]) -> bool:
+        """Register the bag's own definition of the topic's type (ros2msg or ros2idl)."""
+        if topic.msgtype not in self.typestore.fielddefs:
+            for conn in connections:
+                try:
+                    self.typestore.register(_types_from_definition(conn.msgdef, conn.msgtype))
+                except TypesysError as err:
+                    LOG.warning('%s: topic %s: bad definition of %s in the bag: %s',
+                                self.path, topic.name, topic.msgtype, err)
         return ensure_type(self.typestore, topic.msgtype)
 
     def select(self, topics: Sequence[str] = ()) -> list[TopicInfo]:

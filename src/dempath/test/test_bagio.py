@@ -20,7 +20,7 @@ from dempath.errors import BagError
 from dempath.mcapbag import McapBagWriter
 from dempath.testbags import START_NS, images, pixel_points
 from rosbags.rosbag2 import Reader, StoragePlugin, Writer
-from rosbags.typesys import get_types_from_msg
+from rosbags.typesys import get_types_from_idl, get_types_from_msg
 
 from dempath import mcapread
 
@@ -211,3 +211,22 @@ def test_compressed_mcap_reads_through_rosbags(tmp_path: Path) -> None:
     assert not mcapread.readable(writer.mcap_path)
     with open_bag(tmp_path / 'bag') as bag:
         assert [(m.log_time_ns, m.data) for m in bag.messages()] == sent
+
+
+def test_type_defined_in_bag_as_idl_is_readable(tmp_path: Path) -> None:
+    """A custom type stored as ros2idl (as rosbag2 does for some packages) deserializes too."""
+    idl = ('module idl_msgs {\n  module msg {\n    struct Point2 {\n      double x;\n'
+           '      double y;\n    };\n  };\n};\n')
+    store = make_typestore()
+    store.register(get_types_from_idl(idl))
+    msg = store.types['idl_msgs/msg/Point2'](x=1.5, y=-2.0)
+    bag_path = tmp_path / 'bag'
+    with Writer(bag_path, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
+        conn = writer.add_connection(
+            '/sim/point', 'idl_msgs/msg/Point2',
+            msgdef='=' * 80 + '\nIDL: idl_msgs/msg/Point2\n' + idl,
+            rihs01=store.hash_rihs01('idl_msgs/msg/Point2'))
+        writer.write(conn, START_NS, store.serialize_cdr(msg, 'idl_msgs/msg/Point2'))
+    with open_bag(bag_path) as bag:
+        back = bag.deserialize(next(bag.messages()))
+    assert (back.x, back.y) == (1.5, -2.0)
