@@ -75,6 +75,9 @@ def fill_liggghts(scene: SceneSpec, workdir: Path, nprocs: int = 1,
     ids = frame.column('id').astype(np.int64)
     pos = frame.data[:, [frame.columns.index(c) for c in ('x', 'y', 'z')]]
     radii = frame.column('radius')
+    if len(ids) < 0.99 * sum(plan.counts):
+        logger.warning('liggghts fill: inserted %d of %d particles (see %s)', len(ids),
+                       sum(plan.counts), run.log_path)
     state = SimState.from_spheres(pos, radii, PARTICLES, params, ids=ids)
     top_r = max(plan.diameters[-1]) / 2
     state.extra['layer'] = np.where(radii >= 0.999 * min(plan.diameters[-1]) / 2,
