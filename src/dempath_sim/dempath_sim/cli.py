@@ -166,5 +166,8 @@ def effects_main(argv: list[str]) -> int:
         on = ('on' if r['enabled'] else 'off') + ('' if r['switchable'] else ' (fixed)')
         table.add_row(r['effect'], on, r['parameter'], r['unit'], f"{r['low']:g}..{r['high']:g}",
                       f"{r['default']:g}", f"{r['value']:g}")
-    Console().print(table)
+    console = Console()
+    if not console.is_terminal:  # pipes and files get the whole table, not 80 columns
+        console = Console(width=160)
+    console.print(table)
     return 0

@@ -178,11 +178,14 @@ def pour(scene: SceneSpec, model: PhysicsModel, params: SimParams) -> SimState:
     return state
 
 
-def measure(scene: SceneSpec, model: PhysicsModel, state: SimState) -> dict[str, float]:
-    """Surface height [m], bulk density [kg/m^3] and solid fraction [1] of a settled bed."""
-    top_d = 2.0 * float(state.radii[state.extra['layer'] == len(scene.layers) - 1].max()
-                        if 'layer' in state.extra else state.radii.max())
-    cell = 2.0 * top_d
+def surface_height(scene: SceneSpec, state: SimState) -> float:
+    """Y of the settled surface [m]: mean over inner cell columns of the highest particle top.
+
+    Cells are two top-layer diameters wide; the columns along the walls are left out.
+    """
+    top = len(scene.layers) - 1
+    in_top = state.extra['layer'] == top if 'layer' in state.extra else slice(None)
+    cell = 4.0 * float(state.radii[in_top].max())
     half_w, length = scene.bin.width_x_m / 2, scene.bin.length_z_m
     nx, nz = max(1, int(2 * half_w // cell)), max(1, int(length // cell))
     ix = np.clip(((state.positions[:, 0] + half_w) / (2 * half_w) * nx).astype(int), 0, nx - 1)
@@ -190,34 +193,72 @@ def measure(scene: SceneSpec, model: PhysicsModel, state: SimState) -> dict[str,
     tops = np.full((nx, nz), -np.inf)
     np.maximum.at(tops, (ix, iz), state.positions[:, 1] + state.radii)
     inner = tops[1:-1, 1:-1] if nx > 2 and nz > 2 else tops
-    surface = float(np.mean(inner[np.isfinite(inner)]))
-    floor = -scene.bed_thickness_m
-    below = state.positions[:, 1] < surface
-    mass = float(np.sum(state.masses[below]))
-    bulk = mass / (2 * half_w * length * (surface - floor))
-    return {'surface_height_m': surface, 'bulk_density_kg_m3': bulk,
-            'solid_fraction': bulk / model.particle_density_kg_m3}
+    return float(np.mean(inner[np.isfinite(inner)]))
+
+
+def measure(scene: SceneSpec, model: PhysicsModel, state: SimState) -> dict[str, float]:
+    """Surface height [m], bulk density [kg/m^3] and solid fraction [1] of a settled bed.
+
+    The solid fraction is the volume of the spheres whose centres lie in a measuring box over
+    the volume of the box; the box keeps two largest diameters away from the side walls and the
+    floor and one below the surface, so that wall layering and the rough top do not bias it.
+    """
+    surface = surface_height(scene, state)
+    d = 2.0 * float(state.radii.max())
+    half_w, length = scene.bin.width_x_m / 2, scene.bin.length_z_m
+    lo = np.array([-half_w + 2 * d, -scene.bed_thickness_m + 2 * d, 2 * d])
+    hi = np.array([half_w - 2 * d, surface - d, length - 2 * d])
+    if np.any(hi <= lo):  # bin too small for a margin: use the whole bed
+        lo = np.array([-half_w, -scene.bed_thickness_m, 0.0])
+        hi = np.array([half_w, surface, length])
+    inside = np.all((state.positions >= lo) & (state.positions <= hi), axis=1)
+    volume = float(np.sum(4.0 / 3.0 * np.pi * state.radii[inside] ** 3))
+    phi = volume / float(np.prod(hi - lo))
+    return {'surface_height_m': surface, 'solid_fraction': phi,
+            'bulk_density_kg_m3': phi * model.particle_density_kg_m3}
 
 
 Progress = Callable[[float, float], None]  # (sim time [s], max settle time [s])
 
 
-def settle(engine: Engine, state: SimState, scene: SceneSpec,
+def settle(engine: Engine, state: SimState, scene: SceneSpec, until_s: float,
            progress: Progress | None = None) -> tuple[SimState, bool]:
-    """Step until the fastest particle is slower than the settling speed; (state, settled)."""
+    """Step until the fastest particle is slower than the settling speed (or ``until_s``)."""
     engine.bind(state)
     dt = float(engine.dt or 0.0)
     chunk = max(1, round(SETTLE_CHECK_S / dt))
-    while state.time < scene.fill.max_settle_time_s:
+    start, vmax = state.time, math.inf
+    while state.time < until_s:
         state = engine.run(state, chunk)
         if progress is not None:
             progress(state.time, scene.fill.max_settle_time_s)
         vmax = float(np.sqrt((state.velocities**2).sum(axis=1)).max(initial=0.0))
-        if state.time >= MIN_SETTLE_S and vmax < scene.fill.settle_speed_m_s:
+        if state.time - start >= MIN_SETTLE_S and vmax < scene.fill.settle_speed_m_s:
             return state, True
     logger.warning('fill: bed still moving (%.3g m/s) after %.2f s; using it anyway', vmax,
                    state.time)
     return state, False
+
+
+def scaled_friction(params: SimParams, factor: float) -> SimParams:
+    """``params`` with friction and rolling resistance of every pair times ``factor``."""
+    table = {key: replace(x, static_friction=x.static_friction * factor,
+                          dynamic_friction=x.dynamic_friction * factor,
+                          rolling_friction=x.rolling_friction * factor)
+             for key, x in params.interactions.items()}
+    return replace(params, interactions=table)
+
+
+def pour_and_settle(scene: SceneSpec, state: SimState, params: SimParams,
+                    progress: Progress | None = None) -> tuple[SimState, bool]:
+    """Settle the poured state, first with scaled friction when ``fill.friction_scale`` < 1."""
+    walls = bin_walls(scene)
+    limit = scene.fill.max_settle_time_s
+    factor = scene.fill.friction_scale
+    if factor < 1.0:
+        state, _ = settle(Engine(scaled_friction(params, factor), walls), state, scene,
+                          limit / 2, progress)
+    return settle(Engine(params, walls), state, scene, limit, progress)
 
 
 def fill_bed(scene: SceneSpec, model: PhysicsModel, params: SimParams,
@@ -239,8 +280,7 @@ def fill_bed(scene: SceneSpec, model: PhysicsModel, params: SimParams,
     path = (cache_dir or default_cache_dir()) / f'{key}.npz'
     if scene.fill.cache and path.is_file():
         return _load_cached(path, params)
-    state = pour(scene, model, params)
-    state, settled = settle(Engine(params, bin_walls(scene)), state, scene, progress)
+    state, settled = pour_and_settle(scene, pour(scene, model, params), params, progress)
     found = measure(scene, model, state)
     target = scene.fill.bulk_density_target_kg_m3
     within = target is None or abs(found['bulk_density_kg_m3'] - target) <= (

@@ -250,7 +250,7 @@ def _read_sections(r: Reader, source: str, base_dir: Path | None) -> dict[str, A
                       f.number('tolerance', 0.0, 1.0, 0.1, low_open=True),
                       f.number('settle_speed_m_s', 0.0, 10.0, 0.02, low_open=True),
                       f.number('max_settle_time_s', 0.0, 100.0, 3.0, low_open=True),
-                      f.flag('cache', True)),
+                      f.flag('cache', True), f.number('friction_scale', 0.0, 1.0, 1.0)),
         output=OutputSpec(o.number('interval_s', 0.0, 10.0, 0.01, low_open=True),
                           o.number('snapshot_interval_s', 0.0, 100.0, 0.1, low_open=True),
                           o.flag('candidates', True)),

@@ -115,13 +115,18 @@ class MarkerSpec:
 
 @dataclass(frozen=True)
 class FillSpec:
-    """Pour and settle: target bulk density, settling criterion and cache use."""
+    """Pour and settle: target bulk density, settling criterion and cache use.
+
+    ``friction_scale`` < 1 pours with less friction and rolling resistance (denser packing, the
+    usual way to reach a bulk density), then settles again with the full values.
+    """
 
     bulk_density_target_kg_m3: float | None = None
     tolerance: float = 0.1
     settle_speed_m_s: float = 0.02
     max_settle_time_s: float = 3.0
     cache: bool = True
+    friction_scale: float = 1.0  # factor on friction and rolling resistance while pouring
 
 
 @dataclass(frozen=True)
