@@ -13,7 +13,9 @@ paper's) is then propagated and the coverage of the published 1-sigma is checked
 Targets: mean <= 0.5 mm and max <= 3 mm for the best method; the fastest method meeting them
 trains in < 120 s; throughput >= 100,000 point pairs/s. The last line printed is one JSON object.
 
-Usage: ``.venv/bin/python bench/recon_accuracy.py [--mlp-epochs 3] [--out DIR]``
+Usage: ``python bench/recon_accuracy.py [--mlp-epochs N] [--torch-threads T] [--out DIR]``
+(on the shared 2-core machine one torch thread trained the big network 3-5x faster than two:
+thread hand-offs stall when other processes hold the cores; on a quiet machine try 2).
 """
 
 from __future__ import annotations
@@ -130,7 +132,10 @@ def main() -> int:
     parser.add_argument('--seed', type=int, default=0)
     parser.add_argument('--skip', default='', help='comma-separated methods to leave out')
     parser.add_argument('--out', default='', help='folder for report.md / histogram PNG')
+    parser.add_argument('--torch-threads', type=int, default=1,
+                        help='torch CPU threads (1 is fastest on a shared, loaded machine)')
     args = parser.parse_args()
+    torch.set_num_threads(args.torch_threads)
     args.skip = set(filter(None, args.skip.split(',')))
     logging.basicConfig(level=logging.INFO, stream=sys.stderr, format='%(message)s')
     summary = run(args)
