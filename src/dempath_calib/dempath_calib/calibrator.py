@@ -65,7 +65,7 @@ class CalibrationConfig:
     robust_px: float = 1.0
     refine_intrinsics: bool = True
     offset_s: float | None = 0.0
-    max_offset_s: float = 2.0
+    max_offset_s: float = 0.5
     image_size: tuple[int, int] = (1920, 1080)
 
     def __post_init__(self) -> None:

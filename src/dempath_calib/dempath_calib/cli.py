@@ -60,6 +60,8 @@ def calibrate_parser() -> argparse.ArgumentParser:
     p.add_argument('--world', default='surface', choices=['surface', 'side'],
                    help='world frame: board on the sand in the first frames, or side camera')
     p.add_argument('--offset', default='0', help="front clock offset [s], or 'auto'")
+    p.add_argument('--max-offset', type=float, default=0.5,
+                   help='search range of --offset auto [s]')
     p.add_argument('--timestamps', help='CSV with cam_id,frame_time per video frame')
     p.add_argument('--fps', type=float, default=30.0, help='frame rate of a frame folder')
     p.add_argument('--every', type=int, default=1, help='use every n-th image')
@@ -74,7 +76,7 @@ def _config(args: argparse.Namespace, size: tuple[int, int]) -> CalibrationConfi
         offset = None if args.offset == 'auto' else float(args.offset)
         return CalibrationConfig(board=_board(args), distortion=DistortionModel(args.distortion),
                                  world=args.world, offset_s=offset, image_size=size,
-                                 min_views=args.min_views)
+                                 min_views=args.min_views, max_offset_s=args.max_offset)
     except ValueError as err:
         msg = f'options: {err}'
         raise CalibrationError(msg) from err
@@ -100,7 +102,8 @@ def calibrate_main(argv: list[str]) -> int:
         print(f'error: {err}', file=sys.stderr)
         return 1
     rep = result.report
-    print(json.dumps({'rmse_px': rep['rmse_px'], 'views': rep['views'],
+    print(json.dumps({'rmse_px': rep['rmse_px'], 'intrinsic_rmse_px': rep['intrinsic_rmse_px'],
+                      'views': rep['views'], 'offset_s': rep.get('offset_s'),
                       'corner_spacing_mm': rep['corner_spacing'].get('mean_mm'),
                       'point_set_size': rep['point_set_size'],
                       'outputs': [str(p) for p in paths.values()]}))

@@ -78,7 +78,7 @@ class BagSource:
         """Number of images."""
         names = self.topics()
         with open_bag(self.path) as bag:
-            return sum(bag.topics[t].count for t in names)
+            return sum(int(bag.topics[t][2]) for t in names)  # TopicInfo field 2: count
 
     def frames(self) -> Iterator[Frame]:
         """Yield ``(camera, stamp_s, grey image)`` in bag order."""
