@@ -43,6 +43,8 @@ import yaml
 
 from dempath_sim import profiles
 from dempath_sim._reader import Reader, SceneError
+from dempath_sim.errors import GeometryError
+from dempath_sim.stl import read_stl
 from dempath_sim.effects import Effect, PhysicsModel, all_effects
 from dempath_sim.scene_spec import (
     BinSpec,
@@ -126,6 +128,10 @@ def _resolve_mesh(value: str, r: Reader, base_dir: Path | None) -> Path:
         r.fail('mesh', f'STL file {str(path)!r} does not exist')
     if path.suffix.lower() != '.stl':
         r.fail('mesh', f'{str(path)!r} is not an .stl file')
+    try:
+        read_stl(path)
+    except GeometryError as err:
+        r.fail('mesh', f'bad STL: {err}')
     return path
 
 

@@ -150,3 +150,13 @@ def test_profile_forms_agree() -> None:
     assert by_rate.acceleration_distance_m == pytest.approx(0.05)
     data['tool']['profile']['acceleration_distance_m'] = 0.2
     assert 'tool.profile.acceleration_distance_m' in error_of(data)
+
+
+def test_bad_stl_content(tmp_path: Path) -> None:
+    """A truncated STL names tool.mesh and says the STL is bad."""
+    bad = tmp_path / 'broken.stl'
+    bad.write_bytes(b'\x00' * 80 + (5).to_bytes(4, 'little') + b'\x00' * 20)
+    data = tiny_dict()
+    data['tool']['mesh'] = str(bad)
+    msg = error_of(data)
+    assert 'tool.mesh' in msg and 'bad STL' in msg

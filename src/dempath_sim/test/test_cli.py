@@ -1,0 +1,45 @@
+"""`dempath simulate`: outputs of a tiny run, and one error line for each bad input."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from dempath_sim.cli import simulate_main
+from dempath_sim.results import SimResult
+
+
+def test_simulate_writes_outputs(tmp_path: Path, tmp_path_factory: pytest.TempPathFactory,
+                                 capsys: pytest.CaptureFixture[str]) -> None:
+    """A tiny run writes the CSVs, the npz and a summary that agree with each other."""
+    out = tmp_path / 'out'
+    cache = Path(tmp_path_factory.getbasetemp()) / 'packings'
+    code = simulate_main(['tiny', '--out', str(out), '--cache-dir', str(cache), '--quiet',
+                          '--effect', 'tool_friction.static_friction=0.5'])
+    assert code == 0, capsys.readouterr().err
+    for name in ('model.csv', 'markers.csv', 'tool.csv', 'result.npz', 'summary.json'):
+        assert (out / name).is_file(), name
+    summary = json.loads((out / 'summary.json').read_text())
+    result = SimResult.load_npz(out / 'result.npz')
+    assert summary['effects']['tool_friction']['static_friction'] == 0.5
+    assert summary['max_draft_force_n'] == pytest.approx(float(result.draft_force().max()))
+    markers = np.loadtxt(out / 'markers.csv', delimiter=',', skiprows=1)
+    assert set(markers[:, 1].astype(int)) == set(range(1, 16))
+    assert 'particles' in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(('argv', 'needle'), [
+    (['no_such_scene'], 'neither a scene file'),
+    (['tiny', '--effect', 'cohesion.energy_density_j_m3=lots'], 'EFFECT.PARAMETER=NUMBER'),
+    (['tiny', '--effect', 'cohesion.energy_density_j_m3=1e9'], 'out of range'),
+    (['tiny', '--off', 'restitution'], 'cannot be switched off'),
+    (['tiny', '--off', 'gravity'], 'unknown key'),
+])
+def test_simulate_bad_input(argv: list[str], needle: str, tmp_path: Path,
+                            capsys: pytest.CaptureFixture[str]) -> None:
+    """Each bad input gives exit code 1 and one `error:` line naming the problem."""
+    assert simulate_main([*argv, '--out', str(tmp_path), '--quiet']) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith('error: ') and needle in err[0]
