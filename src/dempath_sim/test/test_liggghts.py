@@ -1,0 +1,152 @@
+"""LIGGGHTS backend: install/run errors, deck building blocks, dump readers, a tiny scene."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from dempath_sim.liggghts import commands as cmd
+from dempath_sim.liggghts.deck import fill_plan, layer_templates, primes_from, velocity_expression
+from dempath_sim.liggghts.dumps import frames_by_id, read_dump, read_print
+from dempath_sim.liggghts.errors import DumpError, LiggghtsNotFoundError, LiggghtsRunError
+from dempath_sim.liggghts.install import LiggghtsInstall, ensure_liggghts, find_liggghts
+from dempath_sim.liggghts.runner import run_deck
+from dempath_sim.materials import Interaction, Material
+from dempath_sim.params import SimParams
+from dempath_sim.profiles import SpeedProfile, ToolPath
+from dempath_sim.scene import bundled_scene
+
+
+@pytest.fixture(scope='module')
+def liggghts() -> LiggghtsInstall:
+    """LIGGGHTS 3.8 (Debian package), installed through apt-get when root; skip otherwise."""
+    try:
+        return ensure_liggghts(install=True)
+    except LiggghtsNotFoundError as err:
+        pytest.skip(f'LIGGGHTS unavailable: {err}')
+
+
+def _params(rolling: float = 0.26, cohesion: float = 0.0) -> SimParams:
+    sand = Material('sand', 1734.0, 1.7e6, 0.25)
+    steel = Material('steel', 7800.0, 2.1e11, 0.3)
+    pp = Interaction(0.3, 0.71, 0.59, rolling, cohesion)
+    pw = Interaction(0.3, 0.40, 0.30, rolling, cohesion)
+    return SimParams(materials=(sand, steel), interactions={(0, 0): pp, (0, 1): pw})
+
+
+def test_missing_binary_names_it_and_the_fix() -> None:
+    """An explicit binary that does not exist gives one error naming it and the apt command."""
+    assert find_liggghts('/nonexistent/liggghts') is None
+    with pytest.raises(LiggghtsNotFoundError, match=r'/nonexistent/liggghts: .*apt-get install'):
+        ensure_liggghts('/nonexistent/liggghts', install=False)
+
+
+def test_failing_deck_gives_one_line_with_the_log(liggghts: LiggghtsInstall,
+                                                  tmp_path: Path) -> None:
+    """A bad command stops with LIGGGHTS' error text and the path of the log file."""
+    deck = tmp_path / 'in.bad'
+    deck.write_text('units si\nno_such_command 1 2\n')
+    with pytest.raises(LiggghtsRunError) as info:
+        run_deck(deck, install=liggghts)
+    text = str(info.value)
+    assert '\n' not in text
+    assert 'Unknown command: no_such_command' in text
+    log = Path(text.rsplit('(log ', 1)[1].rstrip(')'))
+    assert log.is_file() and 'no_such_command' in log.read_text(errors='replace')
+
+
+def test_materials_map_to_per_type_properties() -> None:
+    """Material i -> type i+1; pair matrices row-major; static friction by default."""
+    lines = cmd.materials(_params())
+    assert lines[0].endswith('youngsModulus peratomtype 1700000 210000000000')
+    assert lines[3].endswith('coefficientFriction peratomtypepair 2 0.71 0.4 0.4 0')
+    assert cmd.materials(_params(), 'dynamic')[3].endswith('peratomtypepair 2 0.59 0.3 0.3 0')
+    assert any('coefficientRollingFriction' in x for x in lines)
+    assert not any('cohesionEnergyDensity' in x for x in lines)
+
+
+def test_contact_model_switches_follow_the_effects() -> None:
+    """Rolling resistance and cohesion add epsd2 / sjkr exactly when a coefficient is set."""
+    assert cmd.contact_model(_params(0.0)) == 'model hertz tangential history'
+    assert cmd.contact_model(_params(0.26, 500.0)) == (
+        'model hertz tangential history rolling_friction epsd2 cohesion sjkr')
+    assert cmd.needs_soft(_params())
+
+
+def test_velocity_expression_matches_the_profile() -> None:
+    """The LIGGGHTS speed expression equals SpeedProfile.velocity at every phase."""
+    profile = SpeedProfile.from_distances(1.0, 0.1, 0.6, 0.1)
+    path = ToolPath(profile, (0.0, -0.1, 0.05), offset_m=0.02)
+    expr = velocity_expression(path)
+    for t in np.linspace(0.0, profile.total_time_s - path.start_time_s - 1e-6, 57):
+        got = eval(expr.replace('v_t', repr(float(t))))
+        assert got == pytest.approx(float(profile.velocity(t + path.start_time_s)), abs=1e-9)
+
+
+def test_uniform_layer_becomes_equal_number_bins() -> None:
+    """A uniform +-10 % layer maps to 5 templates with mass fractions ~ d^3 summing to 1."""
+    scene = bundled_scene('tiny')
+    d, w = layer_templates(scene.layers[0], 1.0)
+    assert len(d) == 5 and sum(w) == pytest.approx(1.0)
+    assert min(d) > 0.9 * scene.layers[0].diameter_m and max(d) < 1.1 * scene.layers[0].diameter_m
+    assert np.allclose(np.asarray(w) / np.asarray(d) ** 3, w[0] / d[0] ** 3)
+    plan = fill_plan(scene, 1.0, 0.6)
+    volume = plan.counts[0] * np.pi / 6 * np.mean(np.asarray(d) ** 3)
+    bed = scene.bin.width_x_m * scene.bin.length_z_m * scene.layers[0].thickness_m
+    assert volume == pytest.approx(0.6 * bed, rel=0.01)
+
+
+def test_seeds_are_distinct_primes() -> None:
+    """LIGGGHTS seeds are primes above 10000, distinct, and differ between packing seeds."""
+    a, b = primes_from(1, 6), primes_from(2, 6)
+    assert len(set(a)) == 6 and min(a) > 10000 and not set(a) & set(b)
+    assert all(all(p % k for k in range(2, int(p ** 0.5) + 1)) for p in a)
+
+
+def _write_dump(path: Path) -> None:
+    frame = ('ITEM: TIMESTEP\n{step}\nITEM: NUMBER OF ATOMS\n{n}\nITEM: BOX BOUNDS ff ff ff\n'
+             '0 1\n0 1\n0 1\nITEM: ATOMS id x y z\n{rows}')
+    path.write_text(frame.format(step=0, n=2, rows='7 0.1 0.2 0.3\n3 1 2 3\n')
+                    + frame.format(step=50, n=1, rows='3 4 5 6\n'))
+
+
+def test_dump_reader_keeps_ids_and_marks_lost_particles_nan(tmp_path: Path) -> None:
+    """Frames are laid out by id; an id missing from a frame is NaN there."""
+    _write_dump(tmp_path / 'd.dump')
+    frames = read_dump(tmp_path / 'd.dump')
+    assert [f.step for f in frames] == [0, 50]
+    got = frames_by_id(frames, np.array([3, 7]), ('x', 'y', 'z'))
+    assert np.array_equal(got[0], [[1, 2, 3], [0.1, 0.2, 0.3]])
+    assert np.array_equal(got[1, 0], [4, 5, 6]) and np.isnan(got[1, 1]).all()
+
+
+def test_truncated_dump_and_bad_print_name_the_file(tmp_path: Path) -> None:
+    """A truncated dump or a ragged print file raises DumpError naming the file."""
+    path = tmp_path / 'd.dump'
+    _write_dump(path)
+    path.write_text(path.read_text()[:-8])
+    with pytest.raises(DumpError, match=r'd\.dump: frame at step 50: 0 of 1 atom rows'):
+        read_dump(path)
+    bad = tmp_path / 'p.txt'
+    bad.write_text('# head\n1 2 3\n4 5\n')
+    with pytest.raises(DumpError, match=r'p\.txt: row 2 has 2 columns, expected 3'):
+        read_print(bad, 3)
+
+
+@pytest.mark.liggghts
+def test_tiny_scene_runs_end_to_end_on_liggghts(liggghts: LiggghtsInstall, tmp_path: Path) -> None:
+    """The tiny scene fills, drives the tool its travel and returns 15 tracked markers."""
+    from dempath_sim.liggghts.backend import run_scene_liggghts
+
+    scene = bundled_scene('tiny')
+    result = run_scene_liggghts(scene, tmp_path)
+    assert len(result.marker_numbers) == 15
+    assert np.allclose(np.diff(result.times), scene.output.interval_s)
+    travel = result.tool_position[-1, 2] - result.tool_position[0, 2]
+    assert travel == pytest.approx(scene.tool.travel_m, abs=2e-3)
+    assert np.ptp(result.tool_position[:, :2], axis=0).max() < 1e-9
+    assert np.nanmean(result.draft_force()[1:]) > 0.0  # soil resists the travel
+    fill = result.meta['fill']
+    assert 0.4 < fill['solid_fraction'] < 0.7
+    assert abs(fill['surface_height_m']) < 0.03
