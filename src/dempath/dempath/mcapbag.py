@@ -211,7 +211,9 @@ def _copy_readable(src: Path, dst: McapBagWriter) -> tuple[int, str]:
     count, reason = 0, 'end of file'
     with src.open('rb') as stream:
         try:
-            for record in StreamReader(stream, skip_magic=False, emit_chunks=False).records:
+            reader = StreamReader(stream, skip_magic=False, emit_chunks=False,
+                                  validate_crcs=True)  # a damaged chunk ends the copy
+            for record in reader.records:
                 if isinstance(record, Schema):
                     schemas[record.id] = record
                 elif isinstance(record, Channel) and record.id not in channels:

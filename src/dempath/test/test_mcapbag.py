@@ -120,3 +120,21 @@ def test_output_checks(tmp_path: Path) -> None:
         check_output_dir(blocker / 'bag')
     with pytest.raises(OutputError, match='cannot create the output bag'):
         McapBagWriter('/proc/dempath_test_bag').open()  # even root cannot mkdir in /proc
+
+
+def test_recover_stops_at_a_damaged_chunk(tmp_path: Path) -> None:
+    """A chunk whose CRC does not match ends the recovery; the chunks before it are kept."""
+    sent = serialized_points(9)
+    bag_dir = tmp_path / 'bag'
+    writer = write_points(bag_dir, [sent[:3], sent[3:6], sent[6:]], close=False)
+    data = bytearray(writer.mcap_path.read_bytes())
+    second = data.index(sent[4][1])  # the raw bytes of a message in the second chunk
+    data[second + 40] ^= 0xFF
+    writer.close()
+    (bag_dir / 'metadata.yaml').unlink()
+    writer.mcap_path.write_bytes(bytes(data))  # as a killed recorder with bad disk would leave
+    report = recover_bag(bag_dir)
+    assert report.kept == {'bag_0.mcap': 3}
+    assert 'crc validation failed' in report.stopped_at['bag_0.mcap']
+    with open_bag(bag_dir) as bag:
+        assert [(m.log_time_ns, m.data) for m in bag.messages()] == sent[:3]
