@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 from dempath.errors import DempathError
+from numpy.typing import NDArray
 
 from dempath_recon.errors import ModelFileError, ReconstructionError
 from dempath_recon.methods import METHODS, load_calibration, load_reconstructor, make_reconstructor
@@ -88,7 +89,7 @@ def _save_cameras(cams: Any, path: str) -> None:
     StereoCalibration(cams[0], cams[1], {'source': 'dempath recon-train (resection)'}).save(path)
 
 
-def _read_pixels_csv(path: str) -> tuple[list[dict[str, str]], np.ndarray]:
+def _read_pixels_csv(path: str) -> tuple[list[dict[str, str]], NDArray[np.float64]]:
     try:
         with open(path, newline='') as fh:
             rows = list(csv.DictReader(fh))
@@ -131,8 +132,8 @@ def reconstruct_main(argv: list[str]) -> int:
     return 0
 
 
-def _write_xyz(path: str, rows: list[dict[str, str]], xyz: np.ndarray,
-               sigma: np.ndarray | None) -> None:
+def _write_xyz(path: str, rows: list[dict[str, str]], xyz: NDArray[np.float64],
+               sigma: NDArray[np.float64] | None) -> None:
     extra = ['x', 'y', 'z'] + (['sigma_x', 'sigma_y', 'sigma_z'] if sigma is not None else [])
     with open(path, 'w', newline='') as fh:
         writer = csv.DictWriter(fh, fieldnames=[*rows[0].keys(), *extra])

@@ -79,7 +79,8 @@ def resolve_device(device: str) -> torch.device:
     return torch.device(device)
 
 
-def build_mlp(n_in: int, hidden_sizes: tuple[int, ...], n_out: int, dropout: float) -> nn.Module:
+def build_mlp(n_in: int, hidden_sizes: tuple[int, ...], n_out: int,
+              dropout: float) -> nn.Sequential:
     """Dense network: (Linear -> ReLU -> Dropout) per hidden size, then a linear output layer."""
     layers: list[nn.Module] = []
     width = n_in

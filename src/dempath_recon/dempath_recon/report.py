@@ -22,7 +22,8 @@ from numpy.typing import NDArray
 FloatArray = NDArray[np.float64]
 logger = logging.getLogger(__name__)
 
-PAPER_TABLE5 = {'mean_mm': 2.9, 'sd_mm': 2.7, 'max_mm': 23.9, 'r2': [0.9994, 0.9993, 0.9988]}
+PAPER_TABLE5: dict[str, Any] = {'mean_mm': 2.9, 'sd_mm': 2.7, 'max_mm': 23.9,
+                                'r2': [0.9994, 0.9993, 0.9988]}
 PAPER_N_TOTAL, PAPER_N_TEST = 94_939, 4_149  # samples in the paper's point set / its test set
 
 
@@ -42,7 +43,7 @@ def r2_scores(pred: FloatArray, truth: FloatArray) -> list[float]:
     """Coefficient of determination per axis, ``1 - SS_res / SS_tot`` (scikit-learn's r2_score)."""
     ss_res = ((truth - pred) ** 2).sum(axis=0)
     ss_tot = ((truth - truth.mean(axis=0)) ** 2).sum(axis=0)
-    return (1.0 - ss_res / ss_tot).tolist()
+    return [float(v) for v in 1.0 - ss_res / ss_tot]
 
 
 def error_metrics(pred: FloatArray, truth: FloatArray) -> dict[str, Any]:
@@ -150,7 +151,8 @@ def plot_error_histogram(errors: dict[str, FloatArray], path: str | Path) -> Pat
     finite = np.concatenate([e[np.isfinite(e)] for e in errors.values()])
     bins = np.geomspace(max(finite.min(), 1e-3), finite.max() * 1.01, 60)
     for name, err in errors.items():
-        ax.hist(err[np.isfinite(err)], bins=bins, histtype='step', linewidth=1.5, label=name)
+        ax.hist(err[np.isfinite(err)], bins=bins.tolist(), histtype='step', linewidth=1.5,
+                label=name)
     ax.axvline(PAPER_TABLE5['mean_mm'], color='k', linestyle='--', linewidth=1,
                label='paper MLP mean (2.9 mm)')
     ax.set_xscale('log')

@@ -58,7 +58,7 @@ def resect_linear(xyz: FloatArray, uv: FloatArray) -> FloatArray:
     rows_v = np.hstack([zeros, X, -x[:, 1:2] * X])
     _, _, vt = np.linalg.svd(np.vstack([rows_u, rows_v]), full_matrices=False)
     P = vt[-1].reshape(3, 4)
-    return np.linalg.inv(T2) @ P @ T3
+    return np.asarray(np.linalg.inv(T2) @ P @ T3, dtype=np.float64)
 
 
 def resect_camera(xyz: FloatArray, uv: FloatArray, image_size: tuple[int, int],

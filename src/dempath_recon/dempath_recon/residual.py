@@ -107,6 +107,7 @@ class ResidualReconstructor:
         self.device_ = resolve_device(self.device)
         self.model_ = build_mlp(7, self.hidden_sizes, 3, 0.0)
         last = self.model_[-1]
+        assert isinstance(last, torch.nn.Linear)
         torch.nn.init.zeros_(last.weight)
         torch.nn.init.zeros_(last.bias)
         start = time.perf_counter()

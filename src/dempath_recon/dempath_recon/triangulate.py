@@ -146,7 +146,8 @@ def undistort_normalized(cam: Camera, uv: FloatArray) -> FloatArray:
         criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, UNDISTORT_ITERATIONS,
                     UNDISTORT_EPS)
         und = cv2.undistortPointsIter(uv[ok].reshape(-1, 1, 2), np.asarray(cam.K),
-                                      np.asarray(cam.dist), None, None, criteria)
+                                      np.asarray(cam.dist), None, None,  # type: ignore[call-overload]
+                                      criteria)
         out[ok] = und.reshape(-1, 2)
     return out
 
@@ -225,7 +226,7 @@ def solve3(A: FloatArray, b: FloatArray) -> FloatArray:
     det = np.einsum('ni,ni->n', A[:, 0], c0)
     adj = np.stack([c0, c1, c2], axis=2)  # inverse = adj / det
     with np.errstate(divide='ignore', invalid='ignore'):
-        return np.einsum('nij,nj->ni', adj, b) / det[:, None]
+        return np.asarray(np.einsum('nij,nj->ni', adj, b) / det[:, None], dtype=np.float64)
 
 
 def refine_points(cams: Sequence[Camera], views: FloatArray, xyz: FloatArray,
@@ -243,7 +244,7 @@ def refine_points(cams: Sequence[Camera], views: FloatArray, xyz: FloatArray,
     """
     xyz = xyz.copy()
     ok = np.isfinite(xyz).all(axis=1)
-    seen = np.isfinite(views).all(axis=2)[:, ok]
+    seen: NDArray[np.bool_] = np.all(np.isfinite(views), axis=2)[:, ok]
     obs = np.where(seen[..., None], views[:, ok], 0.0)
     x = xyz[ok]
     for _ in range(iterations):

@@ -45,7 +45,7 @@ def triangulation_covariance(cams: Sequence[Camera], views: FloatArray, xyz: Flo
         (n, 3, 3) covariance [m^2]; NaN where the point is NaN.
     """
     _, jac = projection_jacobian(cams, xyz)
-    seen = np.isfinite(views).all(axis=2)
+    seen: NDArray[np.bool_] = np.all(np.isfinite(views), axis=2)
     w = 1.0 / np.square(np.asarray(sigma_px, dtype=np.float64))
     jac = np.where(seen[..., None, None], np.nan_to_num(jac), 0.0)
     info = np.einsum('cnki,k,cnkj->nij', jac, w, jac)
@@ -78,7 +78,7 @@ def jacobian_covariance(reconstructor: Any, pixels: FloatArray,
         grad[:, :, k] = (reconstructor.predict(pixels + d)
                          - reconstructor.predict(pixels - d)) / (2.0 * step_px)
     s = np.square(np.tile(np.asarray(sigma_px, dtype=np.float64), 2))
-    return np.einsum('nik,k,njk->nij', grad, s, grad)
+    return np.asarray(np.einsum('nik,k,njk->nij', grad, s, grad), dtype=np.float64)
 
 
 def monte_carlo_covariance(reconstructor: Any, pixels: FloatArray,
@@ -90,7 +90,7 @@ def monte_carlo_covariance(reconstructor: Any, pixels: FloatArray,
     draws = np.stack([reconstructor.predict(pixels + rng.normal(size=pixels.shape) * scale)
                       for _ in range(n_samples)])
     centred = draws - draws.mean(axis=0)
-    return np.einsum('snI,snJ->nIJ', centred, centred) / (n_samples - 1)
+    return np.asarray(np.einsum('snI,snJ->nIJ', centred, centred) / (n_samples - 1), float)
 
 
 def propagate(reconstructor: Any, pixels: FloatArray,

@@ -8,6 +8,7 @@ on ``/markers/points3d`` and a visualization_msgs/MarkerArray on ``/markers/visu
 from __future__ import annotations
 
 import sys
+from collections.abc import Callable
 from typing import Any
 
 import rclpy
@@ -58,11 +59,14 @@ class ReconstructorNode(Node):
         self.pub_points = self.create_publisher(MarkerPoints3D, topics.MARKER_POINTS, 10)
         self.pub_viz = self.create_publisher(MarkerArray, topics.MARKER_VIZ, 10)
         for camera, index in zip(topics.CAMERAS, (SIDE, FRONT), strict=True):
-            self.create_subscription(
-                PixelPoints, topics.camera_topic(topics.PIXEL_POINTS, camera),
-                lambda msg, i=index: self.on_pixels(msg, i), 10)
+            self.create_subscription(PixelPoints, topics.camera_topic(topics.PIXEL_POINTS, camera),
+                                     self.callback_for(index), 10)
         self.get_logger().info(f'reconstructing with {self.config.method!r}, '
                                f'slop {self.config.slop_s} s')
+
+    def callback_for(self, camera: int) -> Callable[[PixelPoints], None]:
+        """The subscription callback of camera SIDE (0) or FRONT (1)."""
+        return lambda msg: self.on_pixels(msg, camera)
 
     def on_pixels(self, msg: PixelPoints, camera: int) -> None:
         """Convert, pair, reconstruct, publish; a bad frame is logged and dropped."""
