@@ -13,6 +13,7 @@ from itertools import chain
 from pathlib import Path
 
 import yaml
+from dempath.errors import DempathError
 from tqdm import tqdm
 
 from dempath_calib.board import CALISCOPE_BOARD, PAPER_BOARD, BoardKind, BoardSpec
@@ -98,7 +99,7 @@ def calibrate_main(argv: list[str]) -> int:
         _collect(cal, first, frames, source.count(), args.every)
         result = cal.solve()
         paths = save_result(result, args.out, {'inputs': args.inputs})
-    except CalibrationError as err:
+    except DempathError as err:  # calibration, input, bag and output errors
         print(f'error: {err}', file=sys.stderr)
         return 1
     rep = result.report
@@ -133,6 +134,7 @@ def rig_main(argv: list[str]) -> int:
     p.add_argument('--seed', type=int, default=0)
     p.add_argument('--raw', action='store_true', help='mono8 Image instead of JPEG')
     p.add_argument('--front-delay', type=float, default=0.0, help='front clock delay [s]')
+    p.add_argument('--quality', type=int, default=92, help='JPEG quality (0-100)')
     args = p.parse_args(argv)
     if args.bag is None:
         print(yaml.safe_dump(paper_rig().to_dict(), sort_keys=False))
@@ -144,6 +146,6 @@ def rig_main(argv: list[str]) -> int:
         print(f'error: --views: must be >= 1, got {args.views}', file=sys.stderr)
         return 1
     bag = write_calibration_bag(args.bag, args.views, args.seed, not args.raw,
-                                front_delay_s=args.front_delay)
+                                front_delay_s=args.front_delay, quality=args.quality)
     print(json.dumps({'bag': str(bag), 'truth': str(truth_path(bag))}))
     return 0

@@ -1,11 +1,9 @@
-"""Per-camera detection streams, pairing by timestamp, and the start offset between cameras.
+"""Per-camera detection streams and their pairing by timestamp.
 
 Each camera's frames are detected on their own (a stream of ``(stamp_s, corners)``), so the two
 recordings never need to be read in step. Frames are then paired by time: front stamp + offset
-against side stamp, mutual nearest within a tolerance. When the offset is unknown it is
-estimated from the board's motion seen by both cameras: the board's image speed divided by its
-image size is nearly the same signal in both views, and its cross-correlation peaks at the
-offset.
+against side stamp, mutual nearest within a tolerance, the front corners interpolated to the
+side frame's instant. The unknown offset itself is found by ``calibrator.estimate_offset``.
 """
 
 from __future__ import annotations
@@ -15,8 +13,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
-
-from dempath_calib.errors import CalibrationError
 
 LOG = logging.getLogger(__name__)
 FloatArray = NDArray[np.float64]
@@ -124,68 +120,3 @@ def _mutual_nearest(ta: FloatArray, tb: FloatArray, tol: float) -> list[tuple[in
                     ib - 1, np.minimum(ib, len(ta) - 1))
     return [(i, int(j)) for i, j in enumerate(cand)
             if back[j] == i and abs(tb[j] - ta[i]) <= tol]
-
-
-def motion_signal(stamps: FloatArray, corners: FloatArray) -> FloatArray:
-    """(n,) board image speed over board image size [1/s]; NaN where the board is not seen."""
-    seen = ~np.isnan(corners[..., 0])
-    n = len(stamps)
-    centre = np.full((n, 2), np.nan)
-    size = np.full(n, np.nan)
-    for i in np.flatnonzero(seen.sum(1) >= 4):
-        pts = corners[i, seen[i]]
-        centre[i] = pts.mean(0)
-        size[i] = np.sqrt(np.prod(np.ptp(pts, axis=0)) + 1.0)
-    speed = np.full(n, np.nan)
-    if n > 2:
-        dt = np.gradient(stamps)
-        vel = np.gradient(centre, axis=0) / dt[:, None]
-        speed = np.linalg.norm(vel, axis=1) / size
-    return speed
-
-
-def estimate_offset(side: DetectionStream, front: DetectionStream,
-                    max_offset_s: float = 2.0) -> float:
-    """Start offset to add to the front stamps [s], from the board motion in both cameras.
-
-    Raises:
-        CalibrationError: too few frames with the board in both streams to correlate.
-    """
-    ts, cs = side.arrays()
-    tf, cf = front.arrays()
-    a, b = motion_signal(ts, cs), motion_signal(tf, cf)
-    if np.isfinite(a).sum() < 5 or np.isfinite(b).sum() < 5:
-        msg = 'offset: fewer than 5 frames with a moving board in a camera; give --offset'
-        raise CalibrationError(msg)
-    dt = 0.25 * min(np.median(np.diff(ts)), np.median(np.diff(tf)))
-    grid = np.arange(min(ts[0], tf[0]) - max_offset_s, max(ts[-1], tf[-1]) + max_offset_s, dt)
-    sa = _resample(ts, a, grid)
-    lags = np.arange(-round(max_offset_s / dt), round(max_offset_s / dt) + 1)
-    scores = np.array([_ncc(sa, _resample(tf + lag * dt, b, grid)) for lag in lags])
-    best = int(np.nanargmax(scores))
-    offset = float(lags[best] * dt)
-    if 0 < best < len(lags) - 1 and np.all(np.isfinite(scores[best - 1:best + 2])):
-        y0, y1, y2 = scores[best - 1:best + 2]
-        den = y0 - 2 * y1 + y2
-        offset += float(0.5 * (y0 - y2) / den * dt) if den < 0 else 0.0
-    LOG.info('estimated front-camera offset %.4f s (correlation %.2f)', offset, scores[best])
-    return offset
-
-
-def _resample(t: FloatArray, y: FloatArray, grid: FloatArray) -> FloatArray:
-    ok = np.isfinite(y)
-    out = np.interp(grid, t[ok], y[ok], left=np.nan, right=np.nan)
-    tk = t[ok]
-    idx = np.clip(np.searchsorted(tk, grid), 1, len(tk) - 1)
-    gap = tk[idx] - tk[idx - 1]  # no data across gaps longer than two frame periods
-    out[gap > 2 * np.median(np.diff(t))] = np.nan
-    return out
-
-
-def _ncc(a: FloatArray, b: FloatArray) -> float:
-    ok = np.isfinite(a) & np.isfinite(b)
-    if ok.sum() < 5:
-        return np.nan
-    x, y = a[ok] - a[ok].mean(), b[ok] - b[ok].mean()
-    den = np.sqrt((x * x).sum() * (y * y).sum())
-    return float((x * y).sum() / den) if den > 0 else np.nan

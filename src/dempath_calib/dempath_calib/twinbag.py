@@ -40,7 +40,7 @@ def truth_path(bag: str | Path) -> Path:
 
 
 def image_messages(image: NDArray[np.uint8], camera: str, stamp_ns: int,
-                   compressed: bool) -> tuple[str, str, Any]:
+                   compressed: bool, quality: int = JPEG_QUALITY) -> tuple[str, str, Any]:
     """``(topic, msgtype, rosbags message)`` of one grey image (Jazzy typestore)."""
     store = get_typestore(Stores.ROS2_JAZZY)
     t = store.types
@@ -48,7 +48,7 @@ def image_messages(image: NDArray[np.uint8], camera: str, stamp_ns: int,
         stamp=t['builtin_interfaces/msg/Time'](sec=stamp_ns // 10**9, nanosec=stamp_ns % 10**9),
         frame_id=f'{camera}_optical')
     if compressed:
-        _, buf = cv2.imencode('.jpg', image, [cv2.IMWRITE_JPEG_QUALITY, JPEG_QUALITY])
+        _, buf = cv2.imencode('.jpg', image, [cv2.IMWRITE_JPEG_QUALITY, quality])
         msg = t['sensor_msgs/msg/CompressedImage'](
             header=header, format='mono8; jpeg compressed mono8', data=buf.ravel())
         return (topics.camera_topic(topics.IMAGE_COMPRESSED, camera),
@@ -62,7 +62,7 @@ def image_messages(image: NDArray[np.uint8], camera: str, stamp_ns: int,
 def write_calibration_bag(path: str | Path, n_views: int = 40, seed: int = 0,
                           compressed: bool = True, period_s: float = 0.5,
                           front_delay_s: float = 0.0, rig: StereoCalibration | None = None,
-                          board: BoardSpec = PAPER_BOARD) -> Path:
+                          board: BoardSpec = PAPER_BOARD, quality: int = JPEG_QUALITY) -> Path:
     """Render a twin calibration recording into a new bag and write its truth beside it.
 
     Args:
@@ -74,26 +74,28 @@ def write_calibration_bag(path: str | Path, n_views: int = 40, seed: int = 0,
         front_delay_s: added to the front camera's stamps (an unsynchronised clock) [s].
         rig: true cameras (``paper_rig()`` by default).
         board: the target.
+        quality: JPEG quality (0-100).
 
     Returns:
         The bag folder.
     """
     rig = rig or paper_rig()
     poses = calibration_poses(n_views, seed, rig, board)
-    write_bag(path, _messages(poses, seed, rig, board, compressed, period_s, front_delay_s))
+    write_bag(path, _messages(poses, seed, rig, board, compressed, period_s, front_delay_s,
+                              quality))
     save_truth(truth_path(path), rig, board, poses)
     LOG.info('wrote %d views to %s', n_views, path)
     return Path(path)
 
 
 def _messages(poses: list[BoardPose], seed: int, rig: StereoCalibration, board: BoardSpec,
-              compressed: bool, period_s: float,
-              front_delay_s: float) -> Iterator[tuple[str, str, int, Any]]:
+              compressed: bool, period_s: float, front_delay_s: float,
+              quality: int) -> Iterator[tuple[str, str, int, Any]]:
     for i, images in enumerate(render_views(poses, seed, rig, board)):
         for cam, image in enumerate(images):
             stamp = round((1.0 + i * period_s + (front_delay_s if cam else 0.0)) * 1e9)
             topic, msgtype, msg = image_messages(image, rig.cameras[cam].name, stamp,
-                                                 compressed)
+                                                 compressed, quality)
             yield topic, msgtype, stamp, msg
 
 
