@@ -1,0 +1,149 @@
+"""dempath vs LIGGGHTS 3.8: particle-steps per second on one settled bed with the chisel passing.
+
+Both engines run the same >= 45,000 spheres (the bed of ``bench/dem_engine_speed.py``: 4 mm sand,
+Table 6 parameters, Hertz-Mindlin with history + EPSD2 rolling resistance, steel walls and the
+shipped chisel 40 mm deep moving at 1 m/s), the same time step and the same number of steps, on
+2 cores each: dempath with 2 numba threads, LIGGGHTS with ``mpirun -np 2`` (its loop time, i.e.
+without start-up and file output). Then the cross-engine comparison on a small scene
+(``--cross-scene``, ``--seeds`` packings per engine) gives ``cross_engine_ratio`` (difference of
+the engines / packing-seed spread). Last line: one JSON object.
+
+    .venv/bin/python bench/dem_vs_liggghts.py [--steps 600] [--np 2] [--skip-cross]
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import json
+import logging
+import math
+import tempfile
+from pathlib import Path
+from types import ModuleType
+
+import numba
+import numpy as np
+from dempath_sim.liggghts import commands as cmd
+from dempath_sim.liggghts.install import ensure_liggghts
+from dempath_sim.liggghts.runner import run_deck
+from dempath_sim.state import SimState
+from dempath_sim.stl import read_stl
+
+HERE = Path(__file__).resolve().parent
+log = logging.getLogger('bench')
+
+
+def speed_bench() -> ModuleType:
+    """H2's engine benchmark module (bed, tool insertion, timed dempath run), imported."""
+    spec = importlib.util.spec_from_file_location('dem_engine_speed', HERE / 'dem_engine_speed.py')
+    module = importlib.util.module_from_spec(spec)  # type: ignore[arg-type]
+    spec.loader.exec_module(module)  # type: ignore[union-attr]
+    return module
+
+
+def settled_bed(sb: ModuleType, layers: int, settle_steps: int) -> SimState:
+    """The settled bed, cached in /tmp as dem_engine_speed.py caches it."""
+    cache = Path(f'/tmp/dempath_bench_bed_{layers}_{settle_steps}.npz')
+    if cache.exists():
+        with np.load(cache) as data:
+            return SimState.from_spheres(data['positions'], sb.RADIUS, 0, sb.PARAMS)
+    state = sb.settle(sb.lattice_bed(layers), settle_steps)
+    np.savez(cache, positions=state.positions)
+    return state
+
+
+def write_data(path: Path, state: SimState, lo: np.ndarray, hi: np.ndarray,
+               density: float) -> None:
+    """LIGGGHTS data file (atom_style granular: id type diameter density x y z)."""
+    head = [f'LIGGGHTS data: {state.n} spheres from dempath', '', f'{state.n} atoms',
+            '2 atom types', *(f'{cmd.fmt(lo[k])} {cmd.fmt(hi[k])} {a}lo {a}hi'
+                              for k, a in enumerate('xyz')), '', 'Atoms', '']
+    rows = [f'{k + 1} 1 {cmd.fmt(2 * r)} {cmd.fmt(density)} {p[0]:.9g} {p[1]:.9g} {p[2]:.9g}'
+            for k, (p, r) in enumerate(zip(state.positions, state.radii, strict=True))]
+    path.write_text('\n'.join(head + rows) + '\n')
+
+
+def liggghts_run(sb: ModuleType, state: SimState, tip: np.ndarray, dt: float, steps: int,
+                 nprocs: int, workdir: Path) -> dict[str, float]:
+    """The same bed, tool and steps on LIGGGHTS; particle-steps/s from its loop time."""
+    params = sb.PARAMS
+    tris = read_stl(sb.CHISEL) + tip
+    travel = np.array([0.0, 0.0, 1.0]) * dt * (steps + 40)
+    lo = np.minimum(np.array(sb.BIN_LO), tris.reshape(-1, 3).min(axis=0)) - 0.02
+    hi = np.maximum(np.array(sb.BIN_HI), tris.reshape(-1, 3).max(axis=0) + travel) + 0.02
+    write_data(workdir / 'bed.data', state, lo, hi, params.materials[0].density)
+    cmd.write_ascii_stl(str(workdir / 'tool.stl'), tris.tolist(), 'chisel')
+    walls = [('x', sb.BIN_LO[0]), ('x', sb.BIN_HI[0]), ('y', sb.BIN_LO[1]), ('z', sb.BIN_LO[2]),
+             ('z', sb.BIN_HI[2])]  # box_walls(open_top=True)
+    lines = ['atom_style granular', 'atom_modify map array', 'boundary f f f', 'newton off',
+             'communicate single vel yes', 'units si', 'soft_particles yes',
+             'hard_particles yes', 'read_data bed.data',
+             f'neighbor {cmd.fmt(params.skin * sb.RADIUS)} bin', 'neigh_modify delay 0',
+             *cmd.materials(params), *cmd.pair_style(params), *cmd.gravity(params),
+             f'timestep {cmd.fmt(dt)}', 'fix integr all nve/sphere',
+             *[cmd.plane_wall(f'w{k}', params, a, off, 1) for k, (a, off) in enumerate(walls)],
+             'fix tool all mesh/surface/stress file tool.stl type 2',
+             cmd.mesh_wall('toolwall', params, ['tool']),
+             'fix mv all move/mesh mesh tool linear 0 0 1',
+             'thermo_style custom step atoms ke', 'thermo_modify lost ignore norm no',
+             'thermo 1000', 'run 20', f'run {steps}']
+    (workdir / 'in.bench').write_text('\n'.join(lines) + '\n')
+    out = run_deck(workdir / 'in.bench', nprocs=nprocs)
+    text = out.log_path.read_text(errors='replace')
+    loops = [float(x.split()[3]) for x in text.splitlines() if x.startswith('Loop time of')]
+    atoms = int(text.split('Loop time of')[-1].split('with')[1].split()[0])
+    return {'liggghts_seconds': loops[-1], 'liggghts_particles': atoms,
+            'liggghts_particle_steps_per_s': atoms * steps / loops[-1],
+            'liggghts_nprocs': nprocs}
+
+
+def cross_engine(scene_name: str, seeds: int, nprocs: int, workdir: Path) -> dict[str, object]:
+    """Cross-engine comparison of a small scene (see dempath_sim.validation.cross_engine)."""
+    from dempath_sim.scene import load_scene
+    from dempath_sim.validation.cross_engine import run_cross_engine
+
+    report = run_cross_engine(load_scene(scene_name), list(range(1, seeds + 1)), workdir,
+                              nprocs, cache_dir=workdir / 'packings')
+    return report.summary()
+
+
+def main() -> None:
+    """Run both engines and print the JSON line."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument('--steps', type=int, default=600)
+    parser.add_argument('--layers', type=int, default=20)
+    parser.add_argument('--settle-steps', type=int, default=1500)
+    parser.add_argument('--np', dest='nprocs', type=int, default=2)
+    parser.add_argument('--cross-scene', default='builtin:tiny')
+    parser.add_argument('--seeds', type=int, default=3)
+    parser.add_argument('--skip-cross', action='store_true')
+    args = parser.parse_args()
+    logging.basicConfig(level=logging.INFO, format='%(message)s')
+    ensure_liggghts(install=True)
+    numba.set_num_threads(min(2, numba.config.NUMBA_NUM_THREADS))
+    sb = speed_bench()
+    state, tip = sb.insert_tool(settled_bed(sb, args.layers, args.settle_steps), depth=0.04,
+                                tip_z=0.08)
+    log.info('bed: %d spheres after the tool slot', state.n)
+    work = Path(tempfile.mkdtemp(prefix='dem_vs_liggghts_'))
+    dem = sb.timed_run(state.subset(np.ones(state.n, bool)), tip, args.steps)
+    lig = liggghts_run(sb, state, tip, dem['dt'], args.steps, args.nprocs, work)
+    per_particle = dem['particle_bytes'] + dem['pair_bytes'] * dem['pairs'] / dem['particles']
+    result: dict[str, object] = {
+        'particles': dem['particles'], 'steps': args.steps, 'dt_s': dem['dt'],
+        'dempath_threads': numba.get_num_threads(),
+        'dempath_particle_steps_per_s': dem['particle_steps_per_s'], **lig,
+        'ratio': dem['particle_steps_per_s'] / lig['liggghts_particle_steps_per_s'],
+        'bytes_per_particle': per_particle, 'cross_engine_ratio': math.nan}
+    log.info('dempath %.3g, LIGGGHTS %.3g particle-steps/s, ratio %.2f',
+             dem['particle_steps_per_s'], lig['liggghts_particle_steps_per_s'], result['ratio'])
+    if not args.skip_cross:
+        cross = cross_engine(args.cross_scene, args.seeds, args.nprocs, work / 'cross')
+        result.update({'cross_engine_ratio': cross['cross_engine_ratio'],
+                       'cross_engine': cross, 'cross_scene': args.cross_scene})
+    print(json.dumps(result, default=float))
+
+
+if __name__ == '__main__':
+    main()
