@@ -114,12 +114,15 @@ class Reader:
                 self.fail(other, hint)
         self.fail(key, 'missing required key')
 
+    def maybe_number(self, key: str, low: float, high: float,
+                     low_open: bool = False) -> float | None:
+        """Like :meth:`number` but None when the key is absent or null."""
+        return self.number(key, low, high, None, low_open) if self.has(key) else None
+
     def number(self, key: str, low: float, high: float, default: Any = _REQUIRED,
                low_open: bool = False) -> float:
         """A finite number in [low, high] (or (low, high] with ``low_open``)."""
         value = self.raw(key, default)
-        if value is None:
-            return value  # type: ignore[no-any-return]
         unit = unit_of(key) or '1'
         if isinstance(value, str) and _NUMERAL.match(value.strip()):
             value = float(value)

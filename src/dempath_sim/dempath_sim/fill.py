@@ -281,7 +281,7 @@ def fill_bed(scene: SceneSpec, model: PhysicsModel, params: SimParams,
     if scene.fill.cache and path.is_file():
         return _load_cached(path, params)
     state, settled = pour_and_settle(scene, pour(scene, model, params), params, progress)
-    found = measure(scene, model, state)
+    found: dict[str, Any] = measure(scene, model, state)
     target = scene.fill.bulk_density_target_kg_m3
     within = target is None or abs(found['bulk_density_kg_m3'] - target) <= (
         scene.fill.tolerance * target)

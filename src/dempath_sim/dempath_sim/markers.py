@@ -65,7 +65,7 @@ class MarkerSelection:
 
     def candidates_of(self, number: int) -> NDArray[np.int64]:
         """Ids of the candidates of marker ``number``."""
-        return self.candidate_ids[self.candidate_markers == number]
+        return np.asarray(self.candidate_ids[self.candidate_markers == number], np.int64)
 
 
 def grid_xz(spec: MarkerSpec) -> tuple[NDArray[np.int32], NDArray[np.float64]]:

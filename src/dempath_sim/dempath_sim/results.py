@@ -63,7 +63,7 @@ class SimResult:
     @property
     def marker_numbers(self) -> NDArray[np.int32]:
         """Marker numbers present, ascending."""
-        return np.unique(self.marker_ids[self.roles == ROLE_MARKER])
+        return np.asarray(np.unique(self.marker_ids[self.roles == ROLE_MARKER]), np.int32)
 
     def marker_trajectory(self, number: int) -> F64:
         """(nt, 3) positions [m] of the particle that stands for marker ``number``."""
@@ -75,7 +75,8 @@ class SimResult:
 
     def candidate_ids(self, number: int) -> NDArray[np.int64]:
         """Ids of the candidates of marker ``number``."""
-        return self.ids[(self.roles == ROLE_CANDIDATE) & (self.marker_ids == number)]
+        return np.asarray(self.ids[(self.roles == ROLE_CANDIDATE) & (self.marker_ids == number)],
+                          np.int64)
 
     def draft_force(self) -> F64:
         """(nt,) resistance against travel, -F_z [N]."""

@@ -231,7 +231,7 @@ def drive_tool(drive: _Drive, state: SimState, options: RunOptions) -> SimState:
     """Move the tool to the end of its travel, recording every output interval."""
     t0 = time.monotonic()
     drive.record(state, options)
-    n_frames = math.ceil(drive.end_time_s / (drive.steps_per_frame * float(drive.engine.dt)))
+    n_frames = math.ceil(drive.end_time_s / (drive.steps_per_frame * (drive.engine.dt or 1.0)))
     for _ in range(n_frames):
         if options.stop is not None and options.stop.is_set():
             logger.info('run stopped at t = %.3f s', state.time)

@@ -43,9 +43,8 @@ import yaml
 
 from dempath_sim import profiles
 from dempath_sim._reader import Reader, SceneError
-from dempath_sim.errors import GeometryError
-from dempath_sim.stl import read_stl
 from dempath_sim.effects import Effect, PhysicsModel, all_effects
+from dempath_sim.errors import GeometryError
 from dempath_sim.scene_spec import (
     BinSpec,
     EffectSetting,
@@ -60,6 +59,7 @@ from dempath_sim.scene_spec import (
     ToolSpec,
     base_model,
 )
+from dempath_sim.stl import read_stl
 
 __all__ = [
     'BinSpec', 'EffectSetting', 'FillSpec', 'LayerSpec', 'MarkerSpec', 'MaterialSpec',
@@ -154,8 +154,8 @@ def _read_profile(r: Reader) -> profiles.SpeedProfile:
 def _phase(p: Reader, phase: str, speed: float) -> float:
     """Acceleration magnitude [m/s^2] from ``<phase>_m_s2`` or ``<phase>_distance_m``."""
     rate_key, dist_key = f'{phase}_m_s2', f'{phase}_distance_m'
-    rate = p.number(rate_key, 0.0, 1000.0, None, low_open=True)
-    dist = p.number(dist_key, 0.0, 1000.0, None, low_open=True)
+    rate = p.maybe_number(rate_key, 0.0, 1000.0, low_open=True)
+    dist = p.maybe_number(dist_key, 0.0, 1000.0, low_open=True)
     if rate is None and dist is None:
         p.fail(rate_key, f'give {rate_key} or {dist_key}')
     if dist is not None:
@@ -164,7 +164,8 @@ def _phase(p: Reader, phase: str, speed: float) -> float:
             p.fail(dist_key, f'{dist} m does not match {rate_key} {rate} m/s^2 at '
                              f'{speed} m/s (v^2/2a = {speed**2 / (2 * rate):.4g} m)')
         return rate if rate is not None else from_dist
-    return float(rate)  # type: ignore[arg-type]
+    assert rate is not None
+    return rate
 
 
 def _read_tool(r: Reader, base_dir: Path | None, bin_spec: BinSpec) -> ToolSpec:
@@ -246,13 +247,13 @@ def _read_sections(r: Reader, source: str, base_dir: Path | None) -> dict[str, A
                        bin_r.number('height_y_m', 0.0, 100.0, low_open=True))
     bin_r.finish()
     f, o, s = r.section('fill', False), r.section('output', False), r.section('sim', False)
-    out = dict(
+    out: dict[str, Any] = dict(
         bin=bin_spec, layers=_read_layers(r.raw('layers'), source),
         materials=_read_materials(r.section('materials')),
         effects=read_effects(r.section('effects', required=False)),
         tool=_read_tool(r.section('tool'), base_dir, bin_spec),
         markers=_read_markers(r.section('markers'), bin_spec),
-        fill=FillSpec(f.number('bulk_density_target_kg_m3', 1.0, 30000.0, None),
+        fill=FillSpec(f.maybe_number('bulk_density_target_kg_m3', 1.0, 30000.0),
                       f.number('tolerance', 0.0, 1.0, 0.1, low_open=True),
                       f.number('settle_speed_m_s', 0.0, 10.0, 0.02, low_open=True),
                       f.number('max_settle_time_s', 0.0, 100.0, 3.0, low_open=True),
@@ -260,7 +261,7 @@ def _read_sections(r: Reader, source: str, base_dir: Path | None) -> dict[str, A
         output=OutputSpec(o.number('interval_s', 0.0, 10.0, 0.01, low_open=True),
                           o.number('snapshot_interval_s', 0.0, 100.0, 0.1, low_open=True),
                           o.flag('candidates', True)),
-        sim=NumericsSpec(s.number('time_step_s', 0.0, 0.1, None, low_open=True),
+        sim=NumericsSpec(s.maybe_number('time_step_s', 0.0, 0.1, low_open=True),
                          s.number('rayleigh_safety', 0.0, 1.0, 0.2, low_open=True),
                          s.number('max_overlap_fraction', 0.0, 1.0, 0.3, low_open=True)))
     for sub in (f, o, s):
@@ -281,7 +282,7 @@ def scene_from_dict(data: Any, source: str = '<dict>',
         SceneError: A wrong key, unit, type or value, naming the key.
     """
     r = Reader(data, '', source)
-    head = dict(name=r.text('name'), description=r.text('description', ''),
+    head: dict[str, Any] = dict(name=r.text('name'), description=r.text('description', ''),
                 seed=r.integer('seed', 0, 2**31 - 1, 0))
     sections = _read_sections(r, source, base_dir)
     r.finish()

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import replace
+from typing import Any
 
 from dempath_sim.effects.base import ContactPair, ParameterSpec, PhysicsModel
 
@@ -29,8 +30,9 @@ def set_friction(model: PhysicsModel, pair: str, static: float, dynamic: float,
         raise ValueError(msg)
     field = PAIR_FIELDS[pair]
     current: ContactPair = getattr(model, field)
-    return replace(model, **{field: replace(current, static_friction=static,
-                                              dynamic_friction=dynamic)})
+    changes: dict[str, Any] = {field: replace(current, static_friction=static,
+                                              dynamic_friction=dynamic)}
+    return replace(model, **changes)
 
 
 def apply_values(model: PhysicsModel, pair: str, values: Mapping[str, float],

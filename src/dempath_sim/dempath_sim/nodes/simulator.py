@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import threading
 import time
+from typing import Any
 
 import rclpy
 from dempath.errors import DempathError
@@ -34,7 +35,7 @@ LOG_PERIOD_S = 1.0  # wall time between progress log lines
 class SimulatorNode(Node):
     """Loads the scene of its parameters and runs it once in a worker thread."""
 
-    def __init__(self, **kwargs: object) -> None:
+    def __init__(self, **kwargs: Any) -> None:
         super().__init__('dempath_simulator', **kwargs)
         d = SimulatorConfig()
         self.declare_parameters('', [
