@@ -95,14 +95,14 @@ def replay_and_record(bag: str | Path, output: str | Path, topics: list[str],
         recorder_params: Further recorder parameters (e.g. ``compression``).
     """
     with RosHarness() as harness:
-        recorder = harness.start(RecorderNode, output=str(output), topics=list(topics),
+        recorder = harness.start(RecorderNode, output=str(output), topics=list(topics) or [''],
                                  **recorder_params)
         if recorder.recorder is None:
             return ReplayResult(None, {}, '', False, 0.0)
         stats = recorder.recorder.stats
         start = time.monotonic()
-        player = harness.start(PlayerNode, bag=str(bag), topics=list(topics), rate=float(rate),
-                               wait_for_subscribers=1)
+        player = harness.start(PlayerNode, bag=str(bag), topics=list(topics) or [''],
+                               rate=float(rate), wait_for_subscribers=1)
         for node in (recorder, player) if quiet else ():
             node.get_logger().set_level(LoggingSeverity.WARN)
 
