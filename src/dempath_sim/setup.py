@@ -26,6 +26,8 @@ setup(
         'dempath.commands': [
             'simulate = dempath_sim.cli:simulate_main',
             'effects = dempath_sim.cli:effects_main',
+            'liggghts = dempath_sim.liggghts.cli:liggghts_main',
+            'validate = dempath_sim.validation.cli:validate_main',
         ],
     },
 )
