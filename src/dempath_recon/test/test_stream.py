@@ -85,3 +85,20 @@ def test_config_and_files_are_checked(tmp_path) -> None:
         MarkerStream.from_config(StreamConfig(calibration_file=str(bad)))
     with pytest.raises(ModelFileError, match='not found'):
         MarkerStream.from_config(StreamConfig(method='mlp', model_file=str(tmp_path / 'm.pt')))
+
+
+def test_stream_with_a_learned_model_file(rig, points, tmp_path) -> None:
+    """dlt_residual from its model file: markers within 0.1 mm, sigma from the generic Jacobian."""
+    from dempath_recon.residual import ResidualReconstructor
+
+    model = ResidualReconstructor(epochs=2, random_state=0, device='cpu').fit(
+        points.pixels[:1000], points.xyz[:1000], calibration=rig).save(tmp_path / 'res.pt')
+    cfg = StreamConfig(method='dlt_residual', model_file=str(model),
+                       calibration_file=str(rig.save(tmp_path / 'c.yaml')))
+    frames, truth = marker_frames(rig, 3, seed=5)
+    out = reconstruct_sequence(MarkerStream.from_config(cfg), frames)
+    assert len(out) == 3
+    for k, f in enumerate(out):
+        assert np.abs(f.xyz - truth[k]).max() < 1e-4
+        assert (f.sigma > 0).all() and (f.sigma < 0.01).all()
+        assert np.nanmax(f.reprojection_error) < 0.5
