@@ -12,7 +12,8 @@ are written to a bag in a temporary folder, then played in one process (launch-f
 ``dropped`` adds every frame that was published but not received or not written in all runs.
 The target is >= 100 frames/s with 0 dropped. The last line is one JSON object.
 
-Usage: ``.venv/bin/python bench/bag_throughput.py [--frames N]`` (N per camera, default 100).
+Usage: ``.venv/bin/python bench/bag_throughput.py [--frames N] [--tmp DIR]`` (N frames per
+camera, default 100; the bags, about 2.5 GB at most, go to DIR).
 """
 
 from __future__ import annotations
@@ -78,10 +79,14 @@ def main() -> None:
     """Run every case and print the figures; the last line is the JSON summary."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument('--frames', type=int, default=100, help='frames per camera')
+    parser.add_argument('--tmp', default=None,
+                        help='folder for the bags (default: system temp; /dev/shm leaves the '
+                        'disk out of the figures)')
     args = parser.parse_args()
     figures: dict[str, Any] = {'frames': 2 * args.frames, 'width': WIDTH, 'height': HEIGHT}
     dropped = 0
-    with tempfile.TemporaryDirectory(prefix='dempath-bench-') as tmp:
+    figures['storage'] = args.tmp or tempfile.gettempdir()
+    with tempfile.TemporaryDirectory(prefix='dempath-bench-', dir=args.tmp) as tmp:
         for kind in ('raw', 'jpeg'):
             bag, topics = make_bag(Path(tmp) / kind, args.frames, jpeg=kind == 'jpeg')
             fps, lost = to_subscriber(bag, topics, jpeg=kind == 'jpeg')
