@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import shutil
 import tempfile
 import time
 from pathlib import Path
@@ -67,6 +68,7 @@ def to_recorder(bag: Path, topics: list[str], out: Path, rate: float) -> tuple[f
     published = result.played.total if result.played else 0
     with open_bag(out) as recorded:
         times = [m.log_time_ns for m in recorded.messages()]
+    shutil.rmtree(out)  # keep at most one recorded copy of the frames around
     fps = (len(times) - 1) / ((times[-1] - times[0]) * 1e-9) if len(times) > 1 else 0.0
     dropped = sum(s.dropped for s in result.recorded.values())
     if result.played and rate > 0:
