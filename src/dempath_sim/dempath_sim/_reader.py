@@ -123,17 +123,19 @@ class Reader:
                low_open: bool = False) -> float:
         """A finite number in [low, high] (or (low, high] with ``low_open``)."""
         value = self.raw(key, default)
-        unit = unit_of(key) or '1'
+        unit = unit_of(key) or ''
         if isinstance(value, str) and _NUMERAL.match(value.strip()):
             value = float(value)
         if isinstance(value, bool) or not isinstance(value, int | float):
-            self.fail(key, f'expected a number in {unit} (units are SI, named by the key '
-                           f'suffix), got {value!r}')
+            what = f'a number in {unit}' if unit else 'a number'
+            self.fail(key, f'expected {what} (units are SI, named by the key suffix), '
+                           f'got {value!r}')
         x = float(value)
         bad_low = x <= low if low_open else x < low
         if not math.isfinite(x) or bad_low or x > high:
             bracket = '(' if low_open else '['
-            self.fail(key, f'{x!r} {unit} is out of range {bracket}{low:g}, {high:g}] {unit}')
+            self.fail(key, f'{x!r} {unit} is out of range {bracket}{low:g}, {high:g}] {unit}'
+                      .replace(' ]', ']').replace('  ', ' '))
         return x
 
     def integer(self, key: str, low: int, high: int, default: Any = _REQUIRED) -> int:

@@ -37,6 +37,12 @@ def resolve_scene(text: str) -> SceneSpec:
     raise SceneError(msg)
 
 
+def _error_line(scene: str, err: Exception) -> str:
+    """``error: <input>: <problem>``; scene errors already start with their file."""
+    text = ' '.join(str(err).split())
+    return f'error: {text}' if isinstance(err, SceneError) else f'error: {scene}: {text}'
+
+
 def parse_overrides(items: list[str]) -> dict[str, float]:
     """``['cohesion.energy_density_j_m3=5e4']`` -> ``{'cohesion.energy_density_j_m3': 5e4}``."""
     out = {}
@@ -113,7 +119,7 @@ def simulate_main(argv: list[str]) -> int:
                    'max_draft_force_n': float(max(result.draft_force(), default=0.0))}
         (out / 'summary.json').write_text(json.dumps(summary, indent=2))
     except (DempathError, OSError) as err:
-        print(f'error: {args.scene}: {err}', file=sys.stderr)
+        print(_error_line(args.scene, err), file=sys.stderr)
         return 1
     fill = result.meta['fill']
     print(f"{result.meta['run_id']}: {result.meta['n_particles']} particles, bulk density "
@@ -149,7 +155,7 @@ def effects_main(argv: list[str]) -> int:
     try:
         scene = resolve_scene(args.scene) if args.scene else None
     except DempathError as err:
-        print(f'error: {args.scene}: {err}', file=sys.stderr)
+        print(_error_line(args.scene, err), file=sys.stderr)
         return 1
     rows = effect_rows(scene)
     if args.json:
