@@ -86,13 +86,10 @@ def biased_calibration(tr: tuple[np.ndarray, np.ndarray], te: tuple[np.ndarray, 
     return out
 
 
-def run(args: argparse.Namespace) -> dict[str, Any]:
-    """Fit and score every method; return the JSON summary."""
-    t0 = time.perf_counter()
-    ps = synthetic_point_set(N_SAMPLES, noise_px=args.noise_px, seed=args.seed)
-    gen_s = time.perf_counter() - t0
-    train, test = holdout_split(len(ps), args.seed)
-    tr, te = (ps.pixels[train], ps.xyz[train]), (ps.pixels[test], ps.xyz[test])
+def score_methods(args: argparse.Namespace, tr: tuple[np.ndarray, np.ndarray],
+                  te: tuple[np.ndarray, np.ndarray]) -> tuple[list[Any], dict[str, Any],
+                                                              dict[str, Any]]:
+    """Fit every method not skipped on ``tr`` and score it on ``te``."""
     rows, errors, fitted = [], {}, {}
     mlp_params = {'epochs': args.mlp_epochs, 'random_state': args.seed, 'device': 'auto'}
     plan = [('dlt', {}, 'cameras resected from the training rows; linear, depth re-weighted'),
@@ -109,6 +106,17 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         rows.append(row)
         errors[name] = err
         fitted[name] = est
+    return rows, errors, fitted
+
+
+def run(args: argparse.Namespace) -> dict[str, Any]:
+    """Fit and score every method; return the JSON summary."""
+    t0 = time.perf_counter()
+    ps = synthetic_point_set(N_SAMPLES, noise_px=args.noise_px, seed=args.seed)
+    gen_s = time.perf_counter() - t0
+    train, test = holdout_split(len(ps), args.seed)
+    tr, te = (ps.pixels[train], ps.xyz[train]), (ps.pixels[test], ps.xyz[test])
+    rows, errors, fitted = score_methods(args, tr, te)
     oracle = DLTTriangulator(refine=False).fit(calibration=paper_rig())
     oracle_err = np.linalg.norm(oracle.predict(te[0]) - te[1], axis=1) * 1e3
     best = best_method(rows)

@@ -167,6 +167,22 @@ def train_network(model: nn.Module, X: FloatArray, y: FloatArray, settings: Trai
         return _train(model, X, y, settings, seed, device)
 
 
+def _epoch(model: nn.Module, opt: torch.optim.Optimizer, X: torch.Tensor, y: torch.Tensor,
+           batch_size: int, gen: torch.Generator) -> float:
+    """One pass over reshuffled mini-batches; returns the mean training loss."""
+    model.train()
+    order = torch.randperm(len(X), generator=gen).to(X.device)
+    total = 0.0
+    for i in range(0, len(X), batch_size):
+        idx = order[i:i + batch_size]
+        opt.zero_grad()
+        loss = ((model(X[idx]) - y[idx]) ** 2).mean()
+        loss.backward()
+        opt.step()
+        total += float(loss.detach()) * len(idx)
+    return total / len(X)
+
+
 def _train(model: nn.Module, X: FloatArray, y: FloatArray, settings: TrainSettings,
            seed: int, device: torch.device) -> TrainLog:
     """The loop of :func:`train_network`."""
@@ -179,30 +195,20 @@ def _train(model: nn.Module, X: FloatArray, y: FloatArray, settings: TrainSettin
     perm = torch.randperm(len(X), generator=gen)
     Xt = torch.as_tensor(X, dtype=torch.float32)[perm].to(device)
     yt = torch.as_tensor(y, dtype=torch.float32)[perm].to(device)
-    Xv, yv, Xtr, ytr = Xt[:n_val], yt[:n_val], Xt[n_val:], yt[n_val:]
     model.to(device)
     opt = torch.optim.Adam(model.parameters(), lr=settings.learning_rate)
     log, best, best_state, wait = TrainLog(), float('inf'), copy.deepcopy(model.state_dict()), 0
     for epoch in range(settings.epochs):
         start = time.perf_counter()
-        model.train()
-        order = torch.randperm(len(Xtr), generator=gen).to(device)
-        total = 0.0
-        for i in range(0, len(Xtr), settings.batch_size):
-            idx = order[i:i + settings.batch_size]
-            opt.zero_grad()
-            loss = ((model(Xtr[idx]) - ytr[idx]) ** 2).mean()
-            loss.backward()
-            opt.step()
-            total += float(loss.detach()) * len(idx)
-        log.loss_curve.append(total / len(Xtr))
-        log.validation_curve.append(_mse(model, Xv, yv, settings.batch_size))
+        log.loss_curve.append(_epoch(model, opt, Xt[n_val:], yt[n_val:], settings.batch_size,
+                                     gen))
+        log.validation_curve.append(_mse(model, Xt[:n_val], yt[:n_val], settings.batch_size))
         log.epoch_s.append(time.perf_counter() - start)
-        logger.debug('epoch %d: loss %.3g, val %.3g', epoch + 1, log.loss_curve[-1],
-                     log.validation_curve[-1])
+        logger.info('epoch %d: loss %.3g, validation %.3g, %.1f s', epoch + 1,
+                    log.loss_curve[-1], log.validation_curve[-1], log.epoch_s[-1])
         if log.validation_curve[-1] < best:
-            best, best_state, wait, log.best_epoch = log.validation_curve[-1], \
-                copy.deepcopy(model.state_dict()), 0, epoch + 1
+            best, wait, log.best_epoch = log.validation_curve[-1], 0, epoch + 1
+            best_state = copy.deepcopy(model.state_dict())
         else:
             wait += 1
             if wait >= settings.patience:
