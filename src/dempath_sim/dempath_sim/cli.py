@@ -20,7 +20,7 @@ from typing import Any
 
 from dempath.errors import DempathError
 
-from dempath_sim.effects import all_effects
+from dempath_sim.effects import effect_table
 from dempath_sim.run import Progress, RunOptions, run_scene
 from dempath_sim.scene import SceneError, SceneSpec, bundled_scene, list_bundled_scenes, load_scene
 
@@ -131,19 +131,7 @@ def simulate_main(argv: list[str]) -> int:
 
 def effect_rows(scene: SceneSpec | None) -> list[dict[str, Any]]:
     """One row per effect parameter: effect, on, parameter, unit, low, high, default, value."""
-    rows = []
-    for name, effect in all_effects().items():
-        setting = scene.effects[name] if scene is not None else None
-        for spec in effect.parameters:
-            rows.append({
-                'effect': name, 'description': effect.description,
-                'switchable': effect.switchable,
-                'enabled': setting.enabled if setting else effect.default_enabled,
-                'parameter': spec.name, 'unit': spec.unit, 'low': spec.low, 'high': spec.high,
-                'default': spec.default,
-                'value': setting.values[spec.name] if setting else spec.default,
-                'doc': spec.doc})
-    return rows
+    return effect_table(scene.effects if scene is not None else None)
 
 
 def effects_main(argv: list[str]) -> int:

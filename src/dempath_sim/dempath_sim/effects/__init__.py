@@ -14,12 +14,15 @@ from __future__ import annotations
 
 import importlib
 import pkgutil
+from collections.abc import Mapping
 from functools import cache
 from importlib.metadata import entry_points
+from typing import Any
 
 from dempath_sim.effects.base import ContactPair, Effect, ParameterSpec, PhysicsModel
 
-__all__ = ['ContactPair', 'Effect', 'ParameterSpec', 'PhysicsModel', 'all_effects', 'get_effect']
+__all__ = ['ContactPair', 'Effect', 'ParameterSpec', 'PhysicsModel', 'all_effects',
+           'effect_table', 'get_effect']
 
 ENTRY_POINT_GROUP = 'dempath_sim.effects'
 
@@ -49,3 +52,29 @@ def get_effect(name: str) -> Effect:
         msg = f'unknown effect {name!r}; known: {", ".join(effects)}'
         raise KeyError(msg)
     return effects[name]
+
+
+def effect_table(settings: Mapping[str, Any] | None = None) -> list[dict[str, Any]]:
+    """One row per effect parameter, for tools that enumerate effects (the diagnosis, the CLI).
+
+    Args:
+        settings: ``SceneSpec.effects`` (name -> EffectSetting with ``enabled`` and ``values``)
+            to report a scene's state; None for the defaults.
+
+    Returns:
+        Rows with keys effect, description, switchable, enabled, parameter, unit, low, high,
+        default, value and doc.
+    """
+    rows = []
+    for name, effect in all_effects().items():
+        setting = settings[name] if settings is not None else None
+        for spec in effect.parameters:
+            rows.append({
+                'effect': name, 'description': effect.description,
+                'switchable': effect.switchable,
+                'enabled': setting.enabled if setting else effect.default_enabled,
+                'parameter': spec.name, 'unit': spec.unit, 'low': spec.low, 'high': spec.high,
+                'default': spec.default,
+                'value': setting.values[spec.name] if setting else spec.default,
+                'doc': spec.doc})
+    return rows
