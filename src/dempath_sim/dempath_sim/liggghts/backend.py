@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import NDArray
 
 from dempath_sim.effects import PhysicsModel
 from dempath_sim.fill import PARTICLES, measure, target_solid_fraction
@@ -52,9 +53,9 @@ class SettledBed:
     the step number it ended on."""
 
     step: int
-    ids: np.ndarray
-    positions: np.ndarray
-    radii: np.ndarray
+    ids: NDArray[np.int64]
+    positions: NDArray[np.float64]
+    radii: NDArray[np.float64]
     report: dict[str, float]
     run: RunOutput
 
@@ -89,7 +90,7 @@ def fill_liggghts(scene: SceneSpec, workdir: Path, nprocs: int = 1,
     return SettledBed(frame.step, ids, pos, radii, report, run)
 
 
-def slot_ids(bed: SettledBed, triangles: np.ndarray) -> np.ndarray:
+def slot_ids(bed: SettledBed, triangles: NDArray[np.float64]) -> NDArray[np.int64]:
     """Ids of the particles touching the tool's bounding box at its start (dempath's slot)."""
     flat = triangles.reshape(-1, 3)
     lo, hi = flat.min(axis=0), flat.max(axis=0)
@@ -124,8 +125,26 @@ def tool_path(scene: SceneSpec, model: PhysicsModel, surface_y: float) -> ToolPa
     return ToolPath(profile, (tool.x_m, y, tool.start_z_m), tool.profile_offset_m)
 
 
+def bed_from_packing(scene: SceneSpec, state: SimState, surface_y: float,
+                     workdir: Path) -> SettledBed:
+    """A dempath packing as the LIGGGHTS bed: ``bed.data`` (LIGGGHTS ids = dempath ids + 1)."""
+    model = scene.physics_model()
+    dt0 = scene_time_step(scene, model)
+    dt = scene.output.interval_s / max(1, math.ceil(scene.output.interval_s / dt0))
+    workdir.mkdir(parents=True, exist_ok=True)
+    box = dk.box_bounds(scene, 0.0, 4 * float(state.radii.max()), tool_sweep(scene, model))
+    ids = state.ids.astype(np.int64) + 1
+    dk.write_data(str(workdir / 'bed.data'), ids, state.positions, state.velocities,
+                  state.angular_velocities, state.radii, model.particle_density_kg_m3, 3, box)
+    report = {'surface_height_m': surface_y, 'n_particles': float(state.n), 'dt_s': dt,
+              'from_dempath_packing': 1.0}
+    return SettledBed(0, ids, state.positions.copy(), state.radii.copy(), report,
+                      RunOutput(workdir, workdir / 'bed.data', 0.0, 0.0, 1))
+
+
 def run_scene_liggghts(scene: SceneSpec, workdir: str | Path, nprocs: int = 1,
-                       friction: str = 'static') -> SimResult:
+                       friction: str = 'static',
+                       packing: tuple[SimState, float] | None = None) -> SimResult:
     """Fill, place markers and the tool, run the pass on LIGGGHTS; return the SimResult.
 
     Args:
@@ -133,6 +152,8 @@ def run_scene_liggghts(scene: SceneSpec, workdir: str | Path, nprocs: int = 1,
         workdir: Directory for decks, logs and dumps (kept for inspection).
         nprocs: MPI processes.
         friction: Which dempath friction coefficient LIGGGHTS uses ('static' or 'dynamic').
+        packing: Start from this dempath packing and its surface height [m] instead of a
+            LIGGGHTS fill (tracked ids are then dempath ids + 1).
 
     Raises:
         LiggghtsNotFoundError: LIGGGHTS or mpirun missing.
@@ -141,7 +162,12 @@ def run_scene_liggghts(scene: SceneSpec, workdir: str | Path, nprocs: int = 1,
     """
     workdir = Path(workdir)
     model = scene.physics_model()
-    bed = fill_liggghts(scene, workdir, nprocs, friction)
+    if packing is None:
+        bed = fill_liggghts(scene, workdir, nprocs, friction)
+        read = f'read_restart {dk.FILL_RESTART}'
+    else:
+        bed = bed_from_packing(scene, packing[0], packing[1], workdir)
+        read = 'read_data bed.data'
     sel = select_markers(bed.positions, bed.radii, bed.ids, scene.markers)
     ids, roles, marker_ids = sel.tracked(scene.output.candidates)
     path = tool_path(scene, model, bed.report['surface_height_m'])
@@ -152,15 +178,16 @@ def run_scene_liggghts(scene: SceneSpec, workdir: str | Path, nprocs: int = 1,
     every = round(scene.output.interval_s / dt)
     snap = round(scene.output.snapshot_interval_s / dt)
     duration = path.time_to_travel(scene.tool.travel_m)
-    stage = dk.ToolStage(path, ids, bed.step, slot, duration, dt, every, snap)
+    stage = dk.ToolStage(path, ids, bed.step, slot, duration, dt, every, snap, read)
     params = build_params(scene, model)
     (workdir / 'in.tool').write_text(dk.tool_deck(scene, params, stage, friction))
     run = run_deck(workdir / 'in.tool', nprocs=nprocs)
     return _result(workdir, stage, ids, roles, marker_ids, bed, run, scene)
 
 
-def _result(workdir: Path, stage: dk.ToolStage, ids: np.ndarray, roles: np.ndarray,
-            marker_ids: np.ndarray, bed: SettledBed, run: RunOutput,
+def _result(workdir: Path, stage: dk.ToolStage, ids: NDArray[np.int64],
+            roles: NDArray[np.uint8], marker_ids: NDArray[np.int32], bed: SettledBed,
+            run: RunOutput,
             scene: SceneSpec) -> SimResult:
     frames = read_dump(workdir / dk.TRACKED_DUMP)
     data = frames_by_id(frames, ids, ('x', 'y', 'z', 'vx', 'vy', 'vz'))

@@ -100,9 +100,29 @@ def fill_plan(scene: SceneSpec, coarse_grain: float, solid_fraction: float) -> F
     return FillPlan(tuple(diam), tuple(frac), tuple(counts), tuple(slabs))
 
 
+def write_data(path: str, ids: NDArray[np.int64], positions: NDArray[np.float64],
+               velocities: NDArray[np.float64], omegas: NDArray[np.float64],
+               radii: NDArray[np.float64], density: float, n_types: int,
+               box: tuple[Sequence[float], Sequence[float]]) -> None:
+    """A LIGGGHTS data file of a packing (atom_style granular: id type diameter density x y z;
+    Velocities: id vx vy vz wx wy wz), type 1 for every sphere."""
+    lo, hi = box
+    head = [f'dempath packing of {len(ids)} spheres', '', f'{len(ids)} atoms',
+            f'{n_types} atom types',
+            *(f'{cmd.fmt(lo[k])} {cmd.fmt(hi[k])} {a}lo {a}hi' for k, a in enumerate('xyz')),
+            '', 'Atoms', '']
+    atoms = [f'{i} 1 {2 * r:.9g} {cmd.fmt(density)} {p[0]:.9g} {p[1]:.9g} {p[2]:.9g}'
+             for i, p, r in zip(ids.tolist(), positions, radii, strict=True)]
+    vels = [f'{i} {v[0]:.6g} {v[1]:.6g} {v[2]:.6g} {w[0]:.6g} {w[1]:.6g} {w[2]:.6g}'
+            for i, v, w in zip(ids.tolist(), velocities, omegas, strict=True)]
+    with open(path, 'w') as fh:
+        fh.write('\n'.join([*head, *atoms, '', 'Velocities', '', *vels]) + '\n')
+
+
 def primes_from(seed: int, count: int) -> list[int]:
     """``count`` distinct primes > 10000 derived from ``seed`` (LIGGGHTS wants prime seeds)."""
-    out, n = [], 10007 + 7919 * (seed % 100000)
+    out: list[int] = []
+    n = 10007 + 7919 * (seed % 100000)
     while len(out) < count:
         if n > 1 and all(n % k for k in range(2, math.isqrt(n) + 1)):
             out.append(n)
@@ -212,11 +232,12 @@ def velocity_expression(path: ToolPath) -> str:
     return f'{acc}+{steady}+{dec}'
 
 
-def group_lines(name: str, ids: Sequence[int], per_line: int = 200) -> list[str]:
+def group_lines(name: str, ids: Sequence[int] | NDArray[np.int64],
+                per_line: int = 200) -> list[str]:
     """``group NAME id ...`` split over several lines (a group adds up)."""
-    ids = [int(i) for i in ids]
-    return [f'group {name} id ' + ' '.join(str(i) for i in ids[k:k + per_line])
-            for k in range(0, len(ids), per_line)]
+    ints = [int(i) for i in ids]
+    return [f'group {name} id ' + ' '.join(str(i) for i in ints[k:k + per_line])
+            for k in range(0, len(ints), per_line)]
 
 
 def _slot_lines(ids: NDArray[np.int64]) -> list[str]:
@@ -239,6 +260,7 @@ class ToolStage:
         dt: Time step [s] (divides the output interval).
         output_every: Steps between outputs.
         snapshot_every: Steps between full-bed snapshots (0 = none).
+        read: The command that loads the bed (the fill's restart, or a data file).
     """
 
     path: ToolPath
@@ -249,6 +271,7 @@ class ToolStage:
     dt: float
     output_every: int
     snapshot_every: int
+    read: str = f'read_restart {FILL_RESTART}'
 
 
 def tool_deck(scene: SceneSpec, params: SimParams, stage: ToolStage,
@@ -260,7 +283,7 @@ def tool_deck(scene: SceneSpec, params: SimParams, stage: ToolStage,
              'communicate single vel yes', 'units si']
     lines += ['soft_particles yes'] if cmd.needs_soft(params) else []
     big = 2 * max(max(layer.diameter_m for layer in scene.layers), 1e-3)
-    lines += ['hard_particles yes', f'read_restart {FILL_RESTART}',
+    lines += ['hard_particles yes', stage.read,
               f'neighbor {cmd.fmt(0.3 * big)} bin', 'neigh_modify delay 0',
               *physics(params, stage.dt, friction), *bin_walls(scene, params, 1),
               *_slot_lines(stage.slot_ids),

@@ -25,6 +25,8 @@ def validate_main(argv: list[str]) -> int:
                         help='also compare dempath and LIGGGHTS on this scene')
     parser.add_argument('--seeds', type=int, default=3, help='packing seeds per engine')
     parser.add_argument('--np', dest='nprocs', type=int, default=1, help='LIGGGHTS processes')
+    parser.add_argument('--shared-packing', action='store_true',
+                        help="LIGGGHTS starts from dempath's packing of each seed")
     args = parser.parse_args(argv)
     if args.seeds < 2:
         print(f'error: --seeds: need at least 2 for a spread, got {args.seeds}', file=sys.stderr)
@@ -48,7 +50,8 @@ def validate_main(argv: list[str]) -> int:
         if args.cross_engine and use_liggghts:
             scene = load_scene(args.cross_engine)
             report = run_cross_engine(scene, list(range(1, args.seeds + 1)),
-                                      args.out / 'work' / 'cross', args.nprocs)
+                                      args.out / 'work' / 'cross', args.nprocs,
+                                      shared_packing=args.shared_packing)
             cross = (report, scene.name)
         path = write_report(args.out, use_liggghts, args.quick, cross)
     except DempathError as err:

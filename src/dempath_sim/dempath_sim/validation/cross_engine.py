@@ -126,7 +126,8 @@ def compare(dempath: Sequence[MarkerStats], liggghts: Sequence[MarkerStats],
 
 
 def run_cross_engine(scene: SceneSpec, seeds: Sequence[int], workdir: Path, nprocs: int = 1,
-                     cache_dir: Path | None = None) -> CrossEngineReport:
+                     cache_dir: Path | None = None,
+                     shared_packing: bool = False) -> CrossEngineReport:
     """Run ``scene`` (with ``same_physics``) on both engines for every seed and compare.
 
     Args:
@@ -135,9 +136,13 @@ def run_cross_engine(scene: SceneSpec, seeds: Sequence[int], workdir: Path, npro
         workdir: LIGGGHTS work directories go to ``workdir/liggghts-s<seed>``.
         nprocs: MPI processes for LIGGGHTS.
         cache_dir: dempath packing cache.
+        shared_packing: LIGGGHTS starts from dempath's settled packing of each seed instead of
+            its own fill, so the comparison isolates contact laws and integration from the
+            pour procedure.
     """
+    from dempath_sim.fill import fill_bed
     from dempath_sim.liggghts.backend import run_scene_liggghts
-    from dempath_sim.run import RunOptions, run_scene
+    from dempath_sim.run import RunOptions, build_params, run_scene
 
     base = same_physics(scene)
     columns = scene.markers.columns
@@ -147,6 +152,11 @@ def run_cross_engine(scene: SceneSpec, seeds: Sequence[int], workdir: Path, npro
         logger.info('cross-engine: seed %d on dempath', seed)
         dem.append(marker_statistics(run_scene(s, RunOptions(cache_dir=cache_dir)), columns))
         logger.info('cross-engine: seed %d on LIGGGHTS', seed)
-        lig.append(marker_statistics(
-            run_scene_liggghts(s, workdir / f'liggghts-s{seed}', nprocs), columns))
+        packing = None
+        if shared_packing:
+            model = s.physics_model()
+            state, fill = fill_bed(s, model, build_params(s, model), cache_dir)
+            packing = (state, fill.surface_height_m)
+        lig.append(marker_statistics(run_scene_liggghts(
+            s, workdir / f'liggghts-s{seed}', nprocs, packing=packing), columns))
     return compare(dem, lig, seeds)

@@ -53,7 +53,8 @@ def sphere_pair(radius: float, density: float, youngs: float, poisson: float,
 
 def max_overlap(pair: HertzPair, speed: float) -> float:
     """Largest overlap of an elastic impact at relative speed ``speed`` [m/s] -> [m]."""
-    return (15.0 * pair.m_star * speed ** 2 / (16.0 * pair.e_star * math.sqrt(pair.r_star))) ** 0.4
+    return float((15.0 * pair.m_star * speed ** 2
+                  / (16.0 * pair.e_star * math.sqrt(pair.r_star))) ** 0.4)
 
 
 def contact_time(pair: HertzPair, speed: float) -> float:

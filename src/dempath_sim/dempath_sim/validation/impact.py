@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import NDArray
 
 from dempath_sim.liggghts import commands as cmd
 from dempath_sim.liggghts.runner import run_deck
@@ -99,8 +100,8 @@ def reference_duration(case: ImpactCase) -> float:
     return damped_impact(case.pair, case.speed)[0]
 
 
-def measure(engine: str, case: ImpactCase, times: np.ndarray, gaps: np.ndarray,
-            rel_speed: np.ndarray) -> ImpactResult:
+def measure(engine: str, case: ImpactCase, times: NDArray[np.float64], gaps: NDArray[np.float64],
+            rel_speed: NDArray[np.float64]) -> ImpactResult:
     """Contact duration and restitution from a sampled run.
 
     Args:

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import NDArray
 
 from dempath_sim.liggghts import commands as cmd
 from dempath_sim.liggghts.dumps import read_print
@@ -97,7 +98,7 @@ class InclineResult:
         return abs(self.acceleration - self.case.analytic_acceleration()) / G
 
 
-def fit_acceleration(case: InclineCase, t: np.ndarray, x: np.ndarray) -> float:
+def fit_acceleration(case: InclineCase, t: NDArray[np.float64], x: NDArray[np.float64]) -> float:
     """Second derivative of a quadratic fitted to x(t) for t >= fit_from [m/s^2]."""
     keep = t >= case.fit_from
     return float(2.0 * np.polyfit(t[keep], x[keep], 2)[0])

@@ -135,7 +135,8 @@ def pile_profile(pos: F64, radii: F64, ring: float, sectors: int = 8) -> tuple[F
     n_ring = int(k.max()) + 1
     tops = np.zeros((sectors, n_ring))
     np.maximum.at(tops, (sec, k), pos[:, 1] + radii)
-    return (np.arange(n_ring) + 0.5) * ring, tops.mean(axis=0)
+    centres = np.asarray((np.arange(n_ring) + 0.5) * ring, dtype=np.float64)
+    return centres, np.asarray(tops.mean(axis=0), dtype=np.float64)
 
 
 def repose_angles(engine: str, pos: F64, radii: F64) -> ReposeResult:
