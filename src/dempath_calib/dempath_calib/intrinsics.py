@@ -25,6 +25,7 @@ CELL_NAMES = (('top-left', 'top', 'top-right'), ('left', 'centre', 'right'),
               ('bottom-left', 'bottom', 'bottom-right'))
 MIN_POSE_SPREAD_PX = 3.0  # views whose common corners all move less than this are one pose
 MIN_TILT_SPREAD_DEG = 5.0  # board orientations must differ by at least this much
+MAX_ITER = 100  # Levenberg-Marquardt iterations of cv2.calibrateCamera
 OUTLIER_FACTOR = 3.0  # a view whose RMSE exceeds this many times the median is dropped...
 OUTLIER_FLOOR_PX = 0.5  # ...if its RMSE is also above this [px] (grazing or blurred views)
 
@@ -175,16 +176,21 @@ def calibrate_intrinsics(name: str, corners: FloatArray, board: BoardSpec,
 def _solve(name: str, obj: list[NDArray[np.float32]], img: list[NDArray[np.float32]],
            views: NDArray[np.int64], size: tuple[int, int], k0: FloatArray,
            model: DistortionModel) -> IntrinsicResult:
-    criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 200, 1e-12)
+    criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, MAX_ITER, 1e-10)
     try:
-        rms, k, dist, rvecs, tvecs, _, _, per_view = cv2.calibrateCameraExtended(
+        rms, k, dist, rvecs, tvecs = cv2.calibrateCamera(
             obj, img, size, k0.copy(), np.zeros(5), flags=model.cv_flags, criteria=criteria)
     except cv2.error as err:
         msg = f'{name}: OpenCV calibration failed on {len(views)} views ({err})'
         raise CalibrationError(msg) from err
-    return IntrinsicResult(k, dist.ravel()[:5], float(rms), np.asarray(per_view).ravel(),
-                           views.astype(np.int64), np.array(rvecs).reshape(-1, 3),
-                           np.array(tvecs).reshape(-1, 3))
+    per_view = np.array([
+        np.sqrt(np.mean(np.sum((cv2.projectPoints(o, r, t, k, dist)[0].reshape(-1, 2)
+                                - i.reshape(-1, 2)) ** 2, axis=1)))
+        for o, i, r, t in zip(obj, img, rvecs, tvecs, strict=True)])
+    return IntrinsicResult(np.asarray(k, np.float64), np.asarray(dist, np.float64).ravel()[:5],
+                           float(rms), per_view, views.astype(np.int64),
+                           np.array(rvecs, np.float64).reshape(-1, 3),
+                           np.array(tvecs, np.float64).reshape(-1, 3))
 
 
 def _check_tilt_spread(name: str, rvecs: FloatArray) -> None:

@@ -26,14 +26,18 @@ LOG = logging.getLogger(__name__)
 FloatArray = NDArray[np.float64]
 
 
-def rotate(rvec: FloatArray, pts: FloatArray) -> FloatArray:
-    """Rotate points (m, 3) by rotation vectors (m, 3) (Rodrigues' formula)."""
-    theta = np.linalg.norm(rvec, axis=1, keepdims=True)
-    with np.errstate(invalid='ignore', divide='ignore'):
-        k = np.where(theta > 1e-12, rvec / theta, 0.0)
-    cos, sin = np.cos(theta), np.sin(theta)
-    kxp = np.cross(k, pts)
-    return pts * cos + kxp * sin + k * np.sum(k * pts, axis=1, keepdims=True) * (1 - cos)
+def rotation_matrices(rvec: FloatArray) -> FloatArray:
+    """(k, 3, 3) rotation matrices of rotation vectors (k, 3) (Rodrigues' formula)."""
+    theta = np.linalg.norm(rvec, axis=1)
+    safe = np.where(theta > 1e-12, theta, 1.0)
+    k = rvec / safe[:, None]
+    kx = np.zeros((len(rvec), 3, 3))
+    kx[:, 0, 1], kx[:, 0, 2], kx[:, 1, 2] = -k[:, 2], k[:, 1], -k[:, 0]
+    kx[:, 1, 0], kx[:, 2, 0], kx[:, 2, 1] = k[:, 2], -k[:, 1], k[:, 0]
+    s, c = np.sin(theta)[:, None, None], np.cos(theta)[:, None, None]
+    out = np.eye(3)[None] + s * kx + (1 - c) * (kx @ kx)
+    out[theta <= 1e-12] = np.eye(3)
+    return out
 
 
 def distort_project(pc: FloatArray, intr: FloatArray) -> FloatArray:
@@ -70,10 +74,12 @@ class _Problem:
         return intr, rel, poses
 
     def residuals(self, x: FloatArray, base: FloatArray) -> FloatArray:
+        """(2m,) reprojection residuals [px] of every observation."""
         intr, rel, poses = self.unpack(x, base)
-        p = rotate(poses[self.frame, :3], self.obj) + poses[self.frame, 3:]
+        rot = rotation_matrices(poses[:, :3])[self.frame]
+        p = np.einsum('mij,mj->mi', rot, self.obj) + poses[self.frame, 3:]
         front = self.cam == 1
-        p[front] = rotate(np.repeat(rel[None, :3], front.sum(), 0), p[front]) + rel[3:]
+        p[front] = p[front] @ rotation_matrices(rel[None, :3])[0].T + rel[3:]
         return (distort_project(p, intr[self.cam]) - self.uv).ravel()
 
     def jacobian(self, x: FloatArray, base: FloatArray, r0: FloatArray) -> csr_matrix:
@@ -203,7 +209,7 @@ def _pose_inits(corners: FloatArray, board: BoardSpec, intr: list[IntrinsicResul
             if seen.sum() < min_corners:
                 continue
             ok, rvec, tvec = cv2.solvePnP(obj[seen], corners[i, c, seen], intr[c].K,
-                                          intr[c].dist, flags=cv2.SOLVEPNP_ITERATIVE)
+                                          intr[c].dist, flags=cv2.SOLVEPNP_IPPE)
             if ok and tvec[2, 0] > 0:
                 used[i, c] = True
                 poses[i, c] = np.concatenate([rvec.ravel(), tvec.ravel()])
