@@ -89,7 +89,9 @@ class ReposeCase:
         rng = np.random.default_rng(self.seed)
         d_max = self.particle_diameter * (1 + self.spread)
         a = 1.05 * d_max
-        reach = self.diameter / 2 - d_max / 2
+        # Keep centre + jitter + radius inside the tube: jitter <= 0.9 (a - d_min) / 2 per axis.
+        jitter = 0.9 * (a - self.particle_diameter * (1 - self.spread)) / 2
+        reach = self.diameter / 2 - d_max / 2 - math.sqrt(2) * jitter
         g = np.arange(-reach, reach + 1e-12, a)
         xs, ys, zs = np.meshgrid(g, np.arange(d_max / 2, self.fill_height, a), g,
                                  indexing='ij')
