@@ -24,6 +24,7 @@ from types import ModuleType
 
 import numba
 import numpy as np
+
 from dempath_sim.liggghts import commands as cmd
 from dempath_sim.liggghts.install import ensure_liggghts
 from dempath_sim.liggghts.runner import run_deck

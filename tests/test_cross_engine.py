@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
 from dempath_sim.liggghts.errors import LiggghtsNotFoundError
 from dempath_sim.liggghts.install import LiggghtsInstall, ensure_liggghts
 from dempath_sim.scene import bundled_scene

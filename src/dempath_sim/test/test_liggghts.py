@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
 from dempath_sim.liggghts import commands as cmd
 from dempath_sim.liggghts.deck import fill_plan, layer_templates, primes_from, velocity_expression
 from dempath_sim.liggghts.dumps import frames_by_id, read_dump, read_print
@@ -150,3 +151,30 @@ def test_tiny_scene_runs_end_to_end_on_liggghts(liggghts: LiggghtsInstall, tmp_p
     fill = result.meta['fill']
     assert 0.4 < fill['solid_fraction'] < 0.7
     assert abs(fill['surface_height_m']) < 0.03
+
+
+@pytest.mark.liggghts
+def test_packing_data_file_round_trips_through_liggghts(liggghts: LiggghtsInstall,
+                                                        tmp_path: Path) -> None:
+    """A dempath packing written as a data file is read by LIGGGHTS with ids, sizes, positions."""
+    from dempath_sim.liggghts.deck import write_data
+
+    rng = np.random.default_rng(3)
+    ids = np.arange(1, 11, dtype=np.int64) * 7
+    pos = rng.uniform(0.0, 0.1, (10, 3))
+    radii = rng.uniform(0.001, 0.002, 10)
+    vel = rng.normal(0.0, 0.1, (10, 3))
+    write_data(str(tmp_path / 'bed.data'), ids, pos, vel, np.zeros((10, 3)), radii, 1734.0, 3,
+               ((-0.1, -0.1, -0.1), (0.2, 0.2, 0.2)))
+    deck = tmp_path / 'in.read'
+    deck.write_text('\n'.join([
+        'atom_style granular', 'atom_modify map array', 'boundary f f f', 'newton off',
+        'units si', 'read_data bed.data',
+        'write_dump all custom out.dump id x y z vx vy vz radius mass', '']))
+    run_deck(deck, install=liggghts)
+    frame = read_dump(tmp_path / 'out.dump')[0]
+    got = frames_by_id([frame], ids, ('x', 'y', 'z', 'vx', 'vy', 'vz', 'radius', 'mass'))[0]
+    assert np.allclose(got[:, :3], pos, atol=1e-8)
+    assert np.allclose(got[:, 3:6], vel, atol=1e-6)
+    assert np.allclose(got[:, 6], radii, rtol=1e-6)
+    assert np.allclose(got[:, 7], 1734.0 * 4 / 3 * np.pi * radii ** 3, rtol=1e-5)

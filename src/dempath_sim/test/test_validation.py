@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+
 from dempath_sim.liggghts.errors import LiggghtsNotFoundError
 from dempath_sim.liggghts.install import LiggghtsInstall, ensure_liggghts
 from dempath_sim.validation.energy import EnergyCase, energy_dempath, energy_liggghts
