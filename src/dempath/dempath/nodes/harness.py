@@ -67,7 +67,7 @@ class RosHarness:
         return node
 
     def start(self, node_class: Callable[..., N], **parameters: Any) -> N:
-        """Build ``node_class(context=..., parameter_overrides=...)`` and put it on the executor."""
+        """Build ``node_class(context=..., parameter_overrides=...)``; put it on the executor."""
         overrides = [Parameter(name, value=value) for name, value in parameters.items()]
         return self.add(node_class(context=self.context, parameter_overrides=overrides))
 
