@@ -139,10 +139,11 @@ class CornerDetector:
         Returns:
             (n_corners, 2) px corner positions, NaN where a corner was not found.
         """
-        grey = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+        grey = np.asarray(image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY),
+                          np.uint8)
         if self.board.inverted:
             grey = 255 - grey
-        out = np.full((self.board.n_corners, 2), np.nan)
+        out: FloatArray = np.full((self.board.n_corners, 2), np.nan)
         if self._charuco is None:
             return self._detect_chessboard(grey, out)
         corners, ids, _, _ = self._charuco.detectBoard(grey)

@@ -254,11 +254,13 @@ def calibrate_detections(corners: FloatArray, stamps: FloatArray, config: Calibr
     points = _point_set(st, corners, board, calib)
     report = _report(intr, st, calib, corners, board, world_frames, len(points))
     calib.info.update({k: report[k] for k in ('rmse_px', 'views', 'corner_spacing')})
-    return CalibrationResult(calib, intr, st, stamps, corners, world_frames, points, report)
+    return CalibrationResult(calib, (intr[0], intr[1]), st, stamps, corners, world_frames, points,
+                             report)
 
 
 def _pose_matrix(rvec: FloatArray, tvec: FloatArray) -> tuple[FloatArray, FloatArray]:
-    return cv2.Rodrigues(np.asarray(rvec, dtype=np.float64))[0], np.asarray(tvec, np.float64)
+    rot = np.asarray(cv2.Rodrigues(np.asarray(rvec, dtype=np.float64))[0], np.float64)
+    return rot, np.asarray(tvec, np.float64)
 
 
 def _world_cameras(st: StereoResult, corners: FloatArray, config: CalibrationConfig

@@ -14,7 +14,7 @@ from typing import Any
 
 import cv2
 import numpy as np
-import yaml
+import yaml  # type: ignore[import-untyped]
 from numpy.typing import NDArray
 
 from dempath_calib.errors import CalibrationFileError
@@ -67,7 +67,7 @@ class CameraModel:
     @property
     def rvec(self) -> FloatArray:
         """(3,) Rodrigues vector of ``R``."""
-        return cv2.Rodrigues(self.R)[0].ravel()
+        return np.asarray(cv2.Rodrigues(self.R)[0], np.float64).ravel()
 
     @property
     def center(self) -> FloatArray:
@@ -95,8 +95,8 @@ class CameraModel:
         pts = np.asarray(xyz, dtype=np.float64).reshape(-1, 3)
         if len(pts) == 0:
             return np.zeros((0, 2))
-        uv, _ = cv2.projectPoints(pts, self.rvec, self.t, self.K, self.dist)
-        uv = uv.reshape(-1, 2)
+        proj, _ = cv2.projectPoints(pts, self.rvec, self.t, self.K, self.dist)
+        uv = np.asarray(proj, np.float64).reshape(-1, 2)
         uv[self.to_camera(pts)[:, 2] <= 0] = np.nan
         return uv
 
@@ -114,9 +114,9 @@ class CameraModel:
         if len(pts) == 0:
             return np.zeros((0, 2))
         criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 50, 1e-12)
-        out = cv2.undistortPointsIter(pts, self.K, self.dist, None,
+        out = cv2.undistortPointsIter(pts, self.K, self.dist, None,  # type: ignore[call-overload]
                                       None if normalized else self.K, criteria)
-        return out.reshape(-1, 2)
+        return np.asarray(out, np.float64).reshape(-1, 2)
 
     def with_pose(self, rot: FloatArray, t: FloatArray) -> CameraModel:
         """Copy with another world->camera pose."""

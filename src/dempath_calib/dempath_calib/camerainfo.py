@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
+import yaml  # type: ignore[import-untyped]
 
 from dempath_calib.camera import CameraModel
 from dempath_calib.errors import CalibrationFileError

@@ -12,10 +12,10 @@ from dataclasses import replace
 from itertools import chain
 from pathlib import Path
 
-import yaml
-from dempath.errors import DempathError
+import yaml  # type: ignore[import-untyped]
 from tqdm import tqdm
 
+from dempath.errors import DempathError
 from dempath_calib.board import CALISCOPE_BOARD, PAPER_BOARD, BoardKind, BoardSpec
 from dempath_calib.calibrator import CalibrationConfig, Calibrator
 from dempath_calib.errors import CalibrationError

@@ -89,7 +89,7 @@ def usable_views(corners: FloatArray, board: BoardSpec, min_corners: int) -> NDA
     for i in np.flatnonzero(ok):
         cols, rows = ids[found[i]] % nx, ids[found[i]] // nx
         ok[i] = len(np.unique(cols)) >= 2 and len(np.unique(rows)) >= 2
-    return ok
+    return np.asarray(ok, bool)
 
 
 def coverage(corners: FloatArray, size: tuple[int, int]) -> NDArray[np.int64]:

@@ -13,8 +13,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from dempath.errors import OutputError
 
+from dempath.errors import OutputError
 from dempath_calib.calibrator import CalibrationResult
 from dempath_calib.camerainfo import write_camera_info
 from dempath_calib.pointset import save_point_set

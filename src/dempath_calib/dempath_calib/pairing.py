@@ -98,7 +98,7 @@ def pair_frames(side: DetectionStream, front: DetectionStream, offset_s: float =
 def _front_at(t: float, j: int, tf: FloatArray, cf: FloatArray) -> FloatArray:
     """Front corners at time ``t``: frame ``j`` if simultaneous, else interpolated."""
     if abs(tf[j] - t) <= EXACT_S or len(tf) < 2:
-        return cf[j]
+        return np.asarray(cf[j], np.float64)
     k = j if tf[j] <= t else j - 1
     if k < 0 or k + 1 >= len(tf):
         return np.full_like(cf[j], np.nan)
@@ -106,7 +106,7 @@ def _front_at(t: float, j: int, tf: FloatArray, cf: FloatArray) -> FloatArray:
     if tf[k + 1] - tf[k] > 1.5 * period:
         return np.full_like(cf[j], np.nan)
     a = (t - tf[k]) / (tf[k + 1] - tf[k])
-    return (1 - a) * cf[k] + a * cf[k + 1]
+    return np.asarray((1 - a) * cf[k] + a * cf[k + 1], np.float64)
 
 
 def _mutual_nearest(ta: FloatArray, tb: FloatArray, tol: float) -> list[tuple[int, int]]:

@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from dempath_calib.errors import CalibrationFileError
 
@@ -46,8 +46,8 @@ class PointSet(NamedTuple):
         return PointSet(self.pixels[mask], self.xyz[mask], self.view[mask], self.corner_id[mask])
 
 
-def make_point_set(pixels: NDArray[np.float64], xyz: NDArray[np.float64],
-                   view: NDArray[np.int64], corner_id: NDArray[np.int64]) -> PointSet:
+def make_point_set(pixels: ArrayLike, xyz: ArrayLike, view: ArrayLike,
+                   corner_id: ArrayLike) -> PointSet:
     """Build a PointSet with checked shapes and dtypes.
 
     Raises:

@@ -184,14 +184,14 @@ def _expose(radiance: NDArray[np.float32], cond: FrameConditions,
     light = cond.gain * (1 + gx * (np.arange(w, dtype=np.float32) / w - 0.5))[None, :] \
         * (1 + gy * (np.arange(h, dtype=np.float32) / h - 0.5))[:, None]
     img = 235.0 * radiance * light
-    img = cv2.GaussianBlur(img, (0, 0), cond.blur_sigma_px)
+    img = np.asarray(cv2.GaussianBlur(img, (0, 0), cond.blur_sigma_px), np.float32)
     if cond.motion_px > 0:
         n = int(np.ceil(cond.motion_px)) | 1
         kernel = np.zeros((n, n), np.float32)
         c = n // 2
         dx, dy = np.cos(cond.motion_angle_rad) * c, np.sin(cond.motion_angle_rad) * c
         cv2.line(kernel, (round(c - dx), round(c - dy)), (round(c + dx), round(c + dy)), 1.0)
-        img = cv2.filter2D(img, -1, kernel / kernel.sum())
+        img = np.asarray(cv2.filter2D(img, -1, kernel / kernel.sum()), np.float32)
     sigma = np.sqrt(cond.noise_dn ** 2 + 0.05 * np.maximum(img, 0))
     img = img + sigma * rng.standard_normal(img.shape, dtype=np.float32)
     return np.clip(np.rint(img), 0, 255).astype(np.uint8)

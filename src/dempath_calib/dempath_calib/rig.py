@@ -82,4 +82,4 @@ def paper_rig() -> StereoCalibration:
 def sample_working_volume(n: int, rng: np.random.Generator) -> FloatArray:
     """(n, 3) points drawn uniformly in the working volume [m]."""
     lo, hi = WORKING_VOLUME
-    return lo + (hi - lo) * rng.random((n, 3))
+    return np.asarray(lo + (hi - lo) * rng.random((n, 3)), np.float64)

@@ -16,11 +16,11 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-from dempath.bagio import open_bag
-from dempath.errors import BagError
 from numpy.typing import NDArray
 
 from dempath import topics
+from dempath.bagio import open_bag
+from dempath.errors import BagError
 from dempath_calib.errors import InputSourceError
 
 LOG = logging.getLogger(__name__)
@@ -37,7 +37,7 @@ def decode_image(msgtype: str, msg: object, where: str) -> NDArray[np.uint8]:
         if img is None:
             msg_ = f'{where}: cannot decode compressed image ({msg.format!r})'  # type: ignore[attr-defined]
             raise InputSourceError(msg_)
-        return img
+        return np.asarray(img, np.uint8)
     enc = str(msg.encoding).lower()  # type: ignore[attr-defined]
     h, w, step = int(msg.height), int(msg.width), int(msg.step)  # type: ignore[attr-defined]
     channels = {'mono8': 1, '8uc1': 1, 'bgr8': 3, 'rgb8': 3, 'bgra8': 4, 'rgba8': 4}.get(enc)
@@ -49,7 +49,7 @@ def decode_image(msgtype: str, msg: object, where: str) -> NDArray[np.uint8]:
         return np.ascontiguousarray(img[..., 0])
     code = {('bgr8', 3): cv2.COLOR_BGR2GRAY, ('rgb8', 3): cv2.COLOR_RGB2GRAY,
             ('bgra8', 4): cv2.COLOR_BGRA2GRAY, ('rgba8', 4): cv2.COLOR_RGBA2GRAY}[(enc, channels)]
-    return cv2.cvtColor(np.ascontiguousarray(img), code)
+    return np.asarray(cv2.cvtColor(np.ascontiguousarray(img), code), np.uint8)
 
 
 @dataclass(frozen=True)
@@ -131,7 +131,7 @@ class VideoSource:
                     stamp = self.stamps[cam][i]
                 else:
                     stamp = i / fps
-                yield cam, stamp, cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)
+                yield cam, stamp, np.asarray(cv2.cvtColor(img, cv2.COLOR_BGR2GRAY), np.uint8)
                 i += 1
             cap.release()
             if i == 0:
@@ -202,7 +202,7 @@ class FolderSource:
                 if img is None:
                     LOG.warning('%s: unreadable image, skipped', f)
                     continue
-                yield cam, stamps.get(f.name, i / self.fps), img
+                yield cam, stamps.get(f.name, i / self.fps), np.asarray(img, np.uint8)
 
 
 def _images(folder: Path) -> list[Path]:

@@ -37,7 +37,7 @@ def rotation_matrices(rvec: FloatArray) -> FloatArray:
     s, c = np.sin(theta)[:, None, None], np.cos(theta)[:, None, None]
     out = np.eye(3)[None] + s * kx + (1 - c) * (kx @ kx)
     out[theta <= 1e-12] = np.eye(3)
-    return out
+    return np.asarray(out, np.float64)
 
 
 def distort_project(pc: FloatArray, intr: FloatArray) -> FloatArray:
@@ -103,8 +103,8 @@ class _Problem:
         for k in range(6):
             groups.append((np.array([n_i + k]), front, np.full(len(front), n_i + k)))
         for k in range(6):
-            cols = n_i + 6 + 6 * np.arange(self.n_frames) + k
-            groups.append((cols, rows_all, n_i + 6 + 6 * frame2 + k))
+            frame_cols = n_i + 6 + 6 * np.arange(self.n_frames) + k
+            groups.append((frame_cols, rows_all, n_i + 6 + 6 * frame2 + k))
         data, rr, cc = [], [], []
         for cols, rows, row_cols in groups:
             step = self.FD_STEP * np.maximum(1.0, np.abs(x[cols]))
@@ -226,19 +226,21 @@ def _relative_pose(poses: FloatArray, shared: NDArray[np.bool_]) -> FloatArray:
     """(6,) median side->front pose over the frames both cameras see."""
     rels = []
     for i in np.flatnonzero(shared):
-        rs, rf = cv2.Rodrigues(poses[i, 0, :3])[0], cv2.Rodrigues(poses[i, 1, :3])[0]
+        rs = np.asarray(cv2.Rodrigues(poses[i, 0, :3])[0], np.float64)
+        rf = np.asarray(cv2.Rodrigues(poses[i, 1, :3])[0], np.float64)
         r = rf @ rs.T
         t = poses[i, 1, 3:] - r @ poses[i, 0, 3:]
-        rels.append(np.concatenate([cv2.Rodrigues(r)[0].ravel(), t]))
-    return np.median(np.array(rels), axis=0)
+        rels.append(np.concatenate([np.asarray(cv2.Rodrigues(r)[0]).ravel(), t]))
+    return np.asarray(np.median(np.array(rels), axis=0), np.float64)
 
 
 def _compose(rel: FloatArray, front_pose: FloatArray) -> FloatArray:
     """Board->side pose from board->front and side->front (6,)."""
-    r_rel = cv2.Rodrigues(rel[:3])[0]
-    r_f = cv2.Rodrigues(front_pose[:3])[0]
-    r_s = r_rel.T @ r_f
-    return np.concatenate([cv2.Rodrigues(r_s)[0].ravel(), r_rel.T @ (front_pose[3:] - rel[3:])])
+    r_rel = np.asarray(cv2.Rodrigues(rel[:3])[0], np.float64)
+    r_f = np.asarray(cv2.Rodrigues(front_pose[:3])[0], np.float64)
+    r_s = np.asarray(r_rel.T @ r_f, np.float64)
+    rvec = np.asarray(cv2.Rodrigues(r_s)[0], np.float64).ravel()
+    return np.concatenate([rvec, r_rel.T @ (front_pose[3:] - rel[3:])])
 
 
 def bundle_adjust(corners: FloatArray, board: BoardSpec, intr: list[IntrinsicResult],
@@ -267,7 +269,7 @@ def bundle_adjust(corners: FloatArray, board: BoardSpec, intr: list[IntrinsicRes
                f'(>= {min_corners} corners each), need {min_shared}: '
                f'{min_shared - int(shared.sum())} more in the shared field of view')
         raise NotEnoughViewsError(msg)
-    rel = _relative_pose(pnp, shared)
+    rel = _relative_pose(pnp, np.asarray(shared, bool))
     frames = np.flatnonzero(used.any(1))
     init = np.array([pnp[i, 0] if used[i, 0] else _compose(rel, pnp[i, 1]) for i in frames])
     prob = _tables(corners, board, used, frames, free)

@@ -13,7 +13,7 @@ import logging
 from collections.abc import Iterator
 from itertools import pairwise
 from pathlib import Path
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import cv2
 import numpy as np
@@ -150,7 +150,8 @@ def render_views(poses: list[BoardPose], seed: int = 0, rig: StereoCalibration |
         yield tuple(images)
 
 
-def truth_dict(rig: StereoCalibration, board: BoardSpec, poses: list[BoardPose]) -> dict:
+def truth_dict(rig: StereoCalibration, board: BoardSpec,
+               poses: list[BoardPose]) -> dict[str, Any]:
     """JSON-ready truth of a twin recording (cameras, board, poses)."""
     return {'rig': rig.to_dict(),
             'board': {'columns': board.columns, 'rows': board.rows,

@@ -13,11 +13,11 @@ from typing import Any
 
 import cv2
 import numpy as np
-from dempath.bagio import write_bag
 from numpy.typing import NDArray
 from rosbags.typesys import Stores, get_typestore
 
 from dempath import topics
+from dempath.bagio import write_bag
 from dempath_calib.board import PAPER_BOARD, BoardSpec
 from dempath_calib.camera import StereoCalibration
 from dempath_calib.rig import paper_rig
@@ -119,7 +119,7 @@ def write_twin_videos(folder: str | Path, n_keys: int = 6, steps: int = 12, seed
     poses = smooth_poses(keys, steps)
     paths = (folder / 'cam_side.mp4', folder / 'cam_front.mp4')
     size = (round(rig.side.width * scale), round(rig.side.height * scale))
-    writers = [cv2.VideoWriter(str(p), cv2.VideoWriter_fourcc(*'mp4v'), fps, size)
+    writers = [cv2.VideoWriter(str(p), cv2.VideoWriter.fourcc(*'mp4v'), fps, size)
                for p in paths]
     for i, images in enumerate(render_views(poses, seed, rig)):
         for cam, img in enumerate(images):

@@ -61,7 +61,7 @@ def neighbour_distances(calib: StereoCalibration, corners: FloatArray,
     xyz = xyz.reshape(n, k, 3)
     pairs = board.neighbour_pairs()
     d = np.linalg.norm(xyz[:, pairs[:, 0]] - xyz[:, pairs[:, 1]], axis=2).ravel()
-    return d[np.isfinite(d)]
+    return np.asarray(d[np.isfinite(d)], np.float64)
 
 
 def distance_summary(d: FloatArray, true_m: float) -> dict[str, float]:

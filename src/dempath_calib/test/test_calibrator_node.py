@@ -7,14 +7,14 @@ from typing import Any
 
 import cv2
 import numpy as np
-from dempath_calib.nodes.calibrator import CalibratorNode
-from dempath_calib.rig import paper_rig
-from dempath_calib.twin import calibration_poses, render_views
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import CameraInfo, CompressedImage
 from std_srvs.srv import Trigger
 
 from dempath import topics
+from dempath_calib.nodes.calibrator import CalibratorNode
+from dempath_calib.rig import paper_rig
+from dempath_calib.twin import calibration_poses, render_views
 
 N_VIEWS = 16
 K_REL_TOL = 0.01  # fx, fy within 1% with this few views

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
 from dempath_calib.camera import CameraModel, StereoCalibration
 from dempath_calib.camerainfo import read_camera_info, write_camera_info
 from dempath_calib.errors import CalibrationFileError

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+
 from dempath_calib.board import PAPER_BOARD, BoardKind, CornerDetector
 from dempath_calib.render import BoardRenderer, FrameConditions, board_texture
 from dempath_calib.rig import paper_rig

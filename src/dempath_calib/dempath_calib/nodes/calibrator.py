@@ -13,8 +13,6 @@ import time
 from typing import Any
 
 import rclpy
-from dempath.errors import DempathError
-from dempath.rosenv import apply_ros_defaults
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
@@ -23,6 +21,8 @@ from sensor_msgs.msg import CameraInfo, CompressedImage, Image
 from std_srvs.srv import Trigger
 
 from dempath import topics
+from dempath.errors import DempathError
+from dempath.rosenv import apply_ros_defaults
 from dempath_calib.calibrator import CalibrationResult, Calibrator
 from dempath_calib.collect import CollectorConfig, ViewCollector
 from dempath_calib.nodes.convert import camera_info_msg, image_to_grey
