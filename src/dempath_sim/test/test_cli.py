@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
 from dempath_sim.cli import simulate_main
 from dempath_sim.results import SimResult
 
@@ -43,3 +44,17 @@ def test_simulate_bad_input(argv: list[str], needle: str, tmp_path: Path,
     assert simulate_main([*argv, '--out', str(tmp_path), '--quiet']) == 1
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith('error: ') and needle in err[0]
+
+
+def test_progress_bar_shows_sim_time_and_rtf() -> None:
+    """The progress callback fills one task per phase with sim time and real-time factor."""
+    from dempath_sim.cli import _progress_bar
+    from dempath_sim.run import Progress
+
+    bar, update = _progress_bar(quiet=False)
+    update(Progress('fill', 0.1, 0.5, 2.0))
+    update(Progress('drive', 0.3, 0.6, 0.6))
+    tasks = {t.description: t for t in bar.tasks}
+    assert tasks['drive'].fields['sim'] == '0.300/0.600 s'
+    assert tasks['drive'].fields['rtf'] == '0.5' and tasks['fill'].completed == 0.1
+    assert _progress_bar(quiet=True) == (None, None)
