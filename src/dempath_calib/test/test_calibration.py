@@ -6,7 +6,12 @@ import numpy as np
 import pytest
 
 from dempath_calib.board import PAPER_BOARD
-from dempath_calib.calibrator import CalibrationConfig, Calibrator, calibrate_detections
+from dempath_calib.calibrator import (
+    CalibrationConfig,
+    CalibrationResult,
+    Calibrator,
+    calibrate_detections,
+)
 from dempath_calib.collect import ViewCollector
 from dempath_calib.errors import DegenerateViewsError, NotEnoughViewsError
 from dempath_calib.intrinsics import calibrate_intrinsics
@@ -29,10 +34,15 @@ def views() -> tuple[np.ndarray, np.ndarray]:
     return corners, np.arange(len(corners)) * 0.5
 
 
-def test_recovers_twin_truth(views: tuple[np.ndarray, np.ndarray]) -> None:
+@pytest.fixture(scope='module')
+def batch(views: tuple[np.ndarray, np.ndarray]) -> CalibrationResult:
+    """The batch calibration of the projected views."""
+    return calibrate_detections(*views, CalibrationConfig())
+
+
+def test_recovers_twin_truth(batch: CalibrationResult) -> None:
     """Intrinsics, poses and corner spacing come back within the TOL table."""
-    corners, stamps = views
-    res = calibrate_detections(corners, stamps, CalibrationConfig())
+    res = batch
     err = compare_to_truth(res.calibration, paper_rig())
     for cam in ('side', 'front'):
         e = err[cam]
@@ -81,7 +91,8 @@ def test_frames_without_board_are_skipped_and_counted() -> None:
     assert p.frames == (3, 1) and p.views == (0, 0) and p.skipped == (3, 1)
 
 
-def test_streaming_equals_batch(views: tuple[np.ndarray, np.ndarray]) -> None:
+def test_streaming_equals_batch(views: tuple[np.ndarray, np.ndarray],
+                                batch: CalibrationResult) -> None:
     """Calibrator fed detection by detection gives the batch result."""
     corners, stamps = views
     cal = Calibrator()
@@ -89,8 +100,7 @@ def test_streaming_equals_batch(views: tuple[np.ndarray, np.ndarray]) -> None:
         for c in range(2):
             cal.add_detection(c, t, corners[i, c])
     streamed = cal.solve().calibration
-    batch = calibrate_detections(corners, stamps, CalibrationConfig()).calibration
-    for a, b in zip(streamed.cameras, batch.cameras, strict=True):
+    for a, b in zip(streamed.cameras, batch.calibration.cameras, strict=True):
         np.testing.assert_allclose(a.K, b.K, rtol=1e-6)
         np.testing.assert_allclose(a.t, b.t, atol=1e-7)
 
@@ -131,3 +141,15 @@ def test_collector_drops_oldest_and_counts() -> None:
         col.close()
     assert cal.progress().frames[1] + col.dropped[1] == 6
     assert cal.progress().frames[1] >= 1
+
+
+def test_synthetic_point_set_noise() -> None:
+    """The paper-size point set has the asked size and exactly the asked pixel noise."""
+    from dempath_calib.twin import synthetic_point_set
+    ps = synthetic_point_set(5000, noise_px=0.2, seed=2)
+    rig = paper_rig()
+    assert len(ps) == 5000 and len(np.unique(ps.view)) > 200
+    resid = np.hstack([rig.side.project(ps.xyz), rig.front.project(ps.xyz)]) - ps.pixels
+    assert abs(resid.std() - 0.2) < 0.01 and abs(resid.mean()) < 0.01
+    lo, hi = ps.xyz.min(0), ps.xyz.max(0)
+    assert np.all(hi - lo > 0.15)  # spread through the shared volume [m]
