@@ -19,7 +19,6 @@ from pathlib import Path
 from typing import Any
 
 from dempath.errors import DempathError
-
 from dempath_sim.effects import effect_table
 from dempath_sim.run import Progress, RunOptions, run_scene
 from dempath_sim.scene import SceneError, SceneSpec, bundled_scene, list_bundled_scenes, load_scene

@@ -15,9 +15,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from dempath.errors import OutputError
 from numpy.typing import NDArray
 
+from dempath.errors import OutputError
 from dempath_sim.markers import ROLE_CANDIDATE, ROLE_MARKER
 
 F64 = NDArray[np.float64]

@@ -5,8 +5,9 @@ from __future__ import annotations
 import json
 import pkgutil
 
-import dempath_sim.effects as effects_pkg
 import pytest
+
+import dempath_sim.effects as effects_pkg
 from dempath_sim.cli import effect_rows, effects_main
 from dempath_sim.effects import all_effects, get_effect
 from dempath_sim.scene import bundled_scene

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
 from dempath_sim.fill import (
     DEFAULT_SOLID_FRACTION,
     fill_bed,

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+
 from dempath_sim.markers import (
     ROLE_CANDIDATE,
     ROLE_MARKER,

@@ -6,16 +6,16 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from dempath.nodes.harness import RosHarness
-from dempath_sim.nodes.convert import states_to_arrays
-from dempath_sim.nodes.simulator import SimulatorNode
-from dempath_sim.simconfig import SimulatorConfig
 from geometry_msgs.msg import PoseStamped
 from rclpy.qos import DurabilityPolicy, QoSProfile
 from visualization_msgs.msg import MarkerArray
 
 from dempath import topics
+from dempath.nodes.harness import RosHarness
 from dempath_msgs.msg import ParticleStates, RunEvent, ToolForce
+from dempath_sim.nodes.convert import states_to_arrays
+from dempath_sim.nodes.simulator import SimulatorNode
+from dempath_sim.simconfig import SimulatorConfig
 
 LATCHED = QoSProfile(depth=10, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 

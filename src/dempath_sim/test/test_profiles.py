@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+
 from dempath_sim.profiles import PAPER_1_5MS, PAPER_1MS, PRESETS, SpeedProfile, ToolPath
 
 

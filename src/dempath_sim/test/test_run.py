@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
 from dempath_sim.markers import ROLE_MARKER
 from dempath_sim.profiles import ToolPath
 from dempath_sim.results import SimResult

@@ -6,6 +6,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+
 from dempath_sim.fill import PARTICLES, TOOL, WALLS, FillReport
 from dempath_sim.mesh import TriangleMesh
 from dempath_sim.run import build_params, carve_tool_slot, tool_start

@@ -8,6 +8,7 @@ from typing import Any
 
 import pytest
 import yaml
+
 from dempath_sim.scene import (
     SCENES_DIR,
     SceneError,

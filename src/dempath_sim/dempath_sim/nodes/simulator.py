@@ -13,8 +13,6 @@ import time
 from typing import Any
 
 import rclpy
-from dempath.errors import DempathError
-from dempath.rosenv import apply_ros_defaults
 from geometry_msgs.msg import PoseStamped
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
@@ -23,6 +21,8 @@ from rclpy.qos import DurabilityPolicy, QoSProfile
 from visualization_msgs.msg import MarkerArray
 
 from dempath import topics
+from dempath.errors import DempathError
+from dempath.rosenv import apply_ros_defaults
 from dempath_msgs.msg import ParticleStates, RunEvent, ToolForce
 from dempath_sim.mesh import TriangleMesh
 from dempath_sim.nodes import convert
