@@ -99,13 +99,14 @@ def liggghts_run(sb: ModuleType, state: SimState, tip: np.ndarray, dt: float, st
             'liggghts_nprocs': nprocs}
 
 
-def cross_engine(scene_name: str, seeds: int, nprocs: int, workdir: Path) -> dict[str, object]:
+def cross_engine(scene_name: str, seeds: int, nprocs: int, workdir: Path,
+                 shared: bool) -> dict[str, object]:
     """Cross-engine comparison of a small scene (see dempath_sim.validation.cross_engine)."""
     from dempath_sim.scene import load_scene
     from dempath_sim.validation.cross_engine import run_cross_engine
 
     report = run_cross_engine(load_scene(scene_name), list(range(1, seeds + 1)), workdir,
-                              nprocs, cache_dir=workdir / 'packings')
+                              nprocs, cache_dir=workdir / 'packings', shared_packing=shared)
     return report.summary()
 
 
@@ -119,6 +120,8 @@ def main() -> None:
     parser.add_argument('--cross-scene', default='builtin:tiny')
     parser.add_argument('--seeds', type=int, default=3)
     parser.add_argument('--skip-cross', action='store_true')
+    parser.add_argument('--shared-packing', action='store_true',
+                        help="LIGGGHTS starts from dempath's packings in the cross-engine part")
     args = parser.parse_args()
     logging.basicConfig(level=logging.INFO, format='%(message)s')
     ensure_liggghts(install=True)
@@ -140,9 +143,11 @@ def main() -> None:
     log.info('dempath %.3g, LIGGGHTS %.3g particle-steps/s, ratio %.2f',
              dem['particle_steps_per_s'], lig['liggghts_particle_steps_per_s'], result['ratio'])
     if not args.skip_cross:
-        cross = cross_engine(args.cross_scene, args.seeds, args.nprocs, work / 'cross')
+        cross = cross_engine(args.cross_scene, args.seeds, args.nprocs, work / 'cross',
+                             args.shared_packing)
         result.update({'cross_engine_ratio': cross['cross_engine_ratio'],
-                       'cross_engine': cross, 'cross_scene': args.cross_scene})
+                       'cross_engine': cross, 'cross_scene': args.cross_scene,
+                       'cross_shared_packing': args.shared_packing})
     print(json.dumps(result, default=float))
 
 
