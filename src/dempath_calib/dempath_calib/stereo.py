@@ -281,20 +281,25 @@ def bundle_adjust(corners: FloatArray, board: BoardSpec, intr: list[IntrinsicRes
         msg = f'stereo: bundle adjustment over {len(frames)} frames failed ({err})'
         raise CalibrationError(msg) from err
     intr_x, rel_x, poses = prob.unpack(x, base)
-    res = prob.residuals(x, base).reshape(-1, 2)
-    sq = np.sum(res ** 2, axis=1)
-    rmse = np.array([np.sqrt(sq[prob.cam == c].mean()) for c in range(2)])
-    frame_rmse = np.full((len(frames), 2), np.nan)
-    for c in range(2):
-        sel = prob.cam == c
-        sums = np.bincount(prob.frame[sel], sq[sel], len(frames))
-        counts = np.bincount(prob.frame[sel], minlength=len(frames))
-        with np.errstate(invalid='ignore', divide='ignore'):
-            frame_rmse[:, c] = np.sqrt(sums / counts)
+    rmse, frame_rmse = _rmse(prob, prob.residuals(x, base))
     LOG.info('stereo: %d frames (%d shared), RMSE side %.3f px, front %.3f px, %d iterations',
              len(frames), int(shared.sum()), rmse[0], rmse[1], n_iter)
     return StereoResult(intr_x, rel_x[:3].copy(), rel_x[3:].copy(), frames, poses[:, :3].copy(),
                         poses[:, 3:].copy(), rmse, frame_rmse)
+
+
+def _rmse(prob: _Problem, residuals: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """(2,) RMSE per camera and (n_frames, 2) per frame and camera [px] (NaN where unseen)."""
+    sq = np.sum(residuals.reshape(-1, 2) ** 2, axis=1)
+    rmse = np.array([np.sqrt(sq[prob.cam == c].mean()) for c in range(2)])
+    frame_rmse = np.full((prob.n_frames, 2), np.nan)
+    for c in range(2):
+        sel = prob.cam == c
+        sums = np.bincount(prob.frame[sel], sq[sel], prob.n_frames)
+        counts = np.bincount(prob.frame[sel], minlength=prob.n_frames)
+        with np.errstate(invalid='ignore', divide='ignore'):
+            frame_rmse[:, c] = np.sqrt(sums / counts)
+    return rmse, frame_rmse
 
 
 def _tables(corners: FloatArray, board: BoardSpec, used: NDArray[np.bool_],
