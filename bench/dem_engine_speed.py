@@ -13,6 +13,7 @@ Last line: one JSON object.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import gc
 import json
 import logging
@@ -67,18 +68,22 @@ def insert_tool(state: SimState, depth: float, tip_z: float) -> tuple[SimState, 
     """Remove the spheres in the chisel's boxes (share and shank) and return the tip position."""
     surface = float(np.percentile(state.positions[:, 1], 99.5)) + RADIUS
     tip = np.array([0.0, surface - depth, tip_z])
-    lo_share, hi_share = tip + [-0.03, 0.0, -0.17], tip + [0.03, 0.08, 0.0]
-    lo_shank, hi_shank = tip + [-0.015, 0.0, -0.17], tip + [0.015, 0.6, 0.0]
+    lo_share = tip + np.array([-0.03, 0.0, -0.17])
+    hi_share = tip + np.array([0.03, 0.08, 0.0])
+    lo_shank = tip + np.array([-0.015, 0.0, -0.17])
+    hi_shank = tip + np.array([0.015, 0.6, 0.0])
     inside = np.zeros(state.n, bool)
     for lo, hi in ((lo_share, hi_share), (lo_shank, hi_shank)):
         inside |= np.all((state.positions > lo - RADIUS) & (state.positions < hi + RADIUS), 1)
     return state.subset(~inside), tip
 
 
-def timed_run(state: SimState, tip: np.ndarray, steps: int) -> dict[str, float]:
+def timed_run(state: SimState, tip: np.ndarray, steps: int,
+              skin: float) -> dict[str, float]:
     """Run with the moving chisel; return the speed and the seconds spent in each stage."""
     tool = TriangleMesh.from_stl(CHISEL, material=1)
-    engine = Engine(PARAMS, walls=box_walls(BIN_LO, BIN_HI, material=1), tool=tool)
+    params = dataclasses.replace(PARAMS, skin=skin)
+    engine = Engine(params, walls=box_walls(BIN_LO, BIN_HI, material=1), tool=tool)
     speed = np.array([0.0, 0.0, 1.0])
     t_start = state.time
 
@@ -143,6 +148,8 @@ def main() -> None:
     parser.add_argument('--layers', type=int, default=20)
     parser.add_argument('--settle-steps', type=int, default=1500)
     parser.add_argument('--skip-alloc', action='store_true')
+    parser.add_argument('--skin', type=float, default=PARAMS.skin,
+                        help='neighbour skin / smallest radius')
     args = parser.parse_args()
     logging.basicConfig(level=logging.INFO, format='%(message)s')
     log = logging.getLogger('bench')
@@ -157,9 +164,10 @@ def main() -> None:
     log.info('settled %d spheres in %.1f s (KE %.3e J)', state.n, time.perf_counter() - t0,
              state.kinetic_energy())
     state, tip = insert_tool(state, depth=0.04, tip_z=0.08)
-    result = timed_run(state, tip, args.steps)
+    result = timed_run(state, tip, args.steps, args.skin)
     per_particle = result['particle_bytes'] + result['pair_bytes'] * result['pairs'] / state.n
-    result.update({'threads': numba.get_num_threads(), 'bytes_per_particle': per_particle,
+    result.update({'threads': numba.get_num_threads(), 'skin': args.skin,
+                   'bytes_per_particle': per_particle,
                    'bytes_per_contact': result['pair_bytes'],
                    'paper_bytes_arithmetic': per_particle * PAPER_PARTICLES})
     for key, value in result.items():

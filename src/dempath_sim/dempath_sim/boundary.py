@@ -76,26 +76,19 @@ def _apply(i, c, key, delta, lever, nx, ny, nz, vx, vy, vz, wx, wy, wz, a, b, ra
 
 
 @njit(fastmath=True, cache=True)
-def _plane_contacts(i, c, pos, vel, omg, rad, mass, mat, planes, plane_mat, gkey, ght, ghr,
-                    tmp_t, tmp_r, tab, dt, rolling, cohesion, used, force, torque,
-                    worst):  # pragma: no cover - compiled
-    """All plane contacts of particle i; returns the updated slot mask."""
-    for p in range(planes.shape[0]):
-        nx, ny, nz = planes[p, 3], planes[p, 4], planes[p, 5]
-        s = ((pos[i, 0] - planes[p, 0]) * nx + (pos[i, 1] - planes[p, 1]) * ny
-             + (pos[i, 2] - planes[p, 2]) * nz)
-        delta = rad[i] - s
-        if delta <= 0.0:
-            continue
-        # v_rel = v_i + w_i x (-s n)
-        vx = vel[i, 0] - s * (omg[i, 1] * nz - omg[i, 2] * ny)
-        vy = vel[i, 1] - s * (omg[i, 2] * nx - omg[i, 0] * nz)
-        vz = vel[i, 2] - s * (omg[i, 0] * ny - omg[i, 1] * nx)
-        r = _apply(i, c, p, delta, s, nx, ny, nz, vx, vy, vz, omg[i, 0], omg[i, 1], omg[i, 2],
-                   mat[i], plane_mat[p], rad, mass, gkey, ght, ghr, tmp_t, tmp_r, tab, dt,
-                   rolling, cohesion, used, force, torque, worst)
-        used = r[6]
-    return used
+def _plane_contact(i, c, p, s, pos, vel, omg, rad, mass, mat, planes, plane_mat, gkey, ght,
+                   ghr, tmp_t, tmp_r, tab, dt, rolling, cohesion, used, force, torque,
+                   worst):  # pragma: no cover - compiled
+    """Contact of particle i with plane p at signed distance s < r; returns the slot mask."""
+    nx, ny, nz = planes[p, 3], planes[p, 4], planes[p, 5]
+    # v_rel = v_i + w_i x (-s n)
+    vx = vel[i, 0] - s * (omg[i, 1] * nz - omg[i, 2] * ny)
+    vy = vel[i, 1] - s * (omg[i, 2] * nx - omg[i, 0] * nz)
+    vz = vel[i, 2] - s * (omg[i, 0] * ny - omg[i, 1] * nx)
+    r = _apply(i, c, p, rad[i] - s, s, nx, ny, nz, vx, vy, vz, omg[i, 0], omg[i, 1], omg[i, 2],
+               mat[i], plane_mat[p], rad, mass, gkey, ght, ghr, tmp_t, tmp_r, tab, dt,
+               rolling, cohesion, used, force, torque, worst)
+    return r[6]
 
 
 @njit(fastmath=True, cache=True)
@@ -129,6 +122,15 @@ def _collect_candidates(px, py, pz, r, tris, g_lo, g_cell, g_dims, g_start, g_tr
         cand[pos, 4] = qz
         nc += 1
     return nc
+
+
+@njit(inline='always', fastmath=True, cache=True)
+def _in_grid(rx, ry, rz, tool, g_lo, g_hi0, g_hi1, g_hi2):  # pragma: no cover - compiled
+    """Whether the world offset r from the tool origin lies inside the triangle grid's box."""
+    px = tool[9] * rx + tool[12] * ry + tool[15] * rz
+    py = tool[10] * rx + tool[13] * ry + tool[16] * rz
+    pz = tool[11] * rx + tool[14] * ry + tool[17] * rz
+    return (g_lo[0] <= px < g_hi0) and (g_lo[1] <= py < g_hi1) and (g_lo[2] <= pz < g_hi2)
 
 
 @njit(fastmath=True, cache=True)
@@ -212,23 +214,32 @@ def boundary_forces(pos, vel, omg, rad, mass, mat, planes, plane_mat, tris, tri_
     n_chunks = tool_acc.shape[0]
     n = pos.shape[0]
     n_planes = planes.shape[0]
+    has_tool = tris.shape[0] > 0
+    g_hi0 = g_lo[0] + g_dims[0] * g_cell
+    g_hi1 = g_lo[1] + g_dims[1] * g_cell
+    g_hi2 = g_lo[2] + g_dims[2] * g_cell
     for c in prange(n_chunks):
         for q in range(6):
             tool_acc[c, q] = 0.0
         for i in range(c * n // n_chunks, (c + 1) * n // n_chunks):
             used = 0
-            if n_planes > 0:
-                used = _plane_contacts(i, c, pos, vel, omg, rad, mass, mat, planes, plane_mat,
-                                       gkey, ght, ghr, tmp_t, tmp_r, tab, dt, rolling, cohesion,
-                                       used, force, torque, worst)
-            if tris.shape[0] > 0:
+            for p in range(n_planes):
+                s = ((pos[i, 0] - planes[p, 0]) * planes[p, 3]
+                     + (pos[i, 1] - planes[p, 1]) * planes[p, 4]
+                     + (pos[i, 2] - planes[p, 2]) * planes[p, 5])
+                if s < rad[i]:
+                    used = _plane_contact(i, c, p, s, pos, vel, omg, rad, mass, mat, planes,
+                                          plane_mat, gkey, ght, ghr, tmp_t, tmp_r, tab, dt,
+                                          rolling, cohesion, used, force, torque, worst)
+            if has_tool and _in_grid(pos[i, 0] - tool[0], pos[i, 1] - tool[1],
+                                     pos[i, 2] - tool[2], tool, g_lo, g_hi0, g_hi1, g_hi2):
                 used = _mesh_contacts(i, c, pos, vel, omg, rad, mass, mat, tris, tri_mat,
                                       n_planes, g_lo, g_cell, g_dims, g_start, g_tris, tool,
                                       gkey, ght, ghr, tmp_t, tmp_r, tab, dt, rolling, cohesion,
                                       used, force, torque, worst, cand[c], tool_acc)
-            for s in range(gkey.shape[1]):
-                if not (used >> s) & 1:
-                    gkey[i, s] = -1
+            for k in range(gkey.shape[1]):
+                if not (used >> k) & 1 and gkey[i, k] != -1:
+                    gkey[i, k] = -1
                     for q in range(3):
-                        ght[i, s, q] = 0.0
-                        ghr[i, s, q] = 0.0
+                        ght[i, k, q] = 0.0
+                        ghr[i, k, q] = 0.0

@@ -9,6 +9,7 @@ Ericson, Real-Time Collision Detection (2005), 5.1.5.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -94,10 +95,13 @@ def build_triangle_grid(mesh: TriangleMesh, margin: float) -> TriangleGrid:
     c_hi = np.clip(np.floor((thi - lo) / cell).astype(np.int64), 0, dims - 1)
     cells: list[NDArray[np.int64]] = []
     owners: list[NDArray[np.int64]] = []
+    reach = margin + 0.5 * math.sqrt(3.0) * cell  # a cell centre farther away cannot matter
     for t in range(len(tris)):
         ax = [np.arange(c_lo[t, d], c_hi[t, d] + 1) for d in range(3)]
         gx, gy, gz = np.meshgrid(*ax, indexing='ij')
-        ids = ((gx * dims[1] + gy) * dims[2] + gz).ravel()
+        centres = lo + (np.stack([gx, gy, gz], axis=-1).reshape(-1, 3) + 0.5) * cell
+        near = cells_near_triangle(centres, tris[t], reach)
+        ids = ((gx * dims[1] + gy) * dims[2] + gz).ravel()[near]
         cells.append(ids)
         owners.append(np.full(len(ids), t))
     cell_ids = np.concatenate(cells)
@@ -152,6 +156,17 @@ def closest_point_triangle(px, py, pz, tri):  # pragma: no cover - compiled
     v = vb * denom
     w = vc * denom
     return (ax + abx * v + acx * w, ay + aby * v + acy * w, az + abz * v + acz * w)
+
+
+@njit(cache=True)
+def cells_near_triangle(centres, tri, reach):  # pragma: no cover - compiled
+    """(m,) bool: which points of centres (m, 3) lie within reach of the triangle (3, 3)."""
+    out = np.zeros(centres.shape[0], np.bool_)
+    for k in range(centres.shape[0]):
+        qx, qy, qz = closest_point_triangle(centres[k, 0], centres[k, 1], centres[k, 2], tri)
+        d2 = (centres[k, 0] - qx) ** 2 + (centres[k, 1] - qy) ** 2 + (centres[k, 2] - qz) ** 2
+        out[k] = d2 <= reach * reach
+    return out
 
 
 def closest_point_triangle_numpy(p: NDArray[np.float64],

@@ -52,33 +52,39 @@ def sort_into_cells(pos, lo, cell, dims):  # pragma: no cover - compiled
 
 
 @njit(parallel=True, cache=True)
-def scan_pairs(pos, rad, r_max, skin, lo, cell, dims, cell_start, order, start,
+def scan_pairs(spos, srad, r_max, skin, lo, cell, dims, cell_start, order, start,
                nbr, fill):  # pragma: no cover - compiled
-    """Count (fill=False: into start[i+1]) or write (fill=True: into nbr) the pairs of each i."""
-    n = pos.shape[0]
-    for i in prange(n):
-        s = math.ceil((rad[i] + r_max + skin) / cell)
-        cx = min(max(int((pos[i, 0] - lo[0]) / cell), 0), dims[0] - 1)
-        cy = min(max(int((pos[i, 1] - lo[1]) / cell), 0), dims[1] - 1)
-        cz = min(max(int((pos[i, 2] - lo[2]) / cell), 0), dims[2] - 1)
+    """Count (fill=False: into start[i+1]) or write (fill=True: into nbr) the pairs of each i.
+
+    spos (n, 3) and srad (n,) are the positions and radii in cell order (spos[q] is particle
+    order[q]); particles are visited in cell order so that neighbouring visits share cells.
+    """
+    n = spos.shape[0]
+    for qi in prange(n):
+        i = order[qi]
+        s = math.ceil((srad[qi] + r_max + skin) / cell)
+        cx = min(max(int((spos[qi, 0] - lo[0]) / cell), 0), dims[0] - 1)
+        cy = min(max(int((spos[qi, 1] - lo[1]) / cell), 0), dims[1] - 1)
+        cz = min(max(int((spos[qi, 2] - lo[2]) / cell), 0), dims[2] - 1)
         count = 0
         out = start[i] if fill else 0
         for ax in range(max(cx - s, 0), min(cx + s, dims[0] - 1) + 1):
             for ay in range(max(cy - s, 0), min(cy + s, dims[1] - 1) + 1):
-                for az in range(max(cz - s, 0), min(cz + s, dims[2] - 1) + 1):
-                    c = (ax * dims[1] + ay) * dims[2] + az
-                    for q in range(cell_start[c], cell_start[c + 1]):
-                        j = order[q]
-                        if j <= i:
-                            continue
-                        dx = pos[i, 0] - pos[j, 0]
-                        dy = pos[i, 1] - pos[j, 1]
-                        dz = pos[i, 2] - pos[j, 2]
-                        cut = rad[i] + rad[j] + skin
-                        if dx * dx + dy * dy + dz * dz < cut * cut:
-                            if fill:
-                                nbr[out + count] = j
-                            count += 1
+                c0 = (ax * dims[1] + ay) * dims[2]
+                q_lo = cell_start[c0 + max(cz - s, 0)]
+                q_hi = cell_start[c0 + min(cz + s, dims[2] - 1) + 1]
+                for q in range(q_lo, q_hi):  # the z-run of cells is contiguous in cell order
+                    j = order[q]
+                    if j <= i:
+                        continue
+                    dx = spos[qi, 0] - spos[q, 0]
+                    dy = spos[qi, 1] - spos[q, 1]
+                    dz = spos[qi, 2] - spos[q, 2]
+                    cut = srad[qi] + srad[q] + skin
+                    if dx * dx + dy * dy + dz * dz < cut * cut:
+                        if fill:
+                            nbr[out + count] = j
+                        count += 1
         if not fill:
             start[i + 1] = count
 
@@ -105,12 +111,14 @@ def build_neighbor_list(pos: np.ndarray, rad: np.ndarray,
     cell = choose_cell_size(rad, skin, extent)
     dims = (np.floor(extent / cell) + 1).astype(np.int64)
     _, cell_start, order = sort_into_cells(pos, lo, cell, dims)
+    spos = pos[order]
+    srad = rad[order]
     r_max = float(rad.max())
     dummy = np.zeros(0, np.int32)
-    scan_pairs(pos, rad, r_max, skin, lo, cell, dims, cell_start, order, start, dummy, False)
+    scan_pairs(spos, srad, r_max, skin, lo, cell, dims, cell_start, order, start, dummy, False)
     np.cumsum(start, out=start)
     nbr = np.empty(int(start[-1]), np.int32)
-    scan_pairs(pos, rad, r_max, skin, lo, cell, dims, cell_start, order, start, nbr, True)
+    scan_pairs(spos, srad, r_max, skin, lo, cell, dims, cell_start, order, start, nbr, True)
     return start, nbr
 
 

@@ -37,7 +37,7 @@ class SimParams:
         gravity: Gravity vector (3,) [m/s^2], along -Y by default.
         dt: Time step [s]; None = Rayleigh time step of the finest particle * rayleigh_safety.
         rayleigh_safety: Fraction of the Rayleigh time step used when dt is None [-].
-        skin: Neighbour-list skin as a fraction of the largest particle radius [-];
+        skin: Neighbour-list skin as a fraction of the smallest particle radius [-];
             the list is rebuilt when a particle has moved more than skin/2.
         domain_min: Lower corner (3,) of the domain box [m]; particles leaving it are removed.
         domain_max: Upper corner (3,) of the domain box [m].
@@ -49,7 +49,7 @@ class SimParams:
     gravity: Vec3 = (0.0, -9.81, 0.0)
     dt: float | None = None
     rayleigh_safety: float = 0.2
-    skin: float = 0.3
+    skin: float = 0.6
     domain_min: Vec3 = (-1e3, -1e3, -1e3)
     domain_max: Vec3 = (1e3, 1e3, 1e3)
     max_overlap_fraction: float = 0.05

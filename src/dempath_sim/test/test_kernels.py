@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+
 from dempath_sim.boundary import MAX_CANDIDATES, N_SLOTS, boundary_forces
 from dempath_sim.contact import build_pair_table
 from dempath_sim.integrate import first_half, second_half
