@@ -80,7 +80,8 @@ def liggghts_run(sb: ModuleType, state: SimState, tip: np.ndarray, dt: float, st
     lines = ['atom_style granular', 'atom_modify map array', 'boundary f f f', 'newton off',
              'communicate single vel yes', 'units si', 'soft_particles yes',
              'hard_particles yes', 'read_data bed.data',
-             f'neighbor {cmd.fmt(params.skin * sb.RADIUS)} bin', 'neigh_modify delay 0',
+             f'neighbor {cmd.fmt(params.skin * sb.RADIUS)} bin',  # dempath's skin
+             'neigh_modify delay 0',
              *cmd.materials(params), *cmd.pair_style(params), *cmd.gravity(params),
              f'timestep {cmd.fmt(dt)}', 'fix integr all nve/sphere',
              *[cmd.plane_wall(f'w{k}', params, a, off, 1) for k, (a, off) in enumerate(walls)],
@@ -114,7 +115,7 @@ def main() -> None:
     """Run both engines and print the JSON line."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument('--steps', type=int, default=600)
-    parser.add_argument('--layers', type=int, default=20)
+    parser.add_argument('--layers', type=int, default=21, help='>= 45,000 spheres after the slot')
     parser.add_argument('--settle-steps', type=int, default=1500)
     parser.add_argument('--np', dest='nprocs', type=int, default=2)
     parser.add_argument('--cross-scene', default='builtin:tiny')
@@ -131,7 +132,7 @@ def main() -> None:
                                 tip_z=0.08)
     log.info('bed: %d spheres after the tool slot', state.n)
     work = Path(tempfile.mkdtemp(prefix='dem_vs_liggghts_'))
-    dem = sb.timed_run(state.subset(np.ones(state.n, bool)), tip, args.steps)
+    dem = sb.timed_run(state.subset(np.ones(state.n, bool)), tip, args.steps, sb.PARAMS.skin)
     lig = liggghts_run(sb, state, tip, dem['dt'], args.steps, args.nprocs, work)
     per_particle = dem['particle_bytes'] + dem['pair_bytes'] * dem['pairs'] / dem['particles']
     result: dict[str, object] = {
