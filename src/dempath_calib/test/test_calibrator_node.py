@@ -8,7 +8,7 @@ from typing import Any
 import cv2
 import numpy as np
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-from sensor_msgs.msg import CameraInfo, CompressedImage
+from sensor_msgs.msg import CameraInfo, CompressedImage, Image
 from std_srvs.srv import Trigger
 
 from dempath import topics
@@ -70,3 +70,20 @@ def test_node_calibrates_from_image_topics(ros_harness: Any, tmp_path: Path) -> 
         assert got[cam][0].distortion_model == 'plumb_bob'
     for name in ('cam_side.yaml', 'cam_front.yaml', 'stereo.yaml', 'point_set.npz'):
         assert (tmp_path / 'out' / name).is_file()
+
+
+def test_node_idle_solve_reports_missing_views(ros_harness: Any) -> None:
+    """Raw images without a board, then silence: the idle solve fails with a counted reason."""
+    node = ros_harness.start(CalibratorNode, compressed=False, solve_after_idle_s=0.5,
+                             image_width=640, image_height=360)
+    pubs = [ros_harness.publisher(Image, topics.camera_topic(topics.IMAGE_RAW, cam))
+            for cam in topics.CAMERAS]
+    for pub in pubs:
+        assert ros_harness.wait_for_subscribers(pub)
+    blank = Image(height=360, width=640, encoding='mono8', step=640, data=bytes(640 * 360))
+    for pub in pubs:
+        pub.publish(blank)
+    progress = node.collector.calibrator.progress
+    assert ros_harness.spin_until(lambda: progress().frames == (1, 1), timeout_s=10.0)
+    assert ros_harness.spin_until(lambda: 'need 8' in node._error, timeout_s=10.0)
+    assert node.result is None and progress().skipped == (1, 1)

@@ -57,6 +57,7 @@ class CalibratorNode(Node):
         self.result: CalibrationResult | None = None
         self._error = ''
         self._last_image = 0.0
+        self._idle_tried = 0.0
         latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
                              reliability=ReliabilityPolicy.RELIABLE)
         self.info_pubs = [self.create_publisher(CameraInfo, topics.camera_topic(
@@ -86,7 +87,9 @@ class CalibratorNode(Node):
         self.get_logger().info(f'{self.collector.calibrator.progress().line()}; dropped '
                                f'{self.collector.dropped[0]}+{self.collector.dropped[1]}')
         idle = self.config.solve_after_idle_s
-        if idle > 0 and time.monotonic() - self._last_image > idle:
+        if idle > 0 and time.monotonic() - self._last_image > idle \
+                and self._idle_tried != self._last_image:  # once per quiet spell
+            self._idle_tried = self._last_image
             self.solve()
 
     def _on_solve(self, request: Trigger.Request, response: Trigger.Response) -> Any:
