@@ -136,7 +136,7 @@ def _play(harness: Any, recorder: Any, spec: GraphSpec, note: Callable[[str], No
 
     def expected() -> int:
         published = player.stats.published if player.stats is not None else {}
-        return min(published.get(t, 0) for t in pixel)
+        return min(int(published.get(t, 0)) for t in pixel)
 
     def done() -> bool:
         note(f'playing {spec.field_bag.name}: '
@@ -190,7 +190,7 @@ def run_graph(spec: GraphSpec, note: Callable[[str], None] = lambda text: None) 
 
     start = time.monotonic()
     with RosHarness() as harness:
-        logger_class = type(harness.probe.get_logger())  # rcutils logger, without importing rclpy
+        logger_class = type(harness.probe.get_logger())  # type: ignore[no-untyped-call]  # rcutils logger
         for name in QUIET_NODES:
             logger_class(name).set_level(WARN)
         harness.start(ReconstructorNode, method=spec.method,

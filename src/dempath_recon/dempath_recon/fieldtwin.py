@@ -167,7 +167,8 @@ def background(width: int, height: int, seed: int) -> NDArray[np.uint8]:
     rows = np.linspace(0.85, 1.0, height)[:, None, None]
     sand = np.array(SAND_BGR) * rows * np.ones((1, width, 1))
     grain = cv2.GaussianBlur(rng.normal(0, 6, (height, width)), (0, 0), 1.2)[..., None]
-    return np.clip(sand + grain, 0, 255).astype(np.uint8)
+    out: NDArray[np.uint8] = np.clip(sand + grain, 0, 255).astype(np.uint8)
+    return out
 
 
 def render_preview(camera: Any, xyz: FloatArray, base: NDArray[np.uint8],
