@@ -32,7 +32,7 @@ from numpy.typing import NDArray
 from dempath_sim.effects import PhysicsModel
 from dempath_sim.engine import Engine
 from dempath_sim.params import SimParams
-from dempath_sim.scene_spec import LayerSpec, SceneSpec
+from dempath_sim.scene_spec import LayerSpec, NumericsSpec, SceneSpec
 from dempath_sim.state import SimState
 from dempath_sim.walls import Plane, box_walls
 
@@ -95,20 +95,26 @@ def bin_walls(scene: SceneSpec) -> tuple[Plane, ...]:
 
 
 def packing_key(scene: SceneSpec, model: PhysicsModel) -> str:
-    """Hash (hex, 20 chars) of everything that determines the settled packing."""
+    """Hash (hex, 20 chars) of everything that determines the settled packing.
+
+    The overlap limit is a safety stop, not a parameter of the packing, so it is left out (set
+    to its default) along with everything about the tool.
+    """
     here = Path(__file__).resolve().parent
     engine_hash = hashlib.sha256()
     for name in ENGINE_SOURCES:
         path = here / name
         if path.is_file():
             engine_hash.update(path.read_bytes())
+    numerics = replace(scene.sim, max_overlap_fraction=NumericsSpec.max_overlap_fraction)
     physics = asdict(replace(model, speed_scale=1.0, particle_tool=model.particle_particle,
                              tool_density_kg_m3=0.0, tool_youngs_modulus_pa=0.0,
                              tool_poisson=0.0))
     payload = {'version': FILL_VERSION, 'engine': engine_hash.hexdigest(),
                'bin': asdict(scene.bin), 'layers': [asdict(x) for x in scene.layers],
                'physics': physics, 'fill': asdict(replace(scene.fill, cache=True)),
-               'sim': asdict(scene.sim), 'seed': scene.seed}
+               'sim': asdict(numerics),
+               'seed': scene.seed}
     text = json.dumps(payload, sort_keys=True, default=str)
     return hashlib.sha256(text.encode()).hexdigest()[:20]
 
