@@ -123,7 +123,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument('--steps', type=int, default=600)
     parser.add_argument('--layers', type=int, default=21, help='>= 45,000 spheres after the slot')
-    parser.add_argument('--settle-steps', type=int, default=1500)
+    parser.add_argument('--settle-steps', type=int, default=4000)
     parser.add_argument('--np', dest='nprocs', type=int, default=2)
     parser.add_argument('--cross-scene', default='builtin:tiny')
     parser.add_argument('--seeds', type=int, default=3)
