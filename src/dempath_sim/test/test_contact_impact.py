@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+
 from dempath_sim.engine import Engine
 from dempath_sim.materials import Interaction, Material, pair_properties
 from dempath_sim.params import SimParams

@@ -7,6 +7,7 @@ import re
 
 import numpy as np
 import pytest
+
 from dempath_sim.engine import Engine, ToolPose
 from dempath_sim.errors import SimulationError
 from dempath_sim.materials import Interaction, Material

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+
 from dempath_sim.engine import Engine, ToolPose
 from dempath_sim.materials import Interaction, Material
 from dempath_sim.mesh import TriangleMesh

@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+
 from dempath_sim.engine import Engine
 from dempath_sim.materials import Interaction, Material, pair_properties
 from dempath_sim.params import SimParams

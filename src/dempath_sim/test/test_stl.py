@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
 from dempath_sim.errors import GeometryError
 from dempath_sim.mesh import TriangleMesh
 from dempath_sim.stl import read_stl, write_stl_ascii
