@@ -32,6 +32,7 @@ from typing import Any
 
 import numpy as np
 import torch
+
 from dempath_calib.camera import CameraModel
 from dempath_calib.rig import paper_rig
 from dempath_calib.twin import synthetic_point_set

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+
 from dempath_calib.board import PAPER_BOARD
 from dempath_calib.calibrator import CalibrationConfig, calibrate_detections
 from dempath_calib.rig import paper_rig

@@ -13,9 +13,9 @@ import sys
 from typing import Any
 
 import numpy as np
-from dempath.errors import DempathError
 from numpy.typing import NDArray
 
+from dempath.errors import DempathError
 from dempath_recon.errors import ModelFileError, ReconstructionError
 from dempath_recon.methods import METHODS, load_calibration, load_reconstructor, make_reconstructor
 from dempath_recon.report import evaluate, holdout_split, write_report

@@ -16,9 +16,9 @@ import logging
 
 import cv2
 import numpy as np
-from dempath_calib.camera import CameraModel
 from numpy.typing import NDArray
 
+from dempath_calib.camera import CameraModel
 from dempath_recon.errors import ReconstructionError
 
 FloatArray = NDArray[np.float64]

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+
 from dempath_calib.camera import StereoCalibration
 from dempath_calib.pointset import PointSet
 from dempath_calib.rig import paper_rig

@@ -6,6 +6,7 @@ import csv
 import json
 
 import numpy as np
+
 from dempath_calib.pointset import save_point_set
 from dempath_recon.cli import reconstruct_main, report_main, train_main
 

@@ -5,10 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import torch
+from torch import nn
+
 from dempath_recon.errors import ModelFileError, NotFittedError
 from dempath_recon.mlp import MLPReconstructor
 from dempath_recon.residual import ResidualReconstructor
-from torch import nn
 
 
 @pytest.fixture(scope='module')

@@ -5,15 +5,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from builtin_interfaces.msg import Time
-from dempath.nodes.harness import unique_domain_id
-from dempath_calib.rig import sample_working_volume
-from dempath_recon.errors import ModelFileError
-from dempath_recon.nodes.reconstructor import ReconstructorNode, main
-from dempath_recon.stream import REASON_NAN, REASON_OUTSIDE
 from visualization_msgs.msg import MarkerArray
 
 from dempath import topics
+from dempath.nodes.harness import unique_domain_id
+from dempath_calib.rig import sample_working_volume
 from dempath_msgs.msg import MarkerPoints3D, PixelPoints
+from dempath_recon.errors import ModelFileError
+from dempath_recon.nodes.reconstructor import ReconstructorNode, main
+from dempath_recon.stream import REASON_NAN, REASON_OUTSIDE
 
 
 def pixel_msg(cam, stamp_ns: int, ids: list[int], uv: np.ndarray) -> PixelPoints:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+
 from dempath_recon.errors import PixelInputError
 from dempath_recon.pairing import FRONT, SIDE, PixelFrame, StampPairer, match_ids, pair_frames
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+
 from dempath_recon.report import (
     PAPER_TABLE5,
     MethodResult,

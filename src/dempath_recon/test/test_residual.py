@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+
 from dempath_recon.residual import ResidualReconstructor
 from dempath_recon.triangulate import DLTTriangulator
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+
 from dempath_calib.rig import sample_working_volume
 from dempath_recon.errors import NotFittedError, PixelInputError, ReconstructionError
 from dempath_recon.resection import resect_stereo

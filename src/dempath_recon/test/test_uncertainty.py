@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+
 from dempath_calib.rig import sample_working_volume
 from dempath_recon.triangulate import DLTTriangulator
 from dempath_recon.uncertainty import (

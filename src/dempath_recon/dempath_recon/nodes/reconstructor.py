@@ -12,14 +12,14 @@ from collections.abc import Callable
 from typing import Any
 
 import rclpy
-from dempath.errors import DempathError
-from dempath.rosenv import apply_ros_defaults
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from visualization_msgs.msg import MarkerArray
 
 from dempath import topics
+from dempath.errors import DempathError
+from dempath.rosenv import apply_ros_defaults
 from dempath_msgs.msg import MarkerPoints3D, PixelPoints
 from dempath_recon.errors import ReconstructionError
 from dempath_recon.nodes.convert import (
