@@ -86,6 +86,7 @@ def liggghts_run(sb: ModuleType, state: SimState, tip: np.ndarray, dt: float, st
              ('z', sb.BIN_HI[2])]  # box_walls(open_top=True)
     lines = ['atom_style granular', 'atom_modify map array', 'boundary f f f', 'newton off',
              'communicate single vel yes', 'units si', 'soft_particles yes',
+             'processors * 1 *',  # never split along Y: the box is tall for the tool only
              'hard_particles yes', 'read_data bed.data',
              f'neighbor {cmd.fmt(params.skin * sb.RADIUS)} bin',  # dempath's skin
              'neigh_modify delay 0',

@@ -39,6 +39,7 @@ TOOL_STL = 'tool.stl'
 INSERT_SOLID_FRACTION = 0.2  # loose random packing insert/pack reaches in one go
 DISCRETE_BINS = 5  # templates approximating a uniform size distribution
 SETTLE_CHECK_S = 0.02  # as dempath_sim.fill
+SPLIT = '* 1 *'  # MPI grid: split X and Z only (bed below, empty tool space above)
 MIN_SETTLE_S = 0.1
 
 
@@ -199,7 +200,10 @@ def fill_deck(scene: SceneSpec, params: SimParams, dt: float, plan: FillPlan,
     check = every * max(1, round(SETTLE_CHECK_S / dt / every))
     min_checks = math.ceil(MIN_SETTLE_S / SETTLE_CHECK_S)
     max_checks = max(min_checks, math.ceil(scene.fill.max_settle_time_s / SETTLE_CHECK_S))
-    lines = cmd.header(lo, hi, len(params.materials), 0.3 * big, cmd.needs_soft(params))
+    # Never split the domain along Y: the box is tall only to hold the tool, so a Y split would
+    # leave one process without particles.
+    lines = cmd.header(lo, hi, len(params.materials), 0.3 * big, cmd.needs_soft(params),
+                       processors=SPLIT)
     lines += ['hard_particles yes', *physics(params, dt, friction),
               *bin_walls(scene, params, 1)]
     lines += [s.replace('{rho}', cmd.fmt(rho)) for s in _insert_lines(scene, plan)]
@@ -282,6 +286,7 @@ def tool_deck(scene: SceneSpec, params: SimParams, stage: ToolStage,
     lines = ['atom_style granular', 'atom_modify map array', 'boundary f f f', 'newton off',
              'communicate single vel yes', 'units si']
     lines += ['soft_particles yes'] if cmd.needs_soft(params) else []
+    lines += [f'processors {SPLIT}']
     big = 2 * max(max(layer.diameter_m for layer in scene.layers), 1e-3)
     lines += ['hard_particles yes', stage.read,
               f'neighbor {cmd.fmt(0.3 * big)} bin', 'neigh_modify delay 0',
