@@ -1,3 +1,4 @@
+# mypy: disable-error-code="no-untyped-def"
 """Particle-plane and particle-triangle-mesh contact forces (one parallel per-particle loop).
 
 Each particle tests the planes and the tool triangles of its grid cell (tool frame). Contacts with

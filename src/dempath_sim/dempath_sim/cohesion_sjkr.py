@@ -1,3 +1,4 @@
+# mypy: disable-error-code="no-untyped-def"
 """Simplified JKR cohesion (SJKR): an attractive normal force proportional to the contact area.
 
 F_c = k_c A, with k_c the cohesion energy density [J/m^3] and A the area of the overlap's contact

@@ -1,3 +1,4 @@
+# mypy: disable-error-code="no-untyped-def"
 """One contact, all laws: Hertz-Mindlin, optional EPSD2 rolling resistance and SJKR cohesion.
 
 The pair table `tab` (n_mat, n_mat, N_TAB) float64 holds, per material pair, the coefficients the

@@ -1,3 +1,4 @@
+# mypy: disable-error-code="no-untyped-def"
 """Hertz-Mindlin contact law: Hertzian normal spring-dashpot and Mindlin tangential spring.
 
 Normal force on body i (along the unit normal n pointing from j to i), overlap delta > 0::

@@ -110,6 +110,7 @@ class Engine:
                 msg = f'Engine: wall/tool material index {m} is not in SimParams.materials'
                 raise SimulationError(msg)
         self.dt: float | None = None
+        self._dt = math.nan  # self.dt as a float once a state is bound
         self.tool_force = np.zeros(3)
         self.tool_torque = np.zeros(3)
         self.tool_pose = ToolPose(np.zeros(3), np.zeros(3))
@@ -150,21 +151,21 @@ class Engine:
     def bind(self, state: SimState) -> None:
         """Allocate buffers and the neighbour list for `state` and compute its forces at t."""
         self._check_pairs(state)
-        self.dt = self.time_step(state)
+        self.dt = self._dt = self.time_step(state)
         n = state.n
         self._threads = 1 if n < self.SERIAL_BELOW else numba.get_num_threads()
         self._n_chunks = max(1, min(self._threads, n))
-        self._force = np.zeros((n, 3))
-        self._torque = np.zeros((n, 3))
+        self._force: F64 = np.zeros((n, 3))
+        self._torque: F64 = np.zeros((n, 3))
         self._fbuf = np.zeros((self._n_chunks, n, 3))
         self._tbuf = np.zeros((self._n_chunks, n, 3))
-        self._gkey = np.full((n, N_SLOTS), -1, np.int32)
-        self._ght = np.zeros((n, N_SLOTS, 3))
-        self._ghr = np.zeros((n, N_SLOTS, 3))
+        self._gkey: NDArray[np.int32] = np.full((n, N_SLOTS), -1, np.int32)
+        self._ght: F64 = np.zeros((n, N_SLOTS, 3))
+        self._ghr: F64 = np.zeros((n, N_SLOTS, 3))
         self._scratch()
         self._skin = self.params.skin * (float(state.radii.min()) if n else 0.0)
-        self._start = np.zeros(n + 1, np.int64)
-        self._nbr = np.zeros(0, np.int32)
+        self._start: NDArray[np.int64] = np.zeros(n + 1, np.int64)
+        self._nbr: NDArray[np.int32] = np.zeros(0, np.int32)
         self._ht = np.zeros((0, 3))
         self._hr = np.zeros((0, 3))
         self._grid = None if self.tool is None else build_triangle_grid(
@@ -266,7 +267,7 @@ class Engine:
         """
         first_half(state.positions, state.velocities, state.angular_velocities, self._force,
                    self._torque, state.masses, state.inertias, state.radii, self._gravity,
-                   self.dt, self._pos_build, self._dom_lo, self._dom_hi, self._stats)
+                   self._dt, self._pos_build, self._dom_lo, self._dom_hi, self._stats)
         stats = self._stats.max(axis=0) if self._stats.shape[0] > 1 else self._stats[0]
         courant = float(stats[1])
         if stats[3] > 0 or courant > self.BLOWUP_COURANT:
@@ -280,8 +281,8 @@ class Engine:
     def integrate_second_half(self, state: SimState) -> None:
         """Second half kick with the new forces; advances time and step."""
         second_half(state.velocities, state.angular_velocities, self._force, self._torque,
-                    state.masses, state.inertias, self._gravity, self.dt)
-        state.time += self.dt
+                    state.masses, state.inertias, self._gravity, self._dt)
+        state.time += self._dt
         state.step += 1
 
     # ----------------------------------------------------------------- stepping
@@ -312,7 +313,7 @@ class Engine:
                 state = self._remove_outside(state)
             elif moved > 0.5 * self._skin:
                 self.find_contacts(state, np.arange(state.n))
-            self.contact_forces(state, self.tool_pose, self.dt)
+            self.contact_forces(state, self.tool_pose, self._dt)
             self.integrate_second_half(state)
         finally:
             numba.set_num_threads(outer)
@@ -328,8 +329,11 @@ class Engine:
                        len(gone), state.time, gone[:10].tolist())
         new = state.subset(keep)
         new_to_old = np.flatnonzero(keep)
-        self._force, self._torque = self._force[keep], self._torque[keep]
-        self._gkey, self._ght, self._ghr = self._gkey[keep], self._ght[keep], self._ghr[keep]
+        self._force = np.ascontiguousarray(self._force[keep])
+        self._torque = np.ascontiguousarray(self._torque[keep])
+        self._gkey = np.ascontiguousarray(self._gkey[keep])
+        self._ght = np.ascontiguousarray(self._ght[keep])
+        self._ghr = np.ascontiguousarray(self._ghr[keep])
         self._n_chunks = max(1, min(self._n_chunks, new.n))
         self._fbuf = np.zeros((self._n_chunks, new.n, 3))
         self._tbuf = np.zeros((self._n_chunks, new.n, 3))
@@ -360,7 +364,7 @@ class Engine:
         if state is not self._bound:
             self.bind(state)
         for k in range(n_steps):
-            pose = None if tool_motion is None else tool_motion(state.time + self.dt)
+            pose = None if tool_motion is None else tool_motion(state.time + self._dt)
             state = self.step(state, pose)
             if callback is not None and (k + 1) % callback_every == 0:
                 callback(state, self)

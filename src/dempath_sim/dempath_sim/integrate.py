@@ -1,3 +1,4 @@
+# mypy: disable-error-code="no-untyped-def"
 """Velocity-Verlet integration of translation and rotation (spheres: isotropic inertia).
 
     v(t + dt/2) = v(t) + dt/2 (F(t)/m + g),     x(t + dt) = x(t) + dt v(t + dt/2),

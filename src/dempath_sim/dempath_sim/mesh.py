@@ -1,3 +1,4 @@
+# mypy: disable-error-code="no-untyped-def"
 """Triangle-mesh geometry of the tool: the mesh record, a triangle grid and closest points.
 
 The mesh is stored in its own (tool) frame; a `ToolPose` places that frame in the world. For
@@ -178,14 +179,14 @@ def closest_point_triangle_numpy(p: NDArray[np.float64],
     q = p - np.dot(p - a, nrm) * nrm
     bary = np.linalg.solve(np.stack([b - a, c - a, nrm], axis=1), q - a)
     if bary[0] >= 0 and bary[1] >= 0 and bary[0] + bary[1] <= 1:
-        return q
-    best = a
+        return np.asarray(q, dtype=np.float64)
+    best: NDArray[np.float64] = a
     for u, v in ((a, b), (b, c), (c, a)):
         t = float(np.clip(np.dot(p - u, v - u) / np.dot(v - u, v - u), 0.0, 1.0))
         cand = u + t * (v - u)
         if np.linalg.norm(p - cand) < np.linalg.norm(p - best):
             best = cand
-    return best
+    return np.asarray(best, dtype=np.float64)
 
 
 def mesh_margin(radii: NDArray[np.float64]) -> float:

@@ -1,3 +1,4 @@
+# mypy: disable-error-code="no-untyped-def"
 """Cell-list half neighbour list (Verlet list with a skin) and contact-history transfer.
 
 Pairs (i, j), j > i, with |x_i - x_j| < r_i + r_j + skin are stored in CSR form (`start` (n+1,),
@@ -15,11 +16,13 @@ import math
 
 import numpy as np
 from numba import njit, prange
+from numpy.typing import NDArray
 
 MAX_CELLS_PER_PARTICLE = 8  # grid is coarsened beyond this many cells per particle
 
 
-def choose_cell_size(radii: np.ndarray, skin: float, extent: np.ndarray) -> float:
+def choose_cell_size(radii: NDArray[np.float64], skin: float,
+                     extent: NDArray[np.float64]) -> float:
     """Cell edge [m]: twice the median radius plus the skin, coarsened to bound the cell count."""
     cell = 2.0 * float(np.median(radii)) + skin
     n_max = MAX_CELLS_PER_PARTICLE * len(radii) + 1000
@@ -89,8 +92,8 @@ def scan_pairs(spos, srad, r_max, skin, lo, cell, dims, cell_start, order, start
             start[i + 1] = count
 
 
-def build_neighbor_list(pos: np.ndarray, rad: np.ndarray,
-                        skin: float) -> tuple[np.ndarray, np.ndarray]:
+def build_neighbor_list(pos: NDArray[np.float64], rad: NDArray[np.float64],
+                        skin: float) -> tuple[NDArray[np.int64], NDArray[np.int32]]:
     """Half neighbour list of spheres within r_i + r_j + skin.
 
     Args:

@@ -1,3 +1,4 @@
+# mypy: disable-error-code="no-untyped-def"
 """Particle-particle contact forces over a half neighbour list, race-free with per-chunk buffers.
 
 The particles are split into `n_chunks` contiguous ranges (one per thread); the pair (i, j) with

@@ -1,3 +1,4 @@
+# mypy: disable-error-code="no-untyped-def"
 """Rolling resistance of type C (elastic-plastic spring-dashpot, EPSD2 without dashpot).
 
 A rolling spring torque M_r on body i, kept as contact history (Ai et al., Powder Technol. 206

@@ -47,7 +47,7 @@ class SimState:
     ids: NDArray[np.int64]
     time: float = 0.0
     step: int = 0
-    extra: dict[str, np.ndarray] = field(default_factory=dict)
+    extra: dict[str, NDArray[np.generic]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         """Check shapes and finiteness; raise ValueError naming the field."""

@@ -41,4 +41,4 @@ def rayleigh_time_step(radii: NDArray[np.float64], material: NDArray[np.int32],
 
 def hertz_contact_time(m_eff: float, r_eff: float, e_star: float, speed: float) -> float:
     """Duration of an elastic Hertzian impact at relative normal speed `speed` [s]."""
-    return HERTZ_DURATION_FACTOR * (m_eff ** 2 / (r_eff * e_star ** 2 * speed)) ** 0.2
+    return float(HERTZ_DURATION_FACTOR * (m_eff ** 2 / (r_eff * e_star ** 2 * speed)) ** 0.2)
