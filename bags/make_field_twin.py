@@ -1,18 +1,19 @@
-"""Make ``bags/field_twin_1ms``: the demo's synthetic field recording (the "measurement").
+"""Make ``bags/field_twin_<scene>``: the demo's synthetic field recording (the "measurement").
 
-SYNTHETIC DATA. A DEM run of the reduced 1.0 m/s scene with a hidden physical setting (another
-packing seed, and an effect the scene has off) plays the part of the real soil bin; its 15
+SYNTHETIC DATA. A DEM run of a shipped scene (``tiny`` today; ``reduced_1ms`` once it runs
+through, see docs/demo.md) with a hidden physical setting (another packing seed, and an effect
+the scene has off) plays the part of the real soil bin; its 15
 marker trajectories are projected through the twin's true cameras (``paper_rig()``), resampled
 to the cameras' 50 FPS and disturbed with the paper's clicking noise (2.36 px x, 2.75 px y), then
 written as a rosbag2 MCAP bag: ``dempath_msgs/PixelPoints`` (SOURCE_CLICKED) on
 ``/cam_side/pixel_points`` and ``/cam_front/pixel_points``, and 960x540 JPEG previews of the
 marker spheres on ``/<cam>/image_raw/compressed`` for Foxglove. Beside it:
-``field_twin_1ms.truth.json`` (the hidden setting, frames, noise, sizes) and
-``field_twin_1ms.truth.csv`` (the true trajectories in the field frame, t,marker,x,y,z).
+``field_twin_<scene>.truth.json`` (the hidden setting, frames, noise, sizes) and
+``field_twin_<scene>.truth.csv`` (the true trajectories in the field frame, t,marker,x,y,z).
 
 Usage::
 
-    .venv/bin/python bags/make_field_twin.py [--sim-dir DIR] [--out bags/field_twin_1ms]
+    .venv/bin/python bags/make_field_twin.py [--scene tiny] [--sim-dir DIR] [--out DIR]
 
 ``--sim-dir`` reuses the output folder of an earlier ``dempath simulate`` run with the hidden
 setting (its ``markers.csv`` and ``summary.json``); without it the run is made here (minutes).
@@ -35,18 +36,17 @@ from dempath_recon import fieldtwin as ft
 from dempath_sim.cli import simulate_main
 
 HERE = Path(__file__).resolve().parent
-SCENE = 'reduced_1ms'
 HIDDEN = {'seed': 7, 'on': ['cohesion'], 'effects': {}}  # what the later diagnosis must find
 NOISE_SEED = 2025
 
 
-def simulate_hidden(out: Path) -> Path:
-    """Run the scene with the hidden setting into ``out`` (``dempath simulate``)."""
-    argv = [SCENE, '--out', str(out), '--seed', str(HIDDEN['seed']), '--quiet']
+def simulate_hidden(scene: str, out: Path) -> Path:
+    """Run ``scene`` with the hidden setting into ``out`` (``dempath simulate``)."""
+    argv = [scene, '--out', str(out), '--seed', str(HIDDEN['seed']), '--quiet']
     argv += [a for name in HIDDEN['on'] for a in ('--on', name)]
     argv += [a for k, v in HIDDEN['effects'].items() for a in ('--effect', f'{k}={v}')]
     if simulate_main(argv) != 0:
-        raise SystemExit(f'error: {SCENE}: the hidden run failed')
+        raise SystemExit(f'error: {scene}: the hidden run failed')
     return out
 
 
@@ -54,10 +54,12 @@ def main(argv: list[str]) -> int:
     """Write the bag, the truth JSON and the truth CSV; print their sizes."""
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument('--sim-dir', type=Path, help='output folder of the hidden dempath run')
-    p.add_argument('--out', type=Path, default=HERE / 'field_twin_1ms', help='bag to create')
+    p.add_argument('--scene', default='tiny', help='shipped scene name or scene file')
+    p.add_argument('--out', type=Path, help='bag to create (default bags/field_twin_<scene>)')
     args = p.parse_args(argv)
+    args.out = args.out or HERE / f'field_twin_{Path(args.scene).stem}'
     with tempfile.TemporaryDirectory() as tmp:
-        sim_dir = args.sim_dir or simulate_hidden(Path(tmp) / 'sim')
+        sim_dir = args.sim_dir or simulate_hidden(args.scene, Path(tmp) / 'sim')
         summary = json.loads((sim_dir / 'summary.json').read_text())
         scene_tracks = ft.read_marker_csv(sim_dir / 'markers.csv')
     config = ft.FieldTwinConfig(seed=NOISE_SEED)
@@ -75,7 +77,7 @@ def main(argv: list[str]) -> int:
     truth = {
         'synthetic': True,
         'what': 'field twin of the demo: DEM run with a hidden setting, seen by the twin rig',
-        'scene': SCENE, 'run_id': summary.get('run_id'),
+        'scene': args.scene, 'run_id': summary.get('run_id'),
         'hidden': {'packing_seed': HIDDEN['seed'], 'effects_switched_on': HIDDEN['on'],
                    'effect_overrides': HIDDEN['effects'],
                    'effects': summary.get('effects')},

@@ -15,8 +15,8 @@ from dempath_calib.rig import paper_rig
 from dempath_recon import fieldtwin as ft
 
 ROOT = Path(__file__).resolve().parents[1]
-TRUTH = ROOT / 'bags' / 'field_twin_1ms.truth.csv'
-STRIDE = 4  # every 4th frame of the shipped field twin: a few frames over the whole motion
+TRUTH = ROOT / 'bags' / 'field_twin_tiny.truth.csv'
+STRIDE = 3  # every 3rd frame of the shipped field twin: a few frames over the whole motion
 
 
 def few_frames_bag(tmp_path: Path) -> tuple[Path, Path, int]:
