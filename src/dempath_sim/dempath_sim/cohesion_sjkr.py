@@ -17,14 +17,14 @@ import math
 from numba import njit
 
 
-@njit(fastmath=True, cache=True)
+@njit(inline='always', fastmath=True, cache=True)
 def sjkr_area_pair(d, r_i, r_j):  # pragma: no cover - compiled
     """Contact-circle area of two overlapping spheres at centre distance d [m^2]."""
     a2 = (r_i + r_j - d) * (d + r_i - r_j) * (d - r_i + r_j) * (d + r_i + r_j) / (4.0 * d * d)
     return math.pi * max(a2, 0.0)
 
 
-@njit(fastmath=True, cache=True)
+@njit(inline='always', fastmath=True, cache=True)
 def sjkr_area_wall(r, delta):  # pragma: no cover - compiled
     """Contact-circle area of a sphere of radius r overlapping a plane by delta [m^2]."""
     return math.pi * max(2.0 * r * delta - delta * delta, 0.0)

@@ -39,7 +39,7 @@ def build_pair_table(params: SimParams) -> NDArray[np.float64]:
     return tab
 
 
-@njit(fastmath=True, cache=True)
+@njit(inline='always', fastmath=True, cache=True)
 def resolve_contact(tab, a, b, delta, r_eff, m_eff, area, nx, ny, nz, vx, vy, vz, wx, wy, wz,
                     ht, hr, k, dt, rolling):  # pragma: no cover - compiled
     """Total contact force and rolling torque on body i for one contact.

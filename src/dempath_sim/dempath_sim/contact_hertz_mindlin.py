@@ -33,7 +33,7 @@ from numba import njit
 SQRT_5_6 = math.sqrt(5.0 / 6.0)  # damping prefactor of the Tsuji/Antypov dashpot
 
 
-@njit(fastmath=True, cache=True)
+@njit(inline='always', fastmath=True, cache=True)
 def hertz_mindlin(delta, r_eff, m_eff, e_star, g_star, beta, mu_s, mu_d,
                   nx, ny, nz, vx, vy, vz, hist, k, dt):  # pragma: no cover - compiled
     """Normal and tangential force of one contact; updates the tangential spring in place.

@@ -18,7 +18,7 @@ import math
 from numba import njit
 
 
-@njit(fastmath=True, cache=True)
+@njit(inline='always', fastmath=True, cache=True)
 def rolling_epsd2(r_eff, k_t, f_n, mu_r, nx, ny, nz, wx, wy, wz,
                   hist, k, dt):  # pragma: no cover - compiled
     """Rolling resistance torque of one contact; updates the rolling spring in place.
