@@ -178,3 +178,17 @@ def test_packing_data_file_round_trips_through_liggghts(liggghts: LiggghtsInstal
     assert np.allclose(got[:, 3:6], vel, atol=1e-6)
     assert np.allclose(got[:, 6], radii, rtol=1e-6)
     assert np.allclose(got[:, 7], 1734.0 * 4 / 3 * np.pi * radii ** 3, rtol=1e-5)
+
+
+def test_cli_bad_input_prints_one_error_line(capsys: pytest.CaptureFixture[str]) -> None:
+    """``dempath liggghts`` and ``dempath validate`` reject bad input with one line, status 1."""
+    from dempath_sim.liggghts.cli import liggghts_main
+    from dempath_sim.validation.cli import validate_main
+
+    assert liggghts_main(['/nonexistent/scene.yaml']) == 1
+    assert liggghts_main(['builtin:tiny', '--np', '0']) == 1
+    assert validate_main(['--seeds', '1']) == 1
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert lines == ['error: /nonexistent/scene.yaml: cannot read scene file (No such file or '
+                     'directory)', 'error: --np: must be >= 1, got 0',
+                     'error: --seeds: need at least 2 for a spread, got 1']
