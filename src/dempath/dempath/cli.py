@@ -30,10 +30,17 @@ def _load(name: str) -> Command:
     return command
 
 
+def _summary(name: str) -> str:
+    """First line of the command function's docstring (what the command does)."""
+    doc = (_load(name).__doc__ or '').strip()
+    line = doc.splitlines()[0] if doc else ''
+    return line.split('``: ', 1)[1] if line.startswith('``dempath') and '``: ' in line else line
+
+
 def _usage(commands: dict[str, str]) -> str:
     lines = ['usage: dempath COMMAND [ARGS...]', '', 'commands:']
     for name in sorted(commands):
-        lines.append(f'  {name:<12} ({commands[name]})')
+        lines.append(f'  {name:<12} {_summary(name)}')
     lines.append('')
     lines.append("Run 'dempath COMMAND --help' for the options of a command.")
     return '\n'.join(lines)

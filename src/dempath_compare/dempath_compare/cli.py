@@ -70,7 +70,7 @@ def print_ranking(result: CompareResult, top: int) -> None:
 
 
 def compare_main(argv: list[str]) -> int:
-    """Entry point of ``dempath compare``; returns 0, or 1 with one error line on bad input."""
+    """``dempath compare MEASURED MODEL --out DIR``: score model trajectories against measured ones."""
     from dempath_compare.pipeline import compare_paths, problems
     from dempath_compare.report import write_outputs
 

@@ -96,7 +96,7 @@ def _progress_bar(quiet: bool) -> tuple[Any, Any]:
 
 
 def simulate_main(argv: list[str]) -> int:
-    """Run a scene offline and write its outputs; 0 on success, 1 on bad input."""
+    """``dempath simulate SCENE --out DIR``: run a scene offline with a progress bar."""
     args = _simulate_parser().parse_args(argv)
     try:
         scene = resolve_scene(args.scene).with_overrides(
@@ -134,7 +134,7 @@ def effect_rows(scene: SceneSpec | None) -> list[dict[str, Any]]:
 
 
 def effects_main(argv: list[str]) -> int:
-    """Print the effects table (or JSON); 0 on success, 1 on a bad scene."""
+    """``dempath effects [SCENE]``: the physical effects, their parameters, units, ranges and state."""
     p = argparse.ArgumentParser(prog='dempath effects', description='List physical effects.')
     p.add_argument('scene', nargs='?', help='scene file or shipped scene name')
     p.add_argument('--json', action='store_true', help='print JSON rows instead of a table')
