@@ -191,7 +191,9 @@ class Engine:
             state: The bound state.
             new_to_old: (n,) index of each current particle in the arrays of the previous list.
         """
-        start, nbr = build_neighbor_list(state.positions, state.radii, self._skin)
+        rows = np.diff(self._start)
+        cap = int(rows.max()) * 5 // 4 + 4 if rows.size == state.n and rows.size else 0
+        start, nbr = build_neighbor_list(state.positions, state.radii, self._skin, cap)
         ht = np.empty((len(nbr), 3))
         hr = np.empty((len(nbr), 3))
         transfer_history(new_to_old.astype(np.int64), self._start, self._nbr, self._ht, self._hr,

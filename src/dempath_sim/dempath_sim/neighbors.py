@@ -6,8 +6,10 @@ Pairs (i, j), j > i, with |x_i - x_j| < r_i + r_j + skin are stored in CSR form 
 +-s_i cells with s_i = ceil((r_i + r_max + skin) / cell), which keeps wide size distributions
 (two-layer beds) cheap. The list stays valid while no particle has moved more than skin / 2
 since the build (Allen & Tildesley, Computer Simulation of Liquids, 2nd ed., 5.3).
-Build: counting sort of particles by cell (serial), then a parallel count pass and a parallel
-fill pass over particles.
+Build: counting sort of particles by cell (serial), then one parallel pass over particles that
+counts the pairs of each particle and writes them into a (n, cap) scratch table, then a parallel
+copy into CSR form. `cap` comes from the previous list (its longest row plus a margin); without
+it, or when a row overflows, a second pass writes the CSR list directly (counts are exact).
 """
 
 from __future__ import annotations
@@ -56,8 +58,9 @@ def sort_into_cells(pos, lo, cell, dims):  # pragma: no cover - compiled
 
 @njit(parallel=True, cache=True)
 def scan_pairs(spos, srad, r_max, skin, lo, cell, dims, cell_start, order, start,
-               nbr, fill):  # pragma: no cover - compiled
-    """Count (fill=False: into start[i+1]) or write (fill=True: into nbr) the pairs of each i.
+               nbr, table, fill):  # pragma: no cover - compiled
+    """Count the pairs of each i into start[i+1] (fill=False; the first table.shape[1] pairs of
+    i also go to table[i] when table has rows) or write them into nbr from start[i] (fill=True).
 
     spos (n, 3) and srad (n,) are the positions and radii in cell order (spos[q] is particle
     order[q]); particles are visited in cell order so that neighbouring visits share cells.
@@ -71,6 +74,7 @@ def scan_pairs(spos, srad, r_max, skin, lo, cell, dims, cell_start, order, start
         cz = min(max(int((spos[qi, 2] - lo[2]) / cell), 0), dims[2] - 1)
         count = 0
         out = start[i] if fill else 0
+        cap = table.shape[1] if table.shape[0] > 0 else 0
         for ax in range(max(cx - s, 0), min(cx + s, dims[0] - 1) + 1):
             for ay in range(max(cy - s, 0), min(cy + s, dims[1] - 1) + 1):
                 c0 = (ax * dims[1] + ay) * dims[2]
@@ -87,19 +91,31 @@ def scan_pairs(spos, srad, r_max, skin, lo, cell, dims, cell_start, order, start
                     if dx * dx + dy * dy + dz * dz < cut * cut:
                         if fill:
                             nbr[out + count] = j
+                        elif count < cap:
+                            table[i, count] = j
                         count += 1
         if not fill:
             start[i + 1] = count
 
 
+@njit(parallel=True, cache=True)
+def copy_table(table, start, nbr):  # pragma: no cover - compiled
+    """nbr[start[i]:start[i+1]] = table[i, :start[i+1] - start[i]] (rows fit the table)."""
+    for i in prange(table.shape[0]):
+        for k in range(start[i + 1] - start[i]):
+            nbr[start[i] + k] = table[i, k]
+
+
 def build_neighbor_list(pos: NDArray[np.float64], rad: NDArray[np.float64],
-                        skin: float) -> tuple[NDArray[np.int64], NDArray[np.int32]]:
+                        skin: float, cap: int = 0) -> tuple[NDArray[np.int64], NDArray[np.int32]]:
     """Half neighbour list of spheres within r_i + r_j + skin.
 
     Args:
         pos: (n, 3) centres [m].
         rad: (n,) radii [m].
         skin: Absolute skin distance [m].
+        cap: Expected longest row; > 0 builds in one pass through a (n, cap) int32 scratch
+            table (a longer row costs a second pass, never a wrong list); 0 always scans twice.
 
     Returns:
         (start (n+1,) int64, nbr (m,) int32): the neighbours j > i of i are
@@ -118,10 +134,17 @@ def build_neighbor_list(pos: NDArray[np.float64], rad: NDArray[np.float64],
     srad = rad[order]
     r_max = float(rad.max())
     dummy = np.zeros(0, np.int32)
-    scan_pairs(spos, srad, r_max, skin, lo, cell, dims, cell_start, order, start, dummy, False)
+    table = np.empty((n if cap > 0 else 0, max(cap, 1)), np.int32)
+    scan_pairs(spos, srad, r_max, skin, lo, cell, dims, cell_start, order, start, dummy, table,
+               False)
+    fits = cap > 0 and int(start.max()) <= cap
     np.cumsum(start, out=start)
     nbr = np.empty(int(start[-1]), np.int32)
-    scan_pairs(spos, srad, r_max, skin, lo, cell, dims, cell_start, order, start, nbr, True)
+    if fits:
+        copy_table(table, start, nbr)
+    else:
+        scan_pairs(spos, srad, r_max, skin, lo, cell, dims, cell_start, order, start, nbr,
+                   table, True)
     return start, nbr
 
 

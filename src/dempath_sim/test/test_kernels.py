@@ -74,6 +74,11 @@ def test_neighbor_list_matches_brute_force() -> None:
     close = d < rad[:, None] + rad[None] + 3e-4
     want = {(i, j) for i, j in zip(*np.nonzero(close), strict=True) if i < j}
     assert got == want
+    longest = int(np.diff(start).max())
+    for cap in (1, longest, longest + 5):  # one pass through the table; overflow scans again
+        start_c, nbr_c = build_neighbor_list(pos, rad, 3e-4, cap)
+        np.testing.assert_array_equal(start_c, start)
+        np.testing.assert_array_equal(nbr_c, nbr)
 
 
 def test_transfer_history_follows_pairs_through_removal() -> None:
