@@ -45,23 +45,20 @@ def _apply(i, c, key, delta, lever, nx, ny, nz, vx, vy, vz, wx, wy, wz, a, b, ra
            force, torque, worst):  # pragma: no cover - compiled
     """Resolve one geometry contact of particle i; returns (fx, fy, fz, mx, my, mz, used)."""
     s = find_slot(gkey, i, key, used)
-    if s >= 0:
+    area = sjkr_area_wall(rad[i], delta) if cohesion else 0.0
+    if s >= 0:  # ght, ghr are the (n * N_SLOTS, 3) flat views: no array views made per contact
         used |= 1 << s
-        ht = ght[i]
-        hr = ghr[i]
-        row = s
+        fx, fy, fz, mx, my, mz, _ = resolve_contact(
+            tab, a, b, delta, rad[i], mass[i], area, nx, ny, nz, vx, vy, vz, wx, wy, wz,
+            ght, ghr, i * gkey.shape[1] + s, dt, rolling)
     else:
         worst[c, 3] += 1.0
         for q in range(3):
-            tmp_t[c, 0, q] = 0.0
-            tmp_r[c, 0, q] = 0.0
-        ht = tmp_t[c]
-        hr = tmp_r[c]
-        row = 0
-    area = sjkr_area_wall(rad[i], delta) if cohesion else 0.0
-    fx, fy, fz, mx, my, mz, _ = resolve_contact(
-        tab, a, b, delta, rad[i], mass[i], area, nx, ny, nz, vx, vy, vz, wx, wy, wz,
-        ht, hr, row, dt, rolling)
+            tmp_t[c, q] = 0.0
+            tmp_r[c, q] = 0.0
+        fx, fy, fz, mx, my, mz, _ = resolve_contact(
+            tab, a, b, delta, rad[i], mass[i], area, nx, ny, nz, vx, vy, vz, wx, wy, wz,
+            tmp_t, tmp_r, c, dt, rolling)
     ratio = delta / rad[i]
     if ratio > worst[c, 0]:
         worst[c, 0] = ratio
@@ -215,6 +212,11 @@ def boundary_forces(pos, vel, omg, rad, mass, mat, planes, plane_mat, tris, tri_
     n_chunks = tool_acc.shape[0]
     n = pos.shape[0]
     n_planes = planes.shape[0]
+    n_slots = gkey.shape[1]
+    ght = ght.reshape((n * n_slots, 3))  # one row per (particle, slot)
+    ghr = ghr.reshape((n * n_slots, 3))
+    tmp_t = tmp_t.reshape((n_chunks, 3))
+    tmp_r = tmp_r.reshape((n_chunks, 3))
     has_tool = tris.shape[0] > 0
     g_hi0 = g_lo[0] + g_dims[0] * g_cell
     g_hi1 = g_lo[1] + g_dims[1] * g_cell
@@ -242,5 +244,5 @@ def boundary_forces(pos, vel, omg, rad, mass, mat, planes, plane_mat, tris, tri_
                 if not (used >> k) & 1 and gkey[i, k] != -1:
                     gkey[i, k] = -1
                     for q in range(3):
-                        ght[i, k, q] = 0.0
-                        ghr[i, k, q] = 0.0
+                        ght[i * n_slots + k, q] = 0.0
+                        ghr[i * n_slots + k, q] = 0.0
