@@ -13,10 +13,8 @@ import threading
 import time
 from typing import Any
 
-import rclpy
 from builtin_interfaces.msg import Time
 from rcl_interfaces.msg import ParameterDescriptor
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 
@@ -24,8 +22,8 @@ from dempath import topics
 from dempath.bagio import RawMessage, open_bag
 from dempath.errors import DempathError
 from dempath.nodes.msgtypes import import_message_class, reliable_qos
+from dempath.nodes.spin import run_node
 from dempath.playback import Playback, PlaybackStats, PlayerConfig
-from dempath.rosenv import apply_ros_defaults
 from dempath_msgs.msg import RunEvent
 
 PARAMETERS = [
@@ -124,19 +122,6 @@ class PlayerNode(Node):
         super().destroy_node()
 
 
-def main(args: list[str] | None = None) -> None:
+def main(args: list[str] | None = None) -> int:
     """Console script ``dempath_player``: play, then exit when finished (or on Ctrl-C)."""
-    apply_ros_defaults()
-    rclpy.init(args=args)
-    node = PlayerNode()
-    executor = SingleThreadedExecutor()
-    executor.add_node(node)
-    try:
-        while rclpy.ok() and not node.finished.is_set():
-            executor.spin_once(timeout_sec=0.1)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        executor.shutdown()
-        node.destroy_node()
-        rclpy.try_shutdown()
+    return run_node(PlayerNode, args, until=lambda node: node.finished.is_set())

@@ -15,16 +15,14 @@ import sys
 from functools import partial
 from typing import Any
 
-import rclpy
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.event_handler import QoSMessageLostInfo, SubscriptionEventCallbacks
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 
 from dempath.errors import DempathError
 from dempath.nodes.msgtypes import import_message_class, offered_qos_yaml, subscription_qos
+from dempath.nodes.spin import run_node
 from dempath.recording import BagRecorder, RecorderConfig
-from dempath.rosenv import apply_ros_defaults
 
 PARAMETERS = [
     ('output', '', 'bag directory to create'),
@@ -129,20 +127,6 @@ class RecorderNode(Node):
         super().destroy_node()
 
 
-def main(args: list[str] | None = None) -> None:
+def main(args: list[str] | None = None) -> int:
     """Console script ``dempath_recorder``: record until Ctrl-C or SIGTERM."""
-    apply_ros_defaults()
-    rclpy.init(args=args)
-    node = RecorderNode()
-    executor = SingleThreadedExecutor()
-    executor.add_node(node)
-    try:
-        executor.spin()
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        summary = node.finish()
-        executor.shutdown()
-        node.destroy_node()
-        rclpy.try_shutdown()
-        print(summary, file=sys.stderr)
+    return run_node(RecorderNode, args, on_exit=lambda node: print(node.finish(), file=sys.stderr))

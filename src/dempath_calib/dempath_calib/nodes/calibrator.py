@@ -12,9 +12,7 @@ from __future__ import annotations
 import time
 from typing import Any
 
-import rclpy
 from rcl_interfaces.msg import ParameterDescriptor
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import CameraInfo, CompressedImage, Image
@@ -22,7 +20,7 @@ from std_srvs.srv import Trigger
 
 from dempath import topics
 from dempath.errors import DempathError
-from dempath.rosenv import apply_ros_defaults
+from dempath.nodes.spin import run_node
 from dempath_calib.calibrator import CalibrationResult, Calibrator
 from dempath_calib.collect import CollectorConfig, ViewCollector
 from dempath_calib.nodes.convert import camera_info_msg, image_to_grey
@@ -125,18 +123,6 @@ class CalibratorNode(Node):
         super().destroy_node()
 
 
-def main(args: list[str] | None = None) -> None:
+def main(args: list[str] | None = None) -> int:
     """Run the node (console script ``dempath_calibrator``)."""
-    apply_ros_defaults()
-    rclpy.init(args=args)
-    node = CalibratorNode()
-    executor = SingleThreadedExecutor()
-    executor.add_node(node)
-    try:
-        executor.spin()
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        executor.shutdown()
-        node.destroy_node()
-        rclpy.try_shutdown()
+    return run_node(CalibratorNode, args)

@@ -9,16 +9,14 @@ from __future__ import annotations
 
 from typing import Any
 
-import rclpy
-from dempath.rosenv import apply_ros_defaults
 from rcl_interfaces.msg import ParameterDescriptor
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from std_msgs.msg import Header
 from std_srvs.srv import Trigger
 from visualization_msgs.msg import MarkerArray
 
 from dempath import topics
+from dempath.nodes.spin import run_node
 from dempath_compare.config import CompareConfig
 from dempath_compare.errors import CompareError
 from dempath_compare.live import LiveComparer
@@ -100,18 +98,6 @@ class ComparerNode(Node):
         return len(scores.scores)
 
 
-def main(args: list[str] | None = None) -> None:
+def main(args: list[str] | None = None) -> int:
     """Console script ``dempath_comparer``."""
-    apply_ros_defaults()
-    rclpy.init(args=args)
-    node = ComparerNode()
-    executor = SingleThreadedExecutor()
-    executor.add_node(node)
-    try:
-        executor.spin()
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        executor.shutdown()
-        node.destroy_node()  # type: ignore[no-untyped-call]
-        rclpy.try_shutdown()  # type: ignore[attr-defined]
+    return run_node(ComparerNode, args)

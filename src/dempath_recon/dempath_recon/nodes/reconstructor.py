@@ -7,19 +7,15 @@ on ``/markers/points3d`` and a visualization_msgs/MarkerArray on ``/markers/visu
 
 from __future__ import annotations
 
-import sys
 from collections.abc import Callable
 from typing import Any
 
-import rclpy
 from rcl_interfaces.msg import ParameterDescriptor
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from visualization_msgs.msg import MarkerArray
 
 from dempath import topics
-from dempath.errors import DempathError
-from dempath.rosenv import apply_ros_defaults
+from dempath.nodes.spin import run_node
 from dempath_msgs.msg import MarkerPoints3D, PixelPoints
 from dempath_recon.errors import ReconstructionError
 from dempath_recon.nodes.convert import (
@@ -91,23 +87,5 @@ class ReconstructorNode(Node):
 
 
 def main(args: list[str] | None = None) -> int:
-    """Run the node until shutdown; a bad file or parameter gives one error line and 1."""
-    apply_ros_defaults()
-    rclpy.init(args=args)
-    try:
-        node = ReconstructorNode()
-    except (DempathError, ValueError) as err:
-        print(f'error: {err}', file=sys.stderr)
-        rclpy.try_shutdown()
-        return 1
-    executor = SingleThreadedExecutor()
-    executor.add_node(node)
-    try:
-        executor.spin()
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        executor.shutdown()
-        node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    """Console script ``dempath_reconstructor``; a bad file gives one error line and 1."""
+    return run_node(ReconstructorNode, args)

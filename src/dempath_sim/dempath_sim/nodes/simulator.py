@@ -12,17 +12,15 @@ import threading
 import time
 from typing import Any
 
-import rclpy
 from geometry_msgs.msg import PoseStamped
 from rcl_interfaces.msg import ParameterDescriptor
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile
 from visualization_msgs.msg import MarkerArray
 
 from dempath import topics
 from dempath.errors import DempathError
-from dempath.rosenv import apply_ros_defaults
+from dempath.nodes.spin import run_node
 from dempath_msgs.msg import ParticleStates, RunEvent, ToolForce
 from dempath_sim.mesh import TriangleMesh
 from dempath_sim.nodes import convert
@@ -111,18 +109,6 @@ class SimulatorNode(Node):
         super().destroy_node()
 
 
-def main(args: list[str] | None = None) -> None:
+def main(args: list[str] | None = None) -> int:
     """Console script ``dempath_simulator``."""
-    apply_ros_defaults()
-    rclpy.init(args=args)
-    node = SimulatorNode()
-    executor = SingleThreadedExecutor()
-    executor.add_node(node)
-    try:
-        executor.spin()
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        executor.shutdown()
-        node.destroy_node()
-        rclpy.try_shutdown()
+    return run_node(SimulatorNode, args)

@@ -1,0 +1,58 @@
+"""The body of every dempath node's console script, in the Jazzy form.
+
+``rclpy.init``; build the node (a bad file or parameter ends with one ``error:`` line and exit
+status 1); spin until Ctrl-C, SIGTERM or the node says it is done; then shut down in order:
+the node's own finishing step, the executor, the node, the context.
+"""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Callable
+from typing import TypeVar
+
+import rclpy
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.node import Node
+
+from dempath.errors import DempathError
+from dempath.rosenv import apply_ros_defaults
+
+N = TypeVar('N', bound=Node)
+
+
+def run_node(make_node: Callable[[], N], args: list[str] | None = None,
+             until: Callable[[N], bool] | None = None,
+             on_exit: Callable[[N], None] | None = None) -> int:
+    """Run one node in its own process until shutdown; return the exit status.
+
+    Args:
+        make_node: The node class (or a factory taking no arguments).
+        args: Command-line arguments for ``rclpy.init`` (``--ros-args -p name:=value ...``).
+        until: Stop spinning once this returns True (e.g. the player has finished the bag).
+        on_exit: Called before the executor shuts down (e.g. finalise a recording).
+    """
+    apply_ros_defaults()
+    rclpy.init(args=args)
+    try:
+        node = make_node()
+    except (DempathError, ValueError) as err:
+        print(f'error: {err}', file=sys.stderr)
+        rclpy.try_shutdown()
+        return 1
+    executor = SingleThreadedExecutor()
+    executor.add_node(node)
+    try:
+        if until is None:
+            executor.spin()
+        while until is not None and rclpy.ok() and not until(node):
+            executor.spin_once(timeout_sec=0.1)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        if on_exit is not None:
+            on_exit(node)
+        executor.shutdown()
+        node.destroy_node()
+        rclpy.try_shutdown()
+    return 0
