@@ -2,10 +2,9 @@
 
 1. calibrate both twin cameras from ``bags/calib_twin_small`` (ChArUco, offline core);
 2. fit the fast reconstruction method (triangulation refined in pixels) from that calibration;
-3. play the synthetic field recording ``bags/field_twin_tiny`` (clicked marker pixels of both
-   cameras) through player -> reconstructor node -> MarkerPoints3D;
-4. run the model: the simulator node on the field twin's scene with the scene's own effects
-   (``tiny`` today: ``reduced_1ms`` aborts with an overlap error in its drive, see docs/demo.md);
+3. play the synthetic field recording ``bags/field_twin_reduced_1ms`` (clicked marker pixels of
+   both cameras) through player -> reconstructor node -> MarkerPoints3D;
+4. run the model: the simulator node on the reduced scene with the scene's own effects;
 5. the comparer node scores the run on RunEvent FINISHED (TrajectoryScoreArray); the offline
    ``dempath compare`` outputs (workbook, plots, Table 7, report) are written from the bag;
 6. a summary. The recorder node writes everything the graph publishes into one MCAP bag.
@@ -33,9 +32,9 @@ from dempath.errors import DempathError
 
 REPO = Path(__file__).resolve().parents[3]
 CALIB_BAG = REPO / 'bags' / 'calib_twin_small'
-FIELD_BAG = REPO / 'bags' / 'field_twin_tiny'
+FIELD_BAG = REPO / 'bags' / 'field_twin_reduced_1ms'
 DEMO_OUT = REPO / 'out' / 'demo'
-SCENE = 'tiny'  # the scene the field twin was recorded from (with a hidden setting)
+SCENE = 'reduced_1ms'  # the field twin's scene (it was recorded with a hidden setting)
 METHOD = 'dlt_refined'  # triangulation + Gauss-Newton in pixels: no training, < 1 s to fit
 SQUARE_MM = 40.4  # the paper's ChArUco squares
 PAPER_RMSE_PX = {'side': 0.49, 'front': 0.57}  # the paper's calibration RMSE
