@@ -16,6 +16,7 @@ about the tool origin.
 
 from __future__ import annotations
 
+import numpy as np
 from numba import njit, prange
 
 from dempath_sim.cohesion_sjkr import sjkr_area_wall
@@ -45,20 +46,23 @@ def _apply(i, c, key, delta, lever, nx, ny, nz, vx, vy, vz, wx, wy, wz, a, b, ra
            force, torque, worst):  # pragma: no cover - compiled
     """Resolve one geometry contact of particle i; returns (fx, fy, fz, mx, my, mz, used)."""
     s = find_slot(gkey, i, key, used)
-    area = sjkr_area_wall(rad[i], delta) if cohesion else 0.0
-    if s >= 0:  # ght, ghr are the (n * N_SLOTS, 3) flat views: no array views made per contact
+    ht = ght  # ght, ghr are the (n * N_SLOTS, 3) flat views: no array views made per contact
+    hr = ghr
+    row = i * gkey.shape[1] + s
+    if s >= 0:
         used |= 1 << s
-        fx, fy, fz, mx, my, mz, _ = resolve_contact(
-            tab, a, b, delta, rad[i], mass[i], area, nx, ny, nz, vx, vy, vz, wx, wy, wz,
-            ght, ghr, i * gkey.shape[1] + s, dt, rolling)
     else:
         worst[c, 3] += 1.0
         for q in range(3):
             tmp_t[c, q] = 0.0
             tmp_r[c, q] = 0.0
-        fx, fy, fz, mx, my, mz, _ = resolve_contact(
-            tab, a, b, delta, rad[i], mass[i], area, nx, ny, nz, vx, vy, vz, wx, wy, wz,
-            tmp_t, tmp_r, c, dt, rolling)
+        ht = tmp_t
+        hr = tmp_r
+        row = c
+    area = sjkr_area_wall(rad[i], delta) if cohesion else 0.0
+    fx, fy, fz, mx, my, mz, _ = resolve_contact(
+        tab, a, b, delta, rad[i], mass[i], area, nx, ny, nz, vx, vy, vz, wx, wy, wz,
+        ht, hr, row, dt, rolling)
     ratio = delta / rad[i]
     if ratio > worst[c, 0]:
         worst[c, 0] = ratio
@@ -84,7 +88,7 @@ def _plane_contact(i, c, p, s, pos, vel, omg, rad, mass, mat, planes, plane_mat,
     vy = vel[i, 1] - s * (omg[i, 2] * nx - omg[i, 0] * nz)
     vz = vel[i, 2] - s * (omg[i, 0] * ny - omg[i, 1] * nx)
     r = _apply(i, c, p, rad[i] - s, s, nx, ny, nz, vx, vy, vz, omg[i, 0], omg[i, 1], omg[i, 2],
-               mat[i], plane_mat[p], rad, mass, gkey, ght, ghr, tmp_t, tmp_r, tab, dt,
+               mat[i], np.int64(plane_mat[p]), rad, mass, gkey, ght, ghr, tmp_t, tmp_r, tab, dt,
                rolling, cohesion, used, force, torque, worst)
     return r[6]
 
@@ -188,6 +192,52 @@ def _mesh_contacts(i, c, pos, vel, omg, rad, mass, mat, tris, tri_mat, n_planes,
     return used
 
 
+@njit(fastmath=True, cache=True)
+def _boundary_chunk(c, pos, vel, omg, rad, mass, mat, planes, plane_mat, tris, mat_tool, g_lo,
+                    g_cell, g_dims, g_start, g_tris, tool, gkey, ght, ghr, tab, dt, rolling,
+                    cohesion, force, torque, tool_acc, worst, cand, tmp_t,
+                    tmp_r):  # pragma: no cover - compiled
+    """The work of chunk c of `boundary_forces` (particles c n / n_chunks ...); ght, ghr flat."""
+    n_chunks = tool_acc.shape[0]
+    n = pos.shape[0]
+    n_planes = planes.shape[0]
+    n_slots = gkey.shape[1]
+    has_tool = tris.shape[0] > 0
+    g_hi0 = g_lo[0] + g_dims[0] * g_cell
+    g_hi1 = g_lo[1] + g_dims[1] * g_cell
+    g_hi2 = g_lo[2] + g_dims[2] * g_cell
+    for q in range(6):
+        tool_acc[c, q] = 0.0
+    for i in range(c * n // n_chunks, (c + 1) * n // n_chunks):
+        used = np.int64(0)
+        for p in range(n_planes):
+            s = ((pos[i, 0] - planes[p, 0]) * planes[p, 3]
+                 + (pos[i, 1] - planes[p, 1]) * planes[p, 4]
+                 + (pos[i, 2] - planes[p, 2]) * planes[p, 5])
+            if s < rad[i]:
+                used = _plane_contact(i, c, p, s, pos, vel, omg, rad, mass, mat, planes,
+                                      plane_mat, gkey, ght, ghr, tmp_t, tmp_r, tab, dt,
+                                      rolling, cohesion, used, force, torque, worst)
+        if has_tool and _in_grid(pos[i, 0] - tool[0], pos[i, 1] - tool[1],
+                                 pos[i, 2] - tool[2], tool, g_lo, g_hi0, g_hi1, g_hi2):
+            used = _mesh_contacts(i, c, pos, vel, omg, rad, mass, mat, tris, mat_tool,
+                                  n_planes, g_lo, g_cell, g_dims, g_start, g_tris, tool,
+                                  gkey, ght, ghr, tmp_t, tmp_r, tab, dt, rolling, cohesion,
+                                  used, force, torque, worst, cand, tool_acc)
+        for k in range(n_slots):
+            if not (used >> k) & 1 and gkey[i, k] != -1:
+                gkey[i, k] = -1
+                for q in range(3):
+                    ght[i * n_slots + k, q] = 0.0
+                    ghr[i * n_slots + k, q] = 0.0
+
+
+@njit(cache=True)
+def _boundary_chunk_packed(c, args):  # pragma: no cover - compiled
+    """`_boundary_chunk(c, *args)`."""
+    _boundary_chunk(c, *args)
+
+
 @njit(parallel=True, fastmath=True, cache=True)
 def boundary_forces(pos, vel, omg, rad, mass, mat, planes, plane_mat, tris, tri_mat, g_lo,
                     g_cell, g_dims, g_start, g_tris, tool, gkey, ght, ghr, tab, dt, rolling,
@@ -211,38 +261,15 @@ def boundary_forces(pos, vel, omg, rad, mass, mat, planes, plane_mat, tris, tri_
     """
     n_chunks = tool_acc.shape[0]
     n = pos.shape[0]
-    n_planes = planes.shape[0]
     n_slots = gkey.shape[1]
     ght = ght.reshape((n * n_slots, 3))  # one row per (particle, slot)
     ghr = ghr.reshape((n * n_slots, 3))
     tmp_t = tmp_t.reshape((n_chunks, 3))
     tmp_r = tmp_r.reshape((n_chunks, 3))
-    has_tool = tris.shape[0] > 0
-    g_hi0 = g_lo[0] + g_dims[0] * g_cell
-    g_hi1 = g_lo[1] + g_dims[1] * g_cell
-    g_hi2 = g_lo[2] + g_dims[2] * g_cell
+    # The parallel loop body is one call taking one tuple: numba's parfor lowering of a body
+    # that references ~30 arrays took ~45 s CPU to compile; with the tuple it takes ~5 s.
+    a = (pos, vel, omg, rad, mass, mat, planes, plane_mat, tris, np.int64(tri_mat), g_lo,
+         g_cell, g_dims, g_start, g_tris, tool, gkey, ght, ghr, tab, dt, rolling, cohesion,
+         force, torque, tool_acc, worst)
     for c in prange(n_chunks):
-        for q in range(6):
-            tool_acc[c, q] = 0.0
-        for i in range(c * n // n_chunks, (c + 1) * n // n_chunks):
-            used = 0
-            for p in range(n_planes):
-                s = ((pos[i, 0] - planes[p, 0]) * planes[p, 3]
-                     + (pos[i, 1] - planes[p, 1]) * planes[p, 4]
-                     + (pos[i, 2] - planes[p, 2]) * planes[p, 5])
-                if s < rad[i]:
-                    used = _plane_contact(i, c, p, s, pos, vel, omg, rad, mass, mat, planes,
-                                          plane_mat, gkey, ght, ghr, tmp_t, tmp_r, tab, dt,
-                                          rolling, cohesion, used, force, torque, worst)
-            if has_tool and _in_grid(pos[i, 0] - tool[0], pos[i, 1] - tool[1],
-                                     pos[i, 2] - tool[2], tool, g_lo, g_hi0, g_hi1, g_hi2):
-                used = _mesh_contacts(i, c, pos, vel, omg, rad, mass, mat, tris, tri_mat,
-                                      n_planes, g_lo, g_cell, g_dims, g_start, g_tris, tool,
-                                      gkey, ght, ghr, tmp_t, tmp_r, tab, dt, rolling, cohesion,
-                                      used, force, torque, worst, cand[c], tool_acc)
-            for k in range(gkey.shape[1]):
-                if not (used >> k) & 1 and gkey[i, k] != -1:
-                    gkey[i, k] = -1
-                    for q in range(3):
-                        ght[i * n_slots + k, q] = 0.0
-                        ghr[i * n_slots + k, q] = 0.0
+        _boundary_chunk_packed(np.int64(c), (*a, cand[c], tmp_t, tmp_r))
