@@ -1,5 +1,6 @@
 """ament_python package dempath_calib."""
 
+
 from setuptools import find_packages, setup
 
 PACKAGE = 'dempath_calib'

@@ -1,5 +1,7 @@
 """ament_python package dempath_sim."""
 
+from pathlib import Path
+
 from setuptools import find_packages, setup
 
 PACKAGE = 'dempath_sim'
@@ -8,7 +10,8 @@ setup(
     name=PACKAGE,
     version='0.1.0',
     packages=find_packages(exclude=['test']),
-    package_data={PACKAGE: ['py.typed', 'data/*.stl', 'data/*.py', 'data/scenes/*.yaml']},
+    package_data={PACKAGE: ['py.typed', 'data/*.stl', 'data/*.py', 'data/scenes/*.yaml',
+                            'data/packings/*.npz']},
     data_files=[
         ('share/ament_index/resource_index/packages', [f'resource/{PACKAGE}']),
         (f'share/{PACKAGE}', ['package.xml']),
@@ -17,7 +20,7 @@ setup(
     zip_safe=False,
     maintainer='dempath developers',
     maintainer_email='dempath@users.noreply.github.com',
-    description=open('package.xml').read().split('<description>')[1].split('</description>')[0],
+    description=Path('package.xml').read_text().split('<description>')[1].split('</description>')[0],
     license='Apache-2.0',
     entry_points={
         'console_scripts': [

@@ -43,9 +43,7 @@ DEFAULT_SOLID_FRACTION = 0.6  # random loose-to-close packing of spheres
 LATTICE_GAP = 1.04  # lattice spacing / largest diameter of a layer
 SETTLE_CHECK_S = 0.02  # sim time between settling checks [s]
 MIN_SETTLE_S = 0.1  # never stop before this much sim time [s]
-ENGINE_SOURCES = ('engine.py', 'contact.py', 'contact_hertz_mindlin.py', 'pair_forces.py',
-                  'rolling_epsd2.py', 'cohesion_sjkr.py', 'integrate.py', 'boundary.py',
-                  'neighbors.py', 'walls.py')
+ENGINE_VERSION = 1  # bump when an engine change alters how a bed settles (invalidates packings)
 PARTICLES, WALLS, TOOL = 0, 1, 2  # material indices used by the runs
 
 
@@ -87,6 +85,11 @@ def default_cache_dir() -> Path:
     return base / 'packings'
 
 
+def bundled_packing_dir() -> Path:
+    """Settled packings shipped with dempath for its bundled scenes (read-only, looked up last)."""
+    return Path(__file__).resolve().parent / 'data' / 'packings'
+
+
 def bin_walls(scene: SceneSpec) -> tuple[Plane, ...]:
     """Floor and four side walls of the bin (open top), material WALLS."""
     w, floor = scene.bin.width_x_m / 2, -scene.bed_thickness_m
@@ -100,17 +103,11 @@ def packing_key(scene: SceneSpec, model: PhysicsModel) -> str:
     The overlap limit is a safety stop, not a parameter of the packing, so it is left out (set
     to its default) along with everything about the tool.
     """
-    here = Path(__file__).resolve().parent
-    engine_hash = hashlib.sha256()
-    for name in ENGINE_SOURCES:
-        path = here / name
-        if path.is_file():
-            engine_hash.update(path.read_bytes())
     numerics = replace(scene.sim, max_overlap_fraction=NumericsSpec.max_overlap_fraction)
     physics = asdict(replace(model, speed_scale=1.0, particle_tool=model.particle_particle,
                              tool_density_kg_m3=0.0, tool_youngs_modulus_pa=0.0,
                              tool_poisson=0.0))
-    payload = {'version': FILL_VERSION, 'engine': engine_hash.hexdigest(),
+    payload = {'version': FILL_VERSION, 'engine': ENGINE_VERSION,
                'bin': asdict(scene.bin), 'layers': [asdict(x) for x in scene.layers],
                'physics': physics, 'fill': asdict(replace(scene.fill, cache=True)),
                'sim': asdict(numerics),
@@ -284,8 +281,10 @@ def fill_bed(scene: SceneSpec, model: PhysicsModel, params: SimParams,
     """
     key = packing_key(scene, model)
     path = (cache_dir or default_cache_dir()) / f'{key}.npz'
-    if scene.fill.cache and path.is_file():
-        return _load_cached(path, params)
+    if scene.fill.cache:
+        for found_path in (path, bundled_packing_dir() / f'{key}.npz'):
+            if found_path.is_file():
+                return _load_cached(found_path, params)
     state, settled = pour_and_settle(scene, pour(scene, model, params), params, progress)
     found: dict[str, Any] = measure(scene, model, state)
     target = scene.fill.bulk_density_target_kg_m3

@@ -109,3 +109,15 @@ def test_fill_settles_and_caches(tmp_path_factory: pytest.TempPathFactory) -> No
     again, cached = fill_bed(scene, model, params, cache)
     assert cached.from_cache and cached.key == report.key
     np.testing.assert_array_equal(again.positions, state.positions)
+
+
+def test_bundled_packing_matches_reduced_scenes() -> None:
+    """The shipped packing still belongs to the reduced scenes (else the demo refills)."""
+    from dempath_sim.fill import bundled_packing_dir, packing_key
+    from dempath_sim.scene import bundled_scene
+
+    for name in ('reduced_1ms', 'reduced_1_5ms'):
+        scene = bundled_scene(name)
+        key = packing_key(scene, scene.physics_model())
+        assert (bundled_packing_dir() / f'{key}.npz').is_file(), (
+            f'{name}: no bundled packing {key}.npz; rebuild it (data/packings/README.md)')
