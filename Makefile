@@ -16,7 +16,7 @@ demo: $(VENV)/.installed
 	$(BIN)/dempath demo
 
 test: $(VENV)/.installed
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest -n 2
 
 lint: $(VENV)/.installed
 	$(BIN)/ruff check src tests bench
