@@ -15,6 +15,7 @@ import time
 from dataclasses import replace
 
 import numpy as np
+
 from dempath_compare.config import CompareConfig, Pairing
 from dempath_compare.metrics import score_pair
 from dempath_compare.records import Track, pack_tracks

@@ -6,12 +6,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from dempath.bagio import make_typestore, open_bag, write_bag
-from dempath.nodes.harness import RosHarness
-from dempath.nodes.pipeline import replay_and_record
-from dempath.nodes.player import PlayerNode
-from dempath.nodes.recorder import RecorderNode
-from dempath.testbags import START_NS, header, images, pixel_points
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rosbags.interfaces import (
     Qos,
@@ -26,6 +20,12 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import CameraInfo
 
 from dempath import topics
+from dempath.bagio import make_typestore, open_bag, write_bag
+from dempath.nodes.harness import RosHarness
+from dempath.nodes.pipeline import replay_and_record
+from dempath.nodes.player import PlayerNode
+from dempath.nodes.recorder import RecorderNode
+from dempath.testbags import START_NS, header, images, pixel_points
 from dempath_msgs.msg import RunEvent
 
 LATCHED = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE,

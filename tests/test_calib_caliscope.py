@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
 from dempath_calib.camera import CameraModel, StereoCalibration
 from dempath_calib.cli import calibrate_main
 from dempath_calib.verify import relative_pose, rotation_angle_deg

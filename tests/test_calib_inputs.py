@@ -8,6 +8,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
+
 from dempath_calib.board import PAPER_BOARD, CornerDetector
 from dempath_calib.camera import StereoCalibration
 from dempath_calib.cli import calibrate_main

@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
 from dempath_calib.camera import StereoCalibration
 from dempath_calib.camerainfo import read_camera_info
 from dempath_calib.cli import calibrate_main, rig_main

@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+
 from dempath.bagio import make_typestore, write_bag
 from dempath_compare.cli import compare_main
 from dempath_compare.loaders import load_source

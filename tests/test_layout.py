@@ -34,3 +34,15 @@ def test_ros_package_files(pkg: str) -> None:
     xml = (ROOT / 'src' / pkg / 'package.xml').read_text()
     assert '<package format="3">' in xml
     assert f'<name>{pkg}</name>' in xml
+
+
+def test_ruff_clean() -> None:
+    """The code follows the project's lint rules (ruff, configured in pyproject.toml)."""
+    import subprocess
+    import sys
+    from pathlib import Path as _Path
+
+    ruff = _Path(sys.executable).parent / 'ruff'
+    done = subprocess.run([str(ruff), 'check', 'src', 'tests', 'bench'], cwd=ROOT,
+                          capture_output=True, text=True, check=False)
+    assert done.returncode == 0, done.stdout[-3000:]

@@ -28,6 +28,6 @@ def test_script_starts_and_stops_on_sigint(script: str, tmp_path: Path) -> None:
     time.sleep(4.0)
     assert proc.poll() is None, f'{script} exited early: {proc.communicate()}'
     proc.send_signal(signal.SIGINT)
-    out, err = proc.communicate(timeout=30)
+    _, err = proc.communicate(timeout=30)
     assert proc.returncode == 0, f'{script}: status {proc.returncode}\n{err}'
     assert 'Traceback' not in err, err

@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+
 from dempath.bagio import make_typestore, write_bag
 from dempath.cli import main as dempath
 from dempath.nodes.harness import unique_domain_id

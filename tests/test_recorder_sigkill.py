@@ -10,15 +10,15 @@ import time
 from pathlib import Path
 
 import pytest
+from mcap.exceptions import McapError
+from mcap.records import Message
+from mcap.stream_reader import StreamReader
+
 from dempath.bagio import make_typestore, open_bag
 from dempath.cli import main as dempath
 from dempath.errors import BagError
 from dempath.nodes.harness import RosHarness
 from dempath.testbags import pixel_points
-from mcap.exceptions import McapError
-from mcap.records import Message
-from mcap.stream_reader import StreamReader
-
 from dempath_msgs.msg import PixelPoints
 
 TOPIC = '/cam_side/pixel_points'

@@ -8,6 +8,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from rosbags.rosbag2 import Reader, StoragePlugin, Writer
+from rosbags.typesys import get_types_from_idl, get_types_from_msg
+
+from dempath import mcapread
 from dempath.bagio import (
     dempath_msg_dir,
     ensure_type,
@@ -19,10 +23,6 @@ from dempath.bagio import (
 from dempath.errors import BagError
 from dempath.mcapbag import McapBagWriter
 from dempath.testbags import START_NS, images, pixel_points
-from rosbags.rosbag2 import Reader, StoragePlugin, Writer
-from rosbags.typesys import get_types_from_idl, get_types_from_msg
-
-from dempath import mcapread
 
 BLOB_MSG = 'std_msgs/Header header\nfloat64[3] xyz\nstring note\n'
 

@@ -7,6 +7,7 @@ import time
 from pathlib import Path
 
 import pytest
+
 from dempath.bagio import RawMessage, make_typestore, open_bag, write_bag
 from dempath.mcapbag import McapBagWriter
 from dempath.playback import Playback, PlayerConfig

@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+
 from dempath.bagio import open_bag
 from dempath.errors import OutputError
 from dempath.recording import BagRecorder, RecorderConfig

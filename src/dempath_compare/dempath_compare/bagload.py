@@ -10,8 +10,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from dempath.errors import BagError
 
+from dempath.errors import BagError
 from dempath_compare.accumulate import TrajectoryAccumulator
 from dempath_compare.errors import InputError
 from dempath_compare.records import MEASURED, Track

@@ -8,7 +8,6 @@ import sys
 from typing import NoReturn
 
 from dempath.errors import DempathError
-
 from dempath_compare.config import CompareConfig, Matching, Pairing, RangeKind, RankBy
 from dempath_compare.scoring import CompareResult
 
@@ -70,7 +69,7 @@ def print_ranking(result: CompareResult, top: int) -> None:
 
 
 def compare_main(argv: list[str]) -> int:
-    """``dempath compare MEASURED MODEL --out DIR``: score model trajectories against measured ones."""
+    """``dempath compare MEASURED MODEL --out DIR``: score model against measured trajectories."""
     from dempath_compare.pipeline import compare_paths, problems
     from dempath_compare.report import write_outputs
 

@@ -14,8 +14,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from dempath.errors import OutputError
 
+from dempath.errors import OutputError
 from dempath_compare.pipeline import problems
 from dempath_compare.scoring import CompareResult
 from dempath_compare.summary import Table7

@@ -8,7 +8,6 @@ from pathlib import Path
 from typing import NamedTuple
 
 from dempath.errors import OutputError
-
 from dempath_compare.export import (
     SCORE_COLUMNS,
     TABLE7_COLUMNS,

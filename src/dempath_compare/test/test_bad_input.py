@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
 from dempath_compare.cli import compare_main
 from dempath_compare.errors import InputError
 from dempath_compare.loaders import load_source

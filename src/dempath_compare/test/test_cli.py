@@ -6,6 +6,7 @@ import csv
 from pathlib import Path
 
 import pytest
+
 from dempath_compare.cli import compare_main
 
 PNG_MAGIC = b'\x89PNG\r\n\x1a\n'

@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+
 from dempath_compare.config import CompareConfig, Matching
 from dempath_compare.metrics import (
     dtw_path,

@@ -6,11 +6,11 @@ from typing import Any
 
 import numpy as np
 import pytest
-from dempath_compare.nodes.comparer import ComparerNode
 from std_srvs.srv import Trigger
 from visualization_msgs.msg import MarkerArray
 
 from dempath import topics
+from dempath_compare.nodes.comparer import ComparerNode
 from dempath_msgs.msg import MarkerPoints3D, ParticleStates, RunEvent, TrajectoryScoreArray
 
 OFFSETS = (0.0, 0.003, 0.006, 0.009)  # lateral offsets of the candidates [m]; 0 is the truth

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+
 from dempath_compare.config import CompareConfig
 from dempath_compare.preprocess import (
     motion_start_index,

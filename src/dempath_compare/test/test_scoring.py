@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
 from dempath_compare.config import CompareConfig, Matching, RankBy
 from dempath_compare.correspondence import assign_markers, cube_candidates
 from dempath_compare.kernels import pair_distances

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+
 from dempath_compare.config import CompareConfig
 from dempath_compare.pipeline import compare_tracks
 from dempath_compare.records import Track

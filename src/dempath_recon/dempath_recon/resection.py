@@ -99,8 +99,10 @@ def resect_camera(xyz: FloatArray, uv: FloatArray, image_size: tuple[int, int],
         flags=flags)
     logger.info('%s: resected from %d points, RMS reprojection %.3f px', name, len(idx), rms)
     R = cv2.Rodrigues(rvecs[0])[0]
-    return CameraModel(name, image_size[0], image_size[1], K, dist.ravel()[:5], R,
-                       tvecs[0].ravel())
+    f64 = np.float64
+    return CameraModel(name, image_size[0], image_size[1], np.asarray(K, f64),
+                       np.asarray(dist, f64).ravel()[:5], np.asarray(R, f64),
+                       np.asarray(tvecs[0], f64).ravel())
 
 
 def resect_stereo(pixels: FloatArray, xyz: FloatArray,

@@ -1,1 +1,1 @@
-"""Discrete element method engine of dempath with a kinematic tillage tool, pluggable effects and a LIGGGHTS backend."""
+"""The DEM engine of dempath: kinematic tillage tool, pluggable effects, LIGGGHTS backend."""

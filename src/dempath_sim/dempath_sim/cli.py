@@ -134,7 +134,7 @@ def effect_rows(scene: SceneSpec | None) -> list[dict[str, Any]]:
 
 
 def effects_main(argv: list[str]) -> int:
-    """``dempath effects [SCENE]``: the physical effects, their parameters, units, ranges and state."""
+    """``dempath effects [SCENE]``: the physical effects, their parameters, units and ranges."""
     p = argparse.ArgumentParser(prog='dempath effects', description='List physical effects.')
     p.add_argument('scene', nargs='?', help='scene file or shipped scene name')
     p.add_argument('--json', action='store_true', help='print JSON rows instead of a table')

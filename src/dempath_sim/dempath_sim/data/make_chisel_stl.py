@@ -66,7 +66,7 @@ def hull_triangles(points: NDArray[np.float64]) -> NDArray[np.float64]:
     normals = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
     flip = np.einsum('ij,ij->i', normals, tris.mean(axis=1) - centre) < 0
     tris[flip] = tris[flip][:, ::-1]
-    return tris
+    return np.asarray(tris, dtype=np.float64)
 
 
 def write_binary_stl(path: Path, triangles: NDArray[np.float64], name: str) -> None:
