@@ -18,18 +18,21 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dempath_sim.effects import PhysicsModel
-from dempath_sim.fill import PARTICLES, measure, target_solid_fraction
+from dempath_sim.fill import PARTICLES, measure, pour, target_solid_fraction
 from dempath_sim.liggghts import deck as dk
 from dempath_sim.liggghts.commands import write_ascii_stl
 from dempath_sim.liggghts.dumps import frames_by_id, read_dump, read_print
+from dempath_sim.liggghts.errors import DeckError
 from dempath_sim.liggghts.runner import RunOutput, run_deck
 from dempath_sim.markers import select_markers
+from dempath_sim.params import SimParams
 from dempath_sim.profiles import ToolPath
 from dempath_sim.results import SimResult
 from dempath_sim.run import build_params
 from dempath_sim.scene_spec import SceneSpec
 from dempath_sim.state import SimState
 from dempath_sim.stl import read_stl
+from dempath_sim.timestep import rayleigh_time_step
 
 logger = logging.getLogger(__name__)
 
@@ -60,31 +63,87 @@ class SettledBed:
     run: RunOutput
 
 
-def fill_liggghts(scene: SceneSpec, workdir: Path, nprocs: int = 1,
-                  friction: str = 'static') -> SettledBed:
-    """Write and run ``in.fill``; return the settled bed and its surface/bulk-density report."""
+POURS = ('dempath', 'insert')  # loose bed of the LIGGGHTS fill: dempath's pour or insert/pack
+
+
+def dempath_time_step(params: SimParams, state: SimState) -> float:
+    """The step dempath's engine takes on ``state``: params.dt or safety x Rayleigh step [s]."""
+    if params.dt is not None:
+        return params.dt
+    return params.rayleigh_safety * rayleigh_time_step(state.radii, state.material, params)
+
+
+def _pour_deck(scene: SceneSpec, params: SimParams, workdir: Path, friction: str,
+               ) -> tuple[str, float, NDArray[np.int32]]:
+    """dempath's loose pour of the seed as ``pour.data``; the deck, dt [s], layer per id - 1."""
     model = scene.physics_model()
-    params = build_params(scene, model)
+    loose = pour(scene, model, params)
+    dt = dempath_time_step(params, loose)
+    big = 2.0 * float(loose.radii.max())
+    top = float((loose.positions[:, 1] + loose.radii).max())
+    box = dk.box_bounds(scene, top, 2 * big, tool_sweep(scene, model))
+    order = np.argsort(loose.ids)
+    dk.write_data(str(workdir / dk.POUR_DATA), loose.ids[order].astype(np.int64) + 1,
+                  loose.positions[order], loose.velocities[order],
+                  loose.angular_velocities[order], loose.radii[order],
+                  model.particle_density_kg_m3, len(params.materials), box)
+    text = dk.pour_fill_deck(scene, params, dt, 0.3 * big, friction=friction)
+    return text, dt, loose.extra['layer'][order]
+
+
+def _insert_deck(scene: SceneSpec, params: SimParams, friction: str,
+                 ) -> tuple[str, float, dk.FillPlan]:
+    """The insert/pack fill deck, its dt [s] (dividing the output interval) and plan."""
+    model = scene.physics_model()
     dt0 = scene_time_step(scene, model)
     dt = scene.output.interval_s / max(1, math.ceil(scene.output.interval_s / dt0))
     plan = dk.fill_plan(scene, model.coarse_grain, target_solid_fraction(scene, model))
+    text = dk.insert_fill_deck(scene, params, dt, plan, friction, tool_sweep(scene, model))
+    return text, dt, plan
+
+
+def fill_liggghts(scene: SceneSpec, workdir: Path, nprocs: int = 1,
+                  friction: str = 'static', pour_from: str = 'dempath') -> SettledBed:
+    """Write and run ``in.fill``; return the settled bed and its surface/bulk-density report.
+
+    Args:
+        scene: The scene.
+        workdir: Directory for the deck, data file, log and dumps.
+        nprocs: MPI processes.
+        friction: LIGGGHTS' Coulomb coefficient ('static' or 'dynamic').
+        pour_from: ``'dempath'``: settle dempath's loose pour of the seed (same particles,
+            positions, velocities and time step as the dempath fill); ``'insert'``: LIGGGHTS
+            inserts its own loose bed with ``fix insert/pack``.
+    """
+    if pour_from not in POURS:
+        msg = f'pour_from: must be one of {POURS}, got {pour_from!r}'
+        raise DeckError(msg)
+    model = scene.physics_model()
+    params = build_params(scene, model)
     workdir.mkdir(parents=True, exist_ok=True)
-    extent = tool_sweep(scene, model)
-    (workdir / 'in.fill').write_text(dk.fill_deck(scene, params, dt, plan, friction, extent))
+    if pour_from == 'dempath':
+        text, dt, layer_of = _pour_deck(scene, params, workdir, friction)
+        expected = len(layer_of)
+    else:
+        text, dt, plan = _insert_deck(scene, params, friction)
+        expected = sum(plan.counts)
+    (workdir / 'in.fill').write_text(text)
     run = run_deck(workdir / 'in.fill', nprocs=nprocs)
     frame = read_dump(workdir / dk.FILL_DUMP)[-1]
     ids = frame.column('id').astype(np.int64)
     pos = frame.data[:, [frame.columns.index(c) for c in ('x', 'y', 'z')]]
     radii = frame.column('radius')
-    if len(ids) < 0.99 * sum(plan.counts):
-        logger.warning('liggghts fill: inserted %d of %d particles (see %s)', len(ids),
-                       sum(plan.counts), run.log_path)
+    if len(ids) < 0.99 * expected:
+        logger.warning('liggghts fill: %d of %d particles in the bed (see %s)', len(ids),
+                       expected, run.log_path)
     state = SimState.from_spheres(pos, radii, PARTICLES, params, ids=ids)
-    top_r = max(plan.diameters[-1]) / 2
-    state.extra['layer'] = np.where(radii >= 0.999 * min(plan.diameters[-1]) / 2,
-                                    len(scene.layers) - 1, 0).astype(np.int32)
-    report = {**measure(scene, model, state), 'n_particles': float(len(ids)),
-              'top_radius_m': top_r, 'dt_s': dt}
+    if pour_from == 'dempath':
+        state.extra['layer'] = layer_of[ids - 1].astype(np.int32)
+    else:
+        state.extra['layer'] = np.where(radii >= 0.999 * min(plan.diameters[-1]) / 2,
+                                        len(scene.layers) - 1, 0).astype(np.int32)
+    report = {**measure(scene, model, state), 'n_particles': float(len(ids)), 'dt_s': dt,
+              'settle_time_s': frame.step * dt, 'pour_from_dempath': float(pour_from == 'dempath')}
     logger.info('liggghts fill: %d particles, surface %.4f m, bulk density %.0f kg/m^3',
                 len(ids), report['surface_height_m'], report['bulk_density_kg_m3'])
     return SettledBed(frame.step, ids, pos, radii, report, run)
@@ -129,8 +188,7 @@ def bed_from_packing(scene: SceneSpec, state: SimState, surface_y: float,
                      workdir: Path) -> SettledBed:
     """A dempath packing as the LIGGGHTS bed: ``bed.data`` (LIGGGHTS ids = dempath ids + 1)."""
     model = scene.physics_model()
-    dt0 = scene_time_step(scene, model)
-    dt = scene.output.interval_s / max(1, math.ceil(scene.output.interval_s / dt0))
+    dt = dempath_time_step(build_params(scene, model), state)
     workdir.mkdir(parents=True, exist_ok=True)
     box = dk.box_bounds(scene, 0.0, 4 * float(state.radii.max()), tool_sweep(scene, model))
     ids = state.ids.astype(np.int64) + 1
@@ -144,7 +202,8 @@ def bed_from_packing(scene: SceneSpec, state: SimState, surface_y: float,
 
 def run_scene_liggghts(scene: SceneSpec, workdir: str | Path, nprocs: int = 1,
                        friction: str = 'static',
-                       packing: tuple[SimState, float] | None = None) -> SimResult:
+                       packing: tuple[SimState, float] | None = None,
+                       pour_from: str = 'dempath') -> SimResult:
     """Fill, place markers and the tool, run the pass on LIGGGHTS; return the SimResult.
 
     Args:
@@ -154,6 +213,7 @@ def run_scene_liggghts(scene: SceneSpec, workdir: str | Path, nprocs: int = 1,
         friction: Which dempath friction coefficient LIGGGHTS uses ('static' or 'dynamic').
         packing: Start from this dempath packing and its surface height [m] instead of a
             LIGGGHTS fill (tracked ids are then dempath ids + 1).
+        pour_from: The loose bed of the LIGGGHTS fill (see ``fill_liggghts``).
 
     Raises:
         LiggghtsNotFoundError: LIGGGHTS or mpirun missing.
@@ -163,7 +223,7 @@ def run_scene_liggghts(scene: SceneSpec, workdir: str | Path, nprocs: int = 1,
     workdir = Path(workdir)
     model = scene.physics_model()
     if packing is None:
-        bed = fill_liggghts(scene, workdir, nprocs, friction)
+        bed = fill_liggghts(scene, workdir, nprocs, friction, pour_from)
         read = f'read_restart {dk.FILL_RESTART}'
     else:
         bed = bed_from_packing(scene, packing[0], packing[1], workdir)
@@ -178,7 +238,7 @@ def run_scene_liggghts(scene: SceneSpec, workdir: str | Path, nprocs: int = 1,
     every = round(scene.output.interval_s / dt)
     snap = round(scene.output.snapshot_interval_s / dt)
     duration = path.time_to_travel(scene.tool.travel_m)
-    stage = dk.ToolStage(path, ids, bed.step, slot, duration, dt, every, snap, read)
+    stage = dk.ToolStage(path, ids, 0, slot, duration, dt, every, snap, read)
     params = build_params(scene, model)
     (workdir / 'in.tool').write_text(dk.tool_deck(scene, params, stage, friction))
     run = run_deck(workdir / 'in.tool', nprocs=nprocs)

@@ -2,12 +2,16 @@
 
 The run has two stages, as the dempath engine has (fill, then the tool pass on the settled bed):
 
-1. ``in.fill``: the bin as primitive ``wall/gran`` planes (floor, four sides, open top), each
-   layer inserted by ``fix insert/pack`` into its own loose slab (all layers at once, stacked
-   bottom to top, like dempath's lattice pour) with the same particle count as dempath's pour
-   (target solid fraction x layer volume), then settled until the fastest particle is slower
-   than ``fill.settle_speed_m_s`` (checked every 0.02 s, at least 0.1 s, at most
-   ``fill.max_settle_time_s``); ``write_restart`` and a dump of every particle.
+1. ``in.fill``: the bin as primitive ``wall/gran`` planes (floor, four sides, open top) and
+   the loose initial bed, then the settle with dempath's criterion (the fastest particle slower
+   than ``fill.settle_speed_m_s``, checked every ``SETTLE_CHECK_S``, at least ``MIN_SETTLE_S``,
+   at most ``fill.max_settle_time_s``; a first stage with friction and rolling resistance times
+   ``fill.friction_scale`` up to half that time when the scale is < 1, as ``fill.pour_and_settle``
+   does); ``write_restart`` and a dump of every particle. The loose bed is either dempath's own
+   pour of the same seed (``fill.pour``: the jittered lattice and its small random velocities,
+   read with ``read_data``; the default, see ``pour_fill_deck``) or, with ``insert_fill_deck``,
+   each layer inserted by ``fix insert/pack`` into its own slab at ``INSERT_SOLID_FRACTION``
+   with dempath's particle count (target solid fraction x layer volume).
 2. ``in.tool``: ``read_restart``, the same physics, the tool STL (ASCII, placed in world
    coordinates) as ``fix mesh/surface/stress`` with its reference point at the tip, moved by
    ``fix move/mesh linear/variable`` with the piecewise speed profile, a dump of the tracked ids
@@ -25,6 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from dempath_sim.fill import scaled_friction
 from dempath_sim.liggghts import commands as cmd
 from dempath_sim.params import SimParams
 from dempath_sim.profiles import ToolPath
@@ -36,6 +41,7 @@ TRACKED_DUMP = 'tracked.dump'
 SNAPSHOT_DUMP = 'snapshots.dump'
 TOOL_FILE = 'tool.txt'
 TOOL_STL = 'tool.stl'
+POUR_DATA = 'pour.data'
 INSERT_SOLID_FRACTION = 0.2  # loose random packing insert/pack reaches in one go
 DISCRETE_BINS = 5  # templates approximating a uniform size distribution
 SETTLE_CHECK_S = 0.02  # as dempath_sim.fill
@@ -188,18 +194,58 @@ def _insert_lines(scene: SceneSpec, plan: FillPlan) -> list[str]:
     return lines
 
 
-def fill_deck(scene: SceneSpec, params: SimParams, dt: float, plan: FillPlan,
-              friction: str = 'static',
-              extent: tuple[Sequence[float], Sequence[float]] | None = None) -> str:
-    """The ``in.fill`` deck text (see the module docstring); ``extent`` as in box_bounds."""
+def settle_lines(scene: SceneSpec, dt: float, stage: int, until_s: float,
+                 start_s: float = 0.0, offset: int = 0) -> list[str]:
+    """One settle stage, as ``dempath_sim.fill.settle``: runs of ``SETTLE_CHECK_S`` until the
+    fastest particle is slower than ``fill.settle_speed_m_s`` after at least ``MIN_SETTLE_S``,
+    or until the step of ``until_s`` [s]; ``start_s`` [s] is the nominal start of the stage
+    (the step count of each run is fixed, the stage's start step is read in the deck);
+    ``offset`` is the step at which the pour starts (time 0 of the settle)."""
+    chunk = max(1, round(SETTLE_CHECK_S / dt))
+    min_chunks = math.ceil(MIN_SETTLE_S / (chunk * dt) - 1e-9)
+    max_chunks = max(1, math.ceil((until_s - start_s) / (chunk * dt) - 1e-9))
+    last = offset + math.ceil(until_s / (chunk * dt) - 1e-9) * chunk
+    done = f'settled{stage}'
+    return [f'variable k{stage} loop {max_chunks}', f'label settle{stage}', f'run {chunk}',
+            'variable vm equal c_vmax', 'variable st equal step',
+            f'if "${{k{stage}}} >= {min_chunks} && ${{vm}} < '
+            f'{cmd.fmt(scene.fill.settle_speed_m_s)}" then "jump SELF {done}"',
+            f'if "${{st}} >= {last}" then "jump SELF {done}"',
+            f'next k{stage}', f'jump SELF settle{stage}', f'label {done}']
+
+
+def _settle_stages(scene: SceneSpec, params: SimParams, dt: float, friction: str,
+                   offset: int) -> list[str]:
+    limit = scene.fill.max_settle_time_s
+    factor = scene.fill.friction_scale
+    monitor = ['variable sp atom sqrt(vx*vx+vy*vy+vz*vz)', 'compute vmax all reduce max v_sp',
+               'thermo_style custom step atoms ke c_vmax', 'thermo_modify lost ignore norm no',
+               f'thermo {max(1, round(SETTLE_CHECK_S / dt))}']
+    if factor >= 1.0:
+        return [*monitor, *settle_lines(scene, dt, 1, limit, 0.0, offset)]
+    # Redefining a property/global fix (same id) replaces its values for the next run.
+    return [*cmd.materials(scaled_friction(params, factor), friction), *monitor,
+            *settle_lines(scene, dt, 1, limit / 2, 0.0, offset),
+            *cmd.materials(params, friction),
+            *settle_lines(scene, dt, 2, limit, limit / 2, offset)]
+
+
+def _fill_tail(scene: SceneSpec, params: SimParams, dt: float, friction: str,
+               offset: int = 0) -> list[str]:
+    return [*_settle_stages(scene, params, dt, friction, offset), f'write_restart {FILL_RESTART}',
+            f'write_dump all custom {FILL_DUMP} id type x y z vx vy vz radius']
+
+
+def insert_fill_deck(scene: SceneSpec, params: SimParams, dt: float, plan: FillPlan,
+                     friction: str = 'static',
+                     extent: tuple[Sequence[float], Sequence[float]] | None = None) -> str:
+    """The ``in.fill`` deck that inserts its own loose bed with ``fix insert/pack``.
+
+    ``extent`` as in box_bounds; the insertion takes one check interval before the settle.
+    """
     big = max(max(d) for d in plan.diameters)
     lo, hi = box_bounds(scene, plan.top, 2 * big, extent)
     rho = params.materials[0].density
-    # Every run is a multiple of the output period, so the tool stage starts on an output step.
-    every = max(1, round(scene.output.interval_s / dt))
-    check = every * max(1, round(SETTLE_CHECK_S / dt / every))
-    min_checks = math.ceil(MIN_SETTLE_S / SETTLE_CHECK_S)
-    max_checks = max(min_checks, math.ceil(scene.fill.max_settle_time_s / SETTLE_CHECK_S))
     # Never split the domain along Y: the box is tall only to hold the tool, so a Y split would
     # leave one process without particles.
     lines = cmd.header(lo, hi, len(params.materials), 0.3 * big, cmd.needs_soft(params),
@@ -207,17 +253,29 @@ def fill_deck(scene: SceneSpec, params: SimParams, dt: float, plan: FillPlan,
     lines += ['hard_particles yes', *physics(params, dt, friction),
               *bin_walls(scene, params, 1)]
     lines += [s.replace('{rho}', cmd.fmt(rho)) for s in _insert_lines(scene, plan)]
-    lines += ['variable sp atom sqrt(vx*vx+vy*vy+vz*vz)', 'compute vmax all reduce max v_sp',
-              'thermo_style custom step atoms ke c_vmax', 'thermo_modify lost ignore norm no',
-              f'thermo {check}', f'run {check}',
-              *[f'unfix ins{k}' for k in range(len(plan.counts))],
-              f'run {check * min_checks}',
-              f'variable k loop {max_checks - min_checks}', 'label settle',
-              'variable vm equal c_vmax',
-              f'if "${{vm}} < {cmd.fmt(scene.fill.settle_speed_m_s)}" then "jump SELF settled"',
-              f'run {check}', 'next k', 'jump SELF settle', 'label settled',
-              f'write_restart {FILL_RESTART}',
-              f'write_dump all custom {FILL_DUMP} id type x y z vx vy vz radius']
+    check = max(1, round(SETTLE_CHECK_S / dt))
+    lines += [f'run {check}', *[f'unfix ins{k}' for k in range(len(plan.counts))],
+              *_fill_tail(scene, params, dt, friction, check)]
+    return '\n'.join(lines) + '\n'
+
+
+fill_deck = insert_fill_deck  # the name of earlier releases
+
+
+def pour_fill_deck(scene: SceneSpec, params: SimParams, dt: float, skin_m: float,
+                   data_file: str = POUR_DATA, friction: str = 'static') -> str:
+    """The ``in.fill`` deck that settles dempath's loose pour, read from ``data_file``.
+
+    The data file (``write_data``) holds the box, the spheres, their velocities and spins;
+    ``skin_m`` is the neighbour skin [m].
+    """
+    lines = ['atom_style granular', 'atom_modify map array', 'boundary f f f', 'newton off',
+             'communicate single vel yes', 'units si']
+    lines += ['soft_particles yes'] if cmd.needs_soft(params) else []
+    lines += [f'processors {SPLIT}', 'hard_particles yes', f'read_data {data_file}',
+              f'neighbor {cmd.fmt(skin_m)} bin', 'neigh_modify delay 0',
+              *physics(params, dt, friction), *bin_walls(scene, params, 1),
+              *_fill_tail(scene, params, dt, friction)]
     return '\n'.join(lines) + '\n'
 
 
@@ -258,7 +316,7 @@ class ToolStage:
     Attributes:
         path: Tool reference point (tip) path in world coordinates.
         tracked_ids: LIGGGHTS ids of the markers and candidates.
-        start_step: Step number at the end of the fill (time 0 of the pass).
+        start_step: Step number at time 0 of the pass (0: the deck resets the step count).
         slot_ids: Ids removed before the pass (the tool's slot, as dempath's run does).
         duration_s: Simulated time of the pass [s].
         dt: Time step [s] (divides the output interval).
@@ -309,5 +367,8 @@ def tool_deck(scene: SceneSpec, params: SimParams, stage: ToolStage,
     lines += [f'fix ftool all print {stage.output_every} "${{t}} {vals}" file {TOOL_FILE} '
               'screen no', 'thermo_style custom step atoms ke',
               'thermo_modify lost ignore norm no', f'thermo {stage.output_every * 10}',
-              f'run {steps}']
+              # Time 0 of the pass is step 0, so output steps (multiples of output_every)
+              # fall on the output times whatever step the fill ended on; after a restart,
+              # LIGGGHTS wants reset_timestep right before run.
+              'reset_timestep 0', f'run {steps}']
     return '\n'.join(lines) + '\n'

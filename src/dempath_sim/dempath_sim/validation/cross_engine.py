@@ -18,6 +18,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -73,6 +74,9 @@ class CrossEngineReport:
         spread: Statistic -> S (m or N).
         dempath: Per-seed statistics of dempath.
         liggghts: Per-seed statistics of LIGGGHTS.
+        fill: How LIGGGHTS got its bed (see ``run_cross_engine``).
+        runs: Per seed, the settled bed of each engine (particles, surface height [m], bulk
+            density [kg/m^3], solid fraction, settle time [s]) and the wall times [s].
     """
 
     seeds: tuple[int, ...]
@@ -80,6 +84,8 @@ class CrossEngineReport:
     spread: dict[str, float]
     dempath: list[MarkerStats] = field(repr=False)
     liggghts: list[MarkerStats] = field(repr=False)
+    fill: str = ''
+    runs: list[dict[str, Any]] = field(default_factory=list, repr=False)
 
     @property
     def ratios(self) -> dict[str, float]:
@@ -98,7 +104,8 @@ class CrossEngineReport:
                 'spread': self.spread, 'ratios': self.ratios,
                 'cross_engine_ratio': self.cross_engine_ratio,
                 'draft_dempath_n': [s.draft for s in self.dempath],
-                'draft_liggghts_n': [s.draft for s in self.liggghts]}
+                'draft_liggghts_n': [s.draft for s in self.liggghts],
+                'fill': self.fill, 'runs': self.runs}
 
 
 def _series(stats: Sequence[MarkerStats], name: str, nt: int) -> F64:
@@ -125,9 +132,48 @@ def compare(dempath: Sequence[MarkerStats], liggghts: Sequence[MarkerStats],
     return CrossEngineReport(tuple(seeds), diff, spread, list(dempath), list(liggghts))
 
 
+FILLS = ('shared_pour', 'insert_pack', 'shared_packing')  # see run_cross_engine
+
+
+def _fill_figures(meta: dict[str, Any], wall: dict[str, float]) -> dict[str, float]:
+    fill = meta.get('fill', {})
+    keys = ('n_particles', 'surface_height_m', 'bulk_density_kg_m3', 'solid_fraction',
+            'settle_time_s')
+    return {**{k: float(fill[k]) for k in keys if k in fill}, **wall}
+
+
+def _run_seed(scene: SceneSpec, workdir: Path, nprocs: int, cache_dir: Path | None,
+              fill: str) -> tuple[SimResult, SimResult]:
+    from dempath_sim.fill import fill_bed
+    from dempath_sim.liggghts.backend import run_scene_liggghts
+    from dempath_sim.run import RunOptions, build_params, run_scene
+
+    logger.info('cross-engine: seed %d on dempath', scene.seed)
+    dem = run_scene(scene, RunOptions(cache_dir=cache_dir))
+    logger.info('cross-engine: seed %d on LIGGGHTS (%s)', scene.seed, fill)
+    packing = None
+    if fill == 'shared_packing':
+        model = scene.physics_model()
+        state, report = fill_bed(scene, model, build_params(scene, model), cache_dir)
+        packing = (state, report.surface_height_m)
+    lig = run_scene_liggghts(scene, workdir / f'liggghts-s{scene.seed}', nprocs, packing=packing,
+                             pour_from='insert' if fill == 'insert_pack' else 'dempath')
+    return dem, lig
+
+
+def _run_figures(seed: int, dem: SimResult, lig: SimResult) -> dict[str, Any]:
+    m, g = dem.meta, lig.meta
+    return {'seed': seed,
+            'dempath': _fill_figures(m, {'fill_wall_s': m.get('fill_wall_s', 0.0),
+                                         'pass_wall_s': m.get('drive_wall_s', 0.0)}),
+            'liggghts': _fill_figures(g, {'fill_loop_s': g.get('fill_loop_time_s', 0.0),
+                                          'pass_loop_s': g.get('pass_loop_time_s', 0.0)})}
+
+
 def run_cross_engine(scene: SceneSpec, seeds: Sequence[int], workdir: Path, nprocs: int = 1,
-                     cache_dir: Path | None = None,
-                     shared_packing: bool = False) -> CrossEngineReport:
+                     cache_dir: Path | None = None, shared_packing: bool = False,
+                     fill: str = 'shared_pour',
+                     results_dir: Path | None = None) -> CrossEngineReport:
     """Run ``scene`` (with ``same_physics``) on both engines for every seed and compare.
 
     Args:
@@ -136,27 +182,34 @@ def run_cross_engine(scene: SceneSpec, seeds: Sequence[int], workdir: Path, npro
         workdir: LIGGGHTS work directories go to ``workdir/liggghts-s<seed>``.
         nprocs: MPI processes for LIGGGHTS.
         cache_dir: dempath packing cache.
-        shared_packing: LIGGGHTS starts from dempath's settled packing of each seed instead of
-            its own fill, so the comparison isolates contact laws and integration from the
-            pour procedure.
-    """
-    from dempath_sim.fill import fill_bed
-    from dempath_sim.liggghts.backend import run_scene_liggghts
-    from dempath_sim.run import RunOptions, build_params, run_scene
+        shared_packing: Same as ``fill='shared_packing'`` (kept for callers).
+        fill: How LIGGGHTS gets its bed. ``'shared_pour'`` (default): each engine settles the
+            same loose pour (dempath's ``fill.pour`` of the seed) with its own physics and the
+            same settle criterion. ``'insert_pack'``: LIGGGHTS pours its own loose bed with
+            ``fix insert/pack``. ``'shared_packing'``: LIGGGHTS starts from dempath's settled
+            packing, so the comparison isolates contact laws and integration from the fill.
+        results_dir: If given, both engines' results are saved there as
+            ``<engine>-s<seed>.npz`` (``SimResult.save_npz``).
 
+    Raises:
+        ValueError: ``fill`` is not one of ``FILLS``.
+    """
+    mode = 'shared_packing' if shared_packing else fill
+    if mode not in FILLS:
+        msg = f'fill: must be one of {FILLS}, got {fill!r}'
+        raise ValueError(msg)
     base = same_physics(scene)
     columns = scene.markers.columns
-    dem, lig = [], []
+    dem, lig, runs = [], [], []
     for seed in seeds:
-        s = base.with_overrides(seed=seed)
-        logger.info('cross-engine: seed %d on dempath', seed)
-        dem.append(marker_statistics(run_scene(s, RunOptions(cache_dir=cache_dir)), columns))
-        logger.info('cross-engine: seed %d on LIGGGHTS', seed)
-        packing = None
-        if shared_packing:
-            model = s.physics_model()
-            state, fill = fill_bed(s, model, build_params(s, model), cache_dir)
-            packing = (state, fill.surface_height_m)
-        lig.append(marker_statistics(run_scene_liggghts(
-            s, workdir / f'liggghts-s{seed}', nprocs, packing=packing), columns))
-    return compare(dem, lig, seeds)
+        d, g = _run_seed(base.with_overrides(seed=seed), workdir, nprocs, cache_dir, mode)
+        if results_dir is not None:
+            results_dir.mkdir(parents=True, exist_ok=True)
+            d.save_npz(results_dir / f'dempath-s{seed}.npz')
+            g.save_npz(results_dir / f'liggghts-s{seed}.npz')
+        dem.append(marker_statistics(d, columns))
+        lig.append(marker_statistics(g, columns))
+        runs.append(_run_figures(seed, d, g))
+    report = compare(dem, lig, seeds)
+    return CrossEngineReport(report.seeds, report.difference, report.spread, report.dempath,
+                             report.liggghts, fill=mode, runs=runs)
