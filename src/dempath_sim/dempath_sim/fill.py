@@ -147,9 +147,13 @@ def sample_diameters(layer: LayerSpec, factor: float, volume_m3: float,
 
 
 def lattice(scene: SceneSpec, diameters: NDArray[np.float64], y_start: float,
-            rng: np.random.Generator) -> tuple[NDArray[np.float64], float]:
-    """Jittered cubic-lattice centres (n, 3) [m] for ``diameters`` above ``y_start``; top y."""
-    a = float(diameters.max()) * LATTICE_GAP
+            rng: np.random.Generator, gap: float = LATTICE_GAP,
+            ) -> tuple[NDArray[np.float64], float]:
+    """Jittered cubic-lattice centres (n, 3) [m] for ``diameters`` above ``y_start``; top y.
+
+    ``gap`` is the lattice spacing over the largest diameter (< 1 puts neighbours in contact).
+    """
+    a = float(diameters.max()) * gap
     half_w = scene.bin.width_x_m / 2
     nx = max(1, int((scene.bin.width_x_m - a) // a) + 1)
     nz = max(1, int((scene.bin.length_z_m - a) // a) + 1)
@@ -160,8 +164,12 @@ def lattice(scene: SceneSpec, diameters: NDArray[np.float64], y_start: float,
     return pos + jitter, y_start + (int(iy.max()) + 1) * a
 
 
-def pour(scene: SceneSpec, model: PhysicsModel, params: SimParams) -> SimState:
-    """The loose initial state of all layers, seeded by ``scene.seed``; ``extra['layer']``."""
+def pour(scene: SceneSpec, model: PhysicsModel, params: SimParams,
+         gap: float = LATTICE_GAP) -> SimState:
+    """The loose initial state of all layers, seeded by ``scene.seed``; ``extra['layer']``.
+
+    ``gap``: lattice spacing over the largest diameter of a layer (see ``lattice``).
+    """
     rng = np.random.default_rng(scene.seed)
     phi = target_solid_fraction(scene, model)
     area = scene.bin.width_x_m * scene.bin.length_z_m
@@ -169,7 +177,7 @@ def pour(scene: SceneSpec, model: PhysicsModel, params: SimParams) -> SimState:
     for index, layer in enumerate(scene.layers):
         factor = model.coarse_grain if layer.coarse_grained else 1.0
         d = sample_diameters(layer, factor, phi * area * layer.thickness_m, rng)
-        pos, y = lattice(scene, d, y, rng)
+        pos, y = lattice(scene, d, y, rng, gap)
         parts.append(pos)
         radii.append(d / 2)
         layer_of.append(np.full(len(d), index, np.int32))
