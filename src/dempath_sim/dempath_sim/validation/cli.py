@@ -2,7 +2,9 @@
 
 Runs the two-sphere impact, incline, energy and angle-of-repose cases on dempath and, unless
 ``--no-liggghts`` or LIGGGHTS is missing, on LIGGGHTS; ``--cross-engine SCENE`` adds the
-cross-engine comparison of that scene over ``--seeds`` packing seeds per engine.
+cross-engine comparison of that scene over ``--seeds`` packing seeds per engine. ``--repose``
+picks the angle-of-repose set-up (``quick``, ``standard``, ``large``), ``--repose-seeds`` how
+many packing seeds it runs, and ``--cases`` a subset of the cases.
 """
 
 from __future__ import annotations
@@ -14,6 +16,8 @@ from pathlib import Path
 
 from dempath.errors import DempathError
 
+CASES = ('impact', 'incline', 'energy', 'repose')  # the report's cases, in order
+
 
 def validate_main(argv: list[str]) -> int:
     """Entry point of ``dempath validate``; returns the exit status."""
@@ -21,6 +25,13 @@ def validate_main(argv: list[str]) -> int:
     parser.add_argument('--out', type=Path, default=Path('validation_report'))
     parser.add_argument('--no-liggghts', action='store_true', help='dempath only')
     parser.add_argument('--quick', action='store_true', help='smaller repose pile')
+    parser.add_argument('--repose', choices=('quick', 'standard', 'large'), default=None,
+                        help='repose set-up (default standard; large: 100 mm tube, ~10k '
+                        'spheres, ~10x the run time)')
+    parser.add_argument('--repose-seeds', type=int, default=1,
+                        help='repose packing seeds 0..N-1')
+    parser.add_argument('--cases', default=','.join(CASES),
+                        help=f'comma-separated subset of {",".join(CASES)}')
     parser.add_argument('--cross-engine', metavar='SCENE', default=None,
                         help='also compare dempath and LIGGGHTS on this scene')
     parser.add_argument('--seeds', type=int, default=3, help='packing seeds per engine')
@@ -30,6 +41,15 @@ def validate_main(argv: list[str]) -> int:
     args = parser.parse_args(argv)
     if args.seeds < 2:
         print(f'error: --seeds: need at least 2 for a spread, got {args.seeds}', file=sys.stderr)
+        return 1
+    if args.repose_seeds < 1:
+        print(f'error: --repose-seeds: need at least 1, got {args.repose_seeds}',
+              file=sys.stderr)
+        return 1
+    cases = tuple(c.strip() for c in args.cases.split(',') if c.strip())
+    if not cases or set(cases) - set(CASES):
+        print(f'error: --cases: {args.cases!r}: expected a subset of {",".join(CASES)}',
+              file=sys.stderr)
         return 1
     logging.basicConfig(level=logging.INFO, format='%(message)s')
     from dempath_sim.liggghts.errors import LiggghtsNotFoundError
@@ -53,7 +73,8 @@ def validate_main(argv: list[str]) -> int:
                                       args.out / 'work' / 'cross', args.nprocs,
                                       shared_packing=args.shared_packing)
             cross = (report, scene.name)
-        path = write_report(args.out, use_liggghts, args.quick, cross)
+        path = write_report(args.out, use_liggghts, args.quick, cross, args.repose,
+                            args.repose_seeds, cases)
     except DempathError as err:
         print(f'error: {err}', file=sys.stderr)
         return 1

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from dempath_sim.validation import energy, impact, incline, repose
+from dempath_sim.validation.cli import CASES
 from dempath_sim.validation.cross_engine import CrossEngineReport
 
 logger = logging.getLogger(__name__)
@@ -130,36 +131,55 @@ def _energy(rep: Report) -> None:
     rep.lines += ['', 'Bar: < 1 %.', '']
 
 
-def _repose(rep: Report, case: repose.ReposeCase) -> None:
-    import matplotlib.pyplot as plt
-
+def _repose_runs(rep: Report, cases: list[repose.ReposeCase]) -> list[repose.ReposeResult]:
+    """Run every seed's case on dempath and (when present) LIGGGHTS."""
     from dempath_sim.timestep import rayleigh_time_step
 
-    _, radii = case.particles()
-    dt = case.params().rayleigh_safety * rayleigh_time_step(
-        radii, np.zeros(len(radii), np.int32), case.params())
-    res = [repose.repose_dempath(case)]
-    if rep.liggghts:
-        res.append(repose.repose_liggghts(case, rep.out / 'work' / 'repose', dt))
+    res = []
+    for case in cases:
+        res.append(repose.repose_dempath(case))
+        if rep.liggghts:
+            _, radii = case.particles()
+            dt = case.params().rayleigh_safety * rayleigh_time_step(
+                radii, np.zeros(len(radii), np.int32), case.params())
+            res.append(repose.repose_liggghts(case, rep.out / 'work' / f'repose-{case.seed}',
+                                              dt))
+    return res
+
+
+def _repose(rep: Report, cases: list[repose.ReposeCase], preset: str) -> None:
+    import matplotlib.pyplot as plt
+
+    res = _repose_runs(rep, cases)
     fig, ax = plt.subplots(figsize=(6, 3.5))
     for r in res:
-        ax.plot(r.r * 1e3, r.h * 1e3, '.-', label=f'{r.engine}: {r.base_deg:.1f} / '
+        ax.plot(r.r * 1e3, r.h * 1e3, '.-', lw=0.8, label=f'{r.engine}: {r.base_deg:.1f} / '
                 f'{r.top_deg:.1f} deg')
     ax.set(xlabel='radius [mm]', ylabel='pile surface height [mm]', aspect='equal')
     ax.legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(rep.out / 'repose.png', dpi=110)
     plt.close(fig)
-    rep.figures['repose'] = {r.engine: {'base_deg': r.base_deg, 'top_deg': r.top_deg}
-                             for r in res}
-    exp, rocky = repose.PAPER_EXPERIMENT_DEG, repose.PAPER_ROCKY_DEG
+    summary = repose.summarise(res)
+    rep.figures['repose'] = {'preset': preset, 'seeds': [c.seed for c in cases], **summary}
+    exp, rocky, case = repose.PAPER_EXPERIMENT_DEG, repose.PAPER_ROCKY_DEG, cases[0]
+    n = len(case.particles()[1])
     rep.lines += ['## Angle of repose (lifted cylinder, Table 6 parameters)', '',
-                  f'Cylinder {case.diameter * 1e3:.0f} mm, {len(radii)} spheres of '
+                  f'Set-up `{preset}`: cylinder {case.diameter * 1e3:.0f} mm, {n} spheres of '
                   f'{case.particle_diameter * 1e3:.0f} mm +-{100 * case.spread:.0f} %, lift '
-                  f'{case.lift_speed} m/s.', '', '| source | from the base [deg] | from the top '
-                  '[deg] |', '|---|---|---|', f'| paper, experiment | {exp[0]} | {exp[1]} |',
-                  f'| paper, Rocky model | {rocky[0]} | {rocky[1]} |']
-    rep.lines += [f'| {r.engine} | {r.base_deg:.2f} | {r.top_deg:.2f} |' for r in res]
+                  f'{case.lift_speed} m/s, seeds {[c.seed for c in cases]}. Angles from the '
+                  'base / top are flank fits at 10-60 % / 40-90 % of the pile height; cone = '
+                  'line from the apex to the foot (see docs/validation_repose.md).', '',
+                  '| source | seed | from the base [deg] | from the top [deg] | cone [deg] |',
+                  '|---|---|---|---|---|', f'| paper, experiment | | {exp[0]} | {exp[1]} | |',
+                  f'| paper, Rocky model | | {rocky[0]} | {rocky[1]} | |']
+    seeds = [c.seed for c in cases for _ in range(len(res) // len(cases))]
+    rep.lines += [f'| {r.engine} | {k} | {r.base_deg:.2f} | {r.top_deg:.2f} | '
+                  f'{r.cone_deg:.2f} |' for r, k in zip(res, seeds, strict=True)]
+    rep.lines += [f'| {eng}, mean +- sd | | {s["base_deg"][0]:.2f} +- {s["base_deg"][1]:.2f} | '
+                  f'{s["top_deg"][0]:.2f} +- {s["top_deg"][1]:.2f} | '
+                  f'{s["cone_deg"][0]:.2f} +- {s["cone_deg"][1]:.2f} |'
+                  for eng, s in summary.items()]
     rep.lines += ['', '![repose](repose.png)', '']
 
 
@@ -190,19 +210,33 @@ def cross_engine_section(rep: Report, cross: CrossEngineReport, scene_name: str)
 
 
 def write_report(out: Path, liggghts: bool, quick: bool = False,
-                 cross: tuple[CrossEngineReport, str] | None = None) -> Path:
-    """Run the cases and write ``out/report.md``, ``report.json`` and the PNGs."""
+                 cross: tuple[CrossEngineReport, str] | None = None,
+                 repose_preset: str | None = None, repose_seeds: int = 1,
+                 cases: tuple[str, ...] = CASES) -> Path:
+    """Run the cases and write ``out/report.md``, ``report.json`` and the PNGs.
+
+    Args:
+        out: Output directory.
+        liggghts: Also run every case on LIGGGHTS.
+        quick: Smaller repose pile (the ``quick`` preset) unless ``repose_preset`` is given.
+        cross: Cross-engine report and scene name to add, or None.
+        repose_preset: Key of ``repose.PRESETS``; None = ``standard`` (``quick`` if quick).
+        repose_seeds: Number of repose seeds (0, 1, ...).
+        cases: Which of ``CASES`` to run.
+    """
     import matplotlib
 
     matplotlib.use('Agg')
     out.mkdir(parents=True, exist_ok=True)
     rep = Report(out, liggghts, {}, ['# dempath physics validation', '',
                                      f'LIGGGHTS runs: {"yes" if liggghts else "no"}.', ''])
-    _impact(rep)
-    _incline(rep)
-    _energy(rep)
-    _repose(rep, repose.ReposeCase(diameter=0.036, fill_height=0.08) if quick
-            else repose.ReposeCase())
+    for name, run in (('impact', _impact), ('incline', _incline), ('energy', _energy)):
+        if name in cases:
+            run(rep)
+    if 'repose' in cases:
+        preset = repose_preset or ('quick' if quick else 'standard')
+        _repose(rep, [repose.preset_case(preset, seed) for seed in range(repose_seeds)],
+                preset)
     if cross is not None:
         cross_engine_section(rep, *cross)
     (out / 'report.md').write_text('\n'.join(rep.lines) + '\n')

@@ -13,12 +13,19 @@ settled, lifted at ``lift_speed`` and the pile left to rest on a steel base.
 The angle is read from the pile's surface profile h(r) (highest particle top per radial ring,
 averaged over angular sectors): the angle from the base is the slope of a line fitted where
 h is 10-60 % of the peak, the angle from the top where h is 40-90 % (a stand-in for ESSS's
-script, which the paper does not describe).
+script, which the paper does not describe). ``cone_deg`` is the line from the apex to the
+foot (where h falls to 10 % of the peak) and ``band_deg`` the local slope in five height bands,
+so the effect of the measuring window can be shown.
+
+Set-ups (``PRESETS``): ``quick`` (36 mm tube, ~700 spheres), ``standard`` (50 mm, 1,846
+spheres, the ``dempath validate`` default) and ``large`` (100 mm, ~11,000 spheres, behind
+``dempath validate --repose large``); docs/validation_repose.md gives their angles per seed.
 """
 
 from __future__ import annotations
 
 import itertools
+import logging
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -33,6 +40,7 @@ from dempath_sim.materials import Interaction, Material
 from dempath_sim.params import SimParams
 
 F64 = NDArray[np.float64]
+logger = logging.getLogger(__name__)
 PAPER_EXPERIMENT_DEG = (30.82, 26.42)  # (from the base, from the top), Sec. 3.4
 PAPER_ROCKY_DEG = (30.0, 26.6)
 
@@ -51,6 +59,7 @@ class ReposeCase:
         rest_s: Time after the lift for the pile to come to rest [s].
         seed: Seed of the initial lattice jitter and sizes.
         density: Particle density [kg/m^3] (the scenes' 1734).
+        rest_speed: dempath stops the rest phase early once no sphere moves faster [m/s].
     """
 
     diameter: float = 0.05
@@ -62,6 +71,7 @@ class ReposeCase:
     rest_s: float = 0.6
     seed: int = 0
     density: float = 1734.0
+    rest_speed: float = 0.005
 
     @property
     def cylinder_height(self) -> float:
@@ -70,8 +80,9 @@ class ReposeCase:
 
     @property
     def lift_s(self) -> float:
-        """Duration of the lift until the tube clears the pile [s]."""
-        return (self.cylinder_height + 0.01) / self.lift_speed
+        """Duration of the lift [s]: until the tube's lower rim is one grain above the top of
+        the initial (loose) column, so above the settled column whatever the packing."""
+        return (self.fill_height + self.particle_diameter) / self.lift_speed
 
     def params(self) -> SimParams:
         """Sand (0), steel base (1), steel cylinder (2): Tables 2 and 6 of the paper."""
@@ -117,48 +128,158 @@ class ReposeCase:
 
 @dataclass(frozen=True)
 class ReposeResult:
-    """Angles of one pile: engine, from the base [deg], from the top [deg], pile height [m],
-    profile radii (k,) [m] and heights (k,) [m]."""
+    """Angles of one pile.
+
+    Attributes:
+        engine: 'dempath', 'liggghts' or 'synthetic'.
+        base_deg: Angle from the base (flank fit at 10-60 % of the height) [deg].
+        top_deg: Angle from the top (flank fit at 40-90 % of the height) [deg].
+        cone_deg: Angle of the line from the apex to the foot (10 % of the height) [deg].
+        band_deg: (5,) local slope in the height bands 0-20, ..., 80-100 % [deg] (NaN if empty).
+        height: Pile height [m].
+        r: (k,) profile ring centres [m].
+        h: (k,) profile heights [m].
+        pos: (n, 3) final sphere centres [m].
+        radii: (n,) radii [m].
+        sim_time: Simulated time [s] (NaN if not simulated).
+        view_deg: (from the base, from the top) read the same way from side silhouettes
+            (upper outline of the pile seen from 4 azimuths, both halves) [deg].
+    """
 
     engine: str
     base_deg: float
     top_deg: float
+    cone_deg: float
+    band_deg: F64
     height: float
     r: F64
     h: F64
+    pos: F64
+    radii: F64
+    sim_time: float = math.nan
+    view_deg: tuple[float, float] = (math.nan, math.nan)
 
 
 def pile_profile(pos: F64, radii: F64, ring: float, sectors: int = 8) -> tuple[F64, F64]:
-    """Surface profile: ring centres (k,) [m] and mean over sectors of the highest top [m]."""
+    """Surface profile: ring centres (k,) [m] and mean over sectors of the highest top [m].
+
+    Ring k is split into min(sectors, max(1, int(pi (k + 0.5)))) sectors, so that no cell is a
+    sliver narrower than about two ring widths (a sliver's highest sphere lies below the
+    surface and the apex would read low).
+    """
     rr = np.hypot(pos[:, 0], pos[:, 2])
-    sec = ((np.arctan2(pos[:, 2], pos[:, 0]) + math.pi) / (2 * math.pi) * sectors).astype(int)
-    sec = np.clip(sec, 0, sectors - 1)
     k = (rr / ring).astype(int)
     n_ring = int(k.max()) + 1
+    per_ring = np.clip((math.pi * (np.arange(n_ring) + 0.5)).astype(int), 1, sectors)
+    frac = (np.arctan2(pos[:, 2], pos[:, 0]) + math.pi) / (2 * math.pi)
+    sec = np.minimum((frac * per_ring[k]).astype(int), per_ring[k] - 1)
     tops = np.zeros((sectors, n_ring))
     np.maximum.at(tops, (sec, k), pos[:, 1] + radii)
+    used = np.arange(sectors)[:, None] < per_ring[None, :]
     centres = np.asarray((np.arange(n_ring) + 0.5) * ring, dtype=np.float64)
-    return centres, np.asarray(tops.mean(axis=0), dtype=np.float64)
+    return centres, np.asarray(tops.sum(axis=0) / used.sum(axis=0), dtype=np.float64)
 
 
-def repose_angles(engine: str, pos: F64, radii: F64) -> ReposeResult:
-    """Angles from the base and from the top of the pile profile (see the module docstring)."""
+def side_view(pos: F64, radii: F64, azimuth: float, width: float) -> tuple[F64, F64]:
+    """Silhouette of the pile seen from the side, as a camera records it.
+
+    Returns:
+        Distance from the axis |u| (k,) [m] and the outline height (k,) [m] for both halves,
+        u = x cos(azimuth) + z sin(azimuth), binned at ``width``.
+    """
+    u = pos[:, 0] * math.cos(azimuth) + pos[:, 2] * math.sin(azimuth)
+    k = np.floor(u / width).astype(int)
+    k -= k.min()
+    tops = np.zeros(int(k.max()) + 1)
+    np.maximum.at(tops, k, pos[:, 1] + radii)
+    centres = (np.arange(len(tops)) + 0.5) * width + math.floor(u.min() / width) * width
+    return np.abs(centres), tops
+
+
+def _fit_deg(r: F64, h: F64, sel: NDArray[np.bool_]) -> float:
+    """Slope angle [deg] of a least-squares line through the selected profile points."""
+    if np.unique(r[sel]).size < 2:
+        return math.nan
+    return math.degrees(math.atan(-np.polyfit(r[sel], h[sel], 1)[0]))
+
+
+def flank_angles(r: F64, h: F64, peak: float, r_apex: float = 0.0) -> tuple[float, ...]:
+    """Angles of a profile h(r) falling from ``peak`` at ``r_apex`` [m].
+
+    Returns:
+        (from the base, from the top, cone, band 0-20 %, ..., band 80-100 %) [deg]; see the
+        module docstring.
+    """
+    after = r >= r_apex
+
+    def window(lo: float, hi: float) -> NDArray[np.bool_]:
+        return np.asarray(after & (h >= lo * peak) & (h <= hi * peak))
+
+    bands = [_fit_deg(r, h, window(lo, lo + 0.2)) for lo in (0.0, 0.2, 0.4, 0.6, 0.8)]
+    low = after & (h < 0.1 * peak)
+    cone = math.nan
+    if low.any():
+        r_foot = float(r[low].min())  # first point below 10 % of the peak
+        cone = math.degrees(math.atan(0.9 * peak / max(r_foot - r_apex, 1e-9)))
+    return (_fit_deg(r, h, window(0.1, 0.6)), _fit_deg(r, h, window(0.4, 0.9)), cone, *bands)
+
+
+def repose_angles(engine: str, pos: F64, radii: F64, sim_time: float = math.nan,
+                  views: int = 4) -> ReposeResult:
+    """Angles of the pile from its radial profile and from ``views`` side silhouettes."""
     on_base = pos[:, 1] < 0.5  # the whole pile; nothing is left in the lifted tube
-    r, h = pile_profile(pos[on_base], radii[on_base], float(2 * radii.mean()))
-    peak = float(h[:3].max())
-    after = np.arange(len(h)) >= int(np.argmax(h[:3]))
+    pos, radii = pos[on_base], radii[on_base]
+    d = float(2 * radii.mean())
+    r, h = pile_profile(pos, radii, d)
+    apex = int(np.argmax(h[:3]))
+    prof = flank_angles(r, h, float(h[apex]), float(r[apex]))
+    sides = []
+    for azimuth in np.arange(views) * math.pi / views:
+        u, top = side_view(pos, radii, float(azimuth), d)
+        sides.append(flank_angles(u, top, float(top.max()))[:2])
+    view = np.nanmean(np.array(sides), axis=0)
+    return ReposeResult(engine, prof[0], prof[1], prof[2], np.array(prof[3:]), float(h[apex]),
+                        r, h, pos, radii, sim_time, (float(view[0]), float(view[1])))
 
-    def angle(lo: float, hi: float) -> float:
-        sel = after & (h >= lo * peak) & (h <= hi * peak)
-        if sel.sum() < 2:
-            return math.nan
-        return math.degrees(math.atan(-np.polyfit(r[sel], h[sel], 1)[0]))
 
-    return ReposeResult(engine, angle(0.1, 0.6), angle(0.4, 0.9), peak, r, h)
+PRESETS: dict[str, dict[str, float]] = {
+    'quick': {'diameter': 0.036, 'fill_height': 0.08},
+    'standard': {},
+    'large': {'diameter': 0.1, 'fill_height': 0.15},
+}
+
+
+def preset_case(name: str, seed: int = 0) -> ReposeCase:
+    """The ``PRESETS[name]`` set-up with packing seed ``seed``.
+
+    Raises:
+        ValueError: ``name`` is not a preset.
+    """
+    if name not in PRESETS:
+        msg = f'repose preset {name!r}: expected one of {sorted(PRESETS)}'
+        raise ValueError(msg)
+    return ReposeCase(seed=seed, **PRESETS[name])  # type: ignore[arg-type]
+
+
+def summarise(results: list[ReposeResult]) -> dict[str, dict[str, tuple[float, float]]]:
+    """Mean and sample standard deviation (0 for one run) of each angle per engine [deg]."""
+    out: dict[str, dict[str, tuple[float, float]]] = {}
+    for eng in dict.fromkeys(r.engine for r in results):
+        rows = [r for r in results if r.engine == eng]
+        out[eng] = {}
+        for key in ('base_deg', 'top_deg', 'cone_deg'):
+            vals = np.array([getattr(r, key) for r in rows])
+            sd = float(vals.std(ddof=1)) if len(vals) > 1 else 0.0
+            out[eng][key] = (float(vals.mean()), sd)
+    return out
 
 
 def repose_dempath(case: ReposeCase) -> ReposeResult:
-    """Fill, settle, lift and measure on the dempath engine."""
+    """Fill, settle, lift and measure on the dempath engine.
+
+    The rest phase runs in 0.05 s chunks and stops once no sphere moves faster than
+    ``case.rest_speed`` (or after ``case.rest_s``).
+    """
     from dempath_sim.engine import Engine, ToolPose
     from dempath_sim.mesh import TriangleMesh
     from dempath_sim.state import SimState
@@ -179,8 +300,14 @@ def repose_dempath(case: ReposeCase) -> ReposeResult:
         moving = v if t - t0 < case.lift_s else 0.0
         return ToolPose(np.array([0.0, v * up, 0.0]), np.array([0.0, moving, 0.0]))
 
-    state = engine.run(state, int((case.lift_s + case.rest_s) / dt), tool_motion=lift)
-    return repose_angles('dempath', state.positions, state.radii)
+    state = engine.run(state, int(case.lift_s / dt), tool_motion=lift)
+    chunk = max(1, int(0.05 / dt))
+    for _ in range(max(1, int(case.rest_s / (chunk * dt)))):
+        state = engine.run(state, chunk, tool_motion=lift)
+        if float(np.abs(state.velocities).max(initial=0.0)) < case.rest_speed:
+            break
+    logger.info('repose dempath: %d spheres, %.2f s simulated', state.n, state.time)
+    return repose_angles('dempath', state.positions, state.radii, state.time)
 
 
 def repose_liggghts(case: ReposeCase, workdir: Path, dt: float, nprocs: int = 1,
@@ -212,4 +339,5 @@ def repose_liggghts(case: ReposeCase, workdir: Path, dt: float, nprocs: int = 1,
     run_deck(workdir / 'in.repose', nprocs=nprocs)
     frame = read_dump(workdir / 'pile.dump')[-1]
     xyz = frame.data[:, 1:4]
-    return repose_angles('liggghts', xyz, frame.column('radius'))
+    sim_time = case.settle_s + case.lift_s + case.rest_s
+    return repose_angles('liggghts', xyz, frame.column('radius'), sim_time)
