@@ -2,12 +2,21 @@
 """Particle-plane and particle-triangle-mesh contact forces (one parallel per-particle loop).
 
 Each particle tests the planes and the tool triangles of its grid cell (tool frame). Contacts with
-one mesh are filtered so that a flat or convex patch made of several triangles acts once: the
-candidate closest points are taken nearest first, and a candidate is dropped when its closest
-point does not lie above the tangent plane of a contact already kept ((q_b - q_a) . n_a <= tol);
-concave corners (two faces facing the particle) keep both contacts.
-Contact history lives in G slots per particle keyed by plane index or n_planes + triangle index;
-when all slots are busy the contact runs without history (counted in `worst[:, 3]`).
+one mesh are grouped into patches so that a flat or convex patch made of several triangles acts
+once: the candidate closest points are taken nearest first, and a candidate is shadowed by (joins
+the patch of) the first kept contact whose tangent plane it does not lie above
+((q_b - q_a) . n_a <= tol); concave corners (two faces facing the particle) keep both contacts.
+An edge or vertex shared by several triangles thus gives one contact, as LIGGGHTS handles a
+contact on a shared edge or corner once per surface (SurfaceMesh coplanar neighbours,
+FixContactHistoryMesh `coplanarContactAlready`).
+Contact history lives in G slots per particle keyed by plane index or n_planes + triangle index.
+A patch keeps its history when its closest feature moves to another triangle: if the nearest
+triangle has no slot but a triangle of its patch held one at the previous step, that slot is
+re-keyed (LIGGGHTS transfers the shear history between coplanar neighbour faces for the same
+reason; here any triangle of the patch qualifies, so convex edges pass it on too). The carried
+springs are projected on the new tangent plane with their length kept, as between steps (see
+`contact_hertz_mindlin.py`). When all slots are busy the contact runs without history (counted
+in `worst[:, 3]`).
 Laws (same as particle-particle, per-pair materials): see `contact.py`, with R* = r and m* = m
 (rigid, infinitely heavy wall). The contact point lies at the wall surface, r - delta from the
 centre (as LIGGGHTS). The reaction on the tool is summed per chunk: force (3,) and torque (3,)
@@ -41,11 +50,14 @@ def find_slot(keys, i, key, used):  # pragma: no cover - compiled
 
 
 @njit(fastmath=True, cache=True)
-def _apply(i, c, key, delta, lever, nx, ny, nz, vx, vy, vz, wx, wy, wz, a, b, rad, mass,
+def _apply(i, c, key, s, delta, lever, nx, ny, nz, vx, vy, vz, wx, wy, wz, a, b, rad, mass,
            gkey, ght, ghr, tmp_t, tmp_r, tab, dt, rolling, cohesion, used,
            force, torque, worst):  # pragma: no cover - compiled
-    """Resolve one geometry contact of particle i; returns (fx, fy, fz, mx, my, mz, used)."""
-    s = find_slot(gkey, i, key, used)
+    """Resolve geometry contact `key` of particle i with history slot s (-1: none).
+
+    Returns:
+        (fx, fy, fz, mx, my, mz, used): force [N] and rolling torque [N m] on i, slot mask.
+    """
     ht = ght  # ght, ghr are the (n * N_SLOTS, 3) flat views: no array views made per contact
     hr = ghr
     row = i * gkey.shape[1] + s
@@ -87,9 +99,10 @@ def _plane_contact(i, c, p, s, pos, vel, omg, rad, mass, mat, planes, plane_mat,
     vx = vel[i, 0] - s * (omg[i, 1] * nz - omg[i, 2] * ny)
     vy = vel[i, 1] - s * (omg[i, 2] * nx - omg[i, 0] * nz)
     vz = vel[i, 2] - s * (omg[i, 0] * ny - omg[i, 1] * nx)
-    r = _apply(i, c, p, rad[i] - s, s, nx, ny, nz, vx, vy, vz, omg[i, 0], omg[i, 1], omg[i, 2],
-               mat[i], np.int64(plane_mat[p]), rad, mass, gkey, ght, ghr, tmp_t, tmp_r, tab, dt,
-               rolling, cohesion, used, force, torque, worst)
+    r = _apply(i, c, p, find_slot(gkey, i, p, used), rad[i] - s, s, nx, ny, nz, vx, vy, vz,
+               omg[i, 0], omg[i, 1], omg[i, 2], mat[i], np.int64(plane_mat[p]), rad, mass,
+               gkey, ght, ghr, tmp_t, tmp_r, tab, dt, rolling, cohesion, used, force, torque,
+               worst)
     return r[6]
 
 
@@ -136,11 +149,54 @@ def _in_grid(rx, ry, rz, tool, g_lo, g_hi0, g_hi1, g_hi2):  # pragma: no cover -
 
 
 @njit(fastmath=True, cache=True)
+def _group_patches(px, py, pz, nc, cand, tol):  # pragma: no cover - compiled
+    """Sort candidates into patches: cand[b, 5] = -1 keeps b, a >= 0 puts it in a's patch.
+
+    Also writes the unit normal from the closest point to p into cand[b, 6:9] (tool frame).
+    """
+    for b in range(nc):
+        d = cand[b, 1] ** 0.5
+        cand[b, 6] = (px - cand[b, 2]) / d
+        cand[b, 7] = (py - cand[b, 3]) / d
+        cand[b, 8] = (pz - cand[b, 4]) / d
+        cand[b, 5] = -1.0
+        for a in range(b):
+            if cand[a, 5] < 0.0 and ((cand[b, 2] - cand[a, 2]) * cand[a, 6]
+                                     + (cand[b, 3] - cand[a, 3]) * cand[a, 7]
+                                     + (cand[b, 4] - cand[a, 4]) * cand[a, 8]) <= tol:
+                cand[b, 5] = a  # shadowed by a nearer contact (same patch or convex edge)
+                break
+
+
+@njit(cache=True)
+def patch_slot(gkey, i, a, cand, nc, n_planes, used):  # pragma: no cover - compiled
+    """History slot of the patch kept at candidate a of particle i; -1 if all slots are busy.
+
+    The slot of a's own triangle if it has one; else the unused slot of a triangle of a's
+    patch (the contact slid over an edge or vertex: the slot is re-keyed to a's triangle, so
+    its springs carry over); else a free slot.
+    """
+    key = n_planes + int(cand[a, 0])
+    for s in range(gkey.shape[1]):
+        if gkey[i, s] == key:
+            return s
+    for b in range(a + 1, nc):
+        if cand[b, 5] != a:
+            continue
+        old = n_planes + int(cand[b, 0])
+        for s in range(gkey.shape[1]):
+            if gkey[i, s] == old and not (used >> s) & 1:
+                gkey[i, s] = key
+                return s
+    return find_slot(gkey, i, key, used)
+
+
+@njit(fastmath=True, cache=True)
 def _mesh_contacts(i, c, pos, vel, omg, rad, mass, mat, tris, tri_mat, n_planes, g_lo, g_cell,
                    g_dims, g_start, g_tris, tool, gkey, ght, ghr, tmp_t, tmp_r, tab, dt, rolling,
                    cohesion, used, force, torque, worst, cand,
                    tool_acc):  # pragma: no cover - compiled
-    """All tool-mesh contacts of particle i; tool: (18,) position, velocity, omega, R."""
+    """All tool-mesh contacts of particle i, one per patch; tool: (18,) (see boundary_forces)."""
     rx = pos[i, 0] - tool[0]
     ry = pos[i, 1] - tool[1]
     rz = pos[i, 2] - tool[2]
@@ -150,22 +206,12 @@ def _mesh_contacts(i, c, pos, vel, omg, rad, mass, mat, tris, tri_mat, n_planes,
     pz = tool[11] * rx + tool[14] * ry + tool[17] * rz
     nc = _collect_candidates(px, py, pz, rad[i], tris, g_lo, g_cell, g_dims, g_start, g_tris,
                              cand)
-    tol = 1e-6 * rad[i]
+    _group_patches(px, py, pz, nc, cand, 1e-6 * rad[i])
     for b in range(nc):
-        d = cand[b, 1] ** 0.5
-        lnx = (px - cand[b, 2]) / d
-        lny = (py - cand[b, 3]) / d
-        lnz = (pz - cand[b, 4]) / d
-        cand[b, 6], cand[b, 7], cand[b, 8] = lnx, lny, lnz
-        cand[b, 5] = 1.0
-        for a in range(b):
-            if cand[a, 5] > 0.0 and ((cand[b, 2] - cand[a, 2]) * cand[a, 6]
-                                     + (cand[b, 3] - cand[a, 3]) * cand[a, 7]
-                                     + (cand[b, 4] - cand[a, 4]) * cand[a, 8]) <= tol:
-                cand[b, 5] = 0.0  # shadowed by a nearer contact (same patch or convex edge)
-                break
-        if cand[b, 5] == 0.0:
+        if cand[b, 5] >= 0.0:
             continue
+        d = cand[b, 1] ** 0.5
+        lnx, lny, lnz = cand[b, 6], cand[b, 7], cand[b, 8]
         nx = tool[9] * lnx + tool[10] * lny + tool[11] * lnz
         ny = tool[12] * lnx + tool[13] * lny + tool[14] * lnz
         nz = tool[15] * lnx + tool[16] * lny + tool[17] * lnz
@@ -179,7 +225,8 @@ def _mesh_contacts(i, c, pos, vel, omg, rad, mass, mat, tris, tri_mat, n_planes,
         vz = vel[i, 2] - d * (omg[i, 0] * ny - omg[i, 1] * nx) - (tool[5] + tool[6] * cy
                                                                    - tool[7] * cx)
         fx, fy, fz, mx, my, mz, used = _apply(
-            i, c, n_planes + int(cand[b, 0]), rad[i] - d, d, nx, ny, nz, vx, vy, vz,
+            i, c, n_planes + int(cand[b, 0]), patch_slot(gkey, i, b, cand, nc, n_planes, used),
+            rad[i] - d, d, nx, ny, nz, vx, vy, vz,
             omg[i, 0] - tool[6], omg[i, 1] - tool[7], omg[i, 2] - tool[8], mat[i], tri_mat,
             rad, mass, gkey, ght, ghr, tmp_t, tmp_r, tab, dt, rolling, cohesion, used,
             force, torque, worst)
