@@ -42,6 +42,7 @@ SNAPSHOT_DUMP = 'snapshots.dump'
 TOOL_FILE = 'tool.txt'
 TOOL_STL = 'tool.stl'
 POUR_DATA = 'pour.data'
+POUR_DUMP = 'pour.dump'  # the loose bed as LIGGGHTS read it
 INSERT_SOLID_FRACTION = 0.2  # loose random packing insert/pack reaches in one go
 DISCRETE_BINS = 5  # templates approximating a uniform size distribution
 SETTLE_CHECK_S = 0.02  # as dempath_sim.fill
@@ -274,6 +275,7 @@ def pour_fill_deck(scene: SceneSpec, params: SimParams, dt: float, skin_m: float
     lines += ['soft_particles yes'] if cmd.needs_soft(params) else []
     lines += [f'processors {SPLIT}', 'hard_particles yes', f'read_data {data_file}',
               f'neighbor {cmd.fmt(skin_m)} bin', 'neigh_modify delay 0',
+              f'write_dump all custom {POUR_DUMP} id x y z vx vy vz radius',
               *physics(params, dt, friction), *bin_walls(scene, params, 1),
               *_fill_tail(scene, params, dt, friction)]
     return '\n'.join(lines) + '\n'
