@@ -109,7 +109,8 @@ def _plane_contact(i, c, p, s, pos, vel, omg, rad, mass, mat, planes, plane_mat,
 @njit(fastmath=True, cache=True)
 def _collect_candidates(px, py, pz, r, tris, g_lo, g_cell, g_dims, g_start, g_tris,
                         cand):  # pragma: no cover - compiled
-    """Triangles within r of p (tool frame), sorted by distance into cand (rows: t, d2, q)."""
+    """Triangles within r of p (tool frame), nearest first into cand (rows: t, d2, q); the
+    MAX_CANDIDATES nearest are kept."""
     gx = int((px - g_lo[0]) / g_cell)
     gy = int((py - g_lo[1]) / g_cell)
     gz = int((pz - g_lo[2]) / g_cell)
@@ -123,9 +124,15 @@ def _collect_candidates(px, py, pz, r, tris, g_lo, g_cell, g_dims, g_start, g_tr
         t = g_tris[q]
         qx, qy, qz = closest_point_triangle(px, py, pz, tris[t])
         d2 = (px - qx) ** 2 + (py - qy) ** 2 + (pz - qz) ** 2
-        if d2 >= r * r or d2 == 0.0 or nc == cand.shape[0]:
+        if d2 >= r * r or d2 == 0.0:
             continue
-        pos = nc
+        if nc < cand.shape[0]:
+            pos = nc
+            nc += 1
+        elif d2 < cand[nc - 1, 1]:
+            pos = nc - 1  # full: the farthest candidate gives way
+        else:
+            continue
         while pos > 0 and cand[pos - 1, 1] > d2:  # insertion sort, nearest first
             for col in range(5):
                 cand[pos, col] = cand[pos - 1, col]
@@ -135,7 +142,6 @@ def _collect_candidates(px, py, pz, r, tris, g_lo, g_cell, g_dims, g_start, g_tr
         cand[pos, 2] = qx
         cand[pos, 3] = qy
         cand[pos, 4] = qz
-        nc += 1
     return nc
 
 

@@ -161,3 +161,20 @@ def test_sphere_resting_on_vertex_carries_its_weight_once() -> None:
     assert abs(state.velocities[0, 1]) < 1e-4, 'the sphere must be at rest'
     assert engine.forces[0][0][1] == pytest.approx(weight, rel=1e-3)
     assert RADIUS - state.positions[0, 1] == pytest.approx(overlap, rel=1e-2)
+
+
+def test_nearest_triangle_counts_when_many_are_in_reach() -> None:
+    """With more triangles in reach than candidate slots (20 small ones listed first, 10 um below
+    a plate), the plate still gives the contact: the force of a plane at the same overlap."""
+    rng = np.random.default_rng(4)
+    small = np.array([[[0.0, 0.0, 0.0], [5e-4, 0.0, 0.0], [0.0, 0.0, 5e-4]]])
+    below = small + np.concatenate([rng.uniform(-3e-4, 1e-4, (20, 1, 1)),
+                                    np.full((20, 1, 1), -1e-5),
+                                    rng.uniform(-3e-4, 1e-4, (20, 1, 1))], axis=2)
+    tris = np.concatenate([below, _flat_patch(1, 0.01)])
+    start = np.array([[1e-4, RADIUS - OVERLAP, 2e-4]])
+    engine = Engine(PARAMS, tool=TriangleMesh(tris, material=1))
+    engine.bind(SimState.from_spheres(start, np.full(1, RADIUS), 0, PARAMS))
+    plane = Engine(PARAMS, walls=FLOOR)
+    plane.bind(SimState.from_spheres(start, np.full(1, RADIUS), 0, PARAMS))
+    np.testing.assert_allclose(engine.forces[0][0], plane.forces[0][0], rtol=1e-9, atol=1e-12)
