@@ -5,10 +5,13 @@ Table 6 parameters, Hertz-Mindlin with history + EPSD2 rolling resistance, steel
 shipped chisel 40 mm deep moving at 1 m/s), the same time step and the same number of steps, on
 2 cores each: dempath with 2 numba threads, LIGGGHTS with ``mpirun -np 2`` (its loop time, i.e.
 without start-up and file output). Then the cross-engine comparison on a small scene
-(``--cross-scene``, ``--seeds`` packings per engine) gives ``cross_engine_ratio`` (difference of
-the engines / packing-seed spread). Last line: one JSON object.
+(``--cross-scene``, ``--seeds`` packings per engine, LIGGGHTS settling dempath's loose pour of
+each seed unless ``--fill`` says otherwise) gives ``cross_engine_ratio`` (difference of the
+engines / packing-seed spread). Last line: one JSON object.
 
     .venv/bin/python bench/dem_vs_liggghts.py [--steps 600] [--np 2] [--skip-cross]
+    .venv/bin/python bench/dem_vs_liggghts.py --skip-speed --cross-scene builtin:reduced_1ms \\
+        --seeds 3 --cache-dir /tmp/xe/packings --json-out docs/cross_engine_reduced.json
 """
 
 from __future__ import annotations
@@ -19,7 +22,9 @@ import importlib.util
 import json
 import logging
 import math
+import sys
 import tempfile
+import time
 from pathlib import Path
 from types import ModuleType
 
@@ -108,56 +113,90 @@ def liggghts_run(sb: ModuleType, state: SimState, tip: np.ndarray, dt: float, st
             'liggghts_nprocs': nprocs}
 
 
-def cross_engine(scene_name: str, seeds: int, nprocs: int, workdir: Path,
-                 shared: bool) -> dict[str, object]:
-    """Cross-engine comparison of a small scene (see dempath_sim.validation.cross_engine)."""
+def cross_engine(args: argparse.Namespace, workdir: Path) -> dict[str, object]:
+    """Cross-engine comparison of ``--cross-scene`` (see dempath_sim.validation.cross_engine)."""
     from dempath_sim.scene import load_scene
     from dempath_sim.validation.cross_engine import run_cross_engine
 
-    report = run_cross_engine(load_scene(scene_name), list(range(1, seeds + 1)), workdir,
-                              nprocs, cache_dir=workdir / 'packings', shared_packing=shared)
-    return report.summary()
+    fill = 'shared_packing' if args.shared_packing else args.fill
+    cache = args.cache_dir or workdir / 'packings'
+    t0 = time.monotonic()
+    report = run_cross_engine(load_scene(args.cross_scene), list(range(1, args.seeds + 1)),
+                              workdir, args.nprocs, cache_dir=cache, fill=fill,
+                              results_dir=args.results_dir)
+    return {**report.summary(), 'wall_s': time.monotonic() - t0}
 
 
-def main() -> None:
-    """Run both engines and print the JSON line."""
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    """Command-line options."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument('--steps', type=int, default=600)
     parser.add_argument('--layers', type=int, default=21, help='>= 45,000 spheres after the slot')
     parser.add_argument('--settle-steps', type=int, default=4000)
     parser.add_argument('--np', dest='nprocs', type=int, default=2)
     parser.add_argument('--cross-scene', default='builtin:tiny')
-    parser.add_argument('--seeds', type=int, default=3)
+    parser.add_argument('--seeds', type=int, default=3, help='packing seeds 1..N per engine')
     parser.add_argument('--skip-cross', action='store_true')
-    parser.add_argument('--shared-packing', action='store_true',
-                        help="LIGGGHTS starts from dempath's packings in the cross-engine part")
-    args = parser.parse_args()
-    logging.basicConfig(level=logging.INFO, format='%(message)s')
-    ensure_liggghts(install=True)
+    parser.add_argument('--skip-speed', action='store_true',
+                        help='only the cross-engine part (speed keys are NaN)')
+    parser.add_argument('--fill', choices=('shared_pour', 'insert_pack', 'shared_packing'),
+                        default='shared_pour',
+                        help="LIGGGHTS's bed in the cross-engine part: settle dempath's loose "
+                             'pour of each seed (default), pour its own with insert/pack, or '
+                             "start from dempath's settled packing")
+    parser.add_argument('--shared-packing', action='store_true', help='same as --fill '
+                        'shared_packing')
+    parser.add_argument('--cache-dir', type=Path, default=None,
+                        help="dempath's packing cache for the cross-engine part")
+    parser.add_argument('--results-dir', type=Path, default=None,
+                        help="save both engines' SimResults of the cross-engine part here")
+    parser.add_argument('--json-out', type=Path, default=None,
+                        help='also write the JSON (with the command) to this file')
+    return parser.parse_args(argv)
+
+
+def speed(args: argparse.Namespace, work: Path) -> dict[str, object]:
+    """Both engines on the settled >= 45,000-sphere bed with the tool passing."""
     numba.set_num_threads(min(2, numba.config.NUMBA_NUM_THREADS))
     sb = speed_bench()
     state, tip = sb.insert_tool(settled_bed(sb, args.layers, args.settle_steps), depth=0.04,
                                 tip_z=0.08)
     log.info('bed: %d spheres after the tool slot', state.n)
-    work = Path(tempfile.mkdtemp(prefix='dem_vs_liggghts_'))
     dem = sb.timed_run(state.subset(np.ones(state.n, bool)), tip, args.steps, sb.PARAMS.skin)
     lig = liggghts_run(sb, state, tip, dem['dt'], args.steps, args.nprocs, work)
     per_particle = dem['particle_bytes'] + dem['pair_bytes'] * dem['pairs'] / dem['particles']
+    log.info('dempath %.3g, LIGGGHTS %.3g particle-steps/s', dem['particle_steps_per_s'],
+             lig['liggghts_particle_steps_per_s'])
+    return {'particles': dem['particles'], 'steps': args.steps, 'dt_s': dem['dt'],
+            'dempath_threads': numba.get_num_threads(),
+            'dempath_particle_steps_per_s': dem['particle_steps_per_s'], **lig,
+            'ratio': dem['particle_steps_per_s'] / lig['liggghts_particle_steps_per_s'],
+            'bytes_per_particle': per_particle}
+
+
+def main() -> None:
+    """Run both engines and print the JSON line."""
+    args = parse_args()
+    logging.basicConfig(level=logging.INFO, format='%(message)s')
+    ensure_liggghts(install=True)
+    work = Path(tempfile.mkdtemp(prefix='dem_vs_liggghts_'))
+    nan = math.nan
     result: dict[str, object] = {
-        'particles': dem['particles'], 'steps': args.steps, 'dt_s': dem['dt'],
-        'dempath_threads': numba.get_num_threads(),
-        'dempath_particle_steps_per_s': dem['particle_steps_per_s'], **lig,
-        'ratio': dem['particle_steps_per_s'] / lig['liggghts_particle_steps_per_s'],
-        'bytes_per_particle': per_particle, 'cross_engine_ratio': math.nan}
-    log.info('dempath %.3g, LIGGGHTS %.3g particle-steps/s, ratio %.2f',
-             dem['particle_steps_per_s'], lig['liggghts_particle_steps_per_s'], result['ratio'])
+        'particles': nan, 'steps': nan, 'dempath_particle_steps_per_s': nan,
+        'liggghts_particle_steps_per_s': nan, 'ratio': nan, 'bytes_per_particle': nan,
+        'cross_engine_ratio': nan}
+    if not args.skip_speed:
+        result.update(speed(args, work))
     if not args.skip_cross:
-        cross = cross_engine(args.cross_scene, args.seeds, args.nprocs, work / 'cross',
-                             args.shared_packing)
+        cross = cross_engine(args, work / 'cross')
         result.update({'cross_engine_ratio': cross['cross_engine_ratio'],
                        'cross_engine': cross, 'cross_scene': args.cross_scene,
-                       'cross_shared_packing': args.shared_packing})
-    print(json.dumps(result, default=float))
+                       'cross_fill': cross['fill'], 'cross_nprocs': args.nprocs})
+    result['command'] = ' '.join(['.venv/bin/python bench/dem_vs_liggghts.py', *sys.argv[1:]])
+    text = json.dumps(result, default=float)
+    if args.json_out is not None:
+        args.json_out.write_text(json.dumps(result, default=float, indent=1) + '\n')
+    print(text)
 
 
 if __name__ == '__main__':

@@ -35,6 +35,7 @@ from dempath_sim.stl import read_stl
 from dempath_sim.timestep import rayleigh_time_step
 
 logger = logging.getLogger(__name__)
+Box = tuple[list[float], list[float]]  # (lo, hi) corners of the simulation box [m]
 
 
 def scene_time_step(scene: SceneSpec, model: PhysicsModel) -> float:
@@ -74,8 +75,9 @@ def dempath_time_step(params: SimParams, state: SimState) -> float:
 
 
 def _pour_deck(scene: SceneSpec, params: SimParams, workdir: Path, friction: str,
-               ) -> tuple[str, float, NDArray[np.int32]]:
-    """dempath's loose pour of the seed as ``pour.data``; the deck, dt [s], layer per id - 1."""
+               ) -> tuple[str, float, NDArray[np.int32], Box]:
+    """dempath's loose pour of the seed as ``pour.data``; the deck, dt [s], layer per id - 1,
+    the box."""
     model = scene.physics_model()
     loose = pour(scene, model, params)
     dt = dempath_time_step(params, loose)
@@ -88,18 +90,20 @@ def _pour_deck(scene: SceneSpec, params: SimParams, workdir: Path, friction: str
                   loose.angular_velocities[order], loose.radii[order],
                   model.particle_density_kg_m3, len(params.materials), box)
     text = dk.pour_fill_deck(scene, params, dt, 0.3 * big, friction=friction)
-    return text, dt, loose.extra['layer'][order]
+    return text, dt, loose.extra['layer'][order], box
 
 
 def _insert_deck(scene: SceneSpec, params: SimParams, friction: str,
-                 ) -> tuple[str, float, dk.FillPlan]:
-    """The insert/pack fill deck, its dt [s] (dividing the output interval) and plan."""
+                 ) -> tuple[str, float, dk.FillPlan, Box]:
+    """The insert/pack fill deck, its dt [s] (dividing the output interval), plan and box."""
     model = scene.physics_model()
     dt0 = scene_time_step(scene, model)
     dt = scene.output.interval_s / max(1, math.ceil(scene.output.interval_s / dt0))
     plan = dk.fill_plan(scene, model.coarse_grain, target_solid_fraction(scene, model))
-    text = dk.insert_fill_deck(scene, params, dt, plan, friction, tool_sweep(scene, model))
-    return text, dt, plan
+    extent = tool_sweep(scene, model)
+    text = dk.insert_fill_deck(scene, params, dt, plan, friction, extent)
+    big = max(max(d) for d in plan.diameters)
+    return text, dt, plan, dk.box_bounds(scene, plan.top, 2 * big, extent)
 
 
 def fill_liggghts(scene: SceneSpec, workdir: Path, nprocs: int = 1,
@@ -122,10 +126,10 @@ def fill_liggghts(scene: SceneSpec, workdir: Path, nprocs: int = 1,
     params = build_params(scene, model)
     workdir.mkdir(parents=True, exist_ok=True)
     if pour_from == 'dempath':
-        text, dt, layer_of = _pour_deck(scene, params, workdir, friction)
+        text, dt, layer_of, box = _pour_deck(scene, params, workdir, friction)
         expected = len(layer_of)
     else:
-        text, dt, plan = _insert_deck(scene, params, friction)
+        text, dt, plan, box = _insert_deck(scene, params, friction)
         expected = sum(plan.counts)
     (workdir / 'in.fill').write_text(text)
     run = run_deck(workdir / 'in.fill', nprocs=nprocs)
@@ -133,6 +137,10 @@ def fill_liggghts(scene: SceneSpec, workdir: Path, nprocs: int = 1,
     ids = frame.column('id').astype(np.int64)
     pos = frame.data[:, [frame.columns.index(c) for c in ('x', 'y', 'z')]]
     radii = frame.column('radius')
+    cols = [frame.columns.index(c) for c in ('vx', 'vy', 'vz', 'omegax', 'omegay', 'omegaz')]
+    dk.write_data(str(workdir / dk.BED_DATA), ids, pos, frame.data[:, cols[:3]],
+                  frame.data[:, cols[3:]], radii, model.particle_density_kg_m3,
+                  len(params.materials), box)
     if len(ids) < 0.99 * expected:
         logger.warning('liggghts fill: %d of %d particles in the bed (see %s)', len(ids),
                        expected, run.log_path)
@@ -192,7 +200,7 @@ def bed_from_packing(scene: SceneSpec, state: SimState, surface_y: float,
     workdir.mkdir(parents=True, exist_ok=True)
     box = dk.box_bounds(scene, 0.0, 4 * float(state.radii.max()), tool_sweep(scene, model))
     ids = state.ids.astype(np.int64) + 1
-    dk.write_data(str(workdir / 'bed.data'), ids, state.positions, state.velocities,
+    dk.write_data(str(workdir / dk.BED_DATA), ids, state.positions, state.velocities,
                   state.angular_velocities, state.radii, model.particle_density_kg_m3, 3, box)
     report = {'surface_height_m': surface_y, 'n_particles': float(state.n), 'dt_s': dt,
               'from_dempath_packing': 1.0}
@@ -224,10 +232,8 @@ def run_scene_liggghts(scene: SceneSpec, workdir: str | Path, nprocs: int = 1,
     model = scene.physics_model()
     if packing is None:
         bed = fill_liggghts(scene, workdir, nprocs, friction, pour_from)
-        read = f'read_restart {dk.FILL_RESTART}'
     else:
         bed = bed_from_packing(scene, packing[0], packing[1], workdir)
-        read = 'read_data bed.data'
     sel = select_markers(bed.positions, bed.radii, bed.ids, scene.markers)
     ids, roles, marker_ids = sel.tracked(scene.output.candidates)
     path = tool_path(scene, model, bed.report['surface_height_m'])
@@ -238,7 +244,7 @@ def run_scene_liggghts(scene: SceneSpec, workdir: str | Path, nprocs: int = 1,
     every = round(scene.output.interval_s / dt)
     snap = round(scene.output.snapshot_interval_s / dt)
     duration = path.time_to_travel(scene.tool.travel_m)
-    stage = dk.ToolStage(path, ids, 0, slot, duration, dt, every, snap, read)
+    stage = dk.ToolStage(path, ids, 0, slot, duration, dt, every, snap)
     params = build_params(scene, model)
     (workdir / 'in.tool').write_text(dk.tool_deck(scene, params, stage, friction))
     run = run_deck(workdir / 'in.tool', nprocs=nprocs)

@@ -12,10 +12,13 @@ The run has two stages, as the dempath engine has (fill, then the tool pass on t
    read with ``read_data``; the default, see ``pour_fill_deck``) or, with ``insert_fill_deck``,
    each layer inserted by ``fix insert/pack`` into its own slab at ``INSERT_SOLID_FRACTION``
    with dempath's particle count (target solid fraction x layer volume).
-2. ``in.tool``: ``read_restart``, the same physics, the tool STL (ASCII, placed in world
-   coordinates) as ``fix mesh/surface/stress`` with its reference point at the tip, moved by
-   ``fix move/mesh linear/variable`` with the piecewise speed profile, a dump of the tracked ids
-   and a force/torque print every output interval, full-bed snapshots.
+2. ``in.tool``: ``read_data`` of the settled bed (positions, velocities, spins and sizes from
+   the fill's dump, written by Python: contact histories start at zero, as in dempath's pass,
+   where a new engine starts from the settled or cached packing), the same physics, the tool
+   STL (ASCII, placed in world coordinates) as ``fix mesh/surface/stress`` with its reference
+   point at the tip, moved by ``fix move/mesh linear/variable`` with the piecewise speed
+   profile, a dump of the tracked ids and a force/torque print every output interval, full-bed
+   snapshots.
 
 Material types: 1 particles, 2 walls, 3 tool (dempath indices + 1).
 """
@@ -37,6 +40,7 @@ from dempath_sim.scene_spec import LayerSpec, SceneSpec
 
 FILL_DUMP = 'fill.dump'
 FILL_RESTART = 'fill.restart'
+BED_DATA = 'bed.data'  # the settled bed the pass starts from
 TRACKED_DUMP = 'tracked.dump'
 SNAPSHOT_DUMP = 'snapshots.dump'
 TOOL_FILE = 'tool.txt'
@@ -233,8 +237,10 @@ def _settle_stages(scene: SceneSpec, params: SimParams, dt: float, friction: str
 
 def _fill_tail(scene: SceneSpec, params: SimParams, dt: float, friction: str,
                offset: int = 0) -> list[str]:
+    fmt = '%d %d' + ' %.12g' * 10
     return [*_settle_stages(scene, params, dt, friction, offset), f'write_restart {FILL_RESTART}',
-            f'write_dump all custom {FILL_DUMP} id type x y z vx vy vz radius']
+            f'write_dump all custom {FILL_DUMP} id type x y z vx vy vz omegax omegay omegaz '
+            f'radius modify format "{fmt}"']
 
 
 def insert_fill_deck(scene: SceneSpec, params: SimParams, dt: float, plan: FillPlan,
@@ -335,7 +341,7 @@ class ToolStage:
     dt: float
     output_every: int
     snapshot_every: int
-    read: str = f'read_restart {FILL_RESTART}'
+    read: str = f'read_data {BED_DATA}'
 
 
 def tool_deck(scene: SceneSpec, params: SimParams, stage: ToolStage,
