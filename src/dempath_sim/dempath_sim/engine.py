@@ -8,7 +8,9 @@ Z tool travel.
 
 One `Engine.step` is the named stages of a velocity-Verlet step (see `integrate.py`):
 `integrate_first_half` (half kick + drift, domain and blow-up checks), `find_contacts`
-(neighbour-list rebuild when a particle moved more than skin / 2, history carried over),
+(neighbour-list rebuild when a particle moved more than skin / 2, history carried over; states of
+REORDER_MIN or more particles are first put in cell order, see `SimState.reorder`: index order
+changes, ids follow the particles),
 `contact_forces` (particle-particle, particle-plane, particle-tool), `integrate_second_half`.
 The arrays of `SimState` are updated in place; when particles leave the domain box they are
 removed with a warning and a new, compacted state is returned, so always use the returned state.
@@ -29,7 +31,7 @@ from dempath_sim.contact import TAB_OK, build_pair_table
 from dempath_sim.errors import SimulationError
 from dempath_sim.integrate import first_half, second_half
 from dempath_sim.mesh import TriangleMesh, build_triangle_grid, mesh_margin
-from dempath_sim.neighbors import build_neighbor_list, transfer_history
+from dempath_sim.neighbors import build_neighbor_list, cell_order, transfer_history
 from dempath_sim.pair_forces import pair_forces, reduce_buffers
 from dempath_sim.params import SimParams
 from dempath_sim.state import SimState
@@ -58,16 +60,20 @@ class Engine:
 
     BLOWUP_COURANT = 0.5  # |v| dt / r above this is an energy blow-up
     SERIAL_BELOW = 4000  # fewer particles run on one thread (thread wake-up costs more)
+    REORDER_MIN = 4000  # states this large are put in cell order at every list build
 
     def __init__(self, params: SimParams, walls: Sequence[Plane] = (),
-                 tool: TriangleMesh | None = None) -> None:
+                 tool: TriangleMesh | None = None, reorder: bool = True) -> None:
         """Keep the set-up; no allocation until a state is stepped.
 
         Args:
             params: Physical and numerical parameters.
             walls: Plane walls (see `walls.box_walls`).
             tool: Tool mesh in its own frame, moved by the ToolPose of each step, or None.
+            reorder: Sort states of >= REORDER_MIN particles in cell order at each list build
+                (memory locality; same physics; outputs must then go by `SimState.ids`).
         """
+        self.reorder = reorder
         self.params = params
         self.walls = tuple(walls)
         self.tool = tool
@@ -164,6 +170,12 @@ class Engine:
             state: The bound state.
             new_to_old: (n,) index of each current particle in the arrays of the previous list.
         """
+        if self.reorder and state.n >= self.REORDER_MIN:
+            order = cell_order(state.positions, state.radii, self._skin)
+            state.reorder(order)
+            for a in (self._force, self._torque, self._gkey, self._ght, self._ghr):
+                a[...] = a[order]
+            new_to_old = np.asarray(new_to_old)[order]
         rows = np.diff(self._start)
         cap = int(rows.max()) * 5 // 4 + 4 if rows.size == state.n and rows.size else 0
         start, nbr = build_neighbor_list(state.positions, state.radii, self._skin, cap)

@@ -112,6 +112,19 @@ class SimState:
         rot = 0.5 * float(np.sum(self.inertias * np.sum(self.angular_velocities ** 2, axis=1)))
         return trans + rot
 
+    def reorder(self, order: NDArray[np.int64]) -> None:
+        """Permute every per-particle array in place: row k becomes the old row order[k].
+
+        Args:
+            order: (n,) permutation of 0..n-1. ids and `extra` move with their particles.
+        """
+        for name in ('positions', 'velocities', 'angular_velocities', 'radii', 'masses',
+                     'inertias', 'material', 'ids'):
+            arr = getattr(self, name)
+            arr[...] = arr[order]
+        for key, value in self.extra.items():
+            self.extra[key] = value[order]
+
     def subset(self, keep: NDArray[np.bool_]) -> SimState:
         """Return a new state with only the particles where keep is True (same time, step)."""
         return SimState(self.positions[keep], self.velocities[keep],
