@@ -4,7 +4,7 @@
 fills (or reads the cached packing), drives the tool with a progress bar showing simulated time
 and the real-time factor, and writes ``model.csv`` (t,id,x,y,z), ``markers.csv``
 (t,marker,x,y,z), ``tool.csv``, ``result.npz`` and ``summary.json`` to DIR. SCENE is a scene
-file or the name of a shipped scene (``tiny``, ``reduced_1ms``, ...).
+file or the name of a shipped scene (``tiny``, ``reduced_1ms``, ... or ``builtin:tiny``).
 
 ``dempath effects [SCENE] [--json]`` prints every effect with its parameters, units, ranges and
 defaults, and, with a scene, whether each is on and the scene's values.
@@ -25,8 +25,10 @@ from dempath_sim.scene import SceneError, SceneSpec, bundled_scene, list_bundled
 
 
 def resolve_scene(text: str) -> SceneSpec:
-    """Load a scene file, or a shipped scene by name."""
+    """Load a scene file or a shipped scene (``reduced_1ms``, ``builtin:reduced_1ms``)."""
     path = Path(text)
+    if text.startswith('builtin:'):
+        return bundled_scene(text.removeprefix('builtin:'))
     if path.is_file() or path.suffix in {'.yaml', '.yml'} or '/' in text:
         return load_scene(path)
     if text in list_bundled_scenes():
