@@ -7,7 +7,7 @@ bytes per particle and per neighbour pair, and checks that the paper's 11,473,72
 fits in 24 GB by arithmetic and by building the engine arrays for that many particles.
 Last line: one JSON object.
 
-    .venv/bin/python bench/dem_engine_speed.py [--steps 600] [--skip-alloc]
+    .venv/bin/python bench/dem_engine_speed.py [--steps 600] [--skip-alloc] [--no-rolling]
 """
 
 from __future__ import annotations
@@ -44,6 +44,13 @@ PARAMS = SimParams((SAND, STEEL), {
 BIN_LO = (-0.08, 0.0, 0.0)  # m
 BIN_HI = (0.08, 0.3, 0.25)  # m
 CHISEL = Path(__file__).resolve().parents[1] / 'src/dempath_sim/dempath_sim/data/chisel.stl'
+
+
+def without_rolling(params: SimParams) -> SimParams:
+    """The same parameters with rolling resistance off (Hertz-Mindlin with history only)."""
+    inter = {k: dataclasses.replace(v, rolling_friction=0.0)
+             for k, v in params.interactions.items()}
+    return dataclasses.replace(params, interactions=inter)
 
 
 def lattice_bed(layers: int) -> SimState:
@@ -146,9 +153,11 @@ def allocate_paper_scene(pairs_per_particle: float, pair_bytes: float) -> dict[s
 
 def main() -> None:
     """Run the benchmark and print the JSON line."""
+    global PARAMS  # --no-rolling swaps the module's parameters
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument('--steps', type=int, default=600)
-    parser.add_argument('--layers', type=int, default=20)
+    parser.add_argument('--layers', type=int, default=21, help='>= 45,000 spheres after the slot')
+    parser.add_argument('--no-rolling', action='store_true', help='rolling resistance off')
     parser.add_argument('--settle-steps', type=int, default=4000)
     parser.add_argument('--skip-alloc', action='store_true')
     parser.add_argument('--skin', type=float, default=PARAMS.skin,
@@ -167,10 +176,13 @@ def main() -> None:
         np.savez(cache, positions=state.positions)
         log.info('settled %d spheres in %.1f s (KE %.3e J)', state.n,
                  time.perf_counter() - t0, state.kinetic_energy())
+    if args.no_rolling:  # after the (cached) settle with rolling; timed_run reads PARAMS
+        PARAMS = without_rolling(PARAMS)
     state, tip = insert_tool(state, depth=0.04, tip_z=0.08)
     result = timed_run(state, tip, args.steps, args.skin)
     per_particle = result['particle_bytes'] + result['pair_bytes'] * result['pairs'] / state.n
     result.update({'threads': numba.get_num_threads(), 'skin': args.skin,
+                   'rolling': PARAMS.rolling_enabled,
                    'bytes_per_particle': per_particle,
                    'bytes_per_contact': result['pair_bytes'],
                    'paper_bytes_arithmetic': per_particle * PAPER_PARTICLES})
