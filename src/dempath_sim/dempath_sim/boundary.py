@@ -1,18 +1,18 @@
 # mypy: disable-error-code="no-untyped-def"
 """Particle-plane and particle-triangle-mesh contact forces (one parallel per-particle loop).
 
-Each particle tests the planes and the tool triangles of its grid cell (tool frame). Contacts with
-one mesh are grouped into patches so that a flat or convex patch made of several triangles acts
-once: the candidate closest points are taken nearest first, and a candidate is shadowed by (joins
-the patch of) the first kept contact whose tangent plane it does not lie above
-((q_b - q_a) . n_a <= tol); concave corners (two faces facing the particle) keep both contacts.
-An edge or vertex shared by several triangles thus gives one contact, as LIGGGHTS handles a
-contact on a shared edge or corner once per surface (SurfaceMesh coplanar neighbours,
-FixContactHistoryMesh `coplanarContactAlready`).
-Contact history lives in G slots per particle keyed by plane index or n_planes + triangle index.
-A patch keeps its history when its closest feature moves to another triangle: if the nearest
-triangle has no slot but a triangle of its patch held one at the previous step, that slot is
-re-keyed (LIGGGHTS transfers the shear history between coplanar neighbour faces for the same
+Each particle tests the planes and the tool triangles of its grid cell (tool frame), keeping the
+MAX_CANDIDATES nearest triangles within its radius. Contacts with one mesh are grouped into
+patches so that a flat or convex patch made of several triangles acts once: the candidate closest
+points are taken nearest first, and a candidate is shadowed by (joins the patch of) the first
+kept contact whose tangent plane it does not lie above ((q_b - q_a) . n_a <= tol); concave
+corners (two faces facing the particle) keep both contacts. An edge or vertex shared by several
+triangles thus gives one contact, as LIGGGHTS handles a contact on a shared edge or corner once
+per surface (SurfaceMesh coplanar neighbours, FixContactHistoryMesh `coplanarContactAlready`).
+Contact history lives in N_SLOTS slots per particle keyed by plane index or n_planes + triangle
+index. A patch keeps its history when its closest feature moves to another triangle: if the
+nearest triangle has no slot but a triangle of its patch held one at the previous step, that slot
+is re-keyed (LIGGGHTS transfers the shear history between coplanar neighbour faces for the same
 reason; here any triangle of the patch qualifies, so convex edges pass it on too). The carried
 springs are projected on the new tangent plane with their length kept, as between steps (see
 `contact_hertz_mindlin.py`). When all slots are busy the contact runs without history (counted
