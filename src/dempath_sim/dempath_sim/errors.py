@@ -11,3 +11,7 @@ class SimulationError(DempathError):
 
 class GeometryError(DempathError):
     """A geometry input (STL file, mesh, wall) is malformed."""
+
+
+class RunStoppedError(SimulationError):
+    """The run was asked to stop (``RunOptions.stop``) before it had any output."""

@@ -26,7 +26,7 @@ from numpy.typing import NDArray
 
 from dempath_sim.effects import ContactPair, PhysicsModel
 from dempath_sim.engine import Engine, ToolPose
-from dempath_sim.errors import SimulationError
+from dempath_sim.errors import RunStoppedError, SimulationError
 from dempath_sim.fill import PARTICLES, TOOL, WALLS, FillReport, bin_walls, fill_bed
 from dempath_sim.markers import MarkerSelection, select_markers
 from dempath_sim.materials import Interaction, Material
@@ -96,7 +96,8 @@ class RunOptions:
         cache_dir: Packing cache; the default cache if None.
         progress: Called with a Progress about every output interval.
         on_frame: Called with each output Frame (streaming consumers).
-        stop: Set it to stop the drive early (the result holds the frames so far).
+        stop: Set it to stop the run early: during the drive the result holds the frames so
+            far; during the fill `RunStoppedError` is raised at the next settling check.
     """
 
     cache_dir: Path | None = None
@@ -227,6 +228,18 @@ def _progress(options: RunOptions, phase: str, t: float, end: float, t0: float) 
         options.progress(Progress(phase, t, end, time.monotonic() - t0))
 
 
+def _fill_progress(options: RunOptions, t0: float) -> Callable[[float, float], None]:
+    """The fill's progress callback: reports progress and honours ``options.stop``."""
+
+    def report(t: float, end: float) -> None:
+        if options.stop is not None and options.stop.is_set():
+            msg = f'run stopped during the fill at t = {t:.3f} s (no output yet)'
+            raise RunStoppedError(msg)
+        _progress(options, 'fill', t, end, t0)
+
+    return report
+
+
 def drive_tool(drive: _Drive, state: SimState, options: RunOptions) -> SimState:
     """Move the tool to the end of its travel, recording every output interval."""
     t0 = time.monotonic()
@@ -247,14 +260,15 @@ def run_scene(scene: SceneSpec, options: RunOptions | None = None) -> SimResult:
 
     Raises:
         SimulationError: The set-up is unstable or a marker has no particle near it.
+        RunStoppedError: ``options.stop`` was set during the fill.
         GeometryError: The tool's STL cannot be read.
     """
     options = options or RunOptions()
     model = scene.physics_model()
     params = build_params(scene, model)
     t_fill = time.monotonic()
-    state, report = fill_bed(scene, model, params, options.cache_dir, progress=lambda t, end: (
-        _progress(options, 'fill', t, end, t_fill)))
+    state, report = fill_bed(scene, model, params, options.cache_dir,
+                             progress=_fill_progress(options, t_fill))
     fill_wall = time.monotonic() - t_fill
     drive, state = _prepare_drive(scene, params, model, state, report)
     t_drive = time.monotonic()
@@ -297,5 +311,5 @@ def run_batch(scene: SceneSpec, variants: Sequence[Variant], seeds: Sequence[int
     return out
 
 
-__all__ = ['Frame', 'Progress', 'RunOptions', 'SimulationError', 'Variant', 'build_params',
-           'run_batch', 'run_scene']
+__all__ = ['Frame', 'Progress', 'RunOptions', 'RunStoppedError', 'SimulationError', 'Variant',
+           'build_params', 'run_batch', 'run_scene']

@@ -1,4 +1,4 @@
-"""`dempath simulate` on a parallel-sized bed: an unstable run ends with one error line and 1."""
+"""Runs that must end: an unstable `dempath simulate` (one error line, exit 1), a stopped fill."""
 
 from __future__ import annotations
 
@@ -13,7 +13,9 @@ import pytest
 import yaml
 
 from dempath_sim.cli import resolve_scene, simulate_main
+from dempath_sim.errors import RunStoppedError
 from dempath_sim.fill import bundled_packing_dir, packing_key
+from dempath_sim.run import RunOptions, run_scene
 from dempath_sim.scene import SCENES_DIR, load_scene
 
 EXIT_TIMEOUT_S = 120.0  # the run takes ~5-10 s; beyond this the process hangs
@@ -93,3 +95,20 @@ def test_builtin_prefix_names_a_shipped_scene(tmp_path: Path,
     assert simulate_main(['builtin:no_such', '--out', str(tmp_path), '--quiet']) == 1
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith('error: ') and 'no bundled scene' in err[0]
+
+
+def test_stop_during_the_fill_ends_the_run(tmp_path: Path) -> None:
+    """A stop request during the fill (a node shutting down) ends the run at the next settling
+    check with RunStoppedError instead of settling the whole bed first."""
+    stop = threading.Event()
+    seen: list[str] = []
+
+    def progress(p: object) -> None:
+        seen.append(getattr(p, 'phase', ''))
+        stop.set()  # ask to stop as soon as the fill reports
+
+    options = RunOptions(cache_dir=tmp_path / 'cache', progress=progress, stop=stop)
+    with pytest.raises(RunStoppedError, match='stopped during the fill'):
+        run_scene(resolve_scene('tiny'), options)
+    assert seen == ['fill'], 'exactly one settling check may run after the request'
+    assert not any((tmp_path / 'cache').glob('*.npz')), 'no packing from a stopped fill'
