@@ -19,6 +19,24 @@ from dempath.errors import DempathError
 CASES = ('impact', 'incline', 'energy', 'repose')  # the report's cases, in order
 
 
+def _repose_overrides(items: list[str]) -> dict[str, float]:
+    """``FIELD=VALUE`` strings -> overrides checked against the repose set-up's fields."""
+    from dempath_sim.validation.repose import preset_case
+
+    out = {}
+    for item in items:
+        key, sep, value = item.partition('=')
+        try:
+            out[key.strip()] = float(value)
+        except ValueError:
+            sep = ''
+        if not sep:
+            msg = f'{item!r}: expected FIELD=NUMBER'
+            raise ValueError(msg)
+    preset_case('standard', 0, out)  # raises on an unknown field or a bad value
+    return out
+
+
 def validate_main(argv: list[str]) -> int:
     """Entry point of ``dempath validate``; returns the exit status."""
     parser = argparse.ArgumentParser(prog='dempath validate', description=__doc__)
@@ -30,6 +48,8 @@ def validate_main(argv: list[str]) -> int:
                         'spheres, ~10x the run time)')
     parser.add_argument('--repose-seeds', type=int, default=1,
                         help='repose packing seeds 0..N-1')
+    parser.add_argument('--repose-set', action='append', default=[], metavar='FIELD=VALUE',
+                        help='override a repose set-up field, e.g. lift_speed=0.02 [SI]')
     parser.add_argument('--cases', default=','.join(CASES),
                         help=f'comma-separated subset of {",".join(CASES)}')
     parser.add_argument('--cross-engine', metavar='SCENE', default=None,
@@ -45,6 +65,11 @@ def validate_main(argv: list[str]) -> int:
     if args.repose_seeds < 1:
         print(f'error: --repose-seeds: need at least 1, got {args.repose_seeds}',
               file=sys.stderr)
+        return 1
+    try:
+        overrides = _repose_overrides(args.repose_set)
+    except ValueError as err:
+        print(f'error: --repose-set: {err}', file=sys.stderr)
         return 1
     cases = tuple(c.strip() for c in args.cases.split(',') if c.strip())
     if not cases or set(cases) - set(CASES):
@@ -74,7 +99,7 @@ def validate_main(argv: list[str]) -> int:
                                       shared_packing=args.shared_packing)
             cross = (report, scene.name)
         path = write_report(args.out, use_liggghts, args.quick, cross, args.repose,
-                            args.repose_seeds, cases)
+                            args.repose_seeds, cases, overrides)
     except DempathError as err:
         print(f'error: {err}', file=sys.stderr)
         return 1

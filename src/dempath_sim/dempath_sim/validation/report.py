@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import logging
 import math
+import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -132,34 +133,59 @@ def _energy(rep: Report) -> None:
 
 
 def _repose_runs(rep: Report, cases: list[repose.ReposeCase]) -> list[repose.ReposeResult]:
-    """Run every seed's case on dempath and (when present) LIGGGHTS."""
+    """Run every seed's case on dempath and (when present) LIGGGHTS; per-run rows (with the
+    wall time) go to ``rep.figures['repose_runs']``."""
     from dempath_sim.timestep import rayleigh_time_step
 
-    res = []
+    res, rows = [], []
     for case in cases:
-        res.append(repose.repose_dempath(case))
+        _, radii = case.particles()
+        dt = case.params().rayleigh_safety * rayleigh_time_step(
+            radii, np.zeros(len(radii), np.int32), case.params())
+        runs = [lambda c=case: repose.repose_dempath(c)]
         if rep.liggghts:
-            _, radii = case.particles()
-            dt = case.params().rayleigh_safety * rayleigh_time_step(
-                radii, np.zeros(len(radii), np.int32), case.params())
-            res.append(repose.repose_liggghts(case, rep.out / 'work' / f'repose-{case.seed}',
-                                              dt))
+            runs.append(lambda c=case, d=dt: repose.repose_liggghts(
+                c, rep.out / 'work' / f'repose-{c.seed}', d))
+        for run in runs:
+            t0 = time.perf_counter()
+            r = run()
+            res.append(r)
+            rows.append({'engine': r.engine, 'seed': case.seed, 'spheres': len(radii),
+                         'base_deg': r.base_deg, 'top_deg': r.top_deg, 'cone_deg': r.cone_deg,
+                         'view_deg': list(r.view_deg), 'band_deg': r.band_deg.tolist(),
+                         'height_m': r.height, 'sim_time_s': r.sim_time,
+                         'wall_s': time.perf_counter() - t0})
+    rep.figures['repose_runs'] = rows
     return res
 
 
-def _repose(rep: Report, cases: list[repose.ReposeCase], preset: str) -> None:
+def plot_repose(res: list[repose.ReposeResult], path: Path, title: str = '',
+                labels: list[str] | None = None) -> None:
+    """Radial surface profiles h(r) of the piles, with the paper's 30.82 deg slope for scale."""
     import matplotlib.pyplot as plt
 
-    res = _repose_runs(rep, cases)
-    fig, ax = plt.subplots(figsize=(6, 3.5))
-    for r in res:
-        ax.plot(r.r * 1e3, r.h * 1e3, '.-', lw=0.8, label=f'{r.engine}: {r.base_deg:.1f} / '
-                f'{r.top_deg:.1f} deg')
-    ax.set(xlabel='radius [mm]', ylabel='pile surface height [mm]', aspect='equal')
+    fig, ax = plt.subplots(figsize=(7, 3.5))
+    for k, r in enumerate(res):
+        name = r.engine if labels is None else labels[k]
+        ax.plot(r.r * 1e3, r.h * 1e3, '.-', lw=0.8, label=f'{name}: base {r.base_deg:.1f}, '
+                f'top {r.top_deg:.1f} deg')
+    first = res[0]
+    foot = float(first.r[np.flatnonzero(first.h >= 0.1 * first.height).max()]) * 1e3
+    run = first.height * 1e3 / math.tan(math.radians(30.82))
+    ax.plot([foot - run, foot], [first.height * 1e3, 0.0], 'k--', lw=0.8,
+            label='30.82 deg (paper, experiment) through the foot')
+    ax.set(xlabel='radius [mm]', ylabel='pile surface height [mm]', aspect='equal',
+           title=title)
+    ax.set_ylim(bottom=0)
     ax.legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(rep.out / 'repose.png', dpi=110)
+    fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def _repose(rep: Report, cases: list[repose.ReposeCase], preset: str) -> None:
+    res = _repose_runs(rep, cases)
+    plot_repose(res, rep.out / 'repose.png')
     summary = repose.summarise(res)
     rep.figures['repose'] = {'preset': preset, 'seeds': [c.seed for c in cases], **summary}
     exp, rocky, case = repose.PAPER_EXPERIMENT_DEG, repose.PAPER_ROCKY_DEG, cases[0]
@@ -212,7 +238,8 @@ def cross_engine_section(rep: Report, cross: CrossEngineReport, scene_name: str)
 def write_report(out: Path, liggghts: bool, quick: bool = False,
                  cross: tuple[CrossEngineReport, str] | None = None,
                  repose_preset: str | None = None, repose_seeds: int = 1,
-                 cases: tuple[str, ...] = CASES) -> Path:
+                 cases: tuple[str, ...] = CASES,
+                 repose_overrides: dict[str, float] | None = None) -> Path:
     """Run the cases and write ``out/report.md``, ``report.json`` and the PNGs.
 
     Args:
@@ -223,6 +250,7 @@ def write_report(out: Path, liggghts: bool, quick: bool = False,
         repose_preset: Key of ``repose.PRESETS``; None = ``standard`` (``quick`` if quick).
         repose_seeds: Number of repose seeds (0, 1, ...).
         cases: Which of ``CASES`` to run.
+        repose_overrides: Repose set-up fields replaced in the preset (SI units).
     """
     import matplotlib
 
@@ -235,8 +263,8 @@ def write_report(out: Path, liggghts: bool, quick: bool = False,
             run(rep)
     if 'repose' in cases:
         preset = repose_preset or ('quick' if quick else 'standard')
-        _repose(rep, [repose.preset_case(preset, seed) for seed in range(repose_seeds)],
-                preset)
+        _repose(rep, [repose.preset_case(preset, seed, repose_overrides)
+                      for seed in range(repose_seeds)], preset)
     if cross is not None:
         cross_engine_section(rep, *cross)
     (out / 'report.md').write_text('\n'.join(rep.lines) + '\n')

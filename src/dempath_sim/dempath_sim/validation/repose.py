@@ -27,7 +27,7 @@ from __future__ import annotations
 import itertools
 import logging
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from pathlib import Path
 
 import numpy as np
@@ -78,11 +78,22 @@ class ReposeCase:
         """Height of the tube [m]."""
         return self.fill_height + 0.02
 
+    LOOSEST_PACKING = 0.5  # solid fraction below any settled column of these spheres [-]
+
+    @property
+    def lift_height(self) -> float:
+        """How far the tube is lifted [m]: two grains above the top the settled column would
+        have at a solid fraction of 0.5 (looser than any settled packing, so the rim clears
+        the material; a higher lift only moves the empty tube longer)."""
+        _, radii = self.particles()
+        volume = float(np.sum(4 / 3 * math.pi * radii ** 3))
+        top = volume / (self.LOOSEST_PACKING * math.pi * (self.diameter / 2) ** 2)
+        return min(top, self.fill_height) + 2 * self.particle_diameter
+
     @property
     def lift_s(self) -> float:
-        """Duration of the lift [s]: until the tube's lower rim is one grain above the top of
-        the initial (loose) column, so above the settled column whatever the packing."""
-        return (self.fill_height + self.particle_diameter) / self.lift_speed
+        """Duration of the lift [s]."""
+        return self.lift_height / self.lift_speed
 
     def params(self) -> SimParams:
         """Sand (0), steel base (1), steel cylinder (2): Tables 2 and 6 of the paper."""
@@ -198,9 +209,11 @@ def side_view(pos: F64, radii: F64, azimuth: float, width: float) -> tuple[F64, 
 
 def _fit_deg(r: F64, h: F64, sel: NDArray[np.bool_]) -> float:
     """Slope angle [deg] of a least-squares line through the selected profile points."""
-    if np.unique(r[sel]).size < 2:
+    x, y = r[sel], h[sel]
+    if np.unique(x).size < 2:
         return math.nan
-    return math.degrees(math.atan(-np.polyfit(r[sel], h[sel], 1)[0]))
+    slope = float(np.sum((x - x.mean()) * (y - y.mean())) / np.sum((x - x.mean()) ** 2))
+    return math.degrees(math.atan(-slope))
 
 
 def flank_angles(r: F64, h: F64, peak: float, r_apex: float = 0.0) -> tuple[float, ...]:
@@ -249,16 +262,25 @@ PRESETS: dict[str, dict[str, float]] = {
 }
 
 
-def preset_case(name: str, seed: int = 0) -> ReposeCase:
-    """The ``PRESETS[name]`` set-up with packing seed ``seed``.
+def preset_case(name: str, seed: int = 0,
+                overrides: dict[str, float] | None = None) -> ReposeCase:
+    """The ``PRESETS[name]`` set-up with packing seed ``seed`` and ``overrides`` applied.
 
     Raises:
-        ValueError: ``name`` is not a preset.
+        ValueError: ``name`` is not a preset, or an override is not a float field of
+            ReposeCase or is not positive.
     """
     if name not in PRESETS:
         msg = f'repose preset {name!r}: expected one of {sorted(PRESETS)}'
         raise ValueError(msg)
-    return ReposeCase(seed=seed, **PRESETS[name])  # type: ignore[arg-type]
+    free = [f.name for f in fields(ReposeCase) if f.type in ('float', float)]
+    for key, value in (overrides or {}).items():
+        if key not in free or not (value >= 0 if key == 'spread' else value > 0):
+            msg = (f'repose override {key}={value!r}: expected one of {free}, positive '
+                   '(spread may be 0)')
+            raise ValueError(msg)
+    kw = {**PRESETS[name], **(overrides or {})}
+    return ReposeCase(seed=seed, **kw)  # type: ignore[arg-type]
 
 
 def summarise(results: list[ReposeResult]) -> dict[str, dict[str, tuple[float, float]]]:
@@ -293,6 +315,11 @@ def repose_dempath(case: ReposeCase) -> ReposeResult:
     engine.bind(state)
     dt = float(engine.dt or 0.0)
     state = engine.run(state, int(case.settle_s / dt))
+    top = float(np.max(state.positions[:, 1] + state.radii))
+    logger.info('repose: settled column top %.4f m, rim lifted to %.4f m', top, case.lift_height)
+    if top > case.lift_height:
+        logger.warning('repose: settled column top %.4f m above the lifted rim %.4f m', top,
+                       case.lift_height)
     t0, v = state.time, case.lift_speed
 
     def lift(t: float) -> ToolPose:
