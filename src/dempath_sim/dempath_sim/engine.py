@@ -31,7 +31,12 @@ from dempath_sim.contact import TAB_OK, build_pair_table
 from dempath_sim.errors import SimulationError
 from dempath_sim.integrate import first_half, second_half
 from dempath_sim.mesh import TriangleMesh, build_triangle_grid, mesh_margin
-from dempath_sim.neighbors import build_neighbor_list, cell_order, transfer_history
+from dempath_sim.neighbors import (
+    build_neighbor_list,
+    cell_order,
+    permute_in_place,
+    transfer_history,
+)
 from dempath_sim.pair_forces import pair_forces, reduce_buffers
 from dempath_sim.params import SimParams
 from dempath_sim.state import SimState
@@ -174,7 +179,7 @@ class Engine:
             order = cell_order(state.positions, state.radii, self._skin)
             state.reorder(order)
             for a in (self._force, self._torque, self._gkey, self._ght, self._ghr):
-                a[...] = a[order]
+                permute_in_place(a, order)
             new_to_old = np.asarray(new_to_old)[order]
         rows = np.diff(self._start)
         cap = int(rows.max()) * 5 // 4 + 4 if rows.size == state.n and rows.size else 0

@@ -60,9 +60,9 @@ def pair_forces(pos, vel, omg, rad, mass, mat, start, nbr, ht, hr, tab, dt, roll
                     continue
                 d = math.sqrt(d2)
                 delta = rs - d
-                ratio = delta / min(rad[i], rad[j])
-                if ratio > w_ratio:
-                    w_ratio = ratio
+                r_min = min(rad[i], rad[j])
+                if delta > w_ratio * r_min:  # the division only for a new worst overlap
+                    w_ratio = delta / r_min
                     w_i = i
                     w_j = j
                 nx = dx / d

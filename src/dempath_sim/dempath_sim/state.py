@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from dempath_sim.neighbors import permute_in_place
 from dempath_sim.params import SimParams
 
 F64 = NDArray[np.float64]
@@ -120,8 +121,7 @@ class SimState:
         """
         for name in ('positions', 'velocities', 'angular_velocities', 'radii', 'masses',
                      'inertias', 'material', 'ids'):
-            arr = getattr(self, name)
-            arr[...] = arr[order]
+            permute_in_place(getattr(self, name), order)
         for key, value in self.extra.items():
             self.extra[key] = value[order]
 

@@ -6,6 +6,7 @@ import numpy as np
 
 from dempath_sim.engine import Engine
 from dempath_sim.materials import Interaction, Material
+from dempath_sim.neighbors import build_neighbor_list, cell_order
 from dempath_sim.params import SimParams
 from dempath_sim.state import SimState
 from dempath_sim.walls import box_walls
@@ -87,3 +88,20 @@ def test_reorder_permutes_every_field() -> None:
     for name, old in before.items():
         assert np.array_equal(getattr(state, name), old[order]), name
     assert np.array_equal(state.extra['tag'], 7 * state.ids)
+
+
+def test_forward_scan_on_sorted_particles_matches_brute_force() -> None:
+    """On cell-sorted particles the forward half-stencil scan finds exactly the pairs i < j."""
+    rng = np.random.default_rng(6)
+    pos = rng.uniform(0.0, 0.05, size=(500, 3))
+    rad = np.where(rng.random(500) < 0.2, 5e-3, 1e-3)  # two-size bed: wide stencils too
+    order = cell_order(pos, rad, 3e-4)
+    assert not np.array_equal(order, np.arange(500))
+    pos, rad = pos[order], rad[order]
+    np.testing.assert_array_equal(cell_order(pos, rad, 3e-4), np.arange(500))  # now sorted
+    start, nbr = build_neighbor_list(pos, rad, 3e-4)
+    got = {(i, int(j)) for i in range(500) for j in nbr[start[i]:start[i + 1]]}
+    d = np.linalg.norm(pos[:, None] - pos[None], axis=-1)
+    close = d < rad[:, None] + rad[None] + 3e-4
+    assert got == {(i, j) for i, j in zip(*np.nonzero(close), strict=True) if i < j}
+    assert len(got) == len(nbr) > 300
