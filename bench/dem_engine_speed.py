@@ -160,6 +160,9 @@ def main() -> None:
     parser.add_argument('--no-rolling', action='store_true', help='rolling resistance off')
     parser.add_argument('--settle-steps', type=int, default=4000)
     parser.add_argument('--skip-alloc', action='store_true')
+    parser.add_argument('--shuffle', action='store_true',
+                        help='particles in random index order (as a fill leaves them), not the '
+                             "lattice's spatial order")
     parser.add_argument('--skin', type=float, default=PARAMS.skin,
                         help='neighbour skin / smallest radius')
     args = parser.parse_args()
@@ -179,9 +182,12 @@ def main() -> None:
     if args.no_rolling:  # after the (cached) settle with rolling; timed_run reads PARAMS
         PARAMS = without_rolling(PARAMS)
     state, tip = insert_tool(state, depth=0.04, tip_z=0.08)
+    if args.shuffle:
+        state = state.subset(np.random.default_rng(1).permutation(state.n))
     result = timed_run(state, tip, args.steps, args.skin)
     per_particle = result['particle_bytes'] + result['pair_bytes'] * result['pairs'] / state.n
     result.update({'threads': numba.get_num_threads(), 'skin': args.skin,
+                   'shuffled': args.shuffle,
                    'rolling': PARAMS.rolling_enabled,
                    'bytes_per_particle': per_particle,
                    'bytes_per_contact': result['pair_bytes'],

@@ -54,9 +54,11 @@ def pair_forces(pos, vel, omg, rad, mass, mat, start, nbr, ht, hr, tab, dt, roll
                 d2 = dx * dx + dy * dy + dz * dz
                 rs = rad[i] + rad[j]
                 if d2 >= rs * rs:
-                    for q in range(3):
-                        ht[k, q] = 0.0
-                        hr[k, q] = 0.0
+                    if ht[k, 0] != 0.0 or ht[k, 1] != 0.0 or ht[k, 2] != 0.0 \
+                            or hr[k, 0] != 0.0 or hr[k, 1] != 0.0 or hr[k, 2] != 0.0:
+                        for q in range(3):  # just separated: springs reset (written only
+                            ht[k, q] = 0.0  # then, so that untouched rows stay clean in
+                            hr[k, q] = 0.0  # cache and are not written back)
                     continue
                 d = math.sqrt(d2)
                 delta = rs - d
