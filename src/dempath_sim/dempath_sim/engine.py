@@ -146,6 +146,7 @@ class Engine:
         self._gkey: NDArray[np.int32] = np.full((n, N_SLOTS), -1, np.int32)
         self._ght: F64 = np.zeros((n, N_SLOTS, 3))
         self._ghr: F64 = np.zeros((n, N_SLOTS, 3))
+        self._perm_tmp = np.empty(self._ght.nbytes, np.uint8)  # cell-order permutation scratch
         self._scratch()
         self._skin = self.params.skin * (float(state.radii.min()) if n else 0.0)
         self._start: NDArray[np.int64] = np.zeros(n + 1, np.int64)
@@ -177,9 +178,9 @@ class Engine:
         """
         if self.reorder and state.n >= self.REORDER_MIN:
             order = cell_order(state.positions, state.radii, self._skin)
-            state.reorder(order)
+            state.reorder(order, self._perm_tmp)
             for a in (self._force, self._torque, self._gkey, self._ght, self._ghr):
-                permute_in_place(a, order)
+                permute_in_place(a, order, self._perm_tmp)
             new_to_old = np.asarray(new_to_old)[order]
         rows = np.diff(self._start)
         cap = int(rows.max()) * 5 // 4 + 4 if rows.size == state.n and rows.size else 0

@@ -125,24 +125,23 @@ def bounds(pos):  # pragma: no cover - compiled
     return lo, hi
 
 
-@njit(parallel=True, cache=True)
-def permute_rows(a, order, tmp):  # pragma: no cover - compiled
-    """a[k] = old a[order[k]] in place for a (n, m); tmp: (n, m) scratch of a's dtype."""
-    for k in prange(a.shape[0]):
-        for q in range(a.shape[1]):
-            tmp[k, q] = a[order[k], q]
-    for k in prange(a.shape[0]):
-        for q in range(a.shape[1]):
-            a[k, q] = tmp[k, q]
+def permute_in_place(arr: NDArray[np.generic], order: NDArray[np.int64],
+                     scratch: NDArray[np.uint8] | None = None) -> None:
+    """Rows of the C-contiguous array arr (n, ...) permuted in place: row k = old row order[k].
 
-
-def permute_in_place(arr: NDArray[np.generic], order: NDArray[np.int64]) -> None:
-    """Rows of the C-contiguous array arr (n, ...) permuted in place: row k = old row order[k]."""
-    rows = arr.reshape(len(arr), -1)  # a view of a contiguous array
-    if not np.shares_memory(rows, arr):
+    scratch: optional uint8 buffer of at least arr.nbytes reused as the temporary (a fresh one
+    costs page faults on every call).
+    """
+    if not arr.flags.c_contiguous:
         msg = 'permute_in_place needs a C-contiguous array'
         raise ValueError(msg)
-    permute_rows(rows, order, np.empty_like(rows))
+    rows = arr.reshape(len(arr), -1)  # a view of the contiguous array
+    if scratch is None or scratch.nbytes < arr.nbytes:
+        tmp = np.empty_like(rows)
+    else:
+        tmp = scratch[:arr.nbytes].view(arr.dtype).reshape(rows.shape)
+    np.take(rows, order, axis=0, out=tmp)
+    rows[...] = tmp
 
 
 def cell_grid(pos: NDArray[np.float64], rad: NDArray[np.float64],

@@ -113,15 +113,16 @@ class SimState:
         rot = 0.5 * float(np.sum(self.inertias * np.sum(self.angular_velocities ** 2, axis=1)))
         return trans + rot
 
-    def reorder(self, order: NDArray[np.int64]) -> None:
+    def reorder(self, order: NDArray[np.int64], scratch: NDArray[np.uint8] | None = None) -> None:
         """Permute every per-particle array in place: row k becomes the old row order[k].
 
         Args:
             order: (n,) permutation of 0..n-1. ids and `extra` move with their particles.
+            scratch: Optional reusable temporary of >= 24 n bytes (see `permute_in_place`).
         """
         for name in ('positions', 'velocities', 'angular_velocities', 'radii', 'masses',
                      'inertias', 'material', 'ids'):
-            permute_in_place(getattr(self, name), order)
+            permute_in_place(getattr(self, name), order, scratch)
         for key, value in self.extra.items():
             self.extra[key] = value[order]
 
