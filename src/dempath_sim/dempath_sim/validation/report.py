@@ -183,28 +183,33 @@ def plot_repose(res: list[repose.ReposeResult], path: Path, title: str = '',
     plt.close(fig)
 
 
-def _repose(rep: Report, cases: list[repose.ReposeCase], preset: str) -> None:
+def _repose(rep: Report, cases: list[repose.ReposeCase], preset: str,
+            overrides: dict[str, float] | None = None) -> None:
     res = _repose_runs(rep, cases)
     plot_repose(res, rep.out / 'repose.png')
     summary = repose.summarise(res)
-    rep.figures['repose'] = {'preset': preset, 'seeds': [c.seed for c in cases], **summary}
+    rep.figures['repose'] = {'preset': preset, 'overrides': overrides or {},
+                             'seeds': [c.seed for c in cases], **summary}
     exp, rocky, case = repose.PAPER_EXPERIMENT_DEG, repose.PAPER_ROCKY_DEG, cases[0]
     n = len(case.particles()[1])
     rep.lines += ['## Angle of repose (lifted cylinder, Table 6 parameters)', '',
-                  f'Set-up `{preset}`: cylinder {case.diameter * 1e3:.0f} mm, {n} spheres of '
+                  f'Set-up `{preset}` (overrides {overrides or {}}): cylinder '
+                  f'{case.diameter * 1e3:.0f} mm, {n} spheres of '
                   f'{case.particle_diameter * 1e3:.0f} mm +-{100 * case.spread:.0f} %, lift '
                   f'{case.lift_speed} m/s, seeds {[c.seed for c in cases]}. Angles from the '
                   'base / top are flank fits at 10-60 % / 40-90 % of the pile height; cone = '
                   'line from the apex to the foot (see docs/validation_repose.md).', '',
-                  '| source | seed | from the base [deg] | from the top [deg] | cone [deg] |',
-                  '|---|---|---|---|---|', f'| paper, experiment | | {exp[0]} | {exp[1]} | |',
-                  f'| paper, Rocky model | | {rocky[0]} | {rocky[1]} | |']
+                  '| source | seed | from the base [deg] | from the top [deg] | cone [deg] | '
+                  'silhouette base / top [deg] |', '|---|---|---|---|---|---|',
+                  f'| paper, experiment | | {exp[0]} | {exp[1]} | | |',
+                  f'| paper, Rocky model | | {rocky[0]} | {rocky[1]} | | |']
     seeds = [c.seed for c in cases for _ in range(len(res) // len(cases))]
     rep.lines += [f'| {r.engine} | {k} | {r.base_deg:.2f} | {r.top_deg:.2f} | '
-                  f'{r.cone_deg:.2f} |' for r, k in zip(res, seeds, strict=True)]
+                  f'{r.cone_deg:.2f} | {r.view_deg[0]:.2f} / {r.view_deg[1]:.2f} |'
+                  for r, k in zip(res, seeds, strict=True)]
     rep.lines += [f'| {eng}, mean +- sd | | {s["base_deg"][0]:.2f} +- {s["base_deg"][1]:.2f} | '
                   f'{s["top_deg"][0]:.2f} +- {s["top_deg"][1]:.2f} | '
-                  f'{s["cone_deg"][0]:.2f} +- {s["cone_deg"][1]:.2f} |'
+                  f'{s["cone_deg"][0]:.2f} +- {s["cone_deg"][1]:.2f} | |'
                   for eng, s in summary.items()]
     rep.lines += ['', '![repose](repose.png)', '']
 
@@ -264,7 +269,7 @@ def write_report(out: Path, liggghts: bool, quick: bool = False,
     if 'repose' in cases:
         preset = repose_preset or ('quick' if quick else 'standard')
         _repose(rep, [repose.preset_case(preset, seed, repose_overrides)
-                      for seed in range(repose_seeds)], preset)
+                      for seed in range(repose_seeds)], preset, repose_overrides)
     if cross is not None:
         cross_engine_section(rep, *cross)
     (out / 'report.md').write_text('\n'.join(rep.lines) + '\n')
