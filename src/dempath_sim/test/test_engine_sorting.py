@@ -47,7 +47,8 @@ def _by_id(state: SimState, values: np.ndarray) -> np.ndarray:
 
 
 def test_sorted_engine_matches_unsorted_to_round_off() -> None:
-    """Sorted and unsorted runs give the same positions, velocities, spins and forces by id."""
+    """Sorted and unsorted runs give the same positions, velocities, spins and forces by id;
+    two sorted runs are bitwise equal."""
     plain, e_plain = _run(False, 500)
     fast, e_fast = _run(True, 500)
     assert e_fast.n_rebuilds > 20 and e_fast.removed_count == e_plain.removed_count == 1
@@ -60,6 +61,9 @@ def test_sorted_engine_matches_unsorted_to_round_off() -> None:
         a = _by_id(plain, getattr(plain, name))
         b = _by_id(fast, getattr(fast, name))
         assert np.abs(a - b).max() <= 1e-9 * np.abs(a).max(), name
+    again, _ = _run(True, 500)
+    assert np.array_equal(again.positions, fast.positions), 'sorted runs must be deterministic'
+    assert np.array_equal(again.ids, fast.ids)
     f_a = _by_id(plain, e_plain.forces[0])
     f_b = _by_id(fast, e_fast.forces[0])
     assert np.abs(f_a - f_b).max() <= 1e-6 * np.abs(f_a).max()
