@@ -142,13 +142,10 @@ def _repose_runs(rep: Report, cases: list[repose.ReposeCase]) -> list[repose.Rep
         _, radii = case.particles()
         dt = case.params().rayleigh_safety * rayleigh_time_step(
             radii, np.zeros(len(radii), np.int32), case.params())
-        runs = [lambda c=case: repose.repose_dempath(c)]
-        if rep.liggghts:
-            runs.append(lambda c=case, d=dt: repose.repose_liggghts(
-                c, rep.out / 'work' / f'repose-{c.seed}', d))
-        for run in runs:
+        for eng in ('dempath', 'liggghts') if rep.liggghts else ('dempath',):
             t0 = time.perf_counter()
-            r = run()
+            r = (repose.repose_dempath(case) if eng == 'dempath' else repose.repose_liggghts(
+                case, rep.out / 'work' / f'repose-{case.seed}', dt))
             res.append(r)
             rows.append({'engine': r.engine, 'seed': case.seed, 'spheres': len(radii),
                          'base_deg': r.base_deg, 'top_deg': r.top_deg, 'cone_deg': r.cone_deg,
