@@ -13,14 +13,17 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from dempath_sim.contact_hertz_mindlin import hertz_mindlin
+from dempath_sim.contact_hertz_mindlin import hertz_mindlin, hertz_mindlin_constants
 from dempath_sim.materials import pair_properties
 from dempath_sim.params import SimParams
 from dempath_sim.rolling_epsd2 import rolling_epsd2
 
-# Columns of the pair table.
-TAB_E, TAB_G, TAB_BETA, TAB_MUS, TAB_MUD, TAB_MUR, TAB_KC, TAB_OK = range(8)
-N_TAB = 8
+# Columns of the pair table; the last four are the law's constants, precomputed once per pair
+# (see `contact_hertz_mindlin.py`): 4/3 E*, 8 G*, 2 sqrt(5/6) beta sqrt(2 E*) and
+# 2 sqrt(5/6) beta sqrt(8 G*), so that a contact takes one sqrt for both dashpots.
+(TAB_E, TAB_G, TAB_BETA, TAB_MUS, TAB_MUD, TAB_MUR, TAB_KC, TAB_OK,
+ TAB_KN, TAB_KT, TAB_CN, TAB_CT) = range(12)
+N_TAB = 12
 
 
 def build_pair_table(params: SimParams) -> NDArray[np.float64]:
@@ -33,9 +36,11 @@ def build_pair_table(params: SimParams) -> NDArray[np.float64]:
                 continue
             props = pair_properties(params.materials[i], params.materials[j])
             inter = params.interaction(i, j)
-            tab[i, j] = (props.effective_youngs, props.effective_shear, inter.damping_beta,
-                         inter.static_friction, inter.dynamic_friction, inter.rolling_friction,
-                         inter.cohesion_energy_density, 1.0)
+            e_star, g_star = props.effective_youngs, props.effective_shear
+            beta = inter.damping_beta
+            tab[i, j] = (e_star, g_star, beta, inter.static_friction, inter.dynamic_friction,
+                         inter.rolling_friction, inter.cohesion_energy_density, 1.0,
+                         *hertz_mindlin_constants(e_star, g_star, beta))
     return tab
 
 
@@ -63,8 +68,9 @@ def resolve_contact(tab, a, b, delta, r_eff, m_eff, area, nx, ny, nz, vx, vy, vz
         magnitude before cohesion [N].
     """
     f_n, ftx, fty, ftz, k_t = hertz_mindlin(
-        delta, r_eff, m_eff, tab[a, b, TAB_E], tab[a, b, TAB_G], tab[a, b, TAB_BETA],
-        tab[a, b, TAB_MUS], tab[a, b, TAB_MUD], nx, ny, nz, vx, vy, vz, ht, k, dt)
+        delta, r_eff, m_eff, tab[a, b, TAB_KN], tab[a, b, TAB_KT], tab[a, b, TAB_CN],
+        tab[a, b, TAB_CT], tab[a, b, TAB_MUS], tab[a, b, TAB_MUD], nx, ny, nz, vx, vy, vz, ht, k,
+        dt)
     f_norm = f_n - tab[a, b, TAB_KC] * area
     mx = 0.0
     my = 0.0

@@ -22,6 +22,11 @@ with Coulomb's limit: sticking while |F_t| <= mu_s max(F_n, 0); otherwise slidin
 |F_t| = mu_d max(F_n, 0) and the spring reset to match (LIGGGHTS `tangential history` with separate
 static and dynamic coefficients, as in Rocky). All functions are scalar per-contact code so that
 the same source runs in numba CPU loops and could run in CUDA kernels.
+
+The kernel takes the per-pair constants c_n = 4/3 E*, c_t = 8 G*, d_n = 2 sqrt(5/6) beta
+sqrt(2 E*) and d_t = 2 sqrt(5/6) beta sqrt(8 G*) (`hertz_mindlin_constants`, stored in the pair
+table), so that with s = sqrt(R* delta) and w = sqrt(s m*) a contact costs two square roots:
+k_n = c_n s, k_t = c_t s, gamma_n = d_n w, gamma_t = d_t w (the same law, regrouped).
 """
 
 from __future__ import annotations
@@ -33,8 +38,25 @@ from numba import njit
 SQRT_5_6 = math.sqrt(5.0 / 6.0)  # damping prefactor of the Tsuji/Antypov dashpot
 
 
+def hertz_mindlin_constants(e_star: float, g_star: float,
+                            beta: float) -> tuple[float, float, float, float]:
+    """Per-pair constants of the law (see the module docstring).
+
+    Args:
+        e_star: Effective Young's modulus E* [Pa].
+        g_star: Effective shear modulus G* [Pa].
+        beta: Damping ratio from the restitution [-].
+
+    Returns:
+        (c_n [Pa], c_t [Pa], d_n [Pa^0.5], d_t [Pa^0.5]): 4/3 E*, 8 G*,
+        2 sqrt(5/6) beta sqrt(2 E*), 2 sqrt(5/6) beta sqrt(8 G*).
+    """
+    return ((4.0 / 3.0) * e_star, 8.0 * g_star, 2.0 * SQRT_5_6 * beta * math.sqrt(2.0 * e_star),
+            2.0 * SQRT_5_6 * beta * math.sqrt(8.0 * g_star))
+
+
 @njit(inline='always', fastmath=True, cache=True)
-def hertz_mindlin(delta, r_eff, m_eff, e_star, g_star, beta, mu_s, mu_d,
+def hertz_mindlin(delta, r_eff, m_eff, c_n, c_t, d_n, d_t, mu_s, mu_d,
                   nx, ny, nz, vx, vy, vz, hist, k, dt):  # pragma: no cover - compiled
     """Normal and tangential force of one contact; updates the tangential spring in place.
 
@@ -42,9 +64,8 @@ def hertz_mindlin(delta, r_eff, m_eff, e_star, g_star, beta, mu_s, mu_d,
         delta: Overlap > 0 [m].
         r_eff: Effective radius R* [m].
         m_eff: Effective mass m* [kg].
-        e_star: Effective Young's modulus E* [Pa].
-        g_star: Effective shear modulus G* [Pa].
-        beta: Damping ratio from the restitution [-].
+        c_n, c_t: 4/3 E* and 8 G* [Pa] (see `hertz_mindlin_constants`).
+        d_n, d_t: 2 sqrt(5/6) beta sqrt(2 E*) and 2 sqrt(5/6) beta sqrt(8 G*) [Pa^0.5].
         mu_s: Static friction coefficient [-].
         mu_d: Dynamic friction coefficient [-].
         nx, ny, nz: Unit normal from j to i.
@@ -58,15 +79,16 @@ def hertz_mindlin(delta, r_eff, m_eff, e_star, g_star, beta, mu_s, mu_d,
         tangential force on i (3,) [N] and the tangential stiffness [N/m].
     """
     sq = math.sqrt(r_eff * delta)
-    k_n = (4.0 / 3.0) * e_star * sq
-    gamma_n = 2.0 * SQRT_5_6 * beta * math.sqrt(2.0 * e_star * sq * m_eff)
+    w = math.sqrt(sq * m_eff)
+    k_n = c_n * sq
+    gamma_n = d_n * w
     v_n = vx * nx + vy * ny + vz * nz
     f_n = k_n * delta - gamma_n * v_n
     vtx = vx - v_n * nx
     vty = vy - v_n * ny
     vtz = vz - v_n * nz
-    k_t = 8.0 * g_star * sq
-    gamma_t = 2.0 * SQRT_5_6 * beta * math.sqrt(k_t * m_eff)
+    k_t = c_t * sq
+    gamma_t = d_t * w
     sx = hist[k, 0]
     sy = hist[k, 1]
     sz = hist[k, 2]

@@ -12,6 +12,9 @@ One `Engine.step` is the named stages of a velocity-Verlet step (see `integrate.
 REORDER_MIN or more particles are first put in cell order, see `SimState.reorder`: index order
 changes, ids follow the particles),
 `contact_forces` (particle-particle, particle-plane, particle-tool), `integrate_second_half`.
+The plane and tool pass runs over the particles that can reach a plane or the tool until the
+next list build (`boundary.reach_candidates`, from the build positions); the candidates are
+found again when the tool has moved more than TOOL_MARGIN_SKINS skins since they were found.
 The arrays of `SimState` are updated in place; when particles leave the domain box they are
 removed with a warning and a new, compacted state is returned, so always use the returned state.
 """
@@ -26,7 +29,13 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from dempath_sim.boundary import MAX_CANDIDATES, N_SLOTS, boundary_forces
+from dempath_sim.boundary import (
+    MAX_CANDIDATES,
+    N_SLOTS,
+    boundary_forces,
+    box_displacement,
+    reach_candidates,
+)
 from dempath_sim.contact import TAB_OK, build_pair_table
 from dempath_sim.errors import SimulationError
 from dempath_sim.integrate import first_half, second_half
@@ -66,9 +75,11 @@ class Engine:
     BLOWUP_COURANT = 0.5  # |v| dt / r above this is an energy blow-up
     SERIAL_BELOW = 4000  # fewer particles run on one thread (thread wake-up costs more)
     REORDER_MIN = 4000  # states this large are put in cell order at every list build
+    TOOL_MARGIN_SKINS = 2.0  # tool travel [skins] covered by one set of boundary candidates
 
     def __init__(self, params: SimParams, walls: Sequence[Plane] = (),
-                 tool: TriangleMesh | None = None, reorder: bool = True) -> None:
+                 tool: TriangleMesh | None = None, reorder: bool = True,
+                 candidates: bool = True) -> None:
         """Keep the set-up; no allocation until a state is stepped.
 
         Args:
@@ -77,8 +88,13 @@ class Engine:
             tool: Tool mesh in its own frame, moved by the ToolPose of each step, or None.
             reorder: Sort states of >= REORDER_MIN particles in cell order at each list build
                 (memory locality; same physics; outputs must then go by `SimState.ids`).
+            candidates: Run the plane/tool pass over the particles within reach only (same
+                physics; False tests every particle every step).
         """
         self.reorder = reorder
+        self.candidates = candidates
+        self._cand_idx: NDArray[np.int64] | None = None  # None: to be found
+        self._cand_ref = np.zeros(18)  # tool pose the candidates were found for
         self.params = params
         self.walls = tuple(walls)
         self.tool = tool
@@ -191,7 +207,29 @@ class Engine:
                          start, nbr, ht, hr)
         self._start, self._nbr, self._ht, self._hr = start, nbr, ht, hr
         self._pos_build = state.positions.copy()
+        self._cand_idx = None
         self.n_rebuilds += 1
+
+    def _boundary_particles(self, state: SimState, packed: F64) -> NDArray[np.int64]:
+        """Particles the plane/tool pass must test at this step (see `reach_candidates`)."""
+        if not self.candidates:
+            return np.arange(state.n)
+        grid = self._grid
+        if grid is not None:
+            g_hi = grid.lo + grid.dims * grid.cell
+            margin = self.TOOL_MARGIN_SKINS * self._skin
+            if self._cand_idx is not None and box_displacement(
+                    grid.lo, g_hi, self._cand_ref, packed) > margin:
+                self._cand_idx = None  # the tool left the reach of these candidates
+        if self._cand_idx is None:
+            keep = np.empty(state.n, np.bool_)
+            lo, hi, reach = ((grid.lo, g_hi, self._skin + margin) if grid is not None else
+                             (np.zeros(3), np.zeros(3), -1.0))
+            reach_candidates(self._pos_build, state.radii, self._planes, self._skin, packed,
+                             lo, hi, reach, self._gkey, self._ght, self._ghr, keep)
+            self._cand_idx = np.flatnonzero(keep)
+            self._cand_ref = packed
+        return self._cand_idx
 
     def contact_forces(self, state: SimState, pose: ToolPose, dt: float) -> None:
         """Forces and torques of all contacts into the engine's force/torque arrays.
@@ -222,7 +260,7 @@ class Engine:
                         self._plane_mat, self._tris, tri_mat, *g_args, self._packed[1], self._gkey,
                         self._ght, self._ghr, self._tab, dt, rolling, cohesion, self._force,
                         self._torque, self._tool_acc, self._worst, self._cand, self._tmp_t,
-                        self._tmp_r)
+                        self._tmp_r, self._boundary_particles(state, self._packed[1]))
         total = self._tool_acc.sum(axis=0)
         self.tool_force = total[:3]
         self.tool_torque = total[3:]

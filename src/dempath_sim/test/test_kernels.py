@@ -174,7 +174,8 @@ def test_plane_contacts_match_reference() -> None:
                     np.zeros((0, 3, 3)), 1, np.zeros(3), 1.0, np.ones(3, np.int64),
                     np.zeros(2, np.int64), np.zeros(0, np.int32), np.zeros(18), gkey, ght,
                     ght.copy(), tab, dt, True, True, force, torque, tool_acc, np.zeros((2, 4)),
-                    np.zeros((2, MAX_CANDIDATES, 9)), np.zeros((2, 1, 3)), np.zeros((2, 1, 3)))
+                    np.zeros((2, MAX_CANDIDATES, 9)), np.zeros((2, 1, 3)), np.zeros((2, 1, 3)),
+                    np.arange(50))
     n = np.array([0.0, 1.0, 0.0])
     for i in range(50):
         s = pos[i, 1]
