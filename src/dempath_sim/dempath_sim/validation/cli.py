@@ -44,8 +44,8 @@ def validate_main(argv: list[str]) -> int:
     parser.add_argument('--no-liggghts', action='store_true', help='dempath only')
     parser.add_argument('--quick', action='store_true', help='smaller repose pile')
     parser.add_argument('--repose', choices=('quick', 'standard', 'large'), default=None,
-                        help='repose set-up (default standard; large: 100 mm tube, ~10k '
-                        'spheres, ~10x the run time)')
+                        help='repose set-up (default standard; large: 100 mm tube, 10,400 '
+                        'spheres, ~5x the run time)')
     parser.add_argument('--repose-seeds', type=int, default=1,
                         help='repose packing seeds 0..N-1')
     parser.add_argument('--repose-set', action='append', default=[], metavar='FIELD=VALUE',
