@@ -20,7 +20,9 @@ in `worst[:, 3]`).
 Laws (same as particle-particle, per-pair materials): see `contact.py`, with R* = r and m* = m
 (rigid, infinitely heavy wall). The contact point lies at the wall surface, r - delta from the
 centre (as LIGGGHTS). The reaction on the tool is summed per chunk: force (3,) and torque (3,)
-about the tool origin.
+about the tool origin. The pass runs over a given list of particles: the engine passes those
+within reach of a plane or the tool until its next list build (`reach_candidates`), having
+cleared the history slots of the others, which the full pass would clear at this step too.
 """
 
 from __future__ import annotations

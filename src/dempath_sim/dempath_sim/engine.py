@@ -94,7 +94,7 @@ class Engine:
         self.reorder = reorder
         self.candidates = candidates
         self._cand_idx: NDArray[np.int64] | None = None  # None: to be found
-        self._cand_ref = np.zeros(18)  # tool pose the candidates were found for
+        self._cand_ref: F64 = np.zeros(18)  # tool pose the candidates were found for
         self.params = params
         self.walls = tuple(walls)
         self.tool = tool
