@@ -90,7 +90,7 @@ def _pour_deck(scene: SceneSpec, params: SimParams, workdir: Path, friction: str
                   loose.angular_velocities[order], loose.radii[order],
                   model.particle_density_kg_m3, len(params.materials), box)
     text = dk.pour_fill_deck(scene, params, dt, 0.3 * big, friction=friction)
-    return text, dt, loose.extra['layer'][order], box
+    return text, dt, np.asarray(loose.extra['layer'], dtype=np.int32)[order], box
 
 
 def _insert_deck(scene: SceneSpec, params: SimParams, friction: str,
