@@ -362,6 +362,7 @@ def reach_candidates(pos_build, rad, planes, plane_reach, tool_ref, g_lo, g_hi, 
                  + (pos_build[i, 2] - planes[p, 2]) * planes[p, 5])
             if s < rad[i] + plane_reach:
                 near = True
+                break
         if not near and tool_reach >= 0.0:
             rx = pos_build[i, 0] - tool_ref[0]
             ry = pos_build[i, 1] - tool_ref[1]
