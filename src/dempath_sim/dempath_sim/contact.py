@@ -21,9 +21,11 @@ from dempath_sim.rolling_epsd2 import rolling_epsd2
 # Columns of the pair table; the last four are the law's constants, precomputed once per pair
 # (see `contact_hertz_mindlin.py`): 4/3 E*, 8 G*, 2 sqrt(5/6) beta sqrt(2 E*) and
 # 2 sqrt(5/6) beta sqrt(8 G*), so that a contact takes one sqrt for both dashpots.
+# TAB_SPRING is 1 where the Coulomb limit bounds the tangential spring alone
+# (``SimParams.coulomb_limit == 'spring'``, LIGGGHTS 3.8) and 0 where it bounds spring + dashpot.
 (TAB_E, TAB_G, TAB_BETA, TAB_MUS, TAB_MUD, TAB_MUR, TAB_KC, TAB_OK,
- TAB_KN, TAB_KT, TAB_CN, TAB_CT) = range(12)
-N_TAB = 12
+ TAB_KN, TAB_KT, TAB_CN, TAB_CT, TAB_SPRING) = range(13)
+N_TAB = 13
 
 
 def build_pair_table(params: SimParams) -> NDArray[np.float64]:
@@ -40,7 +42,8 @@ def build_pair_table(params: SimParams) -> NDArray[np.float64]:
             beta = inter.damping_beta
             tab[i, j] = (e_star, g_star, beta, inter.static_friction, inter.dynamic_friction,
                          inter.rolling_friction, inter.cohesion_energy_density, 1.0,
-                         *hertz_mindlin_constants(e_star, g_star, beta))
+                         *hertz_mindlin_constants(e_star, g_star, beta),
+                         1.0 if params.coulomb_limit == 'spring' else 0.0)
     return tab
 
 
@@ -70,7 +73,7 @@ def resolve_contact(tab, a, b, delta, r_eff, m_eff, area, nx, ny, nz, vx, vy, vz
     f_n, ftx, fty, ftz, k_t = hertz_mindlin(
         delta, r_eff, m_eff, tab[a, b, TAB_KN], tab[a, b, TAB_KT], tab[a, b, TAB_CN],
         tab[a, b, TAB_CT], tab[a, b, TAB_MUS], tab[a, b, TAB_MUD], nx, ny, nz, vx, vy, vz, ht, k,
-        dt)
+        dt, tab[a, b, TAB_SPRING])
     f_norm = f_n - tab[a, b, TAB_KC] * area
     mx = 0.0
     my = 0.0

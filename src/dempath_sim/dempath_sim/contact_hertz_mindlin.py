@@ -57,7 +57,7 @@ def hertz_mindlin_constants(e_star: float, g_star: float,
 
 @njit(inline='always', fastmath=True, cache=True)
 def hertz_mindlin(delta, r_eff, m_eff, c_n, c_t, d_n, d_t, mu_s, mu_d,
-                  nx, ny, nz, vx, vy, vz, hist, k, dt):  # pragma: no cover - compiled
+                  nx, ny, nz, vx, vy, vz, hist, k, dt, spring_limit=0.0):  # pragma: no cover
     """Normal and tangential force of one contact; updates the tangential spring in place.
 
     Args:
@@ -73,6 +73,9 @@ def hertz_mindlin(delta, r_eff, m_eff, c_n, c_t, d_n, d_t, mu_s, mu_d,
         hist: (m, 3) tangential springs [m]; row k belongs to this contact.
         k: Row of this contact in hist.
         dt: Time step [s].
+        spring_limit: 0: the Coulomb limit bounds the whole tangential force (spring and
+            dashpot) by mu_s max(F_n, 0); 1: it bounds the spring alone by mu_s |F_n| and the
+            dashpot is dropped while sliding (LIGGGHTS 3.8 ``tangential history``).
 
     Returns:
         (f_n, ftx, fty, ftz, k_t): normal force magnitude on i along n [N] (positive repulsive),
@@ -107,6 +110,9 @@ def hertz_mindlin(delta, r_eff, m_eff, c_n, c_t, d_n, d_t, mu_s, mu_d,
     sx += vtx * dt
     sy += vty * dt
     sz += vtz * dt
+    if spring_limit > 0.0:
+        return _spring_limited(f_n, k_t, gamma_t, mu_s, mu_d, sx, sy, sz, vtx, vty, vtz,
+                               hist, k)
     ftx = -k_t * sx - gamma_t * vtx
     fty = -k_t * sy - gamma_t * vty
     ftz = -k_t * sz - gamma_t * vtz
@@ -120,6 +126,36 @@ def hertz_mindlin(delta, r_eff, m_eff, c_n, c_t, d_n, d_t, mu_s, mu_d,
         sx = -(ftx + gamma_t * vtx) / k_t
         sy = -(fty + gamma_t * vty) / k_t
         sz = -(ftz + gamma_t * vtz) / k_t
+    hist[k, 0] = sx
+    hist[k, 1] = sy
+    hist[k, 2] = sz
+    return f_n, ftx, fty, ftz, k_t
+
+
+@njit(inline='always', fastmath=True, cache=True)
+def _spring_limited(f_n, k_t, gamma_t, mu_s, mu_d, sx, sy, sz, vtx, vty, vtz,
+                    hist, k):  # pragma: no cover - compiled
+    """Coulomb limit on the spring alone (LIGGGHTS 3.8 ``tangential history``).
+
+    Sticking while k_t |xi| <= mu_s |F_n|: F_t = -k_t xi - gamma_t v_t (the dashpot may take
+    |F_t| above the limit); otherwise F_t = mu_d |F_n| along -xi, no dashpot, and the spring is
+    cut back to match. Same return values as ``hertz_mindlin``.
+    """
+    f_lim = abs(f_n)
+    s2 = sx * sx + sy * sy + sz * sz
+    fs = k_t * math.sqrt(s2)
+    if fs > mu_s * f_lim:
+        scale = mu_d * f_lim / fs if fs > 0.0 else 0.0
+        sx *= scale
+        sy *= scale
+        sz *= scale
+        ftx = -k_t * sx
+        fty = -k_t * sy
+        ftz = -k_t * sz
+    else:
+        ftx = -k_t * sx - gamma_t * vtx
+        fty = -k_t * sy - gamma_t * vty
+        ftz = -k_t * sz - gamma_t * vtz
     hist[k, 0] = sx
     hist[k, 1] = sy
     hist[k, 2] = sz

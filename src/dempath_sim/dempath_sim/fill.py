@@ -107,14 +107,17 @@ def packing_key(scene: SceneSpec, model: PhysicsModel) -> str:
     The overlap limit is a safety stop, not a parameter of the packing, so it is left out (set
     to its default) along with everything about the tool.
     """
-    numerics = replace(scene.sim, max_overlap_fraction=NumericsSpec.max_overlap_fraction)
+    numerics = asdict(replace(scene.sim,
+                              max_overlap_fraction=NumericsSpec.max_overlap_fraction))
+    if numerics['coulomb_limit'] == NumericsSpec.coulomb_limit:
+        del numerics['coulomb_limit']  # keys of packings made before the option stay valid
     physics = asdict(replace(model, speed_scale=1.0, particle_tool=model.particle_particle,
                              tool_density_kg_m3=0.0, tool_youngs_modulus_pa=0.0,
                              tool_poisson=0.0))
     payload = {'version': FILL_VERSION, 'engine': ENGINE_VERSION,
                'bin': asdict(scene.bin), 'layers': [asdict(x) for x in scene.layers],
                'physics': physics, 'fill': asdict(replace(scene.fill, cache=True)),
-               'sim': asdict(numerics),
+               'sim': numerics,
                'seed': scene.seed}
     text = json.dumps(payload, sort_keys=True, default=str)
     return hashlib.sha256(text.encode()).hexdigest()[:20]

@@ -27,6 +27,9 @@ def _finite_vec(name: str, value: Vec3) -> Vec3:
     return vec  # type: ignore[return-value]
 
 
+COULOMB_LIMITS = ('total', 'spring')  # what the Coulomb limit bounds (see SimParams)
+
+
 @dataclass(frozen=True)
 class SimParams:
     """Physical and numerical parameters of one simulation.
@@ -42,6 +45,9 @@ class SimParams:
         domain_min: Lower corner (3,) of the domain box [m]; particles leaving it are removed.
         domain_max: Upper corner (3,) of the domain box [m].
         max_overlap_fraction: Largest overlap / radius accepted before SimulationError [-].
+        coulomb_limit: ``'total'``: the Coulomb limit bounds the whole tangential force
+            (spring + dashpot); ``'spring'``: it bounds the spring alone, as LIGGGHTS 3.8's
+            ``tangential history`` does (used for like-for-like cross-engine checks).
     """
 
     materials: tuple[Material, ...]
@@ -53,6 +59,7 @@ class SimParams:
     domain_min: Vec3 = (-1e3, -1e3, -1e3)
     domain_max: Vec3 = (1e3, 1e3, 1e3)
     max_overlap_fraction: float = 0.05
+    coulomb_limit: str = 'total'
     _table: dict[tuple[int, int], Interaction] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -72,6 +79,10 @@ class SimParams:
             raise ValueError(msg)
         if self.dt is not None and not (math.isfinite(self.dt) and self.dt > 0):
             msg = f'SimParams.dt must be None or a finite number > 0, got {self.dt!r}'
+            raise ValueError(msg)
+        if self.coulomb_limit not in COULOMB_LIMITS:
+            msg = f'SimParams.coulomb_limit must be one of {COULOMB_LIMITS}, ' \
+                  f'got {self.coulomb_limit!r}'
             raise ValueError(msg)
         for name, lo, hi in (('rayleigh_safety', 1e-4, 1.0), ('skin', 0.01, 5.0),
                              ('max_overlap_fraction', 1e-4, 1.0)):

@@ -150,6 +150,7 @@ class NumericsSpec:
     time_step_s: float | None = None
     rayleigh_safety: float = 0.2
     max_overlap_fraction: float = 0.3
+    coulomb_limit: str = 'total'  # 'total' (spring + dashpot) or 'spring' (LIGGGHTS 3.8)
 
 
 @dataclass(frozen=True)

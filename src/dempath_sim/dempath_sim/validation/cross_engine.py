@@ -59,13 +59,17 @@ class MarkerStats:
 
 
 def same_physics(scene: SceneSpec) -> SceneSpec:
-    """The scene with dynamic friction = static friction for every pair (LIGGGHTS' one mu)."""
+    """The scene with LIGGGHTS 3.8's tangential law on dempath: dynamic friction = static
+    friction for every pair (LIGGGHTS has one mu) and the Coulomb limit on the tangential
+    spring alone, the dashpot dropped while sliding (``sim.coulomb_limit: spring``; dempath's
+    default bounds spring + dashpot)."""
     values = {}
     for name in FRICTION_EFFECTS:
         setting = scene.effects[name]
         if setting.enabled:
             values[f'{name}.dynamic_friction'] = setting.values['static_friction']
-    return scene.with_overrides(values)
+    out = scene.with_overrides(values)
+    return replace(out, sim=replace(out.sim, coulomb_limit='spring'))
 
 
 def marker_statistics(result: SimResult, columns: int) -> MarkerStats:
