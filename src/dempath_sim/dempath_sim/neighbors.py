@@ -164,7 +164,8 @@ def cell_order(pos: NDArray[np.float64], rad: NDArray[np.float64],
     if len(rad) == 0:
         return np.zeros(0, np.int64)
     lo, cell, dims = cell_grid(pos, rad, skin)
-    return sort_into_cells(pos, lo, cell, dims)[2]
+    order: NDArray[np.int64] = sort_into_cells(pos, lo, cell, dims)[2]
+    return order
 
 
 def build_neighbor_list(pos: NDArray[np.float64], rad: NDArray[np.float64],
