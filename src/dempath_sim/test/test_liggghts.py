@@ -19,15 +19,6 @@ from dempath_sim.profiles import SpeedProfile, ToolPath
 from dempath_sim.scene import bundled_scene
 
 
-@pytest.fixture(scope='module')
-def liggghts() -> LiggghtsInstall:
-    """LIGGGHTS 3.8 (Debian package), installed through apt-get when root; skip otherwise."""
-    try:
-        return ensure_liggghts(install=True)
-    except LiggghtsNotFoundError as err:
-        pytest.skip(f'LIGGGHTS unavailable: {err}')
-
-
 def _params(rolling: float = 0.26, cohesion: float = 0.0) -> SimParams:
     sand = Material('sand', 1734.0, 1.7e6, 0.25)
     steel = Material('steel', 7800.0, 2.1e11, 0.3)

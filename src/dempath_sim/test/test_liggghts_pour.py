@@ -12,20 +12,10 @@ import pytest
 from dempath_sim.fill import pour
 from dempath_sim.liggghts.deck import POUR_DUMP, settle_lines
 from dempath_sim.liggghts.dumps import frames_by_id, read_dump
-from dempath_sim.liggghts.errors import LiggghtsNotFoundError
-from dempath_sim.liggghts.install import LiggghtsInstall, ensure_liggghts
+from dempath_sim.liggghts.install import LiggghtsInstall
 from dempath_sim.run import build_params
 from dempath_sim.scene import bundled_scene
 from dempath_sim.timestep import rayleigh_time_step
-
-
-@pytest.fixture(scope='module')
-def liggghts() -> LiggghtsInstall:
-    """LIGGGHTS 3.8 (Debian package), installed through apt-get when root; skip otherwise."""
-    try:
-        return ensure_liggghts(install=True)
-    except LiggghtsNotFoundError as err:
-        pytest.skip(f'LIGGGHTS unavailable: {err}')
 
 
 def test_settle_stage_stops_like_dempath() -> None:

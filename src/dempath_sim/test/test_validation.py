@@ -6,8 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from dempath_sim.liggghts.errors import LiggghtsNotFoundError
-from dempath_sim.liggghts.install import LiggghtsInstall, ensure_liggghts
+from dempath_sim.liggghts.install import LiggghtsInstall
 from dempath_sim.validation.energy import EnergyCase, energy_dempath, energy_liggghts
 from dempath_sim.validation.hertz import contact_time, damped_impact, sphere_pair
 from dempath_sim.validation.impact import ImpactCase, impact_dempath, impact_liggghts
@@ -16,15 +15,6 @@ from dempath_sim.validation.incline import InclineCase, incline_dempath, incline
 IMPACTS = [ImpactCase(v, e) for v in (0.1, 1.0, 3.0) for e in (1.0, 0.7, 0.3)]
 INCLINES = [InclineCase(10.0, rolling=0.26), InclineCase(20.0, rolling=0.26),
             InclineCase(20.0), InclineCase(40.0, rolling=0.26), InclineCase(60.0)]
-
-
-@pytest.fixture(scope='module')
-def liggghts() -> LiggghtsInstall:
-    """LIGGGHTS 3.8 (Debian package), installed through apt-get when root; skip otherwise."""
-    try:
-        return ensure_liggghts(install=True)
-    except LiggghtsNotFoundError as err:
-        pytest.skip(f'LIGGGHTS unavailable: {err}')
 
 
 def test_ode_reference_reproduces_the_analytic_hertz_time() -> None:

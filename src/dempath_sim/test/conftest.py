@@ -1,0 +1,17 @@
+"""Fixtures shared by the dempath_sim tests."""
+
+from __future__ import annotations
+
+import pytest
+
+from dempath_sim.liggghts.errors import LiggghtsNotFoundError
+from dempath_sim.liggghts.install import LiggghtsInstall, ensure_liggghts
+
+
+@pytest.fixture(scope='session')
+def liggghts() -> LiggghtsInstall:
+    """LIGGGHTS 3.8 (Debian package), installed through apt-get when root; skip otherwise."""
+    try:
+        return ensure_liggghts(install=True)
+    except LiggghtsNotFoundError as err:
+        pytest.skip(f'LIGGGHTS unavailable: {err}')
