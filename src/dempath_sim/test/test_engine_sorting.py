@@ -55,12 +55,14 @@ def test_sorted_engine_matches_unsorted_to_round_off() -> None:
     assert not np.array_equal(fast.ids, plain.ids), 'the sorted run must have reordered'
     assert np.array_equal(np.sort(fast.ids), np.sort(plain.ids))
     assert e_plain.n_contacts > 100, 'the bed must be in contact for the test to mean something'
-    # round-off grows chaotically in a dense bed (~1e-15 m at 400 steps, 1e-5 m at 1000): 500
-    # steps keep it far below any physical scale while the list is rebuilt ~40 times
+    # round-off grows chaotically in a dense bed (~1e-15 m at 400 steps, 1e-5 m at 1000; spins
+    # reach ~2e-9 relative at 500 steps): 1e-7 of the largest value is far below any physical
+    # difference (a wrong history or force would be of order 1) while the list is rebuilt ~40
+    # times
     for name in ('positions', 'velocities', 'angular_velocities'):
         a = _by_id(plain, getattr(plain, name))
         b = _by_id(fast, getattr(fast, name))
-        assert np.abs(a - b).max() <= 1e-9 * np.abs(a).max(), name
+        assert np.abs(a - b).max() <= 1e-7 * np.abs(a).max(), name
     again, _ = _run(True, 500)
     assert np.array_equal(again.positions, fast.positions), 'sorted runs must be deterministic'
     assert np.array_equal(again.ids, fast.ids)
