@@ -11,13 +11,8 @@ import pytest
 
 from dempath_sim.contact import TAB_CN, TAB_CT, TAB_KN, TAB_KT, TAB_MUS, build_pair_table
 from dempath_sim.contact_hertz_mindlin import hertz_mindlin
-from dempath_sim.engine import (
-    KERNEL_STAMP,
-    Engine,
-    ToolPose,
-    kernel_source_digest,
-    refresh_kernel_cache,
-)
+from dempath_sim.engine import Engine, ToolPose
+from dempath_sim.kernel_cache import KERNEL_STAMP, kernel_source_digest, refresh_kernel_cache
 from dempath_sim.materials import Interaction, Material
 from dempath_sim.mesh import TriangleMesh
 from dempath_sim.params import SimParams

@@ -1,0 +1,80 @@
+# mypy: disable-error-code="no-untyped-def"
+"""Which particles the plane and tool pass must test: reach lists built at each list build.
+
+A particle farther than its reach from every plane and from the tool's box cannot touch them
+before the next neighbour-list build (or before the tool has moved beyond the margin, which
+:func:`box_displacement` measures), so the boundary pass skips it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+from numpy.typing import NDArray
+
+
+@njit(cache=True)
+def reach_candidates(pos_build, rad, planes, plane_reach, tool_ref, g_lo, g_hi, tool_reach,
+                     gkey, ght, ghr, keep):  # pragma: no cover - compiled
+    """Mark the particles that may touch a plane or the tool; clear the others' history slots.
+
+    A particle within plane_reach + r of a plane, or whose centre lies within tool_reach of the
+    triangle grid's box (tool frame of the pose tool_ref), both at the build positions, is kept.
+    With particles at most skin / 2 from pos_build and tool points at most D from their place
+    at tool_ref, plane_reach >= skin / 2 and tool_reach >= skin / 2 + D make the others unable
+    to touch: their slots would be cleared by the full pass this step, so they are here.
+
+    Args:
+        pos_build: (n, 3) positions at the neighbour-list build [m]; rad: (n,) radii [m].
+        planes: (n_planes, 6) point and inward unit normal.
+        plane_reach, tool_reach: Margins [m] (see above); tool_reach < 0: no tool.
+        tool_ref: (18,) packed tool pose (see boundary_forces).
+        g_lo, g_hi: (3,) triangle grid box in the tool frame [m].
+        gkey, ght, ghr: History slots (see boundary_forces), cleared for the dropped particles.
+        keep: (n,) bool out.
+    """
+    for i in range(pos_build.shape[0]):
+        near = False
+        for p in range(planes.shape[0]):
+            s = ((pos_build[i, 0] - planes[p, 0]) * planes[p, 3]
+                 + (pos_build[i, 1] - planes[p, 1]) * planes[p, 4]
+                 + (pos_build[i, 2] - planes[p, 2]) * planes[p, 5])
+            if s < rad[i] + plane_reach:
+                near = True
+                break
+        if not near and tool_reach >= 0.0:
+            rx = pos_build[i, 0] - tool_ref[0]
+            ry = pos_build[i, 1] - tool_ref[1]
+            rz = pos_build[i, 2] - tool_ref[2]
+            px = tool_ref[9] * rx + tool_ref[12] * ry + tool_ref[15] * rz
+            py = tool_ref[10] * rx + tool_ref[13] * ry + tool_ref[16] * rz
+            pz = tool_ref[11] * rx + tool_ref[14] * ry + tool_ref[17] * rz
+            near = (g_lo[0] - tool_reach <= px <= g_hi[0] + tool_reach
+                    and g_lo[1] - tool_reach <= py <= g_hi[1] + tool_reach
+                    and g_lo[2] - tool_reach <= pz <= g_hi[2] + tool_reach)
+        keep[i] = near
+        if not near:
+            for k in range(gkey.shape[1]):
+                if gkey[i, k] != -1:
+                    gkey[i, k] = -1
+                    for q in range(3):
+                        ght[i, k, q] = 0.0
+                        ghr[i, k, q] = 0.0
+
+
+def box_displacement(lo: NDArray[np.float64], hi: NDArray[np.float64],
+                     pose_a: NDArray[np.float64], pose_b: NDArray[np.float64]) -> float:
+    """Largest distance a point of the box [lo, hi] (tool frame) moves between two poses [m].
+
+    The displacement (R_b - R_a) p + t_b - t_a is affine in p, so its largest norm over the box
+    is reached at a corner.
+
+    Args:
+        lo, hi: (3,) box corners in the tool frame [m].
+        pose_a, pose_b: (18,) packed tool poses (see boundary_forces).
+    """
+    corners = np.array([[(lo, hi)[(k >> a) & 1][a] for a in range(3)] for k in range(8)])
+    rot_a = pose_a[9:18].reshape(3, 3)
+    rot_b = pose_b[9:18].reshape(3, 3)
+    moved = corners @ (rot_b - rot_a).T + (pose_b[:3] - pose_a[:3])
+    return float(np.sqrt((moved * moved).sum(axis=1).max()))
