@@ -22,10 +22,11 @@ from dempath_sim.rolling_epsd2 import rolling_epsd2
 # (see `contact_hertz_mindlin.py`): 4/3 E*, 8 G*, 2 sqrt(5/6) beta sqrt(2 E*) and
 # 2 sqrt(5/6) beta sqrt(8 G*), so that a contact takes one sqrt for both dashpots.
 # TAB_SPRING is 1 where the Coulomb limit bounds the tangential spring alone
-# (``SimParams.coulomb_limit == 'spring'``, LIGGGHTS 3.8) and 0 where it bounds spring + dashpot.
+# (``SimParams.coulomb_limit == 'spring'``, LIGGGHTS 3.8) and 0 where it bounds spring + dashpot;
+# TAB_FORMS is 1 for LIGGGHTS 3.8's spring and lever-arm forms (``SimParams.contact_forms``).
 (TAB_E, TAB_G, TAB_BETA, TAB_MUS, TAB_MUD, TAB_MUR, TAB_KC, TAB_OK,
- TAB_KN, TAB_KT, TAB_CN, TAB_CT, TAB_SPRING) = range(13)
-N_TAB = 13
+ TAB_KN, TAB_KT, TAB_CN, TAB_CT, TAB_SPRING, TAB_FORMS) = range(14)
+N_TAB = 14
 
 
 def build_pair_table(params: SimParams) -> NDArray[np.float64]:
@@ -43,7 +44,8 @@ def build_pair_table(params: SimParams) -> NDArray[np.float64]:
             tab[i, j] = (e_star, g_star, beta, inter.static_friction, inter.dynamic_friction,
                          inter.rolling_friction, inter.cohesion_energy_density, 1.0,
                          *hertz_mindlin_constants(e_star, g_star, beta),
-                         1.0 if params.coulomb_limit == 'spring' else 0.0)
+                         1.0 if params.coulomb_limit == 'spring' else 0.0,
+                         1.0 if params.contact_forms == 'liggghts' else 0.0)
     return tab
 
 
@@ -73,12 +75,12 @@ def resolve_contact(tab, a, b, delta, r_eff, m_eff, area, nx, ny, nz, vx, vy, vz
     f_n, ftx, fty, ftz, k_t = hertz_mindlin(
         delta, r_eff, m_eff, tab[a, b, TAB_KN], tab[a, b, TAB_KT], tab[a, b, TAB_CN],
         tab[a, b, TAB_CT], tab[a, b, TAB_MUS], tab[a, b, TAB_MUD], nx, ny, nz, vx, vy, vz, ht, k,
-        dt, tab[a, b, TAB_SPRING])
+        dt, tab[a, b, TAB_SPRING], tab[a, b, TAB_FORMS])
     f_norm = f_n - tab[a, b, TAB_KC] * area
     mx = 0.0
     my = 0.0
     mz = 0.0
     if rolling and tab[a, b, TAB_MUR] > 0.0:
         mx, my, mz = rolling_epsd2(r_eff, k_t, f_n, tab[a, b, TAB_MUR], nx, ny, nz,
-                                   wx, wy, wz, hr, k, dt)
+                                   wx, wy, wz, hr, k, dt, tab[a, b, TAB_FORMS])
     return (f_norm * nx + ftx, f_norm * ny + fty, f_norm * nz + ftz, mx, my, mz, f_n)

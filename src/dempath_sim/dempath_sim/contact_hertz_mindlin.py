@@ -57,7 +57,8 @@ def hertz_mindlin_constants(e_star: float, g_star: float,
 
 @njit(inline='always', fastmath=True, cache=True)
 def hertz_mindlin(delta, r_eff, m_eff, c_n, c_t, d_n, d_t, mu_s, mu_d,
-                  nx, ny, nz, vx, vy, vz, hist, k, dt, spring_limit=0.0):  # pragma: no cover
+                  nx, ny, nz, vx, vy, vz, hist, k, dt, spring_limit=0.0,
+                  forms=0.0):  # pragma: no cover
     """Normal and tangential force of one contact; updates the tangential spring in place.
 
     Args:
@@ -76,6 +77,8 @@ def hertz_mindlin(delta, r_eff, m_eff, c_n, c_t, d_n, d_t, mu_s, mu_d,
         spring_limit: 0: the Coulomb limit bounds the whole tangential force (spring and
             dashpot) by mu_s max(F_n, 0); 1: it bounds the spring alone by mu_s |F_n| and the
             dashpot is dropped while sliding (LIGGGHTS 3.8 ``tangential history``).
+        forms: 0: the carried spring is turned into the new tangent plane with its length kept;
+            1: its normal part is dropped (LIGGGHTS 3.8: the spring shrinks as the normal turns).
 
     Returns:
         (f_n, ftx, fty, ftz, k_t): normal force magnitude on i along n [N] (positive repulsive),
@@ -102,7 +105,7 @@ def hertz_mindlin(delta, r_eff, m_eff, c_n, c_t, d_n, d_t, mu_s, mu_d,
         sy -= sdn * ny
         sz -= sdn * nz
         new2 = sx * sx + sy * sy + sz * sz
-        if new2 > 0.0:
+        if new2 > 0.0 and forms == 0.0:
             scale = math.sqrt(old2 / new2)
             sx *= scale
             sy *= scale

@@ -109,8 +109,9 @@ def packing_key(scene: SceneSpec, model: PhysicsModel) -> str:
     """
     numerics = asdict(replace(scene.sim,
                               max_overlap_fraction=NumericsSpec.max_overlap_fraction))
-    if numerics['coulomb_limit'] == NumericsSpec.coulomb_limit:
-        del numerics['coulomb_limit']  # keys of packings made before the option stay valid
+    for option in ('coulomb_limit', 'contact_forms'):  # options added after packings were
+        if numerics[option] == getattr(NumericsSpec, option):  # shipped: at their defaults
+            del numerics[option]  # the keys of those packings stay valid
     physics = asdict(replace(model, speed_scale=1.0, particle_tool=model.particle_particle,
                              tool_density_kg_m3=0.0, tool_youngs_modulus_pa=0.0,
                              tool_poisson=0.0))

@@ -28,6 +28,7 @@ def _finite_vec(name: str, value: Vec3) -> Vec3:
 
 
 COULOMB_LIMITS = ('total', 'spring')  # what the Coulomb limit bounds (see SimParams)
+CONTACT_FORMS = ('dempath', 'liggghts')  # how contact springs and lever arms are carried
 
 
 @dataclass(frozen=True)
@@ -48,6 +49,12 @@ class SimParams:
         coulomb_limit: ``'total'``: the Coulomb limit bounds the whole tangential force
             (spring + dashpot); ``'spring'``: it bounds the spring alone, as LIGGGHTS 3.8's
             ``tangential history`` does (used for like-for-like cross-engine checks).
+        contact_forms: ``'dempath'``: tangential and rolling springs are turned into the new
+            tangent plane with their length kept, the rolling limit uses max(F_n, 0) and a
+            plane or tool contact acts at the surface (lever arm r - delta); ``'liggghts'``:
+            LIGGGHTS 3.8's forms: the tangential spring loses its normal part, the rolling
+            spring is carried unturned with its limit on |F_n|, and plane and tool contacts
+            have the lever arm r - delta / 2 (for like-for-like cross-engine checks).
     """
 
     materials: tuple[Material, ...]
@@ -60,6 +67,7 @@ class SimParams:
     domain_max: Vec3 = (1e3, 1e3, 1e3)
     max_overlap_fraction: float = 0.05
     coulomb_limit: str = 'total'
+    contact_forms: str = 'dempath'
     _table: dict[tuple[int, int], Interaction] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -83,6 +91,10 @@ class SimParams:
         if self.coulomb_limit not in COULOMB_LIMITS:
             msg = f'SimParams.coulomb_limit must be one of {COULOMB_LIMITS}, ' \
                   f'got {self.coulomb_limit!r}'
+            raise ValueError(msg)
+        if self.contact_forms not in CONTACT_FORMS:
+            msg = f'SimParams.contact_forms must be one of {CONTACT_FORMS}, ' \
+                  f'got {self.contact_forms!r}'
             raise ValueError(msg)
         for name, lo, hi in (('rayleigh_safety', 1e-4, 1.0), ('skin', 0.01, 5.0),
                              ('max_overlap_fraction', 1e-4, 1.0)):

@@ -20,7 +20,7 @@ from numba import njit
 
 @njit(inline='always', fastmath=True, cache=True)
 def rolling_epsd2(r_eff, k_t, f_n, mu_r, nx, ny, nz, wx, wy, wz,
-                  hist, k, dt):  # pragma: no cover - compiled
+                  hist, k, dt, forms=0.0):  # pragma: no cover - compiled
     """Rolling resistance torque of one contact; updates the rolling spring in place.
 
     Args:
@@ -33,6 +33,9 @@ def rolling_epsd2(r_eff, k_t, f_n, mu_r, nx, ny, nz, wx, wy, wz,
         hist: (m, 3) rolling springs [N m]; row k belongs to this contact.
         k: Row of this contact.
         dt: Time step [s].
+        forms: 0: the carried spring is turned into the new tangent plane with its length kept
+            and the limit uses max(F_n, 0); 1: LIGGGHTS 3.8's ``epsd2``: the spring is carried
+            as it is and the limit uses |F_n|.
 
     Returns:
         (mx, my, mz): rolling torque on i [N m].
@@ -43,7 +46,7 @@ def rolling_epsd2(r_eff, k_t, f_n, mu_r, nx, ny, nz, wx, wy, wz,
     my = hist[k, 1]
     mz = hist[k, 2]
     old2 = mx * mx + my * my + mz * mz
-    if old2 > 0.0:
+    if old2 > 0.0 and forms == 0.0:
         mdn = mx * nx + my * ny + mz * nz
         mx -= mdn * nx
         my -= mdn * ny
@@ -57,7 +60,7 @@ def rolling_epsd2(r_eff, k_t, f_n, mu_r, nx, ny, nz, wx, wy, wz,
     mx -= k_r * (wx - wn * nx) * dt
     my -= k_r * (wy - wn * ny) * dt
     mz -= k_r * (wz - wn * nz) * dt
-    limit = mu_r * r_eff * max(f_n, 0.0)
+    limit = mu_r * r_eff * (abs(f_n) if forms > 0.0 else max(f_n, 0.0))
     m2 = mx * mx + my * my + mz * mz
     if m2 > limit * limit:
         scale = limit / math.sqrt(m2) if m2 > 0.0 else 0.0

@@ -131,7 +131,7 @@ def build_params(scene: SceneSpec, model: PhysicsModel) -> SimParams:
                       (PARTICLES, TOOL): _interaction(model.particle_tool)},
         dt=scene.sim.time_step_s, rayleigh_safety=scene.sim.rayleigh_safety,
         max_overlap_fraction=scene.sim.max_overlap_fraction,
-        coulomb_limit=scene.sim.coulomb_limit,
+        coulomb_limit=scene.sim.coulomb_limit, contact_forms=scene.sim.contact_forms,
         domain_min=(-w - m, floor - m, -m),
         domain_max=(w + m, floor + scene.bin.height_y_m + 2.0, scene.bin.length_z_m + m))
 

@@ -45,7 +45,7 @@ from dempath_sim import profiles
 from dempath_sim._reader import Reader, SceneError
 from dempath_sim.effects import Effect, PhysicsModel, all_effects
 from dempath_sim.errors import GeometryError
-from dempath_sim.params import COULOMB_LIMITS
+from dempath_sim.params import CONTACT_FORMS, COULOMB_LIMITS
 from dempath_sim.scene_spec import (
     BinSpec,
     EffectSetting,
@@ -265,7 +265,8 @@ def _read_sections(r: Reader, source: str, base_dir: Path | None) -> dict[str, A
         sim=NumericsSpec(s.maybe_number('time_step_s', 0.0, 0.1, low_open=True),
                          s.number('rayleigh_safety', 0.0, 1.0, 0.2, low_open=True),
                          s.number('max_overlap_fraction', 0.0, 1.0, 0.3, low_open=True),
-                         s.text('coulomb_limit', 'total', choices=COULOMB_LIMITS)))
+                         s.text('coulomb_limit', 'total', choices=COULOMB_LIMITS),
+                         s.text('contact_forms', 'dempath', choices=CONTACT_FORMS)))
     for sub in (f, o, s):
         sub.finish()
     return out

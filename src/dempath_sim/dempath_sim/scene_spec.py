@@ -151,6 +151,7 @@ class NumericsSpec:
     rayleigh_safety: float = 0.2
     max_overlap_fraction: float = 0.3
     coulomb_limit: str = 'total'  # 'total' (spring + dashpot) or 'spring' (LIGGGHTS 3.8)
+    contact_forms: str = 'dempath'  # 'dempath' or 'liggghts' (see SimParams.contact_forms)
 
 
 @dataclass(frozen=True)

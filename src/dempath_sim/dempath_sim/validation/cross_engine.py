@@ -59,17 +59,18 @@ class MarkerStats:
 
 
 def same_physics(scene: SceneSpec) -> SceneSpec:
-    """The scene with LIGGGHTS 3.8's tangential law on dempath: dynamic friction = static
-    friction for every pair (LIGGGHTS has one mu) and the Coulomb limit on the tangential
-    spring alone, the dashpot dropped while sliding (``sim.coulomb_limit: spring``; dempath's
-    default bounds spring + dashpot)."""
+    """The scene with LIGGGHTS 3.8's contact laws on dempath: dynamic friction = static
+    friction for every pair (LIGGGHTS has one mu), the Coulomb limit on the tangential
+    spring alone with the dashpot dropped while sliding (``sim.coulomb_limit: spring``;
+    dempath's default bounds spring + dashpot) and LIGGGHTS' spring and lever-arm forms
+    (``sim.contact_forms: liggghts``, see ``SimParams.contact_forms``)."""
     values = {}
     for name in FRICTION_EFFECTS:
         setting = scene.effects[name]
         if setting.enabled:
             values[f'{name}.dynamic_friction'] = setting.values['static_friction']
     out = scene.with_overrides(values)
-    return replace(out, sim=replace(out.sim, coulomb_limit='spring'))
+    return replace(out, sim=replace(out.sim, coulomb_limit='spring', contact_forms='liggghts'))
 
 
 def marker_statistics(result: SimResult, columns: int) -> MarkerStats:

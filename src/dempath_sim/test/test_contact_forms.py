@@ -1,0 +1,104 @@
+"""LIGGGHTS 3.8's contact forms (``contact_forms: liggghts``) against dempath's: how springs are
+carried into a turned tangent plane, the rolling limit under tension, the lever arm of plane
+contacts, and how scenes select the forms."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+import dempath_sim
+from dempath_sim.contact_hertz_mindlin import hertz_mindlin, hertz_mindlin_constants
+from dempath_sim.engine import Engine
+from dempath_sim.fill import packing_key
+from dempath_sim.materials import Interaction, Material
+from dempath_sim.params import SimParams
+from dempath_sim.rolling_epsd2 import rolling_epsd2
+from dempath_sim.scene import SceneError, bundled_scene, scene_from_dict
+from dempath_sim.state import SimState
+from dempath_sim.validation.cross_engine import same_physics
+from dempath_sim.walls import Plane
+
+SCENES = Path(dempath_sim.__file__).resolve().parent / 'data' / 'scenes'
+E_STAR, G_STAR, BETA = 1.0e6, 4.0e5, 0.35  # Pa, Pa, - (soft sand, e ~ 0.3)
+R_EFF, M_EFF, DT = 2e-3, 3e-5, 1e-5  # m, kg, s
+
+
+def _spring_after(forms: float, spring0: tuple[float, float, float]) -> np.ndarray:
+    """The tangential spring [m] after one step at rest of a contact with normal +Y."""
+    hist = np.array([spring0])
+    hertz_mindlin(1e-4, R_EFF, M_EFF, *hertz_mindlin_constants(E_STAR, G_STAR, BETA), 0.5, 0.5,
+                  0.0, 1.0, 0.0, 0.0, 0.0, 0.0, hist, 0, DT, 1.0, forms)
+    return hist[0]
+
+
+def test_tangential_spring_turned_with_or_without_its_length() -> None:
+    """A spring half along the new normal keeps its length (dempath) or loses that part."""
+    np.testing.assert_allclose(_spring_after(0.0, (1e-6, 1e-6, 0.0)), [math.sqrt(2) * 1e-6, 0, 0])
+    np.testing.assert_allclose(_spring_after(1.0, (1e-6, 1e-6, 0.0)), [1e-6, 0, 0])
+
+
+def _rolling(forms: float, f_n: float, m0: tuple[float, float, float]) -> np.ndarray:
+    """Rolling torque [N m] on a contact with normal +Y and no relative rotation."""
+    hist = np.array([m0])
+    return np.array(rolling_epsd2(R_EFF, 1e3, f_n, 0.3, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0,
+                                  hist, 0, DT, forms))
+
+
+def test_rolling_spring_carried_and_limited_on_abs_normal_force() -> None:
+    """LIGGGHTS carries the rolling spring unturned and limits it by mu_r R* |F_n| even when
+    F_n is tensile; dempath turns it and holds no torque under tension."""
+    m0 = (1e-7, 1e-7, 0.0)
+    np.testing.assert_allclose(_rolling(0.0, 1.0, m0), [math.sqrt(2) * 1e-7, 0, 0])
+    np.testing.assert_allclose(_rolling(1.0, 1.0, m0), m0)
+    np.testing.assert_allclose(_rolling(0.0, -1.0, m0), [0, 0, 0])
+    np.testing.assert_allclose(_rolling(1.0, -1e-3, m0), m0)  # limit 6e-7 N m > |m0|
+    limited = _rolling(1.0, -1e-4, m0)  # limit 0.3 * 2e-3 * 1e-4 = 6e-8 N m
+    assert np.linalg.norm(limited) == pytest.approx(0.3 * R_EFF * 1e-4, rel=1e-12)
+
+
+def _spin_on_floor(forms: str, r: float, delta: float) -> tuple[float, float]:
+    """(F_x [N], torque_z [N m]) on a sphere spinning about Z in place on a floor, one step."""
+    sand = Material('sand', 1734.0, 1.7e6, 0.25)
+    params = SimParams(materials=(sand,), interactions={(0, 0): Interaction(0.3, 0.7, 0.7, 0.0)},
+                       dt=1e-6, gravity=(0.0, 0.0, 0.0), contact_forms=forms)
+    state = SimState.from_spheres(np.array([[0.0, r - delta, 0.0]]), np.array([r]), 0, params)
+    state.angular_velocities[0, 2] = 0.2  # rad/s: a slow spin, the contact sticks
+    engine = Engine(params, [Plane((0.0, 0.0, 0.0), (0.0, 1.0, 0.0), 0)])
+    engine.run(state, 1)
+    force, torque = engine.forces
+    return float(force[0, 0]), float(torque[0, 2])
+
+
+def test_plane_contact_lever_arm() -> None:
+    """A sphere spinning in place on a floor: the friction torque is lever x force with the
+    lever arm r - delta (dempath) or r - delta / 2 (LIGGGHTS), and the slip velocity, hence
+    the sticking friction force, scales with the same lever arm."""
+    r, delta = 0.005, 2e-4
+    fx_d, tz_d = _spin_on_floor('dempath', r, delta)
+    fx_l, tz_l = _spin_on_floor('liggghts', r, delta)
+    assert fx_d < 0.0  # opposes the slip omega x (-lever n) = +lever omega along X
+    assert tz_d == pytest.approx((r - delta) * fx_d, rel=1e-9)
+    assert tz_l == pytest.approx((r - delta / 2) * fx_l, rel=1e-9)
+    assert fx_l / fx_d == pytest.approx((r - delta / 2) / (r - delta), rel=1e-4)
+
+
+def test_scene_option_and_same_physics() -> None:
+    """sim.contact_forms is read and checked, leaves the default packing key alone, and
+    same_physics sets 'liggghts'."""
+    scene = bundled_scene('tiny')
+    model = scene.physics_model()
+    assert scene.sim.contact_forms == 'dempath'
+    raw = yaml.safe_load((SCENES / 'tiny.yaml').read_text())
+    raw['sim']['contact_forms'] = 'liggghts'
+    lig = scene_from_dict(raw)
+    assert lig.sim.contact_forms == 'liggghts'
+    assert packing_key(lig, model) != packing_key(scene, model)
+    assert same_physics(scene).sim.contact_forms == 'liggghts'
+    raw['sim']['contact_forms'] = 'lammps'
+    with pytest.raises(SceneError, match=r'sim\.contact_forms'):
+        scene_from_dict(raw)
