@@ -23,7 +23,8 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 
 import numba
 import numpy as np
@@ -43,9 +44,9 @@ from dempath_sim.neighbors import (
 )
 from dempath_sim.pair_forces import pair_forces, reduce_buffers
 from dempath_sim.params import SimParams
-from dempath_sim.reach import box_displacement, reach_candidates
+from dempath_sim.reach import box_corners, box_displacement, reach_candidates
+from dempath_sim.stability import blowup_error, checked_time_step, overlap_error
 from dempath_sim.state import SimState
-from dempath_sim.timestep import rayleigh_time_step
 from dempath_sim.toolpose import ToolPose
 from dempath_sim.walls import Plane, pack_planes
 
@@ -56,6 +57,20 @@ logger = logging.getLogger(__name__)
 F64 = NDArray[np.float64]
 
 refresh_own_kernel_cache()
+
+
+@contextmanager
+def threads_at_most(n: int) -> Iterator[None]:
+    """Run the enclosed numba kernels on at most n threads; numba's count is restored after."""
+    outer = numba.get_num_threads()
+    if n >= outer:
+        yield
+        return
+    numba.set_num_threads(n)
+    try:
+        yield
+    finally:
+        numba.set_num_threads(outer)
 
 
 class Engine:
@@ -126,15 +141,7 @@ class Engine:
         Raises:
             SimulationError: params.dt exceeds the Rayleigh time step (message gives the limit).
         """
-        dt_r = rayleigh_time_step(state.radii, state.material, self.params)
-        if self.params.dt is None:
-            return self.params.rayleigh_safety * dt_r
-        if self.params.dt > dt_r:
-            msg = (f'SimParams.dt = {self.params.dt:.3e} s exceeds the Rayleigh time step '
-                   f'{dt_r:.3e} s of the finest particle: unstable; stable dt <= '
-                   f'{dt_r:.3e} s (recommended {self.params.rayleigh_safety * dt_r:.3e} s)')
-            raise SimulationError(msg)
-        return self.params.dt
+        return checked_time_step(state, self.params)
 
     def _check_pairs(self, state: SimState) -> None:
         used = np.unique(state.material)
@@ -167,11 +174,14 @@ class Engine:
         self._nbr: NDArray[np.int32] = np.zeros(0, np.int32)
         self._ht = np.zeros((0, 3))
         self._hr = np.zeros((0, 3))
-        self._grid = None if self.tool is None else build_triangle_grid(
+        grid = self._grid = None if self.tool is None else build_triangle_grid(
             self.tool, mesh_margin(state.radii))
+        self._tool_hi = np.zeros(3) if grid is None else grid.lo + grid.dims * grid.cell
+        self._tool_corners = box_corners(np.zeros(3) if grid is None else grid.lo, self._tool_hi)
         self._bound = state
-        self.find_contacts(state, np.arange(n))
-        self.contact_forces(state, self.tool_pose, dt=0.0)
+        with threads_at_most(self._threads):
+            self.find_contacts(state, np.arange(n))
+            self.contact_forces(state, self.tool_pose, dt=0.0)
 
     def _scratch(self) -> None:
         nc = self._n_chunks
@@ -213,16 +223,14 @@ class Engine:
         if not self.candidates:
             return np.arange(state.n)
         grid = self._grid
-        if grid is not None:
-            g_hi = grid.lo + grid.dims * grid.cell
-            margin = self.TOOL_MARGIN_SKINS * self._skin
-            if self._cand_idx is not None and box_displacement(
-                    grid.lo, g_hi, self._cand_ref, packed) > margin:
-                self._cand_idx = None  # the tool left the reach of these candidates
+        margin = self.TOOL_MARGIN_SKINS * self._skin
+        if (grid is not None and self._cand_idx is not None and packed is not self._cand_ref
+                and box_displacement(self._tool_corners, self._cand_ref, packed) > margin):
+            self._cand_idx = None  # the tool left the reach of these candidates
         if self._cand_idx is None:
             keep = np.empty(state.n, np.bool_)
-            lo, hi, reach = ((grid.lo, g_hi, self._skin + margin) if grid is not None else
-                             (np.zeros(3), np.zeros(3), -1.0))
+            lo, hi, reach = ((grid.lo, self._tool_hi, self._skin + margin) if grid is not None
+                             else (np.zeros(3), np.zeros(3), -1.0))
             reach_candidates(self._pos_build, state.radii, self._planes, self._skin, packed,
                              lo, hi, reach, self._gkey, self._ght, self._ghr, keep)
             self._cand_idx = np.flatnonzero(keep)
@@ -242,23 +250,26 @@ class Engine:
         """
         rolling = self.params.rolling_enabled
         cohesion = self.params.cohesion_enabled
-        pair_forces(state.positions, state.velocities, state.angular_velocities, state.radii,
-                    state.masses, state.material, self._start, self._nbr, self._ht, self._hr,
-                    self._tab, dt, rolling, cohesion, self._fbuf, self._tbuf, self._worst)
-        reduce_buffers(self._fbuf, self._tbuf, self._force, self._torque)
         if self._packed[0] is not pose:
             self._packed = (pose, pose.packed())
         grid = self._grid
         g_args = self._no_grid if grid is None else (grid.lo, grid.cell, grid.dims,
                                                      grid.cell_start, grid.cell_tris)
         tri_mat = 0 if self.tool is None else self.tool.material
-        self._worst[:, 3] = 0.0
-        boundary_forces(state.positions, state.velocities, state.angular_velocities,
-                        state.radii, state.masses, state.material, self._planes,
-                        self._plane_mat, self._tris, tri_mat, *g_args, self._packed[1], self._gkey,
-                        self._ght, self._ghr, self._tab, dt, rolling, cohesion, self._force,
-                        self._torque, self._tool_acc, self._worst, self._cand, self._tmp_t,
-                        self._tmp_r, self._boundary_particles(state, self._packed[1]))
+        with threads_at_most(self._threads):
+            pair_forces(state.positions, state.velocities, state.angular_velocities,
+                        state.radii, state.masses, state.material, self._start, self._nbr,
+                        self._ht, self._hr, self._tab, dt, rolling, cohesion, self._fbuf,
+                        self._tbuf, self._worst)
+            reduce_buffers(self._fbuf, self._tbuf, self._force, self._torque)
+            self._worst[:, 3] = 0.0
+            boundary_forces(state.positions, state.velocities, state.angular_velocities,
+                            state.radii, state.masses, state.material, self._planes,
+                            self._plane_mat, self._tris, tri_mat, *g_args, self._packed[1],
+                            self._gkey, self._ght, self._ghr, self._tab, dt, rolling, cohesion,
+                            self._force, self._torque, self._tool_acc, self._worst, self._cand,
+                            self._tmp_t, self._tmp_r,
+                            self._boundary_particles(state, self._packed[1]))
         total = self._tool_acc.sum(axis=0)
         self.tool_force = total[:3]
         self.tool_torque = total[3:]
@@ -266,27 +277,11 @@ class Engine:
         if worst.shape[0] == 1:
             self.slot_overflows += int(worst[0, 3])
             if worst[0, 0] > self.params.max_overlap_fraction:
-                self._overlap_error(state)
+                raise overlap_error(state, self._worst, len(self.walls), self.params, self._dt)
         else:
             self.slot_overflows += int(worst[:, 3].sum())
             if worst[:, 0].max() > self.params.max_overlap_fraction:
-                self._overlap_error(state)
-
-    def _overlap_error(self, state: SimState) -> None:
-        c = int(np.argmax(self._worst[:, 0]))
-        ratio, i, other = self._worst[c, :3]
-        what = (f'particle {state.ids[int(other)]}' if other >= 0 else
-                f'plane {int(-1 - other)}' if -1 - other < len(self.walls) else 'the tool')
-        msg = (f'overlap of {100 * ratio:.1f}% of the radius between particle '
-               f'{state.ids[int(i)]} and {what} at t = {state.time:.6f} s exceeds '
-               f'SimParams.max_overlap_fraction = {self.params.max_overlap_fraction}: the '
-               f'contacts are too soft or the time step too large (dt = {self.dt:.3e} s, '
-               f'stable dt <= {self._stable_dt(state):.3e} s)')
-        raise SimulationError(msg)
-
-    def _stable_dt(self, state: SimState) -> float:
-        return self.params.rayleigh_safety * rayleigh_time_step(state.radii, state.material,
-                                                                self.params)
+                raise overlap_error(state, self._worst, len(self.walls), self.params, self._dt)
 
     def integrate_first_half(self, state: SimState) -> tuple[float, int]:
         """Half kick and drift; returns (max displacement since the list build [m], n_out).
@@ -300,10 +295,8 @@ class Engine:
         stats = self._stats.max(axis=0) if self._stats.shape[0] > 1 else self._stats[0]
         courant = float(stats[1])
         if stats[3] > 0 or courant > self.BLOWUP_COURANT:
-            msg = (f'energy blow-up at t = {state.time:.6f} s: a particle moves '
-                   f'{courant:.2f} radii per step (non-finite: {int(self._stats[:, 3].sum())}); '
-                   f'dt = {self.dt:.3e} s, stable dt <= {self._stable_dt(state):.3e} s')
-            raise SimulationError(msg)
+            raise blowup_error(state, courant, int(self._stats[:, 3].sum()), self.params,
+                               self._dt)
         n_out = int(self._stats[:, 2].sum()) if stats[2] > 0 else 0
         return math.sqrt(float(stats[0])), n_out
 
@@ -334,9 +327,7 @@ class Engine:
             self.bind(state)
         if tool_pose is not None:
             self.tool_pose = tool_pose
-        outer = numba.get_num_threads()
-        numba.set_num_threads(min(self._threads, outer))
-        try:
+        with threads_at_most(self._threads):
             moved, n_out = self.integrate_first_half(state)
             if n_out:
                 state = self._remove_outside(state)
@@ -344,8 +335,6 @@ class Engine:
                 self.find_contacts(state, np.arange(state.n))
             self.contact_forces(state, self.tool_pose, self._dt)
             self.integrate_second_half(state)
-        finally:
-            numba.set_num_threads(outer)
         return state
 
     def _remove_outside(self, state: SimState) -> SimState:

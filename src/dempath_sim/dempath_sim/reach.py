@@ -12,6 +12,9 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+# (8, 3) corner k of a box takes hi on axis a where bit a of k is set, lo elsewhere.
+CORNER_BITS = np.array([[(k >> a) & 1 for a in range(3)] for k in range(8)], np.bool_)
+
 
 @njit(cache=True)
 def reach_candidates(pos_build, rad, planes, plane_reach, tool_ref, g_lo, g_hi, tool_reach,
@@ -62,18 +65,22 @@ def reach_candidates(pos_build, rad, planes, plane_reach, tool_ref, g_lo, g_hi, 
                         ghr[i, k, q] = 0.0
 
 
-def box_displacement(lo: NDArray[np.float64], hi: NDArray[np.float64],
-                     pose_a: NDArray[np.float64], pose_b: NDArray[np.float64]) -> float:
-    """Largest distance a point of the box [lo, hi] (tool frame) moves between two poses [m].
+def box_corners(lo: NDArray[np.float64], hi: NDArray[np.float64]) -> NDArray[np.float64]:
+    """(8, 3) corners of the box [lo, hi] [m], corner k taking hi on the axes set in bit k."""
+    return np.where(CORNER_BITS, np.asarray(hi, np.float64), np.asarray(lo, np.float64))
+
+
+def box_displacement(corners: NDArray[np.float64], pose_a: NDArray[np.float64],
+                     pose_b: NDArray[np.float64]) -> float:
+    """Largest distance a point of a box (tool frame) moves between two poses [m].
 
     The displacement (R_b - R_a) p + t_b - t_a is affine in p, so its largest norm over the box
     is reached at a corner.
 
     Args:
-        lo, hi: (3,) box corners in the tool frame [m].
+        corners: (8, 3) corners of the box in the tool frame [m] (see `box_corners`).
         pose_a, pose_b: (18,) packed tool poses (see boundary_forces).
     """
-    corners = np.array([[(lo, hi)[(k >> a) & 1][a] for a in range(3)] for k in range(8)])
     rot_a = pose_a[9:18].reshape(3, 3)
     rot_b = pose_b[9:18].reshape(3, 3)
     moved = corners @ (rot_b - rot_a).T + (pose_b[:3] - pose_a[:3])
