@@ -7,10 +7,10 @@ gravity is uniform (default -Y); no fluid, no particle breakage. Units SI; frame
 Z tool travel.
 
 One `Engine.step` is the named stages of a velocity-Verlet step (see `integrate.py`):
-`integrate_first_half` (half kick + drift, domain and blow-up checks), `find_contacts`
-(neighbour-list rebuild when a particle moved more than skin / 2, history carried over; states of
-REORDER_MIN or more particles are first put in cell order, see `SimState.reorder`: index order
-changes, ids follow the particles),
+`integrate_first_half` (half kick + drift, domain and blow-up checks, see `stability.py`),
+`find_contacts` (neighbour-list rebuild when a particle moved more than skin / 2, history
+carried over; states of REORDER_MIN or more particles are first put in cell order, see
+`SimState.reorder`: index order changes, ids follow the particles),
 `contact_forces` (particle-particle, particle-plane, particle-tool), `integrate_second_half`.
 The plane and tool pass runs over the particles that can reach a plane or the tool until the
 next list build (`reach.reach_candidates`, from the build positions); the candidates are
@@ -23,8 +23,7 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Callable, Iterator, Sequence
-from contextlib import contextmanager
+from collections.abc import Callable, Sequence
 
 import numba
 import numpy as np
@@ -35,6 +34,7 @@ from dempath_sim.contact import TAB_OK, build_pair_table
 from dempath_sim.errors import SimulationError
 from dempath_sim.integrate import first_half, second_half
 from dempath_sim.kernel_cache import refresh_own_kernel_cache
+from dempath_sim.kernel_threads import threads_at_most
 from dempath_sim.mesh import TriangleMesh, build_triangle_grid, mesh_margin
 from dempath_sim.neighbors import (
     build_neighbor_list,
@@ -45,7 +45,7 @@ from dempath_sim.neighbors import (
 from dempath_sim.pair_forces import pair_forces, reduce_buffers
 from dempath_sim.params import SimParams
 from dempath_sim.reach import box_corners, box_displacement, reach_candidates
-from dempath_sim.stability import blowup_error, checked_time_step, overlap_error
+from dempath_sim.stability import check_drift, check_overlaps, checked_time_step
 from dempath_sim.state import SimState
 from dempath_sim.toolpose import ToolPose
 from dempath_sim.walls import Plane, pack_planes
@@ -57,20 +57,6 @@ logger = logging.getLogger(__name__)
 F64 = NDArray[np.float64]
 
 refresh_own_kernel_cache()
-
-
-@contextmanager
-def threads_at_most(n: int) -> Iterator[None]:
-    """Run the enclosed numba kernels on at most n threads; numba's count is restored after."""
-    outer = numba.get_num_threads()
-    if n >= outer:
-        yield
-        return
-    numba.set_num_threads(n)
-    try:
-        yield
-    finally:
-        numba.set_num_threads(outer)
 
 
 class Engine:
@@ -274,14 +260,8 @@ class Engine:
         self.tool_force = total[:3]
         self.tool_torque = total[3:]
         worst = self._worst
-        if worst.shape[0] == 1:
-            self.slot_overflows += int(worst[0, 3])
-            if worst[0, 0] > self.params.max_overlap_fraction:
-                raise overlap_error(state, self._worst, len(self.walls), self.params, self._dt)
-        else:
-            self.slot_overflows += int(worst[:, 3].sum())
-            if worst[:, 0].max() > self.params.max_overlap_fraction:
-                raise overlap_error(state, self._worst, len(self.walls), self.params, self._dt)
+        self.slot_overflows += int(worst[0, 3]) if worst.shape[0] == 1 else int(worst[:, 3].sum())
+        check_overlaps(state, worst, len(self.walls), self.params, self._dt)
 
     def integrate_first_half(self, state: SimState) -> tuple[float, int]:
         """Half kick and drift; returns (max displacement since the list build [m], n_out).
@@ -292,13 +272,7 @@ class Engine:
         first_half(state.positions, state.velocities, state.angular_velocities, self._force,
                    self._torque, state.masses, state.inertias, state.radii, self._gravity,
                    self._dt, self._pos_build, self._dom_lo, self._dom_hi, self._stats)
-        stats = self._stats.max(axis=0) if self._stats.shape[0] > 1 else self._stats[0]
-        courant = float(stats[1])
-        if stats[3] > 0 or courant > self.BLOWUP_COURANT:
-            raise blowup_error(state, courant, int(self._stats[:, 3].sum()), self.params,
-                               self._dt)
-        n_out = int(self._stats[:, 2].sum()) if stats[2] > 0 else 0
-        return math.sqrt(float(stats[0])), n_out
+        return check_drift(state, self._stats, self.BLOWUP_COURANT, self.params, self._dt)
 
     def integrate_second_half(self, state: SimState) -> None:
         """Second half kick with the new forces; advances time and step."""

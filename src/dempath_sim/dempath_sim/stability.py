@@ -10,6 +10,8 @@ and gives the stable time step.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -41,6 +43,21 @@ def checked_time_step(state: SimState, params: SimParams) -> float:
     return params.dt
 
 
+def check_overlaps(state: SimState, worst: NDArray[np.float64], n_walls: int,
+                   params: SimParams, dt: float) -> None:
+    """Stop a force pass whose deepest overlap exceeds max_overlap_fraction of a radius.
+
+    Args:
+        state, worst, n_walls, params, dt: As for `overlap_error`.
+
+    Raises:
+        SimulationError: The deepest overlap exceeds params.max_overlap_fraction of a radius.
+    """
+    deepest = worst[0, 0] if worst.shape[0] == 1 else worst[:, 0].max()  # one chunk: no reduction
+    if deepest > params.max_overlap_fraction:
+        raise overlap_error(state, worst, n_walls, params, dt)
+
+
 def overlap_error(state: SimState, worst: NDArray[np.float64], n_walls: int,
                   params: SimParams, dt: float) -> SimulationError:
     """The error for the deepest overlap of a force pass.
@@ -63,6 +80,32 @@ def overlap_error(state: SimState, worst: NDArray[np.float64], n_walls: int,
            f'contacts are too soft or the time step too large (dt = {dt:.3e} s, '
            f'stable dt <= {stable_time_step(state, params):.3e} s)')
     return SimulationError(msg)
+
+
+def check_drift(state: SimState, stats: NDArray[np.float64], max_courant: float,
+                params: SimParams, dt: float) -> tuple[float, int]:
+    """Reduce the per-chunk statistics of a drift; raises on an energy blow-up.
+
+    Args:
+        state: The state after the drift.
+        stats: (n_chunks, 4) per chunk: largest squared displacement since the list build
+            [m^2], largest |v| dt / r, particles out of the domain, non-finite velocities.
+        max_courant: Largest |v| dt / r allowed.
+        params: The parameters (time-step settings).
+        dt: The time step in use [s].
+
+    Returns:
+        (largest displacement since the list build [m], particles out of the domain).
+
+    Raises:
+        SimulationError: Non-finite velocities or |v| dt / r > max_courant.
+    """
+    top = stats.max(axis=0) if stats.shape[0] > 1 else stats[0]
+    courant = float(top[1])
+    if top[3] > 0 or courant > max_courant:
+        raise blowup_error(state, courant, int(stats[:, 3].sum()), params, dt)
+    n_out = int(stats[:, 2].sum()) if top[2] > 0 else 0
+    return math.sqrt(float(top[0])), n_out
 
 
 def blowup_error(state: SimState, courant: float, n_nonfinite: int, params: SimParams,
