@@ -2,38 +2,21 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 import pytest
 
 from dempath_sim.engine import Engine, ToolPose
-from dempath_sim.materials import Interaction, Material
 from dempath_sim.mesh import TriangleMesh
 from dempath_sim.params import SimParams
 from dempath_sim.state import SimState
 from dempath_sim.walls import Plane
 
-GRAIN = Material('grain', 2500.0, 5.0e7, 0.25)
-STEEL = Material('steel', 7800.0, 2.1e11, 0.3)
-RADIUS = 2.0e-3  # m
-PARAMS = SimParams((GRAIN, STEEL), {(0, 0): Interaction(0.5, 0.5, 0.4),
-                                    (0, 1): Interaction(0.5, 0.4, 0.3, rolling_friction=0.1)})
+from .mesh_setup import FLOOR, PARAMS, RADIUS, flat_patch
 
 
-def _flat_patch(n: int, size: float) -> np.ndarray:
-    """(2 n^2, 3, 3) triangles tiling the square [-size, size]^2 of the plane y = 0."""
-    xs = np.linspace(-size, size, n + 1)
-    tris = []
-    for a in range(n):
-        for b in range(n):
-            p00 = [xs[a], 0.0, xs[b]]
-            p10 = [xs[a + 1], 0.0, xs[b]]
-            p01 = [xs[a], 0.0, xs[b + 1]]
-            p11 = [xs[a + 1], 0.0, xs[b + 1]]
-            tris += [[p00, p10, p11], [p00, p11, p01]]
-    return np.array(tris)
-
-
-def _bounce(walls: list[Plane], tool: TriangleMesh | None, start: np.ndarray,
+def _bounce(walls: Sequence[Plane], tool: TriangleMesh | None, start: np.ndarray,
             spin: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:
     """Drop one spinning sphere; return its (steps, 6) position/velocity track and tool forces."""
     state = SimState.from_spheres(start[None, :], RADIUS, 0, PARAMS,
@@ -57,8 +40,8 @@ def test_tiled_flat_mesh_acts_like_one_plane(start_x: float) -> None:
     vertex) follows the same track as on a plane: each contact counts once."""
     start = np.array([start_x, RADIUS + 1e-4, 0.0])
     spin = np.array([3.0, 0.0, -2.0])
-    plane_track, _ = _bounce([Plane((0.0, 0.0, 0.0), (0.0, 1.0, 0.0), 1)], None, start, spin)
-    mesh = TriangleMesh(_flat_patch(8, 0.01), material=1)
+    plane_track, _ = _bounce(FLOOR, None, start, spin)
+    mesh = TriangleMesh(flat_patch(8, 0.01), material=1)
     mesh_track, forces = _bounce([], mesh, start, spin)
     assert plane_track[:, 4].max() > 0.1, 'the sphere must bounce'
     np.testing.assert_allclose(mesh_track, plane_track, rtol=0, atol=1e-9)
@@ -80,7 +63,7 @@ def test_convex_ridge_contact_counts_once() -> None:
     state = engine.run(state, 400)
     plane_state = SimState.from_spheres(start[None, :], RADIUS, 0, PARAMS,
                                         velocities=np.array([[0.0, -0.5, 0.0]]))
-    plane = Engine(PARAMS, walls=[Plane((0.0, 0.0, 0.0), (0.0, 1.0, 0.0), 1)])
+    plane = Engine(PARAMS, walls=FLOOR)
     plane_state = plane.run(plane_state, 400)
     assert state.velocities[0, 1] > 0.1
     np.testing.assert_allclose(state.velocities[0], plane_state.velocities[0], atol=1e-9)

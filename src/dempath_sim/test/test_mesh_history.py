@@ -2,39 +2,21 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 import pytest
 from numpy.typing import NDArray
 
 from dempath_sim.engine import Engine
-from dempath_sim.materials import Interaction, Material
 from dempath_sim.mesh import TriangleMesh, closest_point_triangle_numpy
-from dempath_sim.params import SimParams
 from dempath_sim.state import SimState
 from dempath_sim.walls import Plane
 
-GRAIN = Material('grain', 2500.0, 5.0e7, 0.25)
-STEEL = Material('steel', 7800.0, 2.1e11, 0.3)
-RADIUS = 2.0e-3  # m
+from .mesh_setup import FLOOR, GRAIN, PARAMS, RADIUS, STEEL, flat_patch
+
 OVERLAP = 2.0e-5  # m, held fixed: a steady normal load
-PARAMS = SimParams((GRAIN, STEEL), {(0, 0): Interaction(0.5, 0.5, 0.4),
-                                    (0, 1): Interaction(0.5, 0.4, 0.3, rolling_friction=0.1)})
 F64 = NDArray[np.float64]
-FLOOR = [Plane((0.0, 0.0, 0.0), (0.0, 1.0, 0.0), 1)]
-
-
-def _flat_patch(n: int, size: float) -> F64:
-    """(2 n^2, 3, 3) triangles tiling the square [-size, size]^2 of the plane y = 0."""
-    xs = np.linspace(-size, size, n + 1)
-    tris = []
-    for a in range(n):
-        for b in range(n):
-            p00 = [xs[a], 0.0, xs[b]]
-            p10 = [xs[a + 1], 0.0, xs[b]]
-            p01 = [xs[a], 0.0, xs[b + 1]]
-            p11 = [xs[a + 1], 0.0, xs[b + 1]]
-            tris += [[p00, p10, p11], [p00, p11, p01]]
-    return np.array(tris)
 
 
 def _fan(n: int, size: float, apex_height: float) -> F64:
@@ -45,7 +27,7 @@ def _fan(n: int, size: float, apex_height: float) -> F64:
     return np.array([[apex, rim[k + 1], rim[k]] for k in range(n)])
 
 
-def _slide(walls: list[Plane], tool: TriangleMesh | None, start: F64,
+def _slide(walls: Sequence[Plane], tool: TriangleMesh | None, start: F64,
            velocity: F64, spin: F64, n_steps: int) -> F64:
     """Move one sphere at a fixed overlap and velocity; return its (n_steps, 6) force, torque."""
     state = SimState.from_spheres(start[None, :], np.full(1, RADIUS), 0, PARAMS,
@@ -55,21 +37,24 @@ def _slide(walls: list[Plane], tool: TriangleMesh | None, start: F64,
     engine.bind(state)
     dt = engine.time_step(state)  # the bound time step [s]
     out = np.empty((n_steps, 6))
+    on_tool = np.empty((n_steps, 3))  # force of the sphere on the tool [N]
     for k in range(n_steps):
         state.positions[0] += velocity * dt
         engine.contact_forces(state, engine.tool_pose, dt)
         force, torque = engine.forces
-        out[k] = np.concatenate([force[0], torque[0]])
-        if tool is not None:
-            np.testing.assert_allclose(engine.tool_force, -force[0], rtol=1e-12, atol=1e-15)
+        out[k, :3] = force[0]
+        out[k, 3:] = torque[0]
+        on_tool[k] = engine.tool_force
+    if tool is not None:  # the reaction at every step
+        np.testing.assert_allclose(on_tool, -out[:, :3], rtol=1e-12, atol=1e-15)
     assert engine.slot_overflows == 0
     return out
 
 
 @pytest.mark.parametrize(('tris', 'direction'), [
-    (_flat_patch(1, 0.01), (1.0, 0.0, 0.0)),  # two triangles, across their diagonal
-    (_flat_patch(8, 0.01), (1.0, 0.0, 0.0)),  # along a grid line: edges and vertices
-    (_flat_patch(8, 0.01), (0.8, 0.0, 0.6)),  # obliquely across many edges
+    (flat_patch(1, 0.01), (1.0, 0.0, 0.0)),  # two triangles, across their diagonal
+    (flat_patch(8, 0.01), (1.0, 0.0, 0.0)),  # along a grid line: edges and vertices
+    (flat_patch(8, 0.01), (0.8, 0.0, 0.6)),  # obliquely across many edges
 ])
 def test_sliding_across_edges_keeps_tangential_force(tris: F64,
                                                      direction: tuple[float, ...]) -> None:
@@ -171,7 +156,7 @@ def test_nearest_triangle_counts_when_many_are_in_reach() -> None:
     below = small + np.concatenate([rng.uniform(-3e-4, 1e-4, (20, 1, 1)),
                                     np.full((20, 1, 1), -1e-5),
                                     rng.uniform(-3e-4, 1e-4, (20, 1, 1))], axis=2)
-    tris = np.concatenate([below, _flat_patch(1, 0.01)])
+    tris = np.concatenate([below, flat_patch(1, 0.01)])
     start = np.array([[1e-4, RADIUS - OVERLAP, 2e-4]])
     engine = Engine(PARAMS, tool=TriangleMesh(tris, material=1))
     engine.bind(SimState.from_spheres(start, np.full(1, RADIUS), 0, PARAMS))
