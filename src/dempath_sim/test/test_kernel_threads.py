@@ -1,0 +1,44 @@
+"""The thread limit around kernel calls: applied inside, restored after, also on an error."""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+import pytest
+
+from dempath_sim.engine import Engine
+from dempath_sim.kernel_threads import threads_at_most
+from dempath_sim.state import SimState
+
+from .mesh_setup import FLOOR, PARAMS, RADIUS
+
+
+def test_threads_at_most_limits_and_restores() -> None:
+    """Inside the block numba runs on min(n, its count) threads; the count is back after, also
+    when the block raises, and a limit above the count changes nothing."""
+    outer = numba.get_num_threads()
+    with threads_at_most(1):
+        assert numba.get_num_threads() == 1
+    assert numba.get_num_threads() == outer
+    with pytest.raises(ValueError, match='inside'), threads_at_most(1):
+        raise ValueError('inside')
+    assert numba.get_num_threads() == outer
+    with threads_at_most(outer + 1):
+        assert numba.get_num_threads() == outer
+
+
+def test_small_state_forces_do_not_change_the_thread_count() -> None:
+    """bind and a direct contact_forces call on a one-sphere state (kernels limited to one
+    thread) leave numba's thread count as they found it and give the floor's Hertz force."""
+    outer = numba.get_num_threads()
+    overlap = 2.0e-5  # m
+    state = SimState.from_spheres(np.array([[0.0, RADIUS - overlap, 0.0]]), RADIUS, 0, PARAMS)
+    engine = Engine(PARAMS, walls=FLOOR)
+    engine.bind(state)
+    engine.contact_forces(state, engine.tool_pose, dt=0.0)
+    assert numba.get_num_threads() == outer
+    grain, steel = PARAMS.materials
+    e_star = 1.0 / ((1 - grain.poisson_ratio**2) / grain.youngs_modulus
+                    + (1 - steel.poisson_ratio**2) / steel.youngs_modulus)
+    hertz = 4.0 / 3.0 * e_star * np.sqrt(RADIUS) * overlap**1.5  # N
+    np.testing.assert_allclose(engine.forces[0][0], [0.0, hertz, 0.0], rtol=1e-9, atol=1e-12)
