@@ -87,18 +87,21 @@ def test_plane_contact_lever_arm() -> None:
     assert fx_l / fx_d == pytest.approx((r - delta / 2) / (r - delta), rel=1e-4)
 
 
-def test_scene_option_and_same_physics() -> None:
-    """sim.contact_forms is read and checked, leaves the default packing key alone, and
-    same_physics sets 'liggghts'."""
+@pytest.mark.parametrize(('key', 'default', 'other', 'typo'),
+                         [('coulomb_limit', 'total', 'spring', 'springs'),
+                          ('contact_forms', 'dempath', 'liggghts', 'ligghts')])
+def test_scene_options_and_same_physics(key: str, default: str, other: str, typo: str) -> None:
+    """sim.<key> is read and checked, changes the packing key when not at its default, and
+    same_physics sets LIGGGHTS' choice."""
     scene = bundled_scene('tiny')
     model = scene.physics_model()
-    assert scene.sim.contact_forms == 'dempath'
+    assert getattr(scene.sim, key) == default
     raw = yaml.safe_load((SCENES / 'tiny.yaml').read_text())
-    raw['sim']['contact_forms'] = 'liggghts'
-    lig = scene_from_dict(raw)
-    assert lig.sim.contact_forms == 'liggghts'
-    assert packing_key(lig, model) != packing_key(scene, model)
-    assert same_physics(scene).sim.contact_forms == 'liggghts'
-    raw['sim']['contact_forms'] = 'lammps'
-    with pytest.raises(SceneError, match=r'sim\.contact_forms'):
+    raw['sim'][key] = other
+    changed = scene_from_dict(raw)
+    assert getattr(changed.sim, key) == other
+    assert packing_key(changed, model) != packing_key(scene, model)
+    assert getattr(same_physics(scene).sim, key) == other
+    raw['sim'][key] = typo
+    with pytest.raises(SceneError, match=rf"sim\.{key}.*did you mean '{other}'"):
         scene_from_dict(raw)

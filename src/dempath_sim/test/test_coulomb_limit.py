@@ -1,23 +1,15 @@
 """The two Coulomb limits of the tangential law: on spring + dashpot (default) or on the spring
-alone (LIGGGHTS 3.8), and how scenes select them."""
+alone (LIGGGHTS 3.8); the scene option is tested in test_contact_forms.py."""
 
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
-import yaml
 
-import dempath_sim
 from dempath_sim.contact_hertz_mindlin import hertz_mindlin, hertz_mindlin_constants
-from dempath_sim.fill import packing_key
-from dempath_sim.scene import SceneError, bundled_scene, scene_from_dict
-from dempath_sim.validation.cross_engine import same_physics
 
-SCENES = Path(dempath_sim.__file__).resolve().parent / 'data' / 'scenes'
-SCENES = Path(dempath_sim.__file__).resolve().parent / 'data' / 'scenes'
 E_STAR, G_STAR, BETA = 1.0e6, 4.0e5, 0.35  # Pa, Pa, - (soft sand, e ~ 0.3)
 R_EFF, M_EFF, DT = 2e-3, 3e-5, 1e-5  # m, kg, s
 MU_S, MU_D = 0.5, 0.4
@@ -61,18 +53,3 @@ def test_laws_agree_without_a_dashpot_contribution() -> None:
         assert a[1] == pytest.approx(b[1], rel=1e-12)
         assert np.allclose(a[2], b[2], rtol=1e-12)
 
-
-def test_scene_option_and_packing_key() -> None:
-    """sim.coulomb_limit is read, checked, keeps default keys, and same_physics sets 'spring'."""
-    scene = bundled_scene('tiny')
-    model = scene.physics_model()
-    assert scene.sim.coulomb_limit == 'total'
-    raw = yaml.safe_load((SCENES / 'tiny.yaml').read_text())
-    raw['sim']['coulomb_limit'] = 'spring'
-    spring = scene_from_dict(raw)
-    assert spring.sim.coulomb_limit == 'spring'
-    assert packing_key(spring, model) != packing_key(scene, model)
-    assert same_physics(scene).sim.coulomb_limit == 'spring'
-    raw['sim']['coulomb_limit'] = 'springs'
-    with pytest.raises(SceneError, match=r"sim\.coulomb_limit.*did you mean 'spring'"):
-        scene_from_dict(raw)
