@@ -34,7 +34,7 @@ from dempath_sim.contact import TAB_OK, build_pair_table
 from dempath_sim.errors import SimulationError
 from dempath_sim.integrate import first_half, second_half
 from dempath_sim.kernel_cache import refresh_own_kernel_cache
-from dempath_sim.kernel_threads import threads_at_most
+from dempath_sim.kernel_threads import prefer_openmp_layer, threads_at_most
 from dempath_sim.mesh import TriangleMesh, build_triangle_grid, mesh_margin
 from dempath_sim.neighbors import (
     build_neighbor_list,
@@ -57,6 +57,7 @@ logger = logging.getLogger(__name__)
 F64 = NDArray[np.float64]
 
 refresh_own_kernel_cache()
+prefer_openmp_layer()
 
 
 class Engine:

@@ -1,4 +1,4 @@
-"""The number of threads numba's parallel kernels run on, limited around a block of calls.
+"""Which threads numba's parallel kernels run on: the threading layer and a thread limit.
 
 The engine runs states of fewer than `Engine.SERIAL_BELOW` particles on one thread: waking a
 second thread costs more than it saves there. With numba's TBB threading layer (picked when
@@ -6,14 +6,47 @@ libtbb is installed) the cost of a multi-threaded launch also grew with the numb
 on the 2-core test machine under load (about 16 us to 440 us per launch of an empty kernel over
 6,000 launches), while one-thread launches stay flat, so every kernel call of a small state,
 also a direct `bind` or `contact_forces` call, goes through :func:`threads_at_most`.
+
+The TBB layer's slowdown also hits long two-thread runs: a reduced-scene fill that takes about
+3 min in a fresh process ran for over 30 min later in the same process, with the CPU time
+spent in the kernel (100 % system time), and a process that made many TBB launches takes a
+minute to exit. GNU OpenMP shows neither, so :func:`prefer_openmp_layer` picks it unless the
+user chose a layer.
 """
 
 from __future__ import annotations
 
+import importlib
+import logging
+import os
 from collections.abc import Iterator
 from contextlib import contextmanager
 
 import numba
+
+logger = logging.getLogger(__name__)
+
+
+def prefer_openmp_layer() -> str:
+    """Make numba's parallel kernels use its OpenMP threading layer where it can.
+
+    Nothing changes when NUMBA_THREADING_LAYER is set (the user's choice wins) or when the
+    OpenMP layer cannot be loaded (numba then picks TBB or its workqueue, as without this
+    call). It acts before the first parallel launch of the process, which fixes the layer.
+
+    Returns:
+        The layer setting numba will use: ``'omp'`` or the setting left as it was.
+    """
+    if 'NUMBA_THREADING_LAYER' in os.environ:
+        return str(numba.config.THREADING_LAYER)
+    try:
+        importlib.import_module('numba.np.ufunc.omppool')
+    except ImportError as err:  # no GNU OpenMP runtime (libgomp) on this machine
+        logger.debug('numba OpenMP layer unavailable (%s); keeping %s', err,
+                     numba.config.THREADING_LAYER)
+        return str(numba.config.THREADING_LAYER)
+    numba.config.THREADING_LAYER = 'omp'
+    return 'omp'
 
 
 @contextmanager

@@ -1,6 +1,11 @@
-"""The thread limit around kernel calls: applied inside, restored after, also on an error."""
+"""numba's threads: the OpenMP layer the engine picks unless the user chose one, and the thread
+limit around kernel calls (applied inside, restored after, also on an error)."""
 
 from __future__ import annotations
+
+import os
+import subprocess
+import sys
 
 import numba
 import numpy as np
@@ -42,3 +47,29 @@ def test_small_state_forces_do_not_change_the_thread_count() -> None:
                     + (1 - steel.poisson_ratio**2) / steel.youngs_modulus)
     hertz = 4.0 / 3.0 * e_star * np.sqrt(RADIUS) * overlap**1.5  # N
     np.testing.assert_allclose(engine.forces[0][0], [0.0, hertz, 0.0], rtol=1e-9, atol=1e-12)
+
+
+LAYER_PROBE = """
+import numba, numpy as np
+import dempath_sim.engine
+@numba.njit(parallel=True)
+def total(a):
+    s = 0.0
+    for i in numba.prange(a.size):
+        s += a[i]
+    return s
+assert total(np.ones(64)) == 64.0
+print(numba.threading_layer())
+"""
+
+
+@pytest.mark.parametrize(('setting', 'expected'), [(None, 'omp'), ('workqueue', 'workqueue')])
+def test_engine_picks_openmp_unless_the_user_chose(setting: str | None, expected: str) -> None:
+    """A fresh process that imports the engine runs parallel kernels on numba's OpenMP layer;
+    a NUMBA_THREADING_LAYER the user set wins."""
+    env = {k: v for k, v in os.environ.items() if k != 'NUMBA_THREADING_LAYER'}
+    if setting is not None:
+        env['NUMBA_THREADING_LAYER'] = setting
+    out = subprocess.run([sys.executable, '-c', LAYER_PROBE], env=env, capture_output=True,
+                         text=True, timeout=300, check=True)
+    assert out.stdout.split()[-1] == expected
