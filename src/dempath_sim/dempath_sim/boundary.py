@@ -20,7 +20,8 @@ in `worst[:, 3]`).
 Laws (same as particle-particle, per-pair materials): see `contact.py`, with R* = r and m* = m
 (rigid, infinitely heavy wall). The contact point lies at the wall surface, r - delta from the
 centre; with LIGGGHTS' forms (``SimParams.contact_forms``) the lever arm of the contact velocity
-and torque is r - delta / 2, as LIGGGHTS 3.8 takes it for wall contacts.
+and torque is r - delta / 2, and the rolling spring grows with omega (r - delta / 2) / (r - delta),
+as LIGGGHTS 3.8 takes them for wall contacts (its `epsd2` uses the scaled wall spin).
 The reaction on the tool is summed per chunk: force (3,) and torque (3,)
 about the tool origin. The pass runs over a given list of particles: the engine passes those
 within reach of a plane or the tool until its next list build (`reach.reach_candidates`), having
@@ -95,9 +96,11 @@ def _apply(i, c, key, s, delta, lever, nx, ny, nz, vx, vy, vz, wx, wy, wz, a, b,
 
 @njit(inline='always', cache=True)
 def _lever(tab, a, b, r, d):  # pragma: no cover - compiled
-    """Lever arm [m] of a geometry contact at distance d < r from the centre: d, or
-    (r + d) / 2 = r - delta / 2 with LIGGGHTS' forms."""
-    return 0.5 * (r + d) if tab[a, b, TAB_FORMS] > 0.0 else d
+    """(lever arm [m], spin scale for the rolling spring [-]) of a geometry contact at distance
+    d < r from the centre: (d, 1), or ((r + d) / 2, (r + d) / (2 d)) with LIGGGHTS' forms."""
+    if tab[a, b, TAB_FORMS] > 0.0:
+        return 0.5 * (r + d), 0.5 * (r + d) / d if d > 0.0 else 1.0
+    return d, 1.0
 
 
 @njit(fastmath=True, cache=True)
@@ -106,13 +109,14 @@ def _plane_contact(i, c, p, s, pos, vel, omg, rad, mass, mat, planes, plane_mat,
                    worst):  # pragma: no cover - compiled
     """Contact of particle i with plane p at signed distance s < r; returns the slot mask."""
     nx, ny, nz = planes[p, 3], planes[p, 4], planes[p, 5]
-    lev = _lever(tab, mat[i], np.int64(plane_mat[p]), rad[i], s)
+    lev, ws = _lever(tab, mat[i], np.int64(plane_mat[p]), rad[i], s)
     # v_rel = v_i + w_i x (-lev n)
     vx = vel[i, 0] - lev * (omg[i, 1] * nz - omg[i, 2] * ny)
     vy = vel[i, 1] - lev * (omg[i, 2] * nx - omg[i, 0] * nz)
     vz = vel[i, 2] - lev * (omg[i, 0] * ny - omg[i, 1] * nx)
     r = _apply(i, c, p, find_slot(gkey, i, p, used), rad[i] - s, lev, nx, ny, nz, vx, vy, vz,
-               omg[i, 0], omg[i, 1], omg[i, 2], mat[i], np.int64(plane_mat[p]), rad, mass,
+               ws * omg[i, 0], ws * omg[i, 1], ws * omg[i, 2], mat[i], np.int64(plane_mat[p]),
+               rad, mass,
                gkey, ght, ghr, tmp_t, tmp_r, tab, dt, rolling, cohesion, used, force, torque,
                worst)
     return r[6]
@@ -236,7 +240,7 @@ def _mesh_contacts(i, c, pos, vel, omg, rad, mass, mat, tris, tri_mat, n_planes,
         cx = pos[i, 0] - d * nx - tool[0]  # contact point relative to the tool origin
         cy = pos[i, 1] - d * ny - tool[1]
         cz = pos[i, 2] - d * nz - tool[2]
-        lev = _lever(tab, mat[i], tri_mat, rad[i], d)
+        lev, ws = _lever(tab, mat[i], tri_mat, rad[i], d)
         vx = vel[i, 0] - lev * (omg[i, 1] * nz - omg[i, 2] * ny) - (tool[3] + tool[7] * cz
                                                                      - tool[8] * cy)
         vy = vel[i, 1] - lev * (omg[i, 2] * nx - omg[i, 0] * nz) - (tool[4] + tool[8] * cx
@@ -246,7 +250,8 @@ def _mesh_contacts(i, c, pos, vel, omg, rad, mass, mat, tris, tri_mat, n_planes,
         fx, fy, fz, mx, my, mz, used = _apply(
             i, c, n_planes + int(cand[b, 0]), patch_slot(gkey, i, b, cand, nc, n_planes, used),
             rad[i] - d, lev, nx, ny, nz, vx, vy, vz,
-            omg[i, 0] - tool[6], omg[i, 1] - tool[7], omg[i, 2] - tool[8], mat[i], tri_mat,
+            ws * (omg[i, 0] - tool[6]), ws * (omg[i, 1] - tool[7]), ws * (omg[i, 2] - tool[8]),
+            mat[i], tri_mat,
             rad, mass, gkey, ght, ghr, tmp_t, tmp_r, tab, dt, rolling, cohesion, used,
             force, torque, worst)
         tool_acc[c, 0] -= fx

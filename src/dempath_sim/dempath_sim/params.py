@@ -54,7 +54,8 @@ class SimParams:
             plane or tool contact acts at the surface (lever arm r - delta); ``'liggghts'``:
             LIGGGHTS 3.8's forms: the tangential spring loses its normal part, the rolling
             spring is carried unturned with its limit on |F_n|, and plane and tool contacts
-            have the lever arm r - delta / 2 (for like-for-like cross-engine checks).
+            have the lever arm r - delta / 2 and grow the rolling spring with the spin scaled
+            by (r - delta / 2) / (r - delta) (for like-for-like cross-engine checks).
     """
 
     materials: tuple[Material, ...]

@@ -61,10 +61,12 @@ def test_rolling_spring_carried_and_limited_on_abs_normal_force() -> None:
     assert np.linalg.norm(limited) == pytest.approx(0.3 * R_EFF * 1e-4, rel=1e-12)
 
 
-def _spin_on_floor(forms: str, r: float, delta: float) -> tuple[float, float]:
+def _spin_on_floor(forms: str, r: float, delta: float,
+                   rolling: float = 0.0) -> tuple[float, float]:
     """(F_x [N], torque_z [N m]) on a sphere spinning about Z in place on a floor, one step."""
     sand = Material('sand', 1734.0, 1.7e6, 0.25)
-    params = SimParams(materials=(sand,), interactions={(0, 0): Interaction(0.3, 0.7, 0.7, 0.0)},
+    inter = Interaction(0.3, 0.7, 0.7, rolling)
+    params = SimParams(materials=(sand,), interactions={(0, 0): inter},
                        dt=1e-6, gravity=(0.0, 0.0, 0.0), contact_forms=forms)
     state = SimState.from_spheres(np.array([[0.0, r - delta, 0.0]]), np.array([r]), 0, params)
     state.angular_velocities[0, 2] = 0.2  # rad/s: a slow spin, the contact sticks
@@ -85,6 +87,19 @@ def test_plane_contact_lever_arm() -> None:
     assert tz_d == pytest.approx((r - delta) * fx_d, rel=1e-9)
     assert tz_l == pytest.approx((r - delta / 2) * fx_l, rel=1e-9)
     assert fx_l / fx_d == pytest.approx((r - delta / 2) / (r - delta), rel=1e-4)
+
+
+def test_plane_contact_rolling_spin_scale() -> None:
+    """With rolling resistance the rolling torque (total torque less lever x force) on a wall
+    grows with the spin scaled by (r - delta / 2) / (r - delta) in LIGGGHTS' forms, as its
+    epsd2 takes the wall spin, and with the plain spin in dempath's."""
+    r, delta = 0.005, 2e-4
+    fx_d, tz_d = _spin_on_floor('dempath', r, delta, rolling=0.3)
+    fx_l, tz_l = _spin_on_floor('liggghts', r, delta, rolling=0.3)
+    m_d = tz_d - (r - delta) * fx_d
+    m_l = tz_l - (r - delta / 2) * fx_l
+    assert m_d < 0.0  # resists the spin
+    assert m_l / m_d == pytest.approx((r - delta / 2) / (r - delta), rel=1e-4)
 
 
 @pytest.mark.parametrize(('key', 'default', 'other', 'typo'),
