@@ -11,8 +11,9 @@ ratio D / S is reported and ``cross_engine_ratio`` is the largest of the three r
 
 A ratio <= 1 means the engines' seed means differ by no more than the spread of one run. S is
 the spread of single runs, not the standard error of the means: with n seeds per engine, two
-identical engines still give D / S of sqrt(2 / n) on average (0.82 for n = 3) and, for one
-statistic, a ratio above 1 by chance in 29 % of cases (Student t, 4 degrees of freedom), so the
+identical engines still give D / S of about sqrt(2 / n) on average (0.82 for n = 3, 0.50 for
+n = 6) and, for one statistic, a ratio above 1 by chance in 29 % of cases for n = 3 (Student t,
+4 degrees of freedom; 11 % for n = 6), so the
 check detects systematic differences of about one seed spread or more, and a ratio somewhat
 above 1 alone is weak evidence of a difference.
 
