@@ -11,11 +11,11 @@ ratio D / S is reported and ``cross_engine_ratio`` is the largest of the three r
 
 A ratio <= 1 means the engines' seed means differ by no more than the spread of one run. S is
 the spread of single runs, not the standard error of the means: with n seeds per engine, two
-identical engines still give D / S of about sqrt(2 / n) on average (0.82 for n = 3, 0.50 for
-n = 6) and, for one statistic, a ratio above 1 by chance in 29 % of cases for n = 3 (Student t,
-4 degrees of freedom; 11 % for n = 6), so the
-check detects systematic differences of about one seed spread or more, and a ratio somewhat
-above 1 alone is weak evidence of a difference.
+identical engines still give D / S of sqrt(2 / n) E|t| on average (t: Student t with 2 n - 2
+degrees of freedom; 0.82 for n = 3, 0.50 for n = 6) and, for one statistic, a ratio above 1 by
+chance in 29 % of cases for n = 3 (11 % for n = 6), so the check detects systematic
+differences of about one seed spread or more, and a ratio somewhat above 1 alone is weak
+evidence of a difference.
 
 The same physics is used on both engines: LIGGGHTS has one Coulomb coefficient, so
 ``same_physics`` sets every dynamic friction to its static value in the scene before both
