@@ -99,7 +99,7 @@ def _lever(tab, a, b, r, d):  # pragma: no cover - compiled
     """(lever arm [m], spin scale for the rolling spring [-]) of a geometry contact at distance
     d < r from the centre: (d, 1), or ((r + d) / 2, (r + d) / (2 d)) with LIGGGHTS' forms."""
     if tab[a, b, TAB_FORMS] > 0.0:
-        return 0.5 * (r + d), 0.5 * (r + d) / d if d > 0.0 else 1.0
+        return 0.5 * (r + d), (0.5 * (r + d) / d if d > 0.0 else 1.0)
     return d, 1.0
 
 
@@ -162,11 +162,28 @@ def _collect_candidates(px, py, pz, r, tris, g_lo, g_cell, g_dims, g_start, g_tr
 
 
 @njit(inline='always', fastmath=True, cache=True)
-def _in_grid(rx, ry, rz, tool, g_lo, g_hi0, g_hi1, g_hi2):  # pragma: no cover - compiled
-    """Whether the world offset r from the tool origin lies inside the triangle grid's box."""
-    px = tool[9] * rx + tool[12] * ry + tool[15] * rz
-    py = tool[10] * rx + tool[13] * ry + tool[16] * rz
-    pz = tool[11] * rx + tool[14] * ry + tool[17] * rz
+def plane_distance(planes, p, x, y, z):  # pragma: no cover - compiled
+    """Signed distance [m] of the point (x, y, z) from plane p, positive inside."""
+    return ((x - planes[p, 0]) * planes[p, 3] + (y - planes[p, 1]) * planes[p, 4]
+            + (z - planes[p, 2]) * planes[p, 5])
+
+
+@njit(inline='always', fastmath=True, cache=True)
+def to_tool_frame(tool, x, y, z):  # pragma: no cover - compiled
+    """The world point (x, y, z) [m] in the tool frame of the packed pose tool (18,):
+    R^T (x - t), R stored row-major in tool[9:18]."""
+    rx = x - tool[0]
+    ry = y - tool[1]
+    rz = z - tool[2]
+    return (tool[9] * rx + tool[12] * ry + tool[15] * rz,
+            tool[10] * rx + tool[13] * ry + tool[16] * rz,
+            tool[11] * rx + tool[14] * ry + tool[17] * rz)
+
+
+@njit(inline='always', fastmath=True, cache=True)
+def _in_grid(x, y, z, tool, g_lo, g_hi0, g_hi1, g_hi2):  # pragma: no cover - compiled
+    """Whether the world point (x, y, z) lies inside the triangle grid's box (tool frame)."""
+    px, py, pz = to_tool_frame(tool, x, y, z)
     return (g_lo[0] <= px < g_hi0) and (g_lo[1] <= py < g_hi1) and (g_lo[2] <= pz < g_hi2)
 
 
@@ -219,13 +236,7 @@ def _mesh_contacts(i, c, pos, vel, omg, rad, mass, mat, tris, tri_mat, n_planes,
                    cohesion, used, force, torque, worst, cand,
                    tool_acc):  # pragma: no cover - compiled
     """All tool-mesh contacts of particle i, one per patch; tool: (18,) (see boundary_forces)."""
-    rx = pos[i, 0] - tool[0]
-    ry = pos[i, 1] - tool[1]
-    rz = pos[i, 2] - tool[2]
-    # p_local = R^T (x - t); R stored row-major in tool[9:18]
-    px = tool[9] * rx + tool[12] * ry + tool[15] * rz
-    py = tool[10] * rx + tool[13] * ry + tool[16] * rz
-    pz = tool[11] * rx + tool[14] * ry + tool[17] * rz
+    px, py, pz = to_tool_frame(tool, pos[i, 0], pos[i, 1], pos[i, 2])
     nc = _collect_candidates(px, py, pz, rad[i], tris, g_lo, g_cell, g_dims, g_start, g_tris,
                              cand)
     _group_patches(px, py, pz, nc, cand, 1e-6 * rad[i])
@@ -283,15 +294,13 @@ def _boundary_chunk(c, pos, vel, omg, rad, mass, mat, planes, plane_mat, tris, m
         i = idx[q]
         used = np.int64(0)
         for p in range(n_planes):
-            s = ((pos[i, 0] - planes[p, 0]) * planes[p, 3]
-                 + (pos[i, 1] - planes[p, 1]) * planes[p, 4]
-                 + (pos[i, 2] - planes[p, 2]) * planes[p, 5])
+            s = plane_distance(planes, p, pos[i, 0], pos[i, 1], pos[i, 2])
             if s < rad[i]:
                 used = _plane_contact(i, c, p, s, pos, vel, omg, rad, mass, mat, planes,
                                       plane_mat, gkey, ght, ghr, tmp_t, tmp_r, tab, dt,
                                       rolling, cohesion, used, force, torque, worst)
-        if has_tool and _in_grid(pos[i, 0] - tool[0], pos[i, 1] - tool[1],
-                                 pos[i, 2] - tool[2], tool, g_lo, g_hi0, g_hi1, g_hi2):
+        if has_tool and _in_grid(pos[i, 0], pos[i, 1], pos[i, 2], tool, g_lo, g_hi0, g_hi1,
+                                 g_hi2):
             used = _mesh_contacts(i, c, pos, vel, omg, rad, mass, mat, tris, mat_tool,
                                   n_planes, g_lo, g_cell, g_dims, g_start, g_tris, tool,
                                   gkey, ght, ghr, tmp_t, tmp_r, tab, dt, rolling, cohesion,

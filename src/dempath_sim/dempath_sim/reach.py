@@ -12,6 +12,8 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+from dempath_sim.boundary import plane_distance, to_tool_frame
+
 # (8, 3) corner k of a box takes hi on axis a where bit a of k is set, lo elsewhere.
 CORNER_BITS = np.array([[(k >> a) & 1 for a in range(3)] for k in range(8)], np.bool_)
 
@@ -39,19 +41,13 @@ def reach_candidates(pos_build, rad, planes, plane_reach, tool_ref, g_lo, g_hi, 
     for i in range(pos_build.shape[0]):
         near = False
         for p in range(planes.shape[0]):
-            s = ((pos_build[i, 0] - planes[p, 0]) * planes[p, 3]
-                 + (pos_build[i, 1] - planes[p, 1]) * planes[p, 4]
-                 + (pos_build[i, 2] - planes[p, 2]) * planes[p, 5])
+            s = plane_distance(planes, p, pos_build[i, 0], pos_build[i, 1], pos_build[i, 2])
             if s < rad[i] + plane_reach:
                 near = True
                 break
         if not near and tool_reach >= 0.0:
-            rx = pos_build[i, 0] - tool_ref[0]
-            ry = pos_build[i, 1] - tool_ref[1]
-            rz = pos_build[i, 2] - tool_ref[2]
-            px = tool_ref[9] * rx + tool_ref[12] * ry + tool_ref[15] * rz
-            py = tool_ref[10] * rx + tool_ref[13] * ry + tool_ref[16] * rz
-            pz = tool_ref[11] * rx + tool_ref[14] * ry + tool_ref[17] * rz
+            px, py, pz = to_tool_frame(tool_ref, pos_build[i, 0], pos_build[i, 1],
+                                       pos_build[i, 2])
             near = (g_lo[0] - tool_reach <= px <= g_hi[0] + tool_reach
                     and g_lo[1] - tool_reach <= py <= g_hi[1] + tool_reach
                     and g_lo[2] - tool_reach <= pz <= g_hi[2] + tool_reach)
