@@ -25,11 +25,11 @@ import numba
 import numpy as np
 
 from dempath_sim.engine import Engine, ToolPose
-from dempath_sim.materials import Interaction, Material
-from dempath_sim.mesh import TriangleMesh
-from dempath_sim.params import SimParams
-from dempath_sim.state import SimState
-from dempath_sim.walls import box_walls
+from dempath_sim.engine.materials import Interaction, Material
+from dempath_sim.engine.mesh import TriangleMesh
+from dempath_sim.engine.params import SimParams
+from dempath_sim.engine.state import SimState
+from dempath_sim.engine.walls import box_walls
 
 PAPER_PARTICLES = 11_473_727
 RAM_BYTES = 24 * 2 ** 30

@@ -31,10 +31,10 @@ from numpy.typing import NDArray
 
 from dempath_sim.effects import PhysicsModel
 from dempath_sim.engine import Engine
-from dempath_sim.params import SimParams
-from dempath_sim.scene_spec import LayerSpec, NumericsSpec, SceneSpec
-from dempath_sim.state import SimState
-from dempath_sim.walls import Plane, box_walls
+from dempath_sim.engine.params import SimParams
+from dempath_sim.engine.state import SimState
+from dempath_sim.engine.walls import Plane, box_walls
+from dempath_sim.scene.spec import LayerSpec, NumericsSpec, SceneSpec
 
 logger = logging.getLogger(__name__)
 

@@ -21,7 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dempath_sim.errors import SimulationError
-from dempath_sim.scene_spec import MarkerSpec
+from dempath_sim.scene.spec import MarkerSpec
 
 ROLE_MARKER = 0  # dempath_msgs/ParticleStates ROLE_MARKER
 ROLE_CANDIDATE = 1  # ROLE_CANDIDATE

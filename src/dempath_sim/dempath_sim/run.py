@@ -26,16 +26,16 @@ from numpy.typing import NDArray
 
 from dempath_sim.effects import ContactPair, PhysicsModel
 from dempath_sim.engine import Engine, ToolPose
+from dempath_sim.engine.materials import Interaction, Material
+from dempath_sim.engine.mesh import TriangleMesh
+from dempath_sim.engine.params import SimParams
+from dempath_sim.engine.state import SimState
 from dempath_sim.errors import RunStoppedError, SimulationError
 from dempath_sim.fill import PARTICLES, TOOL, WALLS, FillReport, bin_walls, fill_bed
 from dempath_sim.markers import MarkerSelection, select_markers
-from dempath_sim.materials import Interaction, Material
-from dempath_sim.mesh import TriangleMesh
-from dempath_sim.params import SimParams
-from dempath_sim.profiles import ToolPath
 from dempath_sim.results import Recorder, SimResult
-from dempath_sim.scene_spec import SceneSpec
-from dempath_sim.state import SimState
+from dempath_sim.scene.profiles import ToolPath
+from dempath_sim.scene.spec import SceneSpec
 
 logger = logging.getLogger(__name__)
 

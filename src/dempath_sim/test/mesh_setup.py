@@ -9,9 +9,9 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from dempath_sim.materials import Interaction, Material
-from dempath_sim.params import SimParams
-from dempath_sim.walls import Plane
+from dempath_sim.engine.materials import Interaction, Material
+from dempath_sim.engine.params import SimParams
+from dempath_sim.engine.walls import Plane
 
 GRAIN = Material('grain', 2500.0, 5.0e7, 0.25)
 STEEL = Material('steel', 7800.0, 2.1e11, 0.3)

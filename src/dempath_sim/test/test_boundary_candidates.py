@@ -9,14 +9,14 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from dempath_sim.contact import TAB_CN, TAB_CT, TAB_KN, TAB_KT, build_pair_table
-from dempath_sim.contact_hertz_mindlin import hertz_mindlin
 from dempath_sim.engine import Engine, ToolPose
-from dempath_sim.materials import Interaction, Material
-from dempath_sim.mesh import TriangleMesh
-from dempath_sim.params import SimParams
-from dempath_sim.state import SimState
-from dempath_sim.walls import box_walls
+from dempath_sim.engine.laws.dispatch import TAB_CN, TAB_CT, TAB_KN, TAB_KT, build_pair_table
+from dempath_sim.engine.laws.hertz_mindlin import hertz_mindlin
+from dempath_sim.engine.materials import Interaction, Material
+from dempath_sim.engine.mesh import TriangleMesh
+from dempath_sim.engine.params import SimParams
+from dempath_sim.engine.state import SimState
+from dempath_sim.engine.walls import box_walls
 
 F64 = NDArray[np.float64]
 GRAIN = Material('grain', 2500.0, 5.0e7, 0.25)

@@ -9,12 +9,12 @@ import numpy as np
 import pytest
 
 from dempath_sim.engine import Engine, ToolPose
+from dempath_sim.engine.materials import Interaction, Material
+from dempath_sim.engine.params import SimParams
+from dempath_sim.engine.state import SimState
+from dempath_sim.engine.timestep import rayleigh_time_step
+from dempath_sim.engine.walls import box_walls
 from dempath_sim.errors import SimulationError
-from dempath_sim.materials import Interaction, Material
-from dempath_sim.params import SimParams
-from dempath_sim.state import SimState
-from dempath_sim.timestep import rayleigh_time_step
-from dempath_sim.walls import box_walls
 
 GRAIN = Material('grain', 2500.0, 1.0e7, 0.25)
 STEEL = Material('steel', 7800.0, 2.1e11, 0.3)

@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 
 from dempath_sim.engine import Engine
-from dempath_sim.materials import Interaction, Material
-from dempath_sim.neighbors import build_neighbor_list, cell_order
-from dempath_sim.params import SimParams
-from dempath_sim.state import SimState
-from dempath_sim.walls import box_walls
+from dempath_sim.engine.materials import Interaction, Material
+from dempath_sim.engine.neighbors import build_neighbor_list, cell_order
+from dempath_sim.engine.params import SimParams
+from dempath_sim.engine.state import SimState
+from dempath_sim.engine.walls import box_walls
 
 SAND = Material('sand', 2650.0, 5.0e6, 0.25)
 STEEL = Material('steel', 7800.0, 2.1e11, 0.3)

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from dempath_sim.engine.state import SimState
 from dempath_sim.fill import (
     DEFAULT_SOLID_FRACTION,
     fill_bed,
@@ -20,8 +21,7 @@ from dempath_sim.fill import (
 )
 from dempath_sim.run import build_params
 from dempath_sim.scene import bundled_scene
-from dempath_sim.scene_spec import LayerSpec, SizeDistribution
-from dempath_sim.state import SimState
+from dempath_sim.scene.spec import LayerSpec, SizeDistribution
 
 
 def test_sample_diameters_fill_the_volume() -> None:

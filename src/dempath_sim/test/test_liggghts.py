@@ -7,16 +7,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from dempath_sim.engine.materials import Interaction, Material
+from dempath_sim.engine.params import SimParams
 from dempath_sim.liggghts import commands as cmd
 from dempath_sim.liggghts.deck import fill_plan, layer_templates, primes_from, velocity_expression
 from dempath_sim.liggghts.dumps import frames_by_id, read_dump, read_print
 from dempath_sim.liggghts.errors import DumpError, LiggghtsNotFoundError, LiggghtsRunError
 from dempath_sim.liggghts.install import LiggghtsInstall, ensure_liggghts, find_liggghts
 from dempath_sim.liggghts.runner import run_deck
-from dempath_sim.materials import Interaction, Material
-from dempath_sim.params import SimParams
-from dempath_sim.profiles import SpeedProfile, ToolPath
 from dempath_sim.scene import bundled_scene
+from dempath_sim.scene.profiles import SpeedProfile, ToolPath
 
 
 def _params(rolling: float = 0.26, cohesion: float = 0.0) -> SimParams:

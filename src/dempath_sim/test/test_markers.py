@@ -12,7 +12,7 @@ from dempath_sim.markers import (
     grid_xz,
     select_markers,
 )
-from dempath_sim.scene_spec import MarkerSpec
+from dempath_sim.scene.spec import MarkerSpec
 
 D = 0.004  # grain diameter of the paper's top layer [m]
 

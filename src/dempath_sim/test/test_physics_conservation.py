@@ -5,12 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dempath_sim.energy import total_energy
 from dempath_sim.engine import Engine
-from dempath_sim.materials import Interaction, Material
-from dempath_sim.params import SimParams
-from dempath_sim.state import SimState
-from dempath_sim.walls import box_walls
+from dempath_sim.engine.energy import total_energy
+from dempath_sim.engine.materials import Interaction, Material
+from dempath_sim.engine.params import SimParams
+from dempath_sim.engine.state import SimState
+from dempath_sim.engine.walls import box_walls
 
 GRAIN = Material('grain', 2500.0, 5.0e7, 0.25)
 RADIUS = 2.0e-3  # m

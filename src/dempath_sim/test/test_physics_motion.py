@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from dempath_sim.engine import Engine
-from dempath_sim.materials import Interaction, Material, pair_properties
-from dempath_sim.params import SimParams
-from dempath_sim.state import SimState
-from dempath_sim.walls import Plane
+from dempath_sim.engine.materials import Interaction, Material, pair_properties
+from dempath_sim.engine.params import SimParams
+from dempath_sim.engine.state import SimState
+from dempath_sim.engine.walls import Plane
 
 SAND = Material('sand', 2650.0, 1.0e8, 0.25)
 G = 9.81  # m/s^2

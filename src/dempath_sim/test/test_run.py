@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from dempath_sim.markers import ROLE_MARKER
-from dempath_sim.profiles import ToolPath
 from dempath_sim.results import SimResult
 from dempath_sim.run import Frame, RunOptions, Variant, run_batch, run_scene
 from dempath_sim.scene import bundled_scene
+from dempath_sim.scene.profiles import ToolPath
 
 
 def cache_dir(factory: pytest.TempPathFactory) -> Path:

@@ -7,11 +7,11 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from dempath_sim.engine.mesh import TriangleMesh
+from dempath_sim.engine.state import SimState
 from dempath_sim.fill import PARTICLES, TOOL, WALLS, FillReport
-from dempath_sim.mesh import TriangleMesh
 from dempath_sim.run import build_params, carve_tool_slot, tool_start
 from dempath_sim.scene import bundled_scene
-from dempath_sim.state import SimState
 
 
 def report(surface: float) -> FillReport:

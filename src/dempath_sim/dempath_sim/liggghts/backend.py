@@ -18,6 +18,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dempath_sim.effects import PhysicsModel
+from dempath_sim.engine.params import SimParams
+from dempath_sim.engine.state import SimState
+from dempath_sim.engine.stl import read_stl
+from dempath_sim.engine.timestep import rayleigh_time_step
 from dempath_sim.fill import PARTICLES, measure, pour, target_solid_fraction
 from dempath_sim.liggghts import deck as dk
 from dempath_sim.liggghts.commands import write_ascii_stl
@@ -25,14 +29,10 @@ from dempath_sim.liggghts.dumps import frames_by_id, read_dump, read_print
 from dempath_sim.liggghts.errors import DeckError
 from dempath_sim.liggghts.runner import RunOutput, run_deck
 from dempath_sim.markers import select_markers
-from dempath_sim.params import SimParams
-from dempath_sim.profiles import ToolPath
 from dempath_sim.results import SimResult
 from dempath_sim.run import build_params
-from dempath_sim.scene_spec import SceneSpec
-from dempath_sim.state import SimState
-from dempath_sim.stl import read_stl
-from dempath_sim.timestep import rayleigh_time_step
+from dempath_sim.scene.profiles import ToolPath
+from dempath_sim.scene.spec import SceneSpec
 
 logger = logging.getLogger(__name__)
 Box = tuple[list[float], list[float]]  # (lo, hi) corners of the simulation box [m]

@@ -32,11 +32,11 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from dempath_sim.engine.params import SimParams
 from dempath_sim.fill import scaled_friction
 from dempath_sim.liggghts import commands as cmd
-from dempath_sim.params import SimParams
-from dempath_sim.profiles import ToolPath
-from dempath_sim.scene_spec import LayerSpec, SceneSpec
+from dempath_sim.scene.profiles import ToolPath
+from dempath_sim.scene.spec import LayerSpec, SceneSpec
 
 FILL_DUMP = 'fill.dump'
 FILL_RESTART = 'fill.restart'

@@ -37,7 +37,7 @@ from numpy.typing import NDArray
 
 from dempath_sim.markers import ROLE_MARKER
 from dempath_sim.results import SimResult
-from dempath_sim.scene_spec import SceneSpec
+from dempath_sim.scene.spec import SceneSpec
 
 logger = logging.getLogger(__name__)
 F64 = NDArray[np.float64]

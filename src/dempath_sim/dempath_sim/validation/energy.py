@@ -15,11 +15,11 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from dempath_sim.engine.materials import Interaction, Material, pair_properties
+from dempath_sim.engine.params import SimParams
 from dempath_sim.liggghts import commands as cmd
 from dempath_sim.liggghts.dumps import read_dump
 from dempath_sim.liggghts.runner import run_deck
-from dempath_sim.materials import Interaction, Material, pair_properties
-from dempath_sim.params import SimParams
 
 F64 = NDArray[np.float64]
 
@@ -104,8 +104,8 @@ class EnergyResult:
 def energy_dempath(case: EnergyCase) -> EnergyResult:
     """Run the box on the dempath engine."""
     from dempath_sim.engine import Engine
-    from dempath_sim.state import SimState
-    from dempath_sim.walls import box_walls
+    from dempath_sim.engine.state import SimState
+    from dempath_sim.engine.walls import box_walls
 
     params = case.params()
     pos, vel = case.initial()

@@ -15,10 +15,10 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from dempath_sim.engine.materials import Interaction, Material
+from dempath_sim.engine.params import SimParams
 from dempath_sim.liggghts import commands as cmd
 from dempath_sim.liggghts.runner import run_deck
-from dempath_sim.materials import Interaction, Material
-from dempath_sim.params import SimParams
 from dempath_sim.validation.hertz import HertzPair, contact_time, damped_impact, sphere_pair
 
 
@@ -160,7 +160,7 @@ def impact_liggghts(case: ImpactCase, workdir: Path) -> ImpactResult:
 def impact_dempath(case: ImpactCase) -> ImpactResult:
     """Run the impact with the dempath engine and measure it."""
     from dempath_sim.engine import Engine
-    from dempath_sim.state import SimState
+    from dempath_sim.engine.state import SimState
 
     params = case.params()
     r, gap0 = case.radius, 0.05 * case.radius

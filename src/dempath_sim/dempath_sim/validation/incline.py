@@ -22,11 +22,11 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from dempath_sim.engine.materials import Interaction, Material
+from dempath_sim.engine.params import SimParams
 from dempath_sim.liggghts import commands as cmd
 from dempath_sim.liggghts.dumps import read_print
 from dempath_sim.liggghts.runner import run_deck
-from dempath_sim.materials import Interaction, Material
-from dempath_sim.params import SimParams
 
 G = 9.81
 
@@ -107,8 +107,8 @@ def fit_acceleration(case: InclineCase, t: NDArray[np.float64], x: NDArray[np.fl
 def incline_dempath(case: InclineCase) -> InclineResult:
     """Run the case on the dempath engine."""
     from dempath_sim.engine import Engine
-    from dempath_sim.state import SimState
-    from dempath_sim.walls import Plane
+    from dempath_sim.engine.state import SimState
+    from dempath_sim.engine.walls import Plane
 
     params = case.params()
     state = SimState.from_spheres(np.array([[0.0, case.radius, 0.0]]),

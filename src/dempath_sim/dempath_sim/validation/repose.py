@@ -37,11 +37,11 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from dempath_sim.engine.materials import Interaction, Material
+from dempath_sim.engine.params import SimParams
 from dempath_sim.liggghts import commands as cmd
 from dempath_sim.liggghts.dumps import read_dump
 from dempath_sim.liggghts.runner import run_deck
-from dempath_sim.materials import Interaction, Material
-from dempath_sim.params import SimParams
 
 F64 = NDArray[np.float64]
 logger = logging.getLogger(__name__)
@@ -307,9 +307,9 @@ def repose_dempath(case: ReposeCase) -> ReposeResult:
     ``case.rest_speed`` (or after ``case.rest_s``).
     """
     from dempath_sim.engine import Engine, ToolPose
-    from dempath_sim.mesh import TriangleMesh
-    from dempath_sim.state import SimState
-    from dempath_sim.walls import Plane
+    from dempath_sim.engine.mesh import TriangleMesh
+    from dempath_sim.engine.state import SimState
+    from dempath_sim.engine.walls import Plane
 
     params = case.params()
     pos, radii = case.particles()

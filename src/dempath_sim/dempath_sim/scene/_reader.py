@@ -13,7 +13,7 @@ import re
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from dempath.errors import DempathError
+from dempath_sim.errors import SceneError
 
 # Unit suffixes of scene keys and the SI unit each stands for.
 UNIT_SUFFIXES = {
@@ -30,10 +30,6 @@ OTHER_UNITS = frozenset({
     'km_h', 'm_s', 'cm_s', 'mm_s2', 'm_s2', 'g_cm3', 'kg_m3', 't_m3', 'j_m3', 'kj_m3', 'deg',
     'rad', 'n', 'kn', 'g', 'kg', 'percent', 'pct',
 })
-
-
-class SceneError(DempathError):
-    """A scene file is missing, unreadable, or has a wrong key, unit or value."""
 
 
 def unit_of(key: str) -> str | None:

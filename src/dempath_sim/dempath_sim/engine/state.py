@@ -14,8 +14,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from dempath_sim.neighbors import permute_in_place
-from dempath_sim.params import SimParams
+from dempath_sim.engine.neighbors import permute_in_place
+from dempath_sim.engine.params import SimParams
 
 F64 = NDArray[np.float64]
 

@@ -13,13 +13,13 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from dempath_sim.contact_hertz_mindlin import hertz_mindlin, hertz_mindlin_constants
-from dempath_sim.materials import pair_properties
-from dempath_sim.params import SimParams
-from dempath_sim.rolling_epsd2 import rolling_epsd2
+from dempath_sim.engine.laws.hertz_mindlin import hertz_mindlin, hertz_mindlin_constants
+from dempath_sim.engine.laws.rolling_epsd2 import rolling_epsd2
+from dempath_sim.engine.materials import pair_properties
+from dempath_sim.engine.params import SimParams
 
 # Columns of the pair table; the last four are the law's constants, precomputed once per pair
-# (see `contact_hertz_mindlin.py`): 4/3 E*, 8 G*, 2 sqrt(5/6) beta sqrt(2 E*) and
+# (see `hertz_mindlin.py`): 4/3 E*, 8 G*, 2 sqrt(5/6) beta sqrt(2 E*) and
 # 2 sqrt(5/6) beta sqrt(8 G*), so that a contact takes one sqrt for both dashpots.
 # TAB_SPRING is 1 where the Coulomb limit bounds the tangential spring alone
 # (``SimParams.coulomb_limit == 'spring'``, LIGGGHTS 3.8) and 0 where it bounds spring + dashpot;

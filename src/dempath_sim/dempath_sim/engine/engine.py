@@ -1,10 +1,10 @@
 """The DEM engine: soft spheres, plane walls and a kinematic triangle-mesh tool.
 
 Model assumptions: rigid spheres that overlap softly (Hertz-Mindlin with restitution damping,
-optional EPSD2 rolling resistance and SJKR cohesion; see `contact.py`); walls are infinite planes
-and the tool a rigid triangle mesh moved kinematically (its motion is imposed, not computed);
-gravity is uniform (default -Y); no fluid, no particle breakage. Units SI; frame X lateral, Y up,
-Z tool travel.
+optional EPSD2 rolling resistance and SJKR cohesion; see `laws/dispatch.py`); walls are
+infinite planes and the tool a rigid triangle mesh moved kinematically (its motion is imposed,
+not computed); gravity is uniform (default -Y); no fluid, no particle breakage. Units SI; frame
+X lateral, Y up, Z tool travel.
 
 One `Engine.step` is the named stages of a velocity-Verlet step (see `integrate.py`):
 `integrate_first_half` (half kick + drift, domain and blow-up checks, see `stability.py`),
@@ -29,28 +29,28 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from dempath_sim.boundary import MAX_CANDIDATES, N_SLOTS, boundary_forces
-from dempath_sim.contact import TAB_OK, build_pair_table
-from dempath_sim.errors import SimulationError
-from dempath_sim.integrate import first_half, second_half
-from dempath_sim.kernel_cache import refresh_own_kernel_cache
-from dempath_sim.kernel_threads import prefer_openmp_layer, threads_at_most
-from dempath_sim.mesh import TriangleMesh, build_triangle_grid, mesh_margin
-from dempath_sim.neighbors import (
+from dempath_sim.engine.boundary import MAX_CANDIDATES, N_SLOTS, boundary_forces
+from dempath_sim.engine.integrate import first_half, second_half
+from dempath_sim.engine.kernel_cache import refresh_own_kernel_cache
+from dempath_sim.engine.kernel_threads import prefer_openmp_layer, threads_at_most
+from dempath_sim.engine.laws.dispatch import TAB_OK, build_pair_table
+from dempath_sim.engine.mesh import TriangleMesh, build_triangle_grid, mesh_margin
+from dempath_sim.engine.neighbors import (
     build_neighbor_list,
     cell_order,
     permute_in_place,
     transfer_history,
 )
-from dempath_sim.pair_forces import pair_forces, reduce_buffers
-from dempath_sim.params import SimParams
-from dempath_sim.reach import box_corners, box_displacement, reach_candidates
-from dempath_sim.stability import check_drift, check_overlaps, checked_time_step
-from dempath_sim.state import SimState
-from dempath_sim.toolpose import ToolPose
-from dempath_sim.walls import Plane, pack_planes
+from dempath_sim.engine.pair_forces import pair_forces, reduce_buffers
+from dempath_sim.engine.params import SimParams
+from dempath_sim.engine.reach import box_corners, box_displacement, reach_candidates
+from dempath_sim.engine.stability import check_drift, check_overlaps, checked_time_step
+from dempath_sim.engine.state import SimState
+from dempath_sim.engine.toolpose import ToolPose
+from dempath_sim.engine.walls import Plane, pack_planes
+from dempath_sim.errors import SimulationError
 
-__all__ = ['Engine', 'ToolPose']  # ToolPose lives in toolpose.py; engine is its public home
+__all__ = ['Engine']
 
 logger = logging.getLogger(__name__)
 

@@ -41,14 +41,13 @@ from typing import Any
 
 import yaml
 
-from dempath_sim import profiles
-from dempath_sim._reader import Reader, SceneError
-from dempath_sim.effects import Effect, PhysicsModel, all_effects
-from dempath_sim.errors import GeometryError
-from dempath_sim.params import CONTACT_FORMS, COULOMB_LIMITS
-from dempath_sim.scene_spec import (
+from dempath_sim.engine.params import CONTACT_FORMS, COULOMB_LIMITS
+from dempath_sim.engine.stl import read_stl
+from dempath_sim.errors import GeometryError, SceneError
+from dempath_sim.scene import profiles
+from dempath_sim.scene._reader import Reader
+from dempath_sim.scene.spec import (
     BinSpec,
-    EffectSetting,
     FillSpec,
     LayerSpec,
     MarkerSpec,
@@ -58,17 +57,13 @@ from dempath_sim.scene_spec import (
     SceneSpec,
     SizeDistribution,
     ToolSpec,
-    base_model,
+    read_effects,
 )
-from dempath_sim.stl import read_stl
 
-__all__ = [
-    'BinSpec', 'EffectSetting', 'FillSpec', 'LayerSpec', 'MarkerSpec', 'MaterialSpec',
-    'NumericsSpec', 'OutputSpec', 'SceneError', 'SceneSpec', 'SizeDistribution', 'ToolSpec',
-    'bundled_scene', 'list_bundled_scenes', 'load_scene', 'read_effects', 'scene_from_dict',
-]
+__all__ = ['bundled_scene', 'list_bundled_scenes', 'load_scene', 'parse_overrides',
+           'resolve_scene', 'scene_from_dict']
 
-DATA_DIR = Path(__file__).resolve().parent / 'data'
+DATA_DIR = Path(__file__).resolve().parents[1] / 'data'
 SCENES_DIR = DATA_DIR / 'scenes'
 BUILTIN_PREFIX = 'builtin:'
 
@@ -87,33 +82,6 @@ def _read_materials(r: Reader) -> dict[str, MaterialSpec]:
     out = {'particles': _read_material(r.section('particles'), False),
            'tool': _read_material(r.section('tool'), True),
            'walls': _read_material(r.section('walls'), True)}
-    r.finish()
-    return out
-
-
-def _read_effect(effect: Effect, r: Reader) -> EffectSetting:
-    enabled = r.flag('enabled', effect.default_enabled)
-    if not enabled and not effect.switchable:
-        r.fail('enabled', f'effect {effect.name!r} is a model parameter and cannot be '
-                          'switched off; change its parameters instead')
-    values = {p.name: r.number(p.name, p.low, p.high, p.default) for p in effect.parameters}
-    r.finish()
-    try:
-        effect.apply(_probe_model(), values)
-    except ValueError as err:
-        r.fail_at(r.path, r.source, str(err))
-    return EffectSetting(enabled, values)
-
-
-def _probe_model() -> PhysicsModel:
-    steel = MaterialSpec(7800.0, 0.3, 2.1e11)
-    return base_model({'particles': MaterialSpec(1734.0, 0.25), 'tool': steel, 'walls': steel})
-
-
-def read_effects(r: Reader) -> dict[str, EffectSetting]:
-    effects = all_effects()
-    out = {name: _read_effect(effect, r.section(name, required=False))
-           for name, effect in effects.items()}
     r.finish()
     return out
 
@@ -325,3 +293,32 @@ def bundled_scene(name: str) -> SceneSpec:
         raise SceneError(f'{name}: no bundled scene of that name; known: '
                          f'{", ".join(list_bundled_scenes())}')
     return load_scene(path)
+
+
+def resolve_scene(text: str) -> SceneSpec:
+    """Load a scene file or a shipped scene (``reduced_1ms``, ``builtin:reduced_1ms``)."""
+    path = Path(text)
+    if text.startswith(BUILTIN_PREFIX):
+        return bundled_scene(text.removeprefix(BUILTIN_PREFIX))
+    if path.is_file() or path.suffix in {'.yaml', '.yml'} or '/' in text:
+        return load_scene(path)
+    if text in list_bundled_scenes():
+        return bundled_scene(text)
+    msg = (f'{text}: neither a scene file nor a shipped scene; shipped: '
+           f'{", ".join(list_bundled_scenes())}')
+    raise SceneError(msg)
+
+
+def parse_overrides(items: list[str]) -> dict[str, float]:
+    """``['cohesion.energy_density_j_m3=5e4']`` -> ``{'cohesion.energy_density_j_m3': 5e4}``."""
+    out = {}
+    for item in items:
+        key, _, value = item.partition('=')
+        try:
+            number = float(value)
+        except ValueError:
+            number = None
+        if number is None or '.' not in key:
+            raise SceneError(f'--effect {item}: expected EFFECT.PARAMETER=NUMBER')
+        out[key.strip()] = number
+    return out

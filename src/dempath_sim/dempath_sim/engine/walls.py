@@ -2,7 +2,7 @@
 
 A sphere of radius r at x touches the plane (point p, normal n) when its signed distance
 s = (x - p) . n is below r; the overlap is delta = r - s and the contact normal is n
-(from the wall to the particle). Contact laws: see `contact.py` (R* = r, m* = m).
+(from the wall to the particle). Contact laws: see `laws/dispatch.py` (R* = r, m* = m).
 """
 
 from __future__ import annotations

@@ -13,10 +13,10 @@ from collections.abc import Sequence
 import numpy as np
 from scipy.spatial import cKDTree
 
-from dempath_sim.materials import pair_properties
-from dempath_sim.params import SimParams
-from dempath_sim.state import SimState
-from dempath_sim.walls import Plane
+from dempath_sim.engine.materials import pair_properties
+from dempath_sim.engine.params import SimParams
+from dempath_sim.engine.state import SimState
+from dempath_sim.engine.walls import Plane
 
 
 def elastic_energy(state: SimState, params: SimParams, walls: Sequence[Plane] = ()) -> float:

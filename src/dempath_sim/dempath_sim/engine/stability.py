@@ -15,10 +15,10 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
+from dempath_sim.engine.params import SimParams
+from dempath_sim.engine.state import SimState
+from dempath_sim.engine.timestep import rayleigh_time_step
 from dempath_sim.errors import SimulationError
-from dempath_sim.params import SimParams
-from dempath_sim.state import SimState
-from dempath_sim.timestep import rayleigh_time_step
 
 
 def stable_time_step(state: SimState, params: SimParams) -> float:

@@ -13,8 +13,8 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
+from dempath_sim.engine.materials import Interaction, Material
 from dempath_sim.errors import SimulationError
-from dempath_sim.materials import Interaction, Material
 
 Vec3 = tuple[float, float, float]
 

@@ -3,7 +3,8 @@
 
 The particles are split into `n_chunks` contiguous ranges (one per thread); the pair (i, j) with
 j > i is resolved once by the chunk owning i, which adds +F to i and -F to j in its own buffer, so
-no two threads write the same memory. `reduce_buffers` sums the buffers. Laws: see `contact.py`.
+no two threads write the same memory. `reduce_buffers` sums the buffers. Laws: see
+`laws/dispatch.py`.
 Lever arms follow LIGGGHTS: the contact point lies r - delta/2 from each centre.
 """
 
@@ -13,8 +14,8 @@ import math
 
 from numba import njit, prange
 
-from dempath_sim.cohesion_sjkr import sjkr_area_pair
-from dempath_sim.contact import resolve_contact
+from dempath_sim.engine.laws.cohesion_sjkr import sjkr_area_pair
+from dempath_sim.engine.laws.dispatch import resolve_contact
 
 
 @njit(parallel=True, fastmath=True, cache=True)

@@ -12,7 +12,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from dempath_sim.boundary import plane_distance, to_tool_frame
+from dempath_sim.engine.boundary import plane_distance, to_tool_frame
 
 # (8, 3) corner k of a box takes hi on axis a where bit a of k is set, lo elsewhere.
 CORNER_BITS = np.array([[(k >> a) & 1 for a in range(3)] for k in range(8)], np.bool_)

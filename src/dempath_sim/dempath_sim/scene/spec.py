@@ -1,4 +1,9 @@
-"""Scene records: frozen dataclasses of a validated scene (read by ``dempath_sim.scene``)."""
+"""Scene records: frozen dataclasses of a validated scene, and the reading of its effects.
+
+The loader (`loader.py`) builds these records; `read_effects` lives here because
+`SceneSpec.with_overrides` re-reads the effect settings, so this module imports nothing back
+from the loader.
+"""
 
 from __future__ import annotations
 
@@ -7,10 +12,11 @@ from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
-from dempath_sim import profiles
-from dempath_sim._reader import Reader, SceneError
-from dempath_sim.effects import PhysicsModel, all_effects
+from dempath_sim.effects import Effect, PhysicsModel, all_effects
 from dempath_sim.effects.base import ContactPair
+from dempath_sim.errors import SceneError
+from dempath_sim.scene import profiles
+from dempath_sim.scene._reader import Reader
 
 
 @dataclass(frozen=True)
@@ -207,8 +213,6 @@ class SceneSpec:
             raw.setdefault(effect, {})['enabled'] = True
         for effect in off:
             raw.setdefault(effect, {})['enabled'] = False
-        from dempath_sim.scene import read_effects  # the parser imports these records
-
         effects = read_effects(Reader(raw, 'effects', 'overrides'))
         return replace(self, effects=effects, seed=self.seed if seed is None else seed)
 
@@ -232,3 +236,31 @@ def base_model(materials: Mapping[str, MaterialSpec]) -> PhysicsModel:
         wall_youngs_modulus_pa=float(w.youngs_modulus_pa or 2.1e11),
         wall_poisson=w.poisson_ratio, particle_particle=neutral, particle_tool=neutral,
         particle_wall=neutral)
+
+
+def _read_effect(effect: Effect, r: Reader) -> EffectSetting:
+    enabled = r.flag('enabled', effect.default_enabled)
+    if not enabled and not effect.switchable:
+        r.fail('enabled', f'effect {effect.name!r} is a model parameter and cannot be '
+                          'switched off; change its parameters instead')
+    values = {p.name: r.number(p.name, p.low, p.high, p.default) for p in effect.parameters}
+    r.finish()
+    try:
+        effect.apply(_probe_model(), values)
+    except ValueError as err:
+        r.fail_at(r.path, r.source, str(err))
+    return EffectSetting(enabled, values)
+
+
+def _probe_model() -> PhysicsModel:
+    steel = MaterialSpec(7800.0, 0.3, 2.1e11)
+    return base_model({'particles': MaterialSpec(1734.0, 0.25), 'tool': steel, 'walls': steel})
+
+
+def read_effects(r: Reader) -> dict[str, EffectSetting]:
+    """Every registered effect's setting from the ``effects`` section (defaults if absent)."""
+    effects = all_effects()
+    out = {name: _read_effect(effect, r.section(name, required=False))
+           for name, effect in effects.items()}
+    r.finish()
+    return out

@@ -19,7 +19,7 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from dempath_sim.params import SimParams
+from dempath_sim.engine.params import SimParams
 
 HERTZ_DURATION_FACTOR = 2.8682  # 2 * integral, Johnson (1985) eq. 11.24
 

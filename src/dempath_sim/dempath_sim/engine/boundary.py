@@ -15,13 +15,13 @@ nearest triangle has no slot but a triangle of its patch held one at the previou
 is re-keyed (LIGGGHTS transfers the shear history between coplanar neighbour faces for the same
 reason; here any triangle of the patch qualifies, so convex edges pass it on too). The carried
 springs are projected on the new tangent plane with their length kept, as between steps (see
-`contact_hertz_mindlin.py`). When all slots are busy the contact runs without history (counted
+`laws/hertz_mindlin.py`). When all slots are busy the contact runs without history (counted
 in `worst[:, 3]`).
-Laws (same as particle-particle, per-pair materials): see `contact.py`, with R* = r and m* = m
-(rigid, infinitely heavy wall). The contact point lies at the wall surface, r - delta from the
-centre; with LIGGGHTS' forms (``SimParams.contact_forms``) the lever arm of the contact velocity
-and torque is r - delta / 2, and the rolling spring grows with omega (r - delta / 2) / (r - delta),
-as LIGGGHTS 3.8 takes them for wall contacts (its `epsd2` uses the scaled wall spin).
+Laws (same as particle-particle, per-pair materials): see `laws/dispatch.py`, with R* = r and
+m* = m (rigid, infinitely heavy wall). The contact point lies at the wall surface, r - delta from
+the centre; with LIGGGHTS' forms (``SimParams.contact_forms``) the lever arm of the contact
+velocity and torque is r - delta / 2, and the rolling spring grows with omega (r - delta / 2) /
+(r - delta), as LIGGGHTS 3.8 takes them for wall contacts (its `epsd2` uses the scaled wall spin).
 The reaction on the tool is summed per chunk: force (3,) and torque (3,)
 about the tool origin. The pass runs over a given list of particles: the engine passes those
 within reach of a plane or the tool until its next list build (`reach.reach_candidates`), having
@@ -33,9 +33,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from dempath_sim.cohesion_sjkr import sjkr_area_wall
-from dempath_sim.contact import TAB_FORMS, resolve_contact
-from dempath_sim.mesh import closest_point_triangle
+from dempath_sim.engine.laws.cohesion_sjkr import sjkr_area_wall
+from dempath_sim.engine.laws.dispatch import TAB_FORMS, resolve_contact
+from dempath_sim.engine.mesh import closest_point_triangle
 
 N_SLOTS = 4  # geometry contacts with history per particle
 MAX_CANDIDATES = 16  # mesh triangles within reach of one particle

@@ -18,8 +18,8 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+from dempath_sim.engine.stl import read_stl
 from dempath_sim.errors import GeometryError
-from dempath_sim.stl import read_stl
 
 MAX_GRID_CELLS = 2_000_000  # the triangle grid is coarsened beyond this
 
