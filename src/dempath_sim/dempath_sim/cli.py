@@ -20,7 +20,7 @@ from typing import Any
 
 from dempath.errors import DempathError
 from dempath_sim.effects import effect_table
-from dempath_sim.run import Progress, RunOptions, run_scene
+from dempath_sim.runs import Progress, RunOptions, run_scene
 from dempath_sim.scene import SceneError, SceneSpec, parse_overrides, resolve_scene
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dempath_sim.markers import (
+from dempath_sim.runs.markers import (
     ROLE_CANDIDATE,
     ROLE_MARKER,
     MarkerSelectionError,

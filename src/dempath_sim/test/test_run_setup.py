@@ -9,8 +9,9 @@ import pytest
 
 from dempath_sim.engine.mesh import TriangleMesh
 from dempath_sim.engine.state import SimState
-from dempath_sim.fill import PARTICLES, TOOL, WALLS, FillReport
-from dempath_sim.run import build_params, carve_tool_slot, tool_start
+from dempath_sim.runs.fill import FillReport
+from dempath_sim.runs.native import carve_tool_slot, tool_start
+from dempath_sim.runs.physics import PARTICLES, TOOL, WALLS, build_params
 from dempath_sim.scene import bundled_scene
 
 

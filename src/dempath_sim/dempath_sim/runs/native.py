@@ -1,13 +1,14 @@
-"""Running a scene end to end: fill (or cached packing), tool, drive, record -> SimResult.
+"""The native backend: a scene end to end on dempath's engine -> SimResult.
 
-:func:`run_scene` is the batch API (the CLI, the node and the diagnosis call it);
-:func:`run_batch` runs several effect settings and seeds one after the other (the engine already
-uses every core). Steps: build the engine parameters from the scene's physics model; fill the
-bin or read the cached packing; pick markers and candidates; insert the tool at its depth (the
-particles inside the tool's bounding box at its start are removed, as if the tool stood in a
-pre-cut slot); drive it with the profile and record the tracked particles, the tool pose, force
-and torque every ``output.interval_s`` and the whole bed every ``output.snapshot_interval_s``.
-Deterministic for a given seed on one machine and thread count.
+`NativeBackend` implements `runs.backend.Backend`; :func:`run_scene` is the same run as a function
+(the CLI and the node call it); :func:`run_batch` runs several effect settings and seeds one after
+the other on any backend (the engine already uses every core). Steps: build the engine parameters
+from the scene's physics model; fill the bin or read the cached packing; pick markers and
+candidates; insert the tool at its depth (the particles inside the tool's bounding box at its start
+are removed, as if the tool stood in a pre-cut slot); drive it with the profile and record the
+tracked particles, the tool pose, force and torque every ``output.interval_s`` and the whole bed
+every ``output.snapshot_interval_s``. Deterministic for a given seed on one machine and thread
+count.
 """
 
 from __future__ import annotations
@@ -17,124 +18,22 @@ import math
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass, field
-from pathlib import Path
-from threading import Event
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
-from dempath_sim.effects import ContactPair, PhysicsModel
-from dempath_sim.engine import Engine, ToolPose
-from dempath_sim.engine.materials import Interaction, Material
-from dempath_sim.engine.mesh import TriangleMesh
-from dempath_sim.engine.params import SimParams
-from dempath_sim.engine.state import SimState
+from dempath_sim.effects import PhysicsModel
+from dempath_sim.engine import Engine, SimParams, SimState, ToolPose, TriangleMesh
 from dempath_sim.errors import RunStoppedError, SimulationError
-from dempath_sim.fill import PARTICLES, TOOL, WALLS, FillReport, bin_walls, fill_bed
-from dempath_sim.markers import MarkerSelection, select_markers
-from dempath_sim.results import Recorder, SimResult
+from dempath_sim.runs.backend import Backend, Frame, Progress, RunOptions
+from dempath_sim.runs.fill import FillReport, fill_bed
+from dempath_sim.runs.markers import MarkerSelection, select_markers
+from dempath_sim.runs.physics import TOOL, bin_walls, build_params
+from dempath_sim.runs.results import Recorder, SimResult
 from dempath_sim.scene.profiles import ToolPath
 from dempath_sim.scene.spec import SceneSpec
 
 logger = logging.getLogger(__name__)
-
-DOMAIN_MARGIN_M = 0.2  # the domain box reaches this far beyond the bin walls [m]
-
-
-@dataclass(frozen=True)
-class Progress:
-    """Progress of a run, passed to the progress callback.
-
-    Attributes:
-        phase: ``fill`` or ``drive``.
-        sim_time_s: Simulated time of the phase so far [s].
-        end_time_s: Simulated time at which the phase ends [s].
-        wall_time_s: Wall-clock time of the phase so far [s].
-    """
-
-    phase: str
-    sim_time_s: float
-    end_time_s: float
-    wall_time_s: float
-
-    @property
-    def real_time_factor(self) -> float:
-        """Simulated seconds per wall-clock second (> 1: faster than real time)."""
-        return self.sim_time_s / self.wall_time_s if self.wall_time_s > 0 else 0.0
-
-
-@dataclass(frozen=True)
-class Frame:
-    """One output frame for streaming consumers (the node).
-
-    Attributes:
-        t: Time since the tool started [s].
-        ids, roles, marker_ids, radii: (n,) of the tracked particles.
-        positions, velocities: (n, 3) [m], [m/s]; NaN when removed.
-        tool_position, tool_velocity, tool_force, tool_torque: (3,) [m], [m/s], [N], [N m].
-    """
-
-    t: float
-    ids: NDArray[np.int64]
-    roles: NDArray[np.uint8]
-    marker_ids: NDArray[np.int32]
-    radii: NDArray[np.float64]
-    positions: NDArray[np.float64]
-    velocities: NDArray[np.float64]
-    tool_position: NDArray[np.float64]
-    tool_velocity: NDArray[np.float64]
-    tool_force: NDArray[np.float64]
-    tool_torque: NDArray[np.float64]
-
-
-@dataclass(frozen=True)
-class RunOptions:
-    """How to run (not what): cache, callbacks and cancellation.
-
-    Attributes:
-        cache_dir: Packing cache; the default cache if None.
-        progress: Called with a Progress about every output interval.
-        on_frame: Called with each output Frame (streaming consumers).
-        stop: Set it to stop the run early: during the drive the result holds the frames so
-            far; during the fill `RunStoppedError` is raised at the next settling check.
-    """
-
-    cache_dir: Path | None = None
-    progress: Callable[[Progress], None] | None = None
-    on_frame: Callable[[Frame], None] | None = None
-    stop: Event | None = field(default=None, compare=False)
-
-
-def _interaction(pair: ContactPair) -> Interaction:
-    return Interaction(restitution=pair.restitution, static_friction=pair.static_friction,
-                       dynamic_friction=pair.dynamic_friction,
-                       rolling_friction=pair.rolling_resistance,
-                       cohesion_energy_density=pair.cohesion_energy_density_j_m3)
-
-
-def build_params(scene: SceneSpec, model: PhysicsModel) -> SimParams:
-    """Engine parameters: materials PARTICLES, WALLS, TOOL and their three interactions."""
-    walls = scene.materials['walls']
-    materials = (
-        Material('particles', model.particle_density_kg_m3, model.particle_youngs_modulus_pa,
-                 model.particle_poisson),
-        Material('walls', walls.density_kg_m3, model.wall_youngs_modulus_pa, model.wall_poisson),
-        Material('tool', model.tool_density_kg_m3, model.tool_youngs_modulus_pa,
-                 model.tool_poisson))
-    floor = -scene.bed_thickness_m
-    w, m = scene.bin.width_x_m / 2, DOMAIN_MARGIN_M
-    return SimParams(
-        materials=materials,
-        interactions={(PARTICLES, PARTICLES): _interaction(model.particle_particle),
-                      (PARTICLES, WALLS): _interaction(model.particle_wall),
-                      (PARTICLES, TOOL): _interaction(model.particle_tool)},
-        dt=scene.sim.time_step_s, rayleigh_safety=scene.sim.rayleigh_safety,
-        max_overlap_fraction=scene.sim.max_overlap_fraction,
-        coulomb_limit=scene.sim.coulomb_limit, contact_forms=scene.sim.contact_forms,
-        domain_min=(-w - m, floor - m, -m),
-        domain_max=(w + m, floor + scene.bin.height_y_m + 2.0, scene.bin.length_z_m + m))
-
 
 def tool_start(scene: SceneSpec, fill: FillReport) -> tuple[float, float, float]:
     """Tip position at time 0 [m]: depth below the settled (or nominal, offset) surface."""
@@ -256,8 +155,18 @@ def drive_tool(drive: _Drive, state: SimState, options: RunOptions) -> SimState:
     return state
 
 
+class NativeBackend:
+    """dempath's own engine as a `Backend` (no settings: threads follow numba's)."""
+
+    name = 'dempath'
+
+    def run(self, scene: SceneSpec, options: RunOptions | None = None) -> SimResult:
+        """`run_scene` (honours every option: cache, progress, frames, stop)."""
+        return run_scene(scene, options)
+
+
 def run_scene(scene: SceneSpec, options: RunOptions | None = None) -> SimResult:
-    """Run ``scene`` end to end and return the tracked trajectories.
+    """Run ``scene`` end to end on dempath's engine and return the tracked trajectories.
 
     Raises:
         SimulationError: The set-up is unstable or a marker has no particle near it.
@@ -296,21 +205,24 @@ class Variant:
 
 
 def run_batch(scene: SceneSpec, variants: Sequence[Variant], seeds: Sequence[int] = (),
-              options: RunOptions | None = None) -> list[tuple[Variant, int, SimResult]]:
+              options: RunOptions | None = None,
+              backend: Backend | None = None) -> list[tuple[Variant, int, SimResult]]:
     """Run every variant with every seed (the scene's seed if none), one after the other.
 
     Packings are shared through the cache, so variants that change only the tool or its speed
-    skip the fill. Returns (variant, seed, result) in the order run.
+    skip the fill. ``backend``: `NativeBackend()` if None. Returns (variant, seed, result) in
+    the order run.
     """
+    backend = backend or NativeBackend()
     out = []
     for variant in variants:
         for seed in (seeds or (scene.seed,)):
             changed = scene.with_overrides(variant.values, off=variant.off, on=variant.on,
                                            seed=seed)
             logger.info('batch: %s seed %d', variant.label, seed)
-            out.append((variant, seed, run_scene(changed, options)))
+            out.append((variant, seed, backend.run(changed, options)))
     return out
 
 
-__all__ = ['Frame', 'Progress', 'RunOptions', 'RunStoppedError', 'SimulationError', 'Variant',
-           'build_params', 'run_batch', 'run_scene']
+__all__ = ['NativeBackend', 'RunStoppedError', 'SimulationError', 'Variant', 'run_batch',
+           'run_id', 'run_scene']

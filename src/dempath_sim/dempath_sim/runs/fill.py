@@ -33,7 +33,7 @@ from dempath_sim.effects import PhysicsModel
 from dempath_sim.engine import Engine
 from dempath_sim.engine.params import SimParams
 from dempath_sim.engine.state import SimState
-from dempath_sim.engine.walls import Plane, box_walls
+from dempath_sim.runs.physics import PARTICLES, bin_walls, scaled_friction
 from dempath_sim.scene.spec import LayerSpec, NumericsSpec, SceneSpec
 
 logger = logging.getLogger(__name__)
@@ -48,7 +48,6 @@ MIN_SETTLE_S = 0.1  # never stop before this much sim time [s]
 # fill has no tool) leave a cached bed an equally valid sample of the same physics, so they keep
 # the version and the shipped packing.
 ENGINE_VERSION = 1
-PARTICLES, WALLS, TOOL = 0, 1, 2  # material indices used by the runs
 
 
 @dataclass(frozen=True)
@@ -91,14 +90,7 @@ def default_cache_dir() -> Path:
 
 def bundled_packing_dir() -> Path:
     """Settled packings shipped with dempath for its bundled scenes (read-only, looked up last)."""
-    return Path(__file__).resolve().parent / 'data' / 'packings'
-
-
-def bin_walls(scene: SceneSpec) -> tuple[Plane, ...]:
-    """Floor and four side walls of the bin (open top), material WALLS."""
-    w, floor = scene.bin.width_x_m / 2, -scene.bed_thickness_m
-    return box_walls((-w, floor, 0.0), (w, floor + scene.bin.height_y_m, scene.bin.length_z_m),
-                     material=WALLS, open_top=True)
+    return Path(__file__).resolve().parents[1] / 'data' / 'packings'
 
 
 def packing_key(scene: SceneSpec, model: PhysicsModel) -> str:
@@ -257,15 +249,6 @@ def settle(engine: Engine, state: SimState, scene: SceneSpec, until_s: float,
     logger.warning('fill: bed still moving (%.3g m/s) after %.2f s; using it anyway', vmax,
                    state.time)
     return state, False
-
-
-def scaled_friction(params: SimParams, factor: float) -> SimParams:
-    """``params`` with friction and rolling resistance of every pair times ``factor``."""
-    table = {key: replace(x, static_friction=x.static_friction * factor,
-                          dynamic_friction=x.dynamic_friction * factor,
-                          rolling_friction=x.rolling_friction * factor)
-             for key, x in params.interactions.items()}
-    return replace(params, interactions=table)
 
 
 def pour_and_settle(scene: SceneSpec, state: SimState, params: SimParams,

@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dempath.errors import OutputError
-from dempath_sim.markers import ROLE_CANDIDATE, ROLE_MARKER
+from dempath_sim.runs.markers import ROLE_CANDIDATE, ROLE_MARKER
 
 F64 = NDArray[np.float64]
 
