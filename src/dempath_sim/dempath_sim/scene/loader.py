@@ -45,20 +45,9 @@ from dempath_sim.engine.params import CONTACT_FORMS, COULOMB_LIMITS
 from dempath_sim.engine.stl import read_stl
 from dempath_sim.errors import GeometryError, SceneError
 from dempath_sim.scene import profiles
+from dempath_sim.scene import spec as records
 from dempath_sim.scene._reader import Reader
-from dempath_sim.scene.spec import (
-    BinSpec,
-    FillSpec,
-    LayerSpec,
-    MarkerSpec,
-    MaterialSpec,
-    NumericsSpec,
-    OutputSpec,
-    SceneSpec,
-    SizeDistribution,
-    ToolSpec,
-    read_effects,
-)
+from dempath_sim.scene.spec import SceneSpec, read_effects
 
 __all__ = ['bundled_scene', 'list_bundled_scenes', 'load_scene', 'parse_overrides',
            'resolve_scene', 'scene_from_dict']
@@ -68,8 +57,8 @@ SCENES_DIR = DATA_DIR / 'scenes'
 BUILTIN_PREFIX = 'builtin:'
 
 
-def _read_material(r: Reader, needs_modulus: bool) -> MaterialSpec:
-    spec = MaterialSpec(
+def _read_material(r: Reader, needs_modulus: bool) -> records.MaterialSpec:
+    spec = records.MaterialSpec(
         density_kg_m3=r.number('density_kg_m3', 1.0, 30000.0, low_open=True),
         poisson_ratio=r.number('poisson_ratio', 0.0, 0.49),
         youngs_modulus_pa=(r.number('youngs_modulus_pa', 1e4, 1e13) if needs_modulus
@@ -78,7 +67,7 @@ def _read_material(r: Reader, needs_modulus: bool) -> MaterialSpec:
     return spec
 
 
-def _read_materials(r: Reader) -> dict[str, MaterialSpec]:
+def _read_materials(r: Reader) -> dict[str, records.MaterialSpec]:
     out = {'particles': _read_material(r.section('particles'), False),
            'tool': _read_material(r.section('tool'), True),
            'walls': _read_material(r.section('walls'), True)}
@@ -137,8 +126,8 @@ def _phase(p: Reader, phase: str, speed: float) -> float:
     return rate
 
 
-def _read_tool(r: Reader, base_dir: Path | None, bin_spec: BinSpec) -> ToolSpec:
-    spec = ToolSpec(
+def _read_tool(r: Reader, base_dir: Path | None, bin_spec: records.BinSpec) -> records.ToolSpec:
+    spec = records.ToolSpec(
         mesh=_resolve_mesh(r.text('mesh'), r, base_dir),
         scale=r.number('scale', 0.0, 100.0, 1.0, low_open=True),
         depth_m=r.number('depth_m', 0.0, bin_spec.height_y_m, low_open=True),
@@ -160,9 +149,9 @@ def _read_tool(r: Reader, base_dir: Path | None, bin_spec: BinSpec) -> ToolSpec:
     return spec
 
 
-def _read_distribution(r: Reader) -> SizeDistribution:
+def _read_distribution(r: Reader) -> records.SizeDistribution:
     kind = r.text('kind', 'mono', ('mono', 'uniform', 'discrete'))
-    dist = SizeDistribution(kind=kind, spread=r.number('spread', 0.0, 0.5, 0.0))
+    dist = records.SizeDistribution(kind=kind, spread=r.number('spread', 0.0, 0.5, 0.0))
     if kind == 'discrete':
         n = len(r.raw('diameters_m'))
         dist = replace(dist, diameters_m=r.vector('diameters_m', n, 1e-5, 1.0),
@@ -173,13 +162,13 @@ def _read_distribution(r: Reader) -> SizeDistribution:
     return dist
 
 
-def _read_layers(raw: Any, source: str) -> tuple[LayerSpec, ...]:
+def _read_layers(raw: Any, source: str) -> tuple[records.LayerSpec, ...]:
     if not isinstance(raw, list) or not raw:
         Reader.fail_at('layers', source, 'expected a non-empty list of layers (bottom to top)')
     layers = []
     for i, item in enumerate(raw):
         r = Reader(item, f'layers[{i}]', source)
-        layers.append(LayerSpec(
+        layers.append(records.LayerSpec(
             name=r.text('name', f'layer{i}'),
             diameter_m=r.number('diameter_m', 1e-5, 1.0, low_open=True),
             thickness_m=r.number('thickness_m', 0.0, 100.0, low_open=True),
@@ -191,8 +180,8 @@ def _read_layers(raw: Any, source: str) -> tuple[LayerSpec, ...]:
     return tuple(layers)
 
 
-def _read_markers(r: Reader, bin_spec: BinSpec) -> MarkerSpec:
-    spec = MarkerSpec(
+def _read_markers(r: Reader, bin_spec: records.BinSpec) -> records.MarkerSpec:
+    spec = records.MarkerSpec(
         rows=r.integer('rows', 1, 20, 3), columns=r.integer('columns', 1, 50, 5),
         spacing_x_m=r.number('spacing_x_m', 0.0, bin_spec.width_x_m, 0.05, low_open=True),
         spacing_z_m=r.number('spacing_z_m', 0.0, bin_spec.length_z_m, 0.05, low_open=True),
@@ -211,7 +200,7 @@ def _read_markers(r: Reader, bin_spec: BinSpec) -> MarkerSpec:
 
 def _read_sections(r: Reader, source: str, base_dir: Path | None) -> dict[str, Any]:
     bin_r = r.section('bin')
-    bin_spec = BinSpec(bin_r.number('width_x_m', 0.0, 100.0, low_open=True),
+    bin_spec = records.BinSpec(bin_r.number('width_x_m', 0.0, 100.0, low_open=True),
                        bin_r.number('length_z_m', 0.0, 1000.0, low_open=True),
                        bin_r.number('height_y_m', 0.0, 100.0, low_open=True))
     bin_r.finish()
@@ -222,15 +211,15 @@ def _read_sections(r: Reader, source: str, base_dir: Path | None) -> dict[str, A
         effects=read_effects(r.section('effects', required=False)),
         tool=_read_tool(r.section('tool'), base_dir, bin_spec),
         markers=_read_markers(r.section('markers'), bin_spec),
-        fill=FillSpec(f.maybe_number('bulk_density_target_kg_m3', 1.0, 30000.0),
+        fill=records.FillSpec(f.maybe_number('bulk_density_target_kg_m3', 1.0, 30000.0),
                       f.number('tolerance', 0.0, 1.0, 0.1, low_open=True),
                       f.number('settle_speed_m_s', 0.0, 10.0, 0.02, low_open=True),
                       f.number('max_settle_time_s', 0.0, 100.0, 3.0, low_open=True),
                       f.flag('cache', True), f.number('friction_scale', 0.0, 1.0, 1.0)),
-        output=OutputSpec(o.number('interval_s', 0.0, 10.0, 0.01, low_open=True),
+        output=records.OutputSpec(o.number('interval_s', 0.0, 10.0, 0.01, low_open=True),
                           o.number('snapshot_interval_s', 0.0, 100.0, 0.1, low_open=True),
                           o.flag('candidates', True)),
-        sim=NumericsSpec(s.maybe_number('time_step_s', 0.0, 0.1, low_open=True),
+        sim=records.NumericsSpec(s.maybe_number('time_step_s', 0.0, 0.1, low_open=True),
                          s.number('rayleigh_safety', 0.0, 1.0, 0.2, low_open=True),
                          s.number('max_overlap_fraction', 0.0, 1.0, 0.3, low_open=True),
                          s.text('coulomb_limit', 'total', choices=COULOMB_LIMITS),

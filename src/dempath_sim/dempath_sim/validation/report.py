@@ -18,8 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from dempath_sim.validation import energy, impact, incline, repose
-from dempath_sim.validation.cli import CASES
+from dempath_sim.validation import CASES, energy, impact, incline, repose
 from dempath_sim.validation.cross_engine import CrossEngineReport
 
 logger = logging.getLogger(__name__)
