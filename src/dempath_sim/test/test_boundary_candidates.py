@@ -24,8 +24,8 @@ STEEL = Material('steel', 7800.0, 2.1e11, 0.3)
 RADIUS = 2.0e-3  # m
 PITCH = 5.0e-3  # m, lattice spacing of the bed (1 mm gaps: room to rearrange)
 PARAMS = SimParams((GRAIN, STEEL), {
-    (0, 0): Interaction(0.3, 0.71, 0.59, rolling_friction=0.26),
-    (0, 1): Interaction(0.3, 0.4, 0.3, rolling_friction=0.1)}, max_overlap_fraction=0.2)
+    (0, 0): Interaction(0.3, 0.71, 0.59, rolling_resistance=0.26),
+    (0, 1): Interaction(0.3, 0.4, 0.3, rolling_resistance=0.1)}, max_overlap_fraction=0.2)
 TOOL_SPEED = 0.5  # m/s along -Z
 
 

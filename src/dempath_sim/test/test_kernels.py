@@ -18,8 +18,8 @@ from dempath_sim.engine.params import SimParams
 
 MATS = (Material('sand', 2650.0, 5.0e6, 0.25), Material('steel', 7800.0, 2.1e11, 0.3))
 PARAMS = SimParams(MATS, {
-    (0, 0): Interaction(0.3, 0.71, 0.59, rolling_friction=0.26, cohesion_energy_density=3e4),
-    (0, 1): Interaction(0.3, 0.4, 0.3, rolling_friction=0.1, cohesion_energy_density=1e4)})
+    (0, 0): Interaction(0.3, 0.71, 0.59, rolling_resistance=0.26, cohesion_energy_density=3e4),
+    (0, 1): Interaction(0.3, 0.4, 0.3, rolling_resistance=0.1, cohesion_energy_density=1e4)})
 
 
 def reference_contact(row: np.ndarray, delta: float, r_eff: float, m_eff: float, area: float,

@@ -46,7 +46,7 @@ def test_energy_drift_below_one_percent_with_restitution_one() -> None:
 def test_momentum_conserved_without_walls_and_gravity() -> None:
     """A colliding cluster with friction, damping, rolling resistance and cohesion keeps its
     linear and angular momentum (no walls, no gravity)."""
-    inter = Interaction(0.4, 0.6, 0.5, rolling_friction=0.2, cohesion_energy_density=2.0e4)
+    inter = Interaction(0.4, 0.6, 0.5, rolling_resistance=0.2, cohesion_energy_density=2.0e4)
     params = SimParams((GRAIN,), {(0, 0): inter}, gravity=(0.0, 0.0, 0.0),
                        max_overlap_fraction=0.2)
     rng = np.random.default_rng(2)

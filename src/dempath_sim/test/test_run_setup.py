@@ -27,7 +27,7 @@ def test_params_carry_the_paper_tables() -> None:
     assert params.materials[PARTICLES].youngs_modulus == pytest.approx(1.7e6)
     assert params.materials[TOOL].density == 7800
     pp, pt = params.interaction(PARTICLES, PARTICLES), params.interaction(PARTICLES, TOOL)
-    assert (pp.static_friction, pp.dynamic_friction, pp.rolling_friction) == (0.71, 0.59, 0.26)
+    assert (pp.static_friction, pp.dynamic_friction, pp.rolling_resistance) == (0.71, 0.59, 0.26)
     assert (pt.static_friction, pt.dynamic_friction, pt.restitution) == (0.40, 0.30, 0.30)
     assert params.interaction(PARTICLES, WALLS).static_friction == 0.40
     assert params.domain_min[1] < -scene.bed_thickness_m

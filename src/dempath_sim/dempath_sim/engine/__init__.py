@@ -12,7 +12,12 @@ from dempath_sim.engine.energy import elastic_energy, total_energy
 from dempath_sim.engine.engine import Engine
 from dempath_sim.engine.materials import Interaction, Material
 from dempath_sim.engine.mesh import TriangleMesh
-from dempath_sim.engine.params import CONTACT_FORMS, COULOMB_LIMITS, SimParams
+from dempath_sim.engine.params import (
+    CONTACT_FORMS,
+    COULOMB_LIMITS,
+    DEFAULT_MAX_OVERLAP_FRACTION,
+    SimParams,
+)
 from dempath_sim.engine.state import SimState
 from dempath_sim.engine.stl import read_stl
 from dempath_sim.engine.timestep import rayleigh_time_step
@@ -22,6 +27,7 @@ from dempath_sim.engine.walls import Plane, box_walls
 __all__ = [
            'CONTACT_FORMS',
            'COULOMB_LIMITS',
+           'DEFAULT_MAX_OVERLAP_FRACTION',
            'Engine',
            'Interaction',
            'Material',

@@ -61,14 +61,15 @@ class Interaction:
         restitution: Normal coefficient of restitution e [-], in (0, 1].
         static_friction: Coulomb coefficient for sticking mu_s [-], >= dynamic_friction.
         dynamic_friction: Coulomb coefficient while sliding mu_d [-].
-        rolling_friction: Rolling resistance coefficient mu_r [-] (EPSD2 / type C); 0 = off.
+        rolling_resistance: Rolling resistance coefficient mu_r [-] (EPSD2 / type C); 0 = off
+            (the effect ``rolling_resistance``; LIGGGHTS' ``coefficientRollingFriction``).
         cohesion_energy_density: SJKR cohesion energy density k_c [J/m^3]; 0 = off.
     """
 
     restitution: float
     static_friction: float
     dynamic_friction: float
-    rolling_friction: float = 0.0
+    rolling_resistance: float = 0.0
     cohesion_energy_density: float = 0.0
 
     def __post_init__(self) -> None:
@@ -77,7 +78,7 @@ class Interaction:
         _check_range(owner, 'restitution', self.restitution, 1e-6, 1.0)
         _check_range(owner, 'static_friction', self.static_friction, 0.0, 10.0)
         _check_range(owner, 'dynamic_friction', self.dynamic_friction, 0.0, 10.0)
-        _check_range(owner, 'rolling_friction', self.rolling_friction, 0.0, 10.0)
+        _check_range(owner, 'rolling_resistance', self.rolling_resistance, 0.0, 10.0)
         _check_range(owner, 'cohesion_energy_density', self.cohesion_energy_density, 0.0, 1e12)
         if self.dynamic_friction > self.static_friction:
             msg = (f'Interaction.dynamic_friction ({self.dynamic_friction!r}) must not exceed '

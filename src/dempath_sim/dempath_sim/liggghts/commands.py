@@ -97,7 +97,7 @@ def materials(params: SimParams, friction: str = 'static') -> list[str]:
         _pair_matrix(params, 'coefficientFriction', f'{friction}_friction'),
     ]
     if params.rolling_enabled:
-        lines.append(_pair_matrix(params, 'coefficientRollingFriction', 'rolling_friction'))
+        lines.append(_pair_matrix(params, 'coefficientRollingFriction', 'rolling_resistance'))
     if params.cohesion_enabled:
         lines.append(_pair_matrix(params, 'cohesionEnergyDensity', 'cohesion_energy_density'))
     return lines

@@ -21,7 +21,7 @@ DOMAIN_MARGIN_M = 0.2  # the domain box reaches this far beyond the bin walls [m
 def _interaction(pair: ContactPair) -> Interaction:
     return Interaction(restitution=pair.restitution, static_friction=pair.static_friction,
                        dynamic_friction=pair.dynamic_friction,
-                       rolling_friction=pair.rolling_resistance,
+                       rolling_resistance=pair.rolling_resistance,
                        cohesion_energy_density=pair.cohesion_energy_density_j_m3)
 
 
@@ -59,6 +59,6 @@ def scaled_friction(params: SimParams, factor: float) -> SimParams:
     """``params`` with friction and rolling resistance of every pair times ``factor``."""
     table = {key: replace(x, static_friction=x.static_friction * factor,
                           dynamic_friction=x.dynamic_friction * factor,
-                          rolling_friction=x.rolling_friction * factor)
+                          rolling_resistance=x.rolling_resistance * factor)
              for key, x in params.interactions.items()}
     return replace(params, interactions=table)

@@ -41,7 +41,11 @@ from typing import Any
 
 import yaml
 
-from dempath_sim.engine.params import CONTACT_FORMS, COULOMB_LIMITS
+from dempath_sim.engine.params import (
+    CONTACT_FORMS,
+    COULOMB_LIMITS,
+    DEFAULT_MAX_OVERLAP_FRACTION,
+)
 from dempath_sim.engine.stl import read_stl
 from dempath_sim.errors import GeometryError, SceneError
 from dempath_sim.scene import profiles
@@ -201,8 +205,8 @@ def _read_markers(r: Reader, bin_spec: records.BinSpec) -> records.MarkerSpec:
 def _read_sections(r: Reader, source: str, base_dir: Path | None) -> dict[str, Any]:
     bin_r = r.section('bin')
     bin_spec = records.BinSpec(bin_r.number('width_x_m', 0.0, 100.0, low_open=True),
-                       bin_r.number('length_z_m', 0.0, 1000.0, low_open=True),
-                       bin_r.number('height_y_m', 0.0, 100.0, low_open=True))
+                               bin_r.number('length_z_m', 0.0, 1000.0, low_open=True),
+                               bin_r.number('height_y_m', 0.0, 100.0, low_open=True))
     bin_r.finish()
     f, o, s = r.section('fill', False), r.section('output', False), r.section('sim', False)
     out: dict[str, Any] = dict(
@@ -212,18 +216,21 @@ def _read_sections(r: Reader, source: str, base_dir: Path | None) -> dict[str, A
         tool=_read_tool(r.section('tool'), base_dir, bin_spec),
         markers=_read_markers(r.section('markers'), bin_spec),
         fill=records.FillSpec(f.maybe_number('bulk_density_target_kg_m3', 1.0, 30000.0),
-                      f.number('tolerance', 0.0, 1.0, 0.1, low_open=True),
-                      f.number('settle_speed_m_s', 0.0, 10.0, 0.02, low_open=True),
-                      f.number('max_settle_time_s', 0.0, 100.0, 3.0, low_open=True),
-                      f.flag('cache', True), f.number('friction_scale', 0.0, 1.0, 1.0)),
-        output=records.OutputSpec(o.number('interval_s', 0.0, 10.0, 0.01, low_open=True),
-                          o.number('snapshot_interval_s', 0.0, 100.0, 0.1, low_open=True),
-                          o.flag('candidates', True)),
-        sim=records.NumericsSpec(s.maybe_number('time_step_s', 0.0, 0.1, low_open=True),
-                         s.number('rayleigh_safety', 0.0, 1.0, 0.2, low_open=True),
-                         s.number('max_overlap_fraction', 0.0, 1.0, 0.3, low_open=True),
-                         s.text('coulomb_limit', 'total', choices=COULOMB_LIMITS),
-                         s.text('contact_forms', 'dempath', choices=CONTACT_FORMS)))
+                              f.number('tolerance', 0.0, 1.0, 0.1, low_open=True),
+                              f.number('settle_speed_m_s', 0.0, 10.0, 0.02, low_open=True),
+                              f.number('max_settle_time_s', 0.0, 100.0, 3.0, low_open=True),
+                              f.flag('cache', True), f.number('friction_scale', 0.0, 1.0, 1.0)),
+        output=records.OutputSpec(
+            o.number('interval_s', 0.0, 10.0, 0.01, low_open=True),
+            o.number('snapshot_interval_s', 0.0, 100.0, 0.1, low_open=True),
+            o.flag('candidates', True)),
+        sim=records.NumericsSpec(
+            s.maybe_number('time_step_s', 0.0, 0.1, low_open=True),
+            s.number('rayleigh_safety', 0.0, 1.0, 0.2, low_open=True),
+            s.number('max_overlap_fraction', 0.0, 1.0, DEFAULT_MAX_OVERLAP_FRACTION,
+                     low_open=True),
+            s.text('coulomb_limit', 'total', choices=COULOMB_LIMITS),
+            s.text('contact_forms', 'dempath', choices=CONTACT_FORMS)))
     for sub in (f, o, s):
         sub.finish()
     return out

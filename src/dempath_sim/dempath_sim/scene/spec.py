@@ -14,6 +14,7 @@ from typing import Any
 
 from dempath_sim.effects import Effect, PhysicsModel, all_effects
 from dempath_sim.effects.base import ContactPair
+from dempath_sim.engine.params import DEFAULT_MAX_OVERLAP_FRACTION
 from dempath_sim.errors import SceneError
 from dempath_sim.scene import profiles
 from dempath_sim.scene._reader import Reader
@@ -155,7 +156,7 @@ class NumericsSpec:
 
     time_step_s: float | None = None
     rayleigh_safety: float = 0.2
-    max_overlap_fraction: float = 0.3
+    max_overlap_fraction: float = DEFAULT_MAX_OVERLAP_FRACTION
     coulomb_limit: str = 'total'  # 'total' (spring + dashpot) or 'spring' (LIGGGHTS 3.8)
     contact_forms: str = 'dempath'  # 'dempath' or 'liggghts' (see SimParams.contact_forms)
 

@@ -42,7 +42,7 @@ def build_pair_table(params: SimParams) -> NDArray[np.float64]:
             e_star, g_star = props.effective_youngs, props.effective_shear
             beta = inter.damping_beta
             tab[i, j] = (e_star, g_star, beta, inter.static_friction, inter.dynamic_friction,
-                         inter.rolling_friction, inter.cohesion_energy_density, 1.0,
+                         inter.rolling_resistance, inter.cohesion_energy_density, 1.0,
                          *hertz_mindlin_constants(e_star, g_star, beta),
                          1.0 if params.coulomb_limit == 'spring' else 0.0,
                          1.0 if params.contact_forms == 'liggghts' else 0.0)
