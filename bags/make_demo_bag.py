@@ -20,10 +20,10 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-from dempath.bagio import make_typestore, write_bag
 from numpy.typing import NDArray
 
 from dempath import topics
+from dempath.bagio import make_typestore, write_bag
 
 WIDTH, HEIGHT, FPS, SECONDS = 640, 360, 50, 2.0
 START_NS = 1_700_000_000_000_000_000  # fixed epoch so that the bag is reproducible
