@@ -1,7 +1,7 @@
 """Benchmark of pixel-to-3D reconstruction on the digital twin (issue #5 targets).
 
 A paper-size calibration point set (94,939 board-corner samples, 0.2 px corner noise) comes from
-``dempath_calib.twin.synthetic_point_set`` (true board corners projected through ``paper_rig``);
+``dempath_twin.views.synthetic_point_set`` (true board corners projected through ``paper_rig``);
 4,149 rows are held out as in the paper. Every method is fitted on the other 90,790 rows with no
 access to the true cameras (the triangulation methods resect them from the training rows), then
 scored on the held-out rows: mean / SD / max 3D error [mm], R2 per axis, training wall time and
@@ -34,8 +34,6 @@ import numpy as np
 import torch
 
 from dempath_calib.camera import CameraModel
-from dempath_calib.rig import paper_rig
-from dempath_calib.twin import synthetic_point_set
 from dempath_recon.methods import make_reconstructor
 from dempath_recon.report import (
     PAPER_TABLE5,
@@ -47,6 +45,8 @@ from dempath_recon.report import (
 )
 from dempath_recon.triangulate import DLTTriangulator
 from dempath_recon.uncertainty import CLICK_SIGMA_PX, coverage, propagate
+from dempath_twin.rig import paper_rig
+from dempath_twin.views import synthetic_point_set
 
 N_SAMPLES = 94_939  # the paper's point set size
 TARGET_MEAN_MM, TARGET_MAX_MM, TARGET_TRAIN_S, TARGET_PPS = 0.5, 3.0, 120.0, 100_000

@@ -17,14 +17,13 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from dempath_calib.board import PAPER_BOARD, BoardKind, BoardSpec, CornerDetector
+from dempath_calib.board import PAPER_BOARD, SURFACE_ROT, BoardKind, BoardSpec, CornerDetector
 from dempath_calib.camera import CameraModel, StereoCalibration
 from dempath_calib.errors import CalibrationError
 from dempath_calib.intrinsics import DistortionModel, IntrinsicResult, calibrate_intrinsics
 from dempath_calib.pairing import DetectionStream, pair_frames
 from dempath_calib.pointset import PointSet, make_point_set
 from dempath_calib.stereo import StereoResult, bundle_adjust
-from dempath_calib.twin import SURFACE_ROT
 from dempath_calib.verify import distance_summary, neighbour_distances
 
 LOG = logging.getLogger(__name__)

@@ -1,5 +1,5 @@
-"""``dempath calibrate`` (calibrate from a bag, frame folder or two videos) and ``dempath rig``
-(the twin rig's cameras, or its calibration bag with the truth)."""
+"""``dempath calibrate``: calibrate from a bag, frame folder or two videos (``dempath rig``, the
+twin's calibration recording, is in dempath_twin)."""
 
 from __future__ import annotations
 
@@ -10,9 +10,7 @@ import sys
 from collections.abc import Iterator
 from dataclasses import replace
 from itertools import chain
-from pathlib import Path
 
-import yaml  # type: ignore[import-untyped]
 from tqdm import tqdm
 
 from dempath.errors import DempathError
@@ -21,9 +19,7 @@ from dempath_calib.calibrator import CalibrationConfig, Calibrator
 from dempath_calib.errors import CalibrationError
 from dempath_calib.intrinsics import DistortionModel
 from dempath_calib.outputs import save_result
-from dempath_calib.rig import paper_rig
 from dempath_calib.sources import Frame, open_source
-from dempath_calib.twinbag import truth_path, write_calibration_bag
 
 BOARDS = {'paper': PAPER_BOARD, 'caliscope': CALISCOPE_BOARD}
 
@@ -122,30 +118,3 @@ def _collect(cal: Calibrator, first: Frame, frames: Iterator[Frame], total: int,
             counts[cam] += 1
             bar.update(1)
             bar.set_postfix_str(cal.progress().line(), refresh=False)
-
-
-def rig_main(argv: list[str]) -> int:
-    """``dempath rig [OUT_BAG]``: print the twin rig's cameras, or write its calibration bag."""
-    p = argparse.ArgumentParser(prog='dempath rig', description='The twin rig: print its true '
-                                'cameras (YAML), or render its calibration recording into a '
-                                'rosbag2 MCAP bag with the truth JSON beside it.')
-    p.add_argument('bag', nargs='?', help='bag folder to create')
-    p.add_argument('--views', type=int, default=40, help='board poses')
-    p.add_argument('--seed', type=int, default=0)
-    p.add_argument('--raw', action='store_true', help='mono8 Image instead of JPEG')
-    p.add_argument('--front-delay', type=float, default=0.0, help='front clock delay [s]')
-    p.add_argument('--quality', type=int, default=92, help='JPEG quality (0-100)')
-    args = p.parse_args(argv)
-    if args.bag is None:
-        print(yaml.safe_dump(paper_rig().to_dict(), sort_keys=False))
-        return 0
-    if Path(args.bag).exists():
-        print(f'error: {args.bag}: already exists', file=sys.stderr)
-        return 1
-    if args.views < 1:
-        print(f'error: --views: must be >= 1, got {args.views}', file=sys.stderr)
-        return 1
-    bag = write_calibration_bag(args.bag, args.views, args.seed, not args.raw,
-                                front_delay_s=args.front_delay, quality=args.quality)
-    print(json.dumps({'bag': str(bag), 'truth': str(truth_path(bag))}))
-    return 0
