@@ -21,7 +21,7 @@ from collections.abc import Mapping
 from typing import Any, NamedTuple
 
 SPEED_IN_NAME = re.compile(r'(\d+(?:[._p]\d+)?)\s*_?m_?(?:/|p|per)?_?s(?![a-z])')
-SEED_IN_RUN_ID = re.compile(r'-s(\d+)-[0-9a-f]{8}$')  # dempath_sim.run.run_id's form
+SEED_IN_RUN_ID = re.compile(r'-s(\d+)-[0-9a-f]{8}$')  # dempath_sim.runs.run_id's form
 
 
 class RunInfo(NamedTuple):
