@@ -35,8 +35,8 @@ def simulate_hidden(scene: str, out: Path) -> Path:
     Uses the simulator's Python API (the scene loader and the native run), as ``dempath
     simulate`` does, without its progress bar.
     """
-    from dempath_sim.scene import resolve_scene
     from dempath_sim.runs import run_scene
+    from dempath_sim.scene import resolve_scene
 
     spec = resolve_scene(scene).with_overrides(HIDDEN['effects'], on=HIDDEN['on'],
                                                seed=HIDDEN['seed'])
