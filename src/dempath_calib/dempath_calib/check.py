@@ -11,18 +11,28 @@ frames.
 from __future__ import annotations
 
 import tomllib
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from dempath_calib.board import BoardSpec
+from dempath_calib.board import BoardSpec, CornerDetector
 from dempath_calib.camera import CameraModel, StereoCalibration
 from dempath_calib.errors import CalibrationError, CalibrationFileError
+from dempath_calib.intrinsics import IntrinsicResult
 from dempath_calib.pairing import DetectionStream, pair_frames
-from dempath_calib.rigidity import RigidityResult, board_rigidity, frame_epipolar_errors
+from dempath_calib.rigidity import (
+    MIN_CORNERS,
+    RigidityResult,
+    board_rigidity,
+    frame_epipolar_errors,
+)
+from dempath_calib.sources import Frame
+from dempath_calib.stereo import bundle_adjust
 from dempath_calib.syncmotion import MotionOffset, board_trajectory, motion_offset
 
 FloatArray = NDArray[np.float64]
@@ -102,6 +112,35 @@ def estimate_offset(streams: tuple[DetectionStream, DetectionStream], calib: Ste
         raise CalibrationError(msg)
     return motion_offset(ts, board_trajectory(cs, calib.side, board), tf,
                          board_trajectory(cf, calib.front, board), max_offset_s)
+
+
+def detect_streams(frames: Iterable[Frame], board: BoardSpec,
+                   min_corners: int = MIN_CORNERS) -> tuple[DetectionStream, DetectionStream]:
+    """Both cameras' board detections with at least ``min_corners`` corners, by camera."""
+    detector = CornerDetector(board)
+    streams = (DetectionStream(board.n_corners), DetectionStream(board.n_corners))
+    for cam, stamp, image in frames:
+        corners = detector.detect(image)
+        if np.isfinite(corners[:, 0]).sum() >= min_corners:
+            streams[cam].add(stamp, corners)
+    return streams
+
+
+def refit_relative_pose(calib: StereoCalibration, corners: FloatArray, board: BoardSpec,
+                        min_corners: int = 6) -> StereoCalibration:
+    """``calib``'s intrinsics kept, the front camera's pose re-estimated from ``corners``.
+
+    A bundle adjustment (``stereo.bundle_adjust``) with every intrinsic fixed; the result is in
+    the side camera's frame. Tells whether a calibration's relative pose or its intrinsics make
+    it fail the checks.
+    """
+    intr = [IntrinsicResult(c.K, c.dist, float('nan'), np.zeros(0), np.zeros(0, np.int64),
+                            np.zeros((0, 3)), np.zeros((0, 3))) for c in calib.cameras]
+    st = bundle_adjust(corners, board, intr, np.zeros((2, 9), bool), min_corners)
+    rot = np.asarray(cv2.Rodrigues(st.rel_rvec)[0], np.float64)
+    return StereoCalibration(calib.side.with_pose(np.eye(3), np.zeros(3)),
+                             calib.front.with_pose(rot, st.rel_t),
+                             {'rmse_px': st.rmse_px.tolist()})
 
 
 def check_calibrations(calibs: dict[str, StereoCalibration], corners: FloatArray,

@@ -16,17 +16,15 @@ from pathlib import Path
 from typing import Any
 
 from dempath.errors import DempathError
-from dempath_calib.board import CornerDetector
 from dempath_calib.check import (
     CalibrationCheck,
     check_calibrations,
+    detect_streams,
     estimate_offset,
     load_calibration,
     pair_streams,
 )
 from dempath_calib.cli import add_board_options, board_from_args
-from dempath_calib.pairing import DetectionStream
-from dempath_calib.rigidity import MIN_CORNERS
 from dempath_calib.sources import open_source
 
 
@@ -48,24 +46,14 @@ def calib_check_parser() -> argparse.ArgumentParser:
     return p
 
 
-def _detect(args: argparse.Namespace, detector: CornerDetector,
-            n_corners: int) -> tuple[DetectionStream, DetectionStream]:
-    """Both cameras' board detections with at least ``MIN_CORNERS`` corners."""
-    streams = (DetectionStream(n_corners), DetectionStream(n_corners))
-    for cam, stamp, image in open_source(args.inputs, args.fps, args.timestamps).frames():
-        corners = detector.detect(image)
-        if (corners[:, 0] == corners[:, 0]).sum() >= MIN_CORNERS:
-            streams[cam].add(stamp, corners)
-    return streams
-
-
 def calib_check_main(argv: list[str]) -> int:
-    """Run the checks and print them (rich tables, or one JSON line with ``--json``)."""
+    """Board rigidity and epipolar error of calibrations on a recording (rich tables or JSON)."""
     args = calib_check_parser().parse_args(argv)
     try:
         board = board_from_args(args)
         calibs = {p: load_calibration(p) for p in [args.calib, *args.against]}
-        streams = _detect(args, CornerDetector(board), board.n_corners)
+        source = open_source(args.inputs, args.fps, args.timestamps)
+        streams = detect_streams(source.frames(), board)
         out: dict[str, Any] = {'pairings': {}}
         offsets = {'recorded': 0.0}
         if args.offset == 'auto':
