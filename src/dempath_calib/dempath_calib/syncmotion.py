@@ -123,10 +123,23 @@ def motion_offset(stamps_a: FloatArray, traj_a: FloatArray, stamps_b: FloatArray
     zero = motion_mismatch_mm(stamps_a, traj_a, stamps_b, traj_b, 0.0)[0]
     if not np.isfinite(curve).any():
         return MotionOffset(float('nan'), float('nan'), zero, cand, curve)
-    best = int(np.nanargmin(curve))
-    offset = float(cand[best])
-    if 0 < best < len(cand) - 1 and np.isfinite(curve[best - 1:best + 2]).all():
-        y0, y1, y2 = curve[best - 1:best + 2]
-        den = y0 - 2 * y1 + y2
-        offset += float(0.5 * (y0 - y2) / den * step_s) if den > 0 else 0.0
+    offset, best = grid_minimum(cand, curve)
     return MotionOffset(offset, float(curve[best]), zero, cand, curve)
+
+
+def grid_minimum(x: FloatArray, y: FloatArray) -> tuple[float, int]:
+    """Minimum of ``y`` over the evenly spaced grid ``x``, refined by a parabola.
+
+    The parabola goes through the lowest finite point and its two neighbours:
+    ``x* = x_i + 0.5 h (y_(i-1) - y_(i+1)) / (y_(i-1) - 2 y_i + y_(i+1))`` (grid step ``h``).
+
+    Returns:
+        ``(x*, i)`` with ``i`` the index of the lowest grid point.
+    """
+    best = int(np.nanargmin(y))
+    out = float(x[best])
+    if 0 < best < len(x) - 1 and np.isfinite(y[best - 1:best + 2]).all():
+        y0, y1, y2 = y[best - 1:best + 2]
+        den = y0 - 2 * y1 + y2
+        out += float(0.5 * (y0 - y2) / den * (x[1] - x[0])) if den > 0 else 0.0
+    return out, best
