@@ -26,6 +26,7 @@ setup(
         ],
         'dempath.commands': [
             'calibrate = dempath_calib.cli:calibrate_main',
+            'calib-check = dempath_calib.checkcli:calib_check_main',
         ],
     },
 )

@@ -24,7 +24,21 @@ from dempath_calib.sources import Frame, open_source
 BOARDS = {'paper': PAPER_BOARD, 'caliscope': CALISCOPE_BOARD}
 
 
-def _board(args: argparse.Namespace) -> BoardSpec:
+def add_board_options(p: argparse.ArgumentParser) -> None:
+    """The board options shared by ``dempath calibrate`` and ``dempath calib-check``."""
+    p.add_argument('--board', choices=sorted(BOARDS), default='paper',
+                   help='preset board (paper: 7x5 40.4 mm DICT_5X5_100)')
+    p.add_argument('--columns', type=int, help='squares along x')
+    p.add_argument('--rows', type=int, help='squares along y')
+    p.add_argument('--square', type=float, help='square side [m]')
+    p.add_argument('--marker', type=float, help='marker side [m]')
+    p.add_argument('--dictionary', help='OpenCV dictionary, e.g. DICT_5X5_100')
+    p.add_argument('--chessboard', action='store_true', help='plain chessboard target')
+    p.add_argument('--inverted', action='store_true', help='board printed white on black')
+
+
+def board_from_args(args: argparse.Namespace) -> BoardSpec:
+    """The board of ``add_board_options``' options: the preset with the given changes."""
     board = BOARDS[args.board]
     changes = {k: v for k, v in (('columns', args.columns), ('rows', args.rows),
                                  ('square_m', args.square), ('marker_m', args.marker),
@@ -43,15 +57,7 @@ def calibrate_parser() -> argparse.ArgumentParser:
                                 'videos (side first).')
     p.add_argument('inputs', nargs='+', help='bag | frame folder | side.mp4 front.mp4')
     p.add_argument('--out', required=True, help='output folder')
-    p.add_argument('--board', choices=sorted(BOARDS), default='paper',
-                   help='preset board (paper: 7x5 40.4 mm DICT_5X5_100)')
-    p.add_argument('--columns', type=int, help='squares along x')
-    p.add_argument('--rows', type=int, help='squares along y')
-    p.add_argument('--square', type=float, help='square side [m]')
-    p.add_argument('--marker', type=float, help='marker side [m]')
-    p.add_argument('--dictionary', help='OpenCV dictionary, e.g. DICT_5X5_100')
-    p.add_argument('--chessboard', action='store_true', help='plain chessboard target')
-    p.add_argument('--inverted', action='store_true', help='board printed white on black')
+    add_board_options(p)
     p.add_argument('--distortion', default='k1k2p1p2k3',
                    choices=[m.value for m in DistortionModel], help='distortion model')
     p.add_argument('--world', default='surface', choices=['surface', 'side'],
@@ -71,7 +77,8 @@ def calibrate_parser() -> argparse.ArgumentParser:
 def _config(args: argparse.Namespace, size: tuple[int, int]) -> CalibrationConfig:
     try:
         offset = None if args.offset == 'auto' else float(args.offset)
-        return CalibrationConfig(board=_board(args), distortion=DistortionModel(args.distortion),
+        return CalibrationConfig(board=board_from_args(args),
+                                 distortion=DistortionModel(args.distortion),
                                  world=args.world, offset_s=offset, image_size=size,
                                  min_views=args.min_views, max_offset_s=args.max_offset)
     except ValueError as err:
