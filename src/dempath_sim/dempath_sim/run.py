@@ -98,12 +98,19 @@ class RunOptions:
         on_frame: Called with each output Frame (streaming consumers).
         stop: Set it to stop the run early: during the drive the result holds the frames so
             far; during the fill `RunStoppedError` is raised at the next settling check.
+        follow_s: Time to go on recording after the tool has stopped at the end of its travel
+            (the bed still moves) [s]; the tool stays where it stopped.
+        fill_scene: Fill (or read the cached packing of) this scene instead of the run's own,
+            e.g. the baseline of a diagnosis sweep, so that runs with other particle physics
+            start from the same settled bed; the run's own physics acts from the pass on.
     """
 
     cache_dir: Path | None = None
     progress: Callable[[Progress], None] | None = None
     on_frame: Callable[[Frame], None] | None = None
     stop: Event | None = field(default=None, compare=False)
+    follow_s: float = 0.0
+    fill_scene: SceneSpec | None = None
 
 
 def _interaction(pair: ContactPair) -> Interaction:
@@ -177,10 +184,11 @@ class _Drive:
     end_time_s: float
     steps_per_frame: int
     frames_per_snapshot: int
+    stop_time_s: float = math.inf  # the tool stands still from here on (follow after stop)
 
     def pose(self, t: float) -> ToolPose:
-        position, velocity = self.path.pose_at(t)
-        return ToolPose(position, velocity)
+        position, velocity = self.path.pose_at(min(t, self.stop_time_s))
+        return ToolPose(position, velocity if t < self.stop_time_s else 0.0 * velocity)
 
     def record(self, state: SimState, options: RunOptions) -> None:
         pose = self.pose(state.time)
@@ -245,7 +253,11 @@ def drive_tool(drive: _Drive, state: SimState, options: RunOptions) -> SimState:
     """Move the tool to the end of its travel, recording every output interval."""
     t0 = time.monotonic()
     drive.record(state, options)
-    n_frames = math.ceil(drive.end_time_s / (drive.steps_per_frame * (drive.engine.dt or 1.0)))
+    frame_s = drive.steps_per_frame * (drive.engine.dt or 1.0)
+    n_frames = math.ceil(drive.end_time_s / frame_s)
+    if options.follow_s > 0.0:
+        drive.stop_time_s = n_frames * frame_s
+        n_frames += math.ceil(options.follow_s / frame_s)
     for _ in range(n_frames):
         if options.stop is not None and options.stop.is_set():
             logger.info('run stopped at t = %.3f s', state.time)
@@ -268,7 +280,9 @@ def run_scene(scene: SceneSpec, options: RunOptions | None = None) -> SimResult:
     model = scene.physics_model()
     params = build_params(scene, model)
     t_fill = time.monotonic()
-    state, report = fill_bed(scene, model, params, options.cache_dir,
+    bed = options.fill_scene or scene
+    bed_model = bed.physics_model() if options.fill_scene is not None else model
+    state, report = fill_bed(bed, bed_model, build_params(bed, bed_model), options.cache_dir,
                              progress=_fill_progress(options, t_fill))
     fill_wall = time.monotonic() - t_fill
     drive, state = _prepare_drive(scene, params, model, state, report)
