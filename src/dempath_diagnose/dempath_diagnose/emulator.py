@@ -197,10 +197,20 @@ def _prior(cand: Candidate, knots: list[float]) -> tuple[float, float]:
 
 
 def _shrunk_cov(residuals: F64, n_models: int) -> F64:
-    """Ledoit-Wolf shrunk covariance of pooled residuals (dof corrected for the model means)."""
+    """Shrunk covariance of pooled residuals (dof corrected for the model means).
+
+    The statistics have different units and scales (mm of displacement, N of draft), so the
+    Ledoit-Wolf shrinkage acts on the correlation (residuals over their sd) and the sd are put
+    back: each statistic keeps its own variance, the correlations are shrunk towards 0.
+    """
     from sklearn.covariance import LedoitWolf
 
     n = len(residuals)
-    fit = LedoitWolf(assume_centered=True).fit(residuals)
     scale = n / max(n - n_models, 1)
-    return np.asarray(fit.covariance_, np.float64) * scale
+    sd = np.sqrt(np.mean(residuals**2, axis=0) * scale)
+    sd = np.where(sd > 0, sd, 1e-12)
+    fit = LedoitWolf(assume_centered=True).fit(residuals / sd)
+    corr = np.asarray(fit.covariance_, np.float64)
+    d = np.sqrt(np.diag(corr))
+    corr = corr / np.outer(d, d)
+    return corr * np.outer(sd, sd)

@@ -75,7 +75,7 @@ class LibrarySpec:
         follow_s: Time followed after the tool stops when ``duration_s`` is 0 [s].
         frame_s: Interval of the kept frames [s].
         keep_depth_m: Particles starting this far below the surface or higher are kept [m].
-        n_strengths: Strengths per candidate (1 or 2).
+        n_strengths: Strengths per effect that is off (1 or 2); parameters get two.
     """
 
     seeds: tuple[int, ...] = (1001, 1002, 1003, 1004)
@@ -104,16 +104,20 @@ class RunSpec:
 
 
 def strengths(candidate: Candidate, n: int) -> tuple[float, ...]:
-    """The strengths a candidate is run at (inside its physical range)."""
+    """The strengths a candidate is run at (inside its physical range).
+
+    An effect that is off: ``n`` strengths from its default up. A parameter that is on: one
+    below and one above its value whatever ``n`` (it may be off in either direction).
+    """
     if candidate.kind == 'effect':
         from dempath_sim.effects import get_effect
 
         base = get_effect(candidate.name).parameter(candidate.parameter).default
-        factors = EFFECT_FACTORS
+        factors = EFFECT_FACTORS[:n]
     else:
         base = candidate.current
         factors = LOG_FACTORS if candidate.name in LOG_SCALE else PARAMETER_FACTORS
-    values = [min(max(base * f, candidate.low), candidate.high) for f in factors[:n]]
+    values = [min(max(base * f, candidate.low), candidate.high) for f in factors]
     return tuple(float(v) for v in values if v != candidate.current)
 
 
@@ -129,8 +133,14 @@ def design(scene: SceneSpec, spec: LibrarySpec) -> tuple[list[Candidate], list[R
 
 
 def library_dir(scene: SceneSpec, spec: LibrarySpec, root: Path | None = None) -> Path:
-    """Directory of the library of ``scene`` with ``spec``."""
-    payload = json.dumps({'v': LIBRARY_VERSION, 'spec': asdict(spec)}, sort_keys=True)
+    """Directory of the library of ``scene`` with ``spec``.
+
+    The key holds what changes a run's content (the physics, duration, frames, depth kept), not
+    the design: designs with more seeds or candidates add runs to the same folder.
+    """
+    content = {'duration_s': spec.duration_s, 'follow_s': spec.follow_s,
+               'frame_s': spec.frame_s, 'keep_depth_m': spec.keep_depth_m}
+    payload = json.dumps({'v': LIBRARY_VERSION, 'content': content}, sort_keys=True)
     key = hashlib.sha256((physics_key(scene) + payload).encode()).hexdigest()[:12]
     return (root or default_cache_root()) / f'{scene.name}-{key}'
 

@@ -228,8 +228,8 @@ def model_statistics(rec: PassRecord, layout: Layout, cube: tuple[float, float, 
         if not len(idx):
             per_particle.append(np.zeros((0, k, 3)))
             continue
-        f = window_means(rec.times, disp[:, idx], layout.windows).transpose(1, 0, 2)
-        f = oriented(f, np.full(len(idx), layout.sides[j]))  # (p, K, 3)
+        f = window_means(rec.times, disp[:, idx], layout.windows).transpose(1, 0, 2)  # (p, K, 3)
+        f[..., 0] *= layout.sides[j] or 1
         per_particle.append(f)
         feat[j], var[j] = np.nanmean(f, axis=0), np.nanvar(f, axis=0)
     vector = group_vector(feat, layout)

@@ -37,20 +37,25 @@ class DaskSweep:
     Args:
         scheduler: ``tcp://host:port`` of a running scheduler; None for a local cluster.
         workers: Local workers (0: by cores).
+        timeout_s: How long to try reaching a scheduler given by address [s].
     """
 
-    def __init__(self, scheduler: str | None = None, workers: int = 0) -> None:
+    def __init__(self, scheduler: str | None = None, workers: int = 0,
+                 timeout_s: float = CONNECT_TIMEOUT_S) -> None:
         self.scheduler = scheduler
         self.workers = workers
+        self.timeout_s = timeout_s
         self.client: Any = None
         self.cluster: Any = None
 
     def __enter__(self) -> DaskSweep:
+        import dask
         from distributed import Client, LocalCluster
 
         if self.scheduler:
             try:
-                self.client = Client(self.scheduler, timeout=CONNECT_TIMEOUT_S)
+                with dask.config.set({'distributed.comm.timeouts.connect': self.timeout_s}):
+                    self.client = Client(self.scheduler, timeout=self.timeout_s)
             except (OSError, TimeoutError) as err:
                 msg = f'{self.scheduler}: cannot reach the Dask scheduler ({err})'
                 raise ClusterError(msg) from err

@@ -19,7 +19,7 @@ from dempath_diagnose.simulate import load_scene, tool_geometry
 SCENE = 'builtin:tiny'
 SPEC = LibrarySpec(seeds=(1001, 1002, 1003), candidates=('cohesion', 'tool_speed',
                                                           'tool_friction'),
-                   duration_s=0.4, n_strengths=1)
+                   duration_s=0.54, n_strengths=1)
 
 
 @pytest.fixture(scope='session')
