@@ -84,6 +84,6 @@ def test_cli_bad_inputs_give_one_line(tmp_path: Path, capsys: pytest.CaptureFixt
 
 def test_unreachable_scheduler_is_one_clear_error() -> None:
     """A scheduler address nobody listens on: ClusterError naming the address."""
-    with pytest.raises(ClusterError, match='tcp://127.0.0.1:9'), \
+    with pytest.raises(ClusterError, match=r'tcp://127\.0\.0\.1:9'), \
             DaskSweep('tcp://127.0.0.1:9', timeout_s=2.0) as sweep:
         sweep.run([], lambda k: None)
