@@ -115,8 +115,8 @@ def fit_candidate(emu: Emulator, cand: CandidateEmulator, y: F64, obs: NDArray[n
                   cov: F64) -> ModelFit:
     """One candidate's fit, marginalised over its strength prior."""
     lo, hi = cand.prior
-    xs = (np.geomspace(lo, hi, GRID) if cand.candidate.name in LOG_SCALE
-          else np.linspace(lo, hi, GRID))
+    xs = np.asarray(np.geomspace(lo, hi, GRID) if cand.candidate.name in LOG_SCALE
+                    else np.linspace(lo, hi, GRID), np.float64)
     diffs, dvar = cand.predict(xs)
     logps, d2s = np.empty(GRID), np.empty(GRID)
     sub = cov[np.ix_(obs, obs)]

@@ -10,8 +10,10 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
+from numpy.typing import NDArray
 
 from dempath_diagnose.decision import Decision, decide
 from dempath_diagnose.emulator import Allowance, Emulator, build_emulator
@@ -60,7 +62,7 @@ class Diagnosis:
     layout: Layout
     emulator: Emulator
     measured: F64
-    observed: np.ndarray
+    observed: NDArray[np.bool_]
     cov: F64
     marker_z: F64
     marker_error: F64
@@ -76,7 +78,7 @@ class Diagnosis:
 
 def diagnose(meas: Measurement, library: Library, geometry: CaseGeometry,
              allowance: Allowance | None = None, n_windows: int = 4,
-             force_source: str = 'force') -> Diagnosis:
+             force_source: str | Path = 'force') -> Diagnosis:
     """Diagnose one measured pass against a built library.
 
     Raises:
@@ -100,7 +102,8 @@ def diagnose(meas: Measurement, library: Library, geometry: CaseGeometry,
     force = emu.is_force()
     observed = np.ones(len(emu.names), bool) if meas.has_force else ~force
     if meas.has_force:
-        check_force_scale(force_source, float(np.mean(y[force])), float(np.mean(emu.mu0[force])))
+        check_force_scale(Path(force_source), float(np.mean(y[force])),
+                          float(np.mean(emu.mu0[force])))
     finite = np.isfinite(y)
     observed_idx = np.flatnonzero(observed)
     observed[observed_idx[~finite]] = False
@@ -129,7 +132,7 @@ def sentences(d: Diagnosis, limit: int = 3) -> list[str]:
     sd = d.floor[idx]
     z = (d.measured - base) / sd
     out = []
-    seen: set[str] = set()
+    seen: set[tuple[str, str]] = set()
     for k in np.argsort(-np.abs(z)):
         group, axis, _ = names[k].split(':')
         if abs(z[k]) < 2.0 or (group, axis) in seen:

@@ -59,7 +59,7 @@ def load_tracks(path: Path, origin: Sequence[float] = (0.0, 0.0, 0.0)) -> Measur
                'metres are expected')
         raise MeasurementError(msg)
     end = min(float(np.nanmax(t.times)) for t in good)
-    times = np.arange(0.0, end + 1e-9, COMMON_STEP_S)
+    times = np.arange(0.0, end + 1e-9, COMMON_STEP_S, dtype=np.float64)
     positions = np.full((len(times), len(good), 3), np.nan)
     shift = np.asarray(origin, np.float64)
     for j, track in enumerate(good):

@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from dempath_diagnose.diagnose import Diagnosis
+from dempath_diagnose.records import F64
 from dempath_diagnose.statistics import AXES
 
 BAND_SD = 2.0  # the model band is the baseline mean +- this many seed spreads
@@ -21,7 +22,7 @@ def plot_all(d: Diagnosis, out: Path) -> list[str]:
             plot_force(d, out / 'force.png')]
 
 
-def _series(d: Diagnosis, prefix: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def _series(d: Diagnosis, prefix: str) -> tuple[F64, F64, F64, F64]:
     """Window centres, measured (NaN if unmeasured), model mean and floor for ``group:axis``."""
     names = d.emulator.names
     idx = [i for i, n in enumerate(names) if n.startswith(prefix + ':')]

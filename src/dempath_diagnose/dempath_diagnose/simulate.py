@@ -2,9 +2,9 @@
 
 Everything the diagnosis needs from the simulator goes through this module, so that a change of
 dempath_sim's layout (issue 11) is ported here and nowhere else. A pass starts from the settled
-bed of the *baseline* scene for its seed (``RunOptions.fill_scene``), so that runs that differ
-only in the physics share the packing and chaos cancels in paired differences; the run's own
-physics acts from the start of the pass. The whole bed is recorded every ``frame_s`` and the
+bed of the *baseline* scene for its seed, re-settled with the run's own physics when that
+differs (:func:`ensure_bed`), so that runs that differ only in the physics share the packing and
+chaos cancels in paired differences. The whole bed is recorded every ``frame_s`` and the
 particles near the surface are kept (:class:`~dempath_diagnose.records.PassRecord`), so any
 marker layout and time window can be served later without new runs.
 
@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from dempath.errors import DempathError
 from dempath_diagnose.errors import DiagnosisError
@@ -156,9 +157,8 @@ def run_pass(scene: SceneSpec, seed: int, overrides: dict[str, float], *,
     base = replace(base, output=output)
     try:
         changed = base.with_overrides(overrides) if overrides else base
-        ensure_bed(base, cache_dir)
-        options = RunOptions(cache_dir=cache_dir, follow_s=follow_s, fill_scene=base)
-        result = run_scene(changed, options)
+        ensure_bed(changed, cache_dir, base)
+        result = run_scene(changed, RunOptions(cache_dir=cache_dir, follow_s=follow_s))
     except (DempathError, ValueError) as err:
         msg = f'{scene.name} seed {seed} {overrides or "baseline"}: {err}'
         raise DiagnosisError(msg) from err
@@ -188,10 +188,10 @@ class CasePass:
         force: (nt, 3) force of the particles on the tool [N].
     """
 
-    times: np.ndarray
-    markers: np.ndarray
-    positions: np.ndarray
-    force: np.ndarray
+    times: NDArray[np.float64]
+    markers: NDArray[np.int64]
+    positions: NDArray[np.float64]
+    force: NDArray[np.float64]
 
 
 def run_case(scene: SceneSpec, seed: int, overrides: dict[str, float], *, follow_s: float = 0.0,
@@ -214,21 +214,57 @@ def run_case(scene: SceneSpec, seed: int, overrides: dict[str, float], *, follow
                     np.asarray(result.tool_force))
 
 
-def ensure_bed(scene: SceneSpec, cache_dir: Path | None = None) -> bool:
-    """Fill and cache the settled bed of ``scene`` (its seed) unless cached; True if filled.
+def ensure_bed(scene: SceneSpec, cache_dir: Path | None = None,
+               base: SceneSpec | None = None) -> bool:
+    """Make sure the packing cache holds the settled bed of ``scene`` (its seed); True if made.
 
-    Every pass then reads the bed from the cache, so the first pass on a seed starts from the
-    same state (no contact history) as the later ones.
+    With ``base`` (the baseline scene, same seed) and other particle physics in ``scene``, the
+    bed is not poured again: the baseline's settled bed is re-settled with ``scene``'s own
+    physics (as LIGGGHTS users re-settle a saved bed) and cached under ``scene``'s packing key.
+    Runs that differ only in the physics then share the packing, so chaos cancels in paired
+    differences. Every pass reads its bed from the cache, so the first pass on a seed starts
+    from the same state (no contact history) as the later ones.
     """
-    from dempath_sim.fill import fill_bed
+    from dempath_sim.fill import default_cache_dir, fill_bed, packing_key
     from dempath_sim.run import build_params
 
     model = scene.physics_model()
-    _, report = fill_bed(scene, model, build_params(scene, model), cache_dir)
-    if not report.from_cache:
-        logger.info('filled the bed of %s seed %d (%d particles)', scene.name, scene.seed,
-                    report.n_particles)
-    return not report.from_cache
+    key = packing_key(scene, model)
+    if ((cache_dir or default_cache_dir()) / f'{key}.npz').is_file():
+        return False
+    if base is None or packing_key(base, base.physics_model()) == key:
+        _, report = fill_bed(scene, model, build_params(scene, model), cache_dir)
+        return not report.from_cache
+    ensure_bed(base, cache_dir)
+    _resettle(scene, base, key, cache_dir)
+    return True
+
+
+def _resettle(scene: SceneSpec, base: SceneSpec, key: str, cache_dir: Path | None) -> None:
+    """Settle the cached bed of ``base`` with ``scene``'s physics; cache it under ``key``."""
+    from dempath_sim.engine import Engine
+    from dempath_sim.fill import (
+        _save_cached,
+        bin_walls,
+        default_cache_dir,
+        fill_bed,
+        measure,
+        settle,
+    )
+    from dempath_sim.run import build_params
+
+    base_model = base.physics_model()
+    state, report = fill_bed(base, base_model, build_params(base, base_model), cache_dir)
+    model = scene.physics_model()
+    engine = Engine(build_params(scene, model), bin_walls(scene))
+    state, settled = settle(engine, state, scene, scene.fill.max_settle_time_s)
+    found = measure(scene, model, state)
+    report = replace(report, key=key, settled=settled, from_cache=False,
+                     settle_time_s=report.settle_time_s + state.time, **found)
+    state.time, state.step = 0.0, 0
+    _save_cached((cache_dir or default_cache_dir()) / f'{key}.npz', state, report)
+    logger.info('re-settled the bed of %s seed %d with the run physics (%d particles)',
+                scene.name, scene.seed, report.n_particles)
 
 
 def _record(result: Any, keep_depth_m: float, overrides: dict[str, float],

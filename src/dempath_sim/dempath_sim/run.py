@@ -100,9 +100,6 @@ class RunOptions:
             far; during the fill `RunStoppedError` is raised at the next settling check.
         follow_s: Time to go on recording after the tool has stopped at the end of its travel
             (the bed still moves) [s]; the tool stays where it stopped.
-        fill_scene: Fill (or read the cached packing of) this scene instead of the run's own,
-            e.g. the baseline of a diagnosis sweep, so that runs with other particle physics
-            start from the same settled bed; the run's own physics acts from the pass on.
     """
 
     cache_dir: Path | None = None
@@ -110,7 +107,6 @@ class RunOptions:
     on_frame: Callable[[Frame], None] | None = None
     stop: Event | None = field(default=None, compare=False)
     follow_s: float = 0.0
-    fill_scene: SceneSpec | None = None
 
 
 def _interaction(pair: ContactPair) -> Interaction:
@@ -280,9 +276,7 @@ def run_scene(scene: SceneSpec, options: RunOptions | None = None) -> SimResult:
     model = scene.physics_model()
     params = build_params(scene, model)
     t_fill = time.monotonic()
-    bed = options.fill_scene or scene
-    bed_model = bed.physics_model() if options.fill_scene is not None else model
-    state, report = fill_bed(bed, bed_model, build_params(bed, bed_model), options.cache_dir,
+    state, report = fill_bed(scene, model, params, options.cache_dir,
                              progress=_fill_progress(options, t_fill))
     fill_wall = time.monotonic() - t_fill
     drive, state = _prepare_drive(scene, params, model, state, report)

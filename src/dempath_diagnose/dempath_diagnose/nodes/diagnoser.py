@@ -90,4 +90,4 @@ class DiagnoserNode(Node):
 
 def main(args: list[str] | None = None) -> int:
     """Console script ``dempath_diagnoser``."""
-    return run_node(DiagnoserNode, args)
+    return int(run_node(DiagnoserNode, args))
