@@ -39,7 +39,7 @@ OPEN = ('nothing_significant', 'inconclusive')
 
 def cases_for(scene_name: str) -> list[HiddenCase]:
     """The hidden-effect cases: strong ones must be named; weak and control must not be."""
-    strong = {'cohesion.energy_density_j_m3': 6e4}
+    strong = {'cohesion.energy_density_j_m3': 1e5}
     return [
         HiddenCase('control', {}, '', (*OPEN[:1], 'inconclusive'), seed=7),
         HiddenCase('control_b', {}, '', (*OPEN[:1], 'inconclusive'), seed=8),

@@ -8,7 +8,8 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-PYTHON_PACKAGES = ('dempath', 'dempath_calib', 'dempath_recon', 'dempath_sim', 'dempath_compare')
+PYTHON_PACKAGES = ('dempath', 'dempath_calib', 'dempath_recon', 'dempath_sim', 'dempath_compare',
+                   'dempath_diagnose')
 ROS_IMPORT = re.compile(r'^\s*(import|from)\s+(rclpy|\w+_msgs)\b', re.MULTILINE)
 
 

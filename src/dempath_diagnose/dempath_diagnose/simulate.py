@@ -39,6 +39,9 @@ MAIN_PARAMETER = {'cohesion': 'energy_density_j_m3', 'rolling_resistance': 'coef
                   'wall_friction': 'static_friction', 'tool_speed': 'speed_scale',
                   'youngs_modulus': 'youngs_modulus_pa', 'restitution': 'particle_particle',
                   'particle_size': 'coarse_grain'}
+# The engine's overlap stop is a safety heuristic that kills soft cohesive or rolling runs that
+# finish in LIGGGHTS (issue 12); sweeps raise it to this fraction of the radius.
+SWEEP_OVERLAP_LIMIT = 0.95
 # Parameters scaled together with the main one (kept in the scene's proportion).
 LINKED = {'static_friction': ('dynamic_friction',), 'particle_particle': ('particle_boundary',)}
 
@@ -122,6 +125,12 @@ def travel_time_s(scene: SceneSpec, speed_scale: float = 1.0) -> float:
     return float(path.time_to_travel(tool.travel_m))
 
 
+def _sweep_scene(scene: SceneSpec) -> SceneSpec:
+    """``scene`` with the overlap stop raised to SWEEP_OVERLAP_LIMIT (not part of the packing)."""
+    limit = max(float(scene.sim.max_overlap_fraction), SWEEP_OVERLAP_LIMIT)
+    return replace(scene, sim=replace(scene.sim, max_overlap_fraction=limit))
+
+
 def pass_travel_s(scene: SceneSpec, overrides: dict[str, float]) -> float:
     """Time [s] the tool travels in ``scene`` with ``overrides`` (its speed scale applied)."""
     try:
@@ -152,7 +161,7 @@ def run_pass(scene: SceneSpec, seed: int, overrides: dict[str, float], *,
     from dempath_sim.run import RunOptions, run_scene
 
     follow_s = max(0.0, until_s - pass_travel_s(scene, overrides))
-    base = scene.with_overrides(seed=seed)
+    base = _sweep_scene(scene.with_overrides(seed=seed))
     output = replace(base.output, snapshot_interval_s=frame_s, candidates=False)
     base = replace(base, output=output)
     try:
@@ -204,7 +213,7 @@ def run_case(scene: SceneSpec, seed: int, overrides: dict[str, float], *, follow
     from dempath_sim.run import RunOptions, run_scene
 
     try:
-        changed = scene.with_overrides(overrides, seed=seed)
+        changed = _sweep_scene(scene.with_overrides(overrides, seed=seed))
         result = run_scene(changed, RunOptions(cache_dir=cache_dir, follow_s=follow_s))
     except (DempathError, ValueError) as err:
         raise DiagnosisError(f'case {overrides or "control"} seed {seed}: {err}') from err

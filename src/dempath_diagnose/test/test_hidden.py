@@ -24,7 +24,7 @@ CASES = {
     'control': HiddenCase('control', {}, '', ('nothing_significant',), seed=7),
     'tool_speed': HiddenCase('tool_speed', {'tool_speed.speed_scale': 1.4}, 'tool_speed',
                              ('parameter_off',), seed=9),
-    'cohesion': HiddenCase('cohesion', {'cohesion.energy_density_j_m3': 4e4}, 'cohesion',
+    'cohesion': HiddenCase('cohesion', {'cohesion.energy_density_j_m3': 8e4}, 'cohesion',
                            ('effect_missing',), seed=11),
 }
 
