@@ -103,12 +103,15 @@ def main() -> None:
     p.add_argument('--scene', default='reduced_1ms')
     p.add_argument('--root', type=Path, default=Path.home() / '.cache/dempath/bench-diagnose')
     p.add_argument('--seeds', default='1001,1002,1003')
+    p.add_argument('--strengths', type=int, default=2)
     p.add_argument('--serial', action='store_true')
+    p.add_argument('--resettle', action='store_true',
+                   help='case beds: the seed baseline pour re-settled with the case physics')
     args = p.parse_args()
     scene = load_scene(args.scene)
     duration = covering_duration(pass_travel_s(scene, {}), 0.0)
     spec = LibrarySpec(seeds=tuple(int(s) for s in args.seeds.split(',')), duration_s=duration,
-                       n_strengths=1)
+                       n_strengths=args.strengths)
     lib_root, packings = args.root / 'library', args.root / 'packings'
     timing = args.root / 'timing.json'
     spent = json.loads(timing.read_text()) if timing.is_file() else {'library_s': 0.0}
@@ -129,12 +132,12 @@ def main() -> None:
     for case in cases_for(scene.name):
         folder = args.root / 'cases' / case.name
         markers, force = make_case(scene, case, folder, until_s=duration,
-                                   cache_dir=packings)
+                                   cache_dir=packings, own_pour=not args.resettle)
         for with_force in (True, False):
             out = folder / ('diag_force' if with_force else 'diag_markers')
             argv = ['--measured', str(markers), '--scene', args.scene, '--out', str(out),
                     '--library-root', str(lib_root), '--packing-cache', str(packings),
-                    '--seeds', args.seeds, '--strengths', '1', '--serial']
+                    '--seeds', args.seeds, '--strengths', str(args.strengths), '--serial']
             if with_force:
                 argv += ['--force', str(force)]
             if diagnose_main(argv) != 0:

@@ -58,14 +58,16 @@ def write_case(case: CasePass, folder: Path, noise_m: float = 0.0015, seed: int 
 
 
 def make_case(scene: SceneSpec, hidden: HiddenCase, folder: Path, *, until_s: float,
-              noise_m: float = 0.0015, cache_dir: Path | None = None) -> tuple[Path, Path]:
+              noise_m: float = 0.0015, cache_dir: Path | None = None,
+              own_pour: bool = True) -> tuple[Path, Path]:
     """Run ``hidden`` on ``scene`` and write it as a measurement of [0, ``until_s``] (a camera
     recording of fixed length; cached in ``folder``)."""
     markers, force = folder / 'markers.csv', folder / 'force.csv'
     if markers.is_file() and force.is_file():
         return markers, force
     follow = max(0.0, until_s - pass_travel_s(scene, hidden.overrides))
-    case = run_case(scene, hidden.seed, hidden.overrides, follow_s=follow, cache_dir=cache_dir)
+    case = run_case(scene, hidden.seed, hidden.overrides, follow_s=follow, cache_dir=cache_dir,
+                    own_pour=own_pour)
     keep = case.times <= until_s + 1e-9
     case = CasePass(case.times[keep], case.markers, case.positions[keep], case.force[keep])
     return write_case(case, folder, noise_m, seed=hidden.seed)

@@ -204,16 +204,21 @@ class CasePass:
 
 
 def run_case(scene: SceneSpec, seed: int, overrides: dict[str, float], *, follow_s: float = 0.0,
-             cache_dir: Path | None = None) -> CasePass:
-    """A hidden-effect case: ``scene`` with ``overrides`` poured and run with its own physics.
+             cache_dir: Path | None = None, own_pour: bool = True) -> CasePass:
+    """A hidden-effect case: ``scene`` with ``overrides`` on a seed the library never used.
 
-    Unlike the library's passes, the bed is filled with the case's own physics (as a lab's or
-    another engine's bed would be), on a seed the library never used.
+    With ``own_pour`` (default) the bed is poured with the case's own physics, a set-up the
+    library never used; otherwise that seed's baseline pour re-settled with the case's physics.
+    (The tiny scene's strongly cohesive pours do not settle within its fill time: such a bed
+    still sinks during the pass, a set-up difference rather than the effect.)
     """
     from dempath_sim.run import RunOptions, run_scene
 
     try:
-        changed = _sweep_scene(scene.with_overrides(overrides, seed=seed))
+        base = _sweep_scene(scene.with_overrides(seed=seed))
+        changed = base.with_overrides(overrides) if overrides else base
+        if not own_pour:
+            ensure_bed(changed, cache_dir, base)
         result = run_scene(changed, RunOptions(cache_dir=cache_dir, follow_s=follow_s))
     except (DempathError, ValueError) as err:
         raise DiagnosisError(f'case {overrides or "control"} seed {seed}: {err}') from err

@@ -29,6 +29,7 @@ AXES = ('lateral_out', 'vertical', 'forward')
 SAMPLES_PER_WINDOW = 6  # interpolation points per window for the time-averages
 MIN_CUBE_MEMBERS = 3  # fewer model particles in a cube: the cube is grown
 CUBE_GROWTH = (1.0, 1.5, 2.0)  # factors tried on the cube size
+NEAREST_FALLBACK = 8  # particles taken when even the grown cube is empty
 
 
 @dataclass(frozen=True)
@@ -205,12 +206,16 @@ def cube_members(start: F64, marker_starts: F64, cube: tuple[float, float, float
                  ) -> list[NDArray[np.intp]]:
     """Indices of the particles whose start lies in the cube around each marker start."""
     half = np.asarray(cube) / 2.0
+    finite = np.flatnonzero(np.isfinite(start).all(1))
     out = []
     for p in marker_starts:
         for factor in CUBE_GROWTH:
             inside = np.flatnonzero(np.all(np.abs(start - p) <= half * factor, axis=1))
             if len(inside) >= MIN_CUBE_MEMBERS:
                 break
+        else:  # the model's bed lies elsewhere (e.g. a lower surface): the nearest particles
+            dist = np.linalg.norm(start[finite] - p, axis=1)
+            inside = finite[np.argsort(dist)[:NEAREST_FALLBACK]]
         out.append(inside)
     return out
 

@@ -6,10 +6,8 @@ packings are built once per test session in a temporary folder: about a dozen ti
 
 from __future__ import annotations
 
-from collections.abc import Iterator
 from pathlib import Path
 
-import numpy as np
 import pytest
 
 from dempath_diagnose.diagnose import CaseGeometry
@@ -41,13 +39,3 @@ def geometry() -> CaseGeometry:
     """Tool axis, axis half width and cube of the tiny scene."""
     x, half, cube = tool_geometry(load_scene(SCENE))
     return CaseGeometry(x, half, cube)
-
-
-@pytest.fixture
-def strict_numpy() -> Iterator[None]:
-    """Numpy raises on any floating-point fault inside the test."""
-    old = np.seterr(all='raise')
-    try:
-        yield
-    finally:
-        np.seterr(**old)

@@ -77,3 +77,41 @@ def test_node_publishes_a_diagnosis_when_the_pass_ends(ros_harness: Any, cache: 
     assert msg.candidates[0].effect == 'tool_speed'
     assert msg.candidates[0].probability >= 0.8
     assert msg.candidates[0].strength_parameter == 'speed_scale'
+
+
+def test_cli_reads_a_bag_of_marker_points(cache: Path, tiny_library: Library,
+                                          tmp_path: Path) -> None:
+    """The tool-speed case as a bag of MarkerPoints3D (the reconstructor's output): named."""
+    import json
+
+    from dempath.bagio import make_typestore, write_bag
+    from dempath_diagnose.cli import diagnose_main
+
+    from .conftest import SPEC
+
+    markers, force = case_files(cache, 'tool_speed')
+    meas = load_tracks(markers)
+    store = make_typestore()
+    point, header = (store.types['dempath_msgs/msg/MarkerPoints3D'],
+                     store.types['std_msgs/msg/Header'])
+    stamp = store.types['builtin_interfaces/msg/Time']
+    nan = np.full(len(meas.markers), np.nan)
+    msgs = []
+    for i, t in enumerate(meas.times[::2]):
+        p = meas.positions[2 * i]
+        ns = round(float(t) * 1e9)
+        msg = point(header=header(stamp=stamp(sec=ns // 10**9, nanosec=ns % 10**9),
+                                  frame_id='world'), method='dlt',
+                    marker_ids=meas.markers.astype(np.int32), x=p[:, 0], y=p[:, 1], z=p[:, 2],
+                    sigma_x=nan, sigma_y=nan, sigma_z=nan,
+                    reprojection_error=nan.astype(np.float32))
+        msgs.append((topics.MARKER_POINTS, 'dempath_msgs/msg/MarkerPoints3D', ns + 1, msg))
+    bag = write_bag(tmp_path / 'measured', msgs, typestore=store)
+    out = tmp_path / 'out'
+    argv = ['--measured', str(bag), '--force', str(force), '--scene', SCENE, '--out', str(out),
+            '--library-root', str(cache / 'library'), '--packing-cache', str(cache / 'packings'),
+            '--seeds', ','.join(map(str, SPEC.seeds)), '--candidates', ','.join(SPEC.candidates),
+            '--strengths', str(SPEC.n_strengths), '--serial']
+    assert diagnose_main(argv) == 0
+    data = json.loads((out / 'diagnosis.json').read_text())
+    assert data['verdict'] == 'parameter_off' and data['ranking'][0]['effect'] == 'tool_speed'
