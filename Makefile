@@ -3,7 +3,7 @@ SHELL := /bin/bash
 PYTHON ?= $(shell command -v python3.11 || command -v python3)
 VENV := .venv
 BIN := $(VENV)/bin
-PKGS := dempath dempath_calib dempath_recon dempath_sim dempath_compare dempath_twin dempath_bringup
+PKGS := dempath dempath_calib dempath_recon dempath_sim dempath_compare dempath_twin dempath_diagnose dempath_bringup
 MSG_FILES := $(wildcard src/dempath_msgs/msg/*.msg) src/dempath_msgs/CMakeLists.txt src/dempath_msgs/pyproject.toml
 PKG_FILES := $(foreach p,$(PKGS),src/$(p)/setup.py)
 

@@ -78,12 +78,15 @@ class RunOptions:
         on_frame: Called with each output Frame (streaming consumers).
         stop: Set it to stop the run early: during the drive the result holds the frames so
             far; during the fill `RunStoppedError` is raised at the next settling check.
+        follow_s: Time to go on recording after the tool has stopped at the end of its travel
+            (the bed still moves) [s]; the tool stays where it stopped. Native backend only.
     """
 
     cache_dir: Path | None = None
     progress: Callable[[Progress], None] | None = None
     on_frame: Callable[[Frame], None] | None = None
     stop: Event | None = field(default=None, compare=False)
+    follow_s: float = 0.0
 
 
 class Backend(Protocol):

@@ -76,10 +76,11 @@ class _Drive:
     end_time_s: float
     steps_per_frame: int
     frames_per_snapshot: int
+    stop_time_s: float = math.inf  # the tool stands still from here on (follow after stop)
 
     def pose(self, t: float) -> ToolPose:
-        position, velocity = self.path.pose_at(t)
-        return ToolPose(position, velocity)
+        position, velocity = self.path.pose_at(min(t, self.stop_time_s))
+        return ToolPose(position, velocity if t < self.stop_time_s else 0.0 * velocity)
 
     def record(self, state: SimState, options: RunOptions) -> None:
         pose = self.pose(state.time)
@@ -144,7 +145,11 @@ def drive_tool(drive: _Drive, state: SimState, options: RunOptions) -> SimState:
     """Move the tool to the end of its travel, recording every output interval."""
     t0 = time.monotonic()
     drive.record(state, options)
-    n_frames = math.ceil(drive.end_time_s / (drive.steps_per_frame * (drive.engine.dt or 1.0)))
+    frame_s = drive.steps_per_frame * (drive.engine.dt or 1.0)
+    n_frames = math.ceil(drive.end_time_s / frame_s)
+    if options.follow_s > 0.0:
+        drive.stop_time_s = n_frames * frame_s
+        n_frames += math.ceil(options.follow_s / frame_s)
     for _ in range(n_frames):
         if options.stop is not None and options.stop.is_set():
             logger.info('run stopped at t = %.3f s', state.time)

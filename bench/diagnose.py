@@ -1,0 +1,164 @@
+"""Hidden-effect cases diagnosed against a scene's signature library (issue 13's proof).
+
+Builds (or resumes) the scene's signature library through Dask, generates each hidden-effect
+case with dempath_sim on a seed the library never used (its own bed, 1.5 mm noise per axis on
+the markers), diagnoses it with the force and without, and scores the answers: top-1 correct,
+confident wrong answers (a wrong effect named with probability > 0.5), inconclusive answers,
+the Brier score and a reliability table of the top probability. Everything is cached under
+``--root``: an interrupted bench resumes. The last line is one JSON object.
+
+Usage: ``.venv/bin/python bench/diagnose.py [--scene reduced_1ms] [--root DIR] [--serial]``
+(``--scene tiny`` for a quick check).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from dempath_diagnose.cases import HiddenCase, make_case
+from dempath_diagnose.cli import diagnose_main
+from dempath_diagnose.library import (
+    LibrarySpec,
+    build_library,
+    covering_duration,
+    library_state,
+    serial_executor,
+)
+from dempath_diagnose.simulate import load_scene, pass_travel_s
+
+NAMED = ('effect_missing', 'parameter_off')
+OPEN = ('nothing_significant', 'inconclusive')
+
+
+def cases_for(scene_name: str) -> list[HiddenCase]:
+    """The hidden-effect cases: strong ones must be named; weak and control must not be."""
+    strong = {'cohesion.energy_density_j_m3': 1e5}
+    return [
+        HiddenCase('control', {}, '', (*OPEN[:1], 'inconclusive'), seed=7),
+        HiddenCase('control_b', {}, '', (*OPEN[:1], 'inconclusive'), seed=8),
+        HiddenCase('tool_speed_1.5', {'tool_speed.speed_scale': 1.5}, 'tool_speed',
+                   ('parameter_off',), seed=9),
+        HiddenCase('tool_speed_0.7', {'tool_speed.speed_scale': 0.7}, 'tool_speed',
+                   ('parameter_off',), seed=10),
+        HiddenCase('cohesion_strong', strong, 'cohesion', ('effect_missing',), seed=11),
+        HiddenCase('cohesion_moderate', {'cohesion.energy_density_j_m3': 3e4}, 'cohesion',
+                   ('effect_missing', 'inconclusive'), seed=12),
+        HiddenCase('tool_friction_x2', {'tool_friction.static_friction': 0.8,
+                                        'tool_friction.dynamic_friction': 0.6}, 'tool_friction',
+                   ('parameter_off', 'inconclusive', 'nothing_significant'), seed=13),
+        HiddenCase('particle_friction_0.5', {'particle_friction.static_friction': 0.5,
+                                             'particle_friction.dynamic_friction': 0.42},
+                   'particle_friction', ('parameter_off', 'inconclusive'), seed=14),
+        HiddenCase('rolling_x2', {'rolling_resistance.coefficient': 0.52}, 'rolling_resistance',
+                   ('parameter_off', 'inconclusive'), seed=15),
+        HiddenCase('too_weak_tool_friction', {'tool_friction.static_friction': 0.42,
+                                              'tool_friction.dynamic_friction': 0.315}, '',
+                   OPEN, seed=16),
+    ]
+
+
+def score(case: HiddenCase, data: dict[str, Any]) -> dict[str, Any]:
+    """Right / confident-wrong / inconclusive of one answer, and its Brier term."""
+    verdict = data['verdict']
+    top = data['ranking'][0]
+    named = top['effect'] if verdict in NAMED else ''
+    probs = {r['effect']: r['probability'] for r in data['ranking']}
+    probs[''] = data['baseline']['probability']
+    truth = case.truth
+    brier = sum((p - (1.0 if k == truth else 0.0)) ** 2 for k, p in probs.items())
+    correct = (named == truth) if verdict in NAMED else (
+        verdict in case.verdicts and (verdict == 'nothing_significant' or not truth
+                                      or truth in data['remaining']))
+    return {'case': case.name, 'verdict': verdict, 'named': named, 'truth': truth,
+            'top': top['effect'], 'top_p': top['probability'],
+            'p_truth': probs.get(truth, 0.0), 'correct': bool(correct),
+            'top1': top['effect'] == truth if truth else verdict == 'nothing_significant',
+            'confident_wrong': bool(named and named != truth and top['probability'] > 0.5),
+            'brier': brier, 'wall_s': data['wall_s']}
+
+
+def reliability(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Top probability in bins against how often the top candidate was the truth."""
+    out = []
+    for lo, hi in ((0.0, 0.5), (0.5, 0.8), (0.8, 1.01)):
+        sel = [r for r in rows if lo <= r['top_p'] < hi]
+        if sel:
+            out.append({'p': f'{lo:.1f}-{min(hi, 1.0):.1f}', 'n': len(sel),
+                        'mean_p': round(float(np.mean([r['top_p'] for r in sel])), 3),
+                        'hit_rate': round(float(np.mean([r['top'] == (r['truth'] or 'baseline')
+                                                         for r in sel])), 3)})
+    return out
+
+
+def main() -> None:
+    """Run the bench and print one JSON line last."""
+    p = argparse.ArgumentParser()
+    p.add_argument('--scene', default='reduced_1ms')
+    p.add_argument('--root', type=Path, default=Path.home() / '.cache/dempath/bench-diagnose')
+    p.add_argument('--seeds', default='1001,1002,1003')
+    p.add_argument('--strengths', type=int, default=2)
+    p.add_argument('--serial', action='store_true')
+    p.add_argument('--resettle', action='store_true',
+                   help='case beds: the seed baseline pour re-settled with the case physics')
+    args = p.parse_args()
+    scene = load_scene(args.scene)
+    duration = covering_duration(pass_travel_s(scene, {}), 0.0)
+    spec = LibrarySpec(seeds=tuple(int(s) for s in args.seeds.split(',')), duration_s=duration,
+                       n_strengths=args.strengths)
+    lib_root, packings = args.root / 'library', args.root / 'packings'
+    timing = args.root / 'timing.json'
+    spent = json.loads(timing.read_text()) if timing.is_file() else {'library_s': 0.0}
+    t0 = time.monotonic()
+    state, _done, total = library_state(scene, spec, lib_root)
+    if state != 'ready':
+        if args.serial:
+            build_library(scene, spec, lib_root, serial_executor, packings)
+        else:
+            from dempath_diagnose.sweep import DaskSweep
+
+            with DaskSweep() as sweep:
+                build_library(scene, spec, lib_root, sweep.run, packings)
+        spent['library_s'] += time.monotonic() - t0
+        args.root.mkdir(parents=True, exist_ok=True)
+        timing.write_text(json.dumps(spent))
+    rows = []
+    for case in cases_for(scene.name):
+        folder = args.root / 'cases' / case.name
+        markers, force = make_case(scene, case, folder, until_s=duration,
+                                   cache_dir=packings, own_pour=not args.resettle)
+        for with_force in (True, False):
+            out = folder / ('diag_force' if with_force else 'diag_markers')
+            argv = ['--measured', str(markers), '--scene', args.scene, '--out', str(out),
+                    '--library-root', str(lib_root), '--packing-cache', str(packings),
+                    '--seeds', args.seeds, '--strengths', str(args.strengths), '--serial']
+            if with_force:
+                argv += ['--force', str(force)]
+            if diagnose_main(argv) != 0:
+                continue
+            data = json.loads((out / 'diagnosis.json').read_text())
+            rows.append({**score(case, data), 'force': with_force})
+            print(json.dumps(rows[-1]))
+    named = [r for r in rows if r['verdict'] in NAMED]
+    figures = {
+        'scene': scene.name, 'cases': len(rows),
+        'top1_correct': sum(r['top1'] for r in rows),
+        'correct': sum(r['correct'] for r in rows),
+        'false_confident': sum(r['confident_wrong'] for r in rows),
+        'inconclusive': sum(r['verdict'] == 'inconclusive' for r in rows),
+        'named': len(named), 'named_right': sum(r['named'] == r['truth'] for r in named),
+        'simulations': total, 'library_s': round(spent['library_s'], 1),
+        'case_s': round(statistics.median(r['wall_s'] for r in rows), 2) if rows else None,
+        'brier': round(float(np.mean([r['brier'] for r in rows])), 4) if rows else None,
+        'reliability': reliability(rows)}
+    print(json.dumps(figures))
+
+
+if __name__ == '__main__':
+    main()

@@ -1,0 +1,150 @@
+"""Outputs of a diagnosis: diagnosis.json, report.md, plots, an xlsx and the rich ranking."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from dempath.errors import OutputError
+from dempath_diagnose.decision import ModelFit
+from dempath_diagnose.diagnose import Diagnosis, sentences
+from dempath_diagnose.statistics import AXES
+
+
+def _num(x: float) -> float | None:
+    return float(x) if math.isfinite(x) else None
+
+
+def _fit_json(fit: ModelFit) -> dict[str, Any]:
+    return {'effect': fit.name, 'kind': fit.kind, 'probability': round(fit.probability, 4),
+            'strength': {'parameter': fit.parameter, 'value': _num(fit.strength),
+                         'uncertainty': _num(fit.strength_sd), 'best': _num(fit.best),
+                         'unit': fit.unit},
+            'explained_fraction': round(fit.explained_fraction, 4),
+            'implausibility': round(fit.implausibility, 3), 'ruled_out': fit.ruled_out}
+
+
+def to_json(d: Diagnosis, extra: dict[str, Any] | None = None) -> dict[str, Any]:
+    """The ``diagnosis.json`` content."""
+    dec = d.decision
+    names = d.emulator.names
+    obs_names = [n for n, o in zip(names, d.observed, strict=True) if o]
+    idx = np.flatnonzero(d.observed)
+    floor = d.floor
+    out: dict[str, Any] = {
+        'verdict': dec.verdict,
+        'summary': sentences(d),
+        'ranking': [_fit_json(f) for f in dec.ranking],
+        'baseline': _fit_json(dec.baseline),
+        'floor': {n: float(floor[i]) for i, n in enumerate(names)},
+        'error_before': {
+            'statistics': {n: {'measured': float(d.measured[j]),
+                               'model': float(d.emulator.mu0[idx[j]]),
+                               'difference': float(d.measured[j] - d.emulator.mu0[idx[j]]),
+                               'z': float((d.measured[j] - d.emulator.mu0[idx[j]])
+                                          / floor[idx[j]])}
+                           for j, n in enumerate(obs_names)},
+            'markers': {str(int(m)): {a: float(np.sqrt(np.nanmean(d.marker_error[i, :, k] ** 2)))
+                                      for k, a in enumerate(AXES)}
+                        for i, m in enumerate(d.layout.markers)},
+            'mean_abs_z_markers': float(np.nanmean(np.abs(d.marker_z)))},
+        'remaining': dec.remaining if dec.verdict == 'inconclusive' else [],
+        'would_separate': dec.separators,
+        'groups': {g.name: [int(d.layout.markers[i]) for i in g.members] for g in d.layout.groups},
+        'windows_s': d.layout.windows.tolist(),
+        'marker_problems': {str(k): v for k, v in d.problems.items()},
+        'simulations': d.simulations,
+        'wall_s': round(d.wall_s, 3),
+    }
+    out.update(extra or {})
+    return out
+
+
+def write_outputs(d: Diagnosis, out: Path, extra: dict[str, Any] | None = None) -> dict[str, Any]:
+    """Write diagnosis.json, report.md, the plots and diagnosis.xlsx into ``out``."""
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        data = to_json(d, extra)
+        (out / 'diagnosis.json').write_text(json.dumps(data, indent=2))
+        from dempath_diagnose.plots import plot_all
+
+        plots = plot_all(d, out)
+        write_xlsx(d, data, out / 'diagnosis.xlsx')
+        (out / 'report.md').write_text(markdown(d, data, plots))
+    except OSError as err:
+        raise OutputError(f'{out}: cannot write the diagnosis ({err})') from err
+    return data
+
+
+def markdown(d: Diagnosis, data: dict[str, Any], plots: list[str]) -> str:
+    """report.md: plain sentences first, then the ranking, the remaining and the plots."""
+    lines = [f'# Diagnosis: {data["verdict"]}', '']
+    lines += [f'- {s}' for s in data['summary']] + ['']
+    if data['remaining']:
+        lines += ['Not ruled out: ' + ', '.join(data['remaining']) + '.', '']
+    for s in data['would_separate']:
+        lines.append(f'- would separate {s}')
+    lines += ['', '| candidate | kind | probability | strength | explained | implausibility |',
+              '|---|---|---|---|---|---|']
+    b = data['baseline']
+    lines.append(f'| nothing missing | baseline | {b["probability"]:.3f} | - | - | '
+                 f'{b["implausibility"]:.1f} |')
+    for r in data['ranking']:
+        s = r['strength']
+        lines.append(f'| {r["effect"]} | {r["kind"]} | {r["probability"]:.3f} | '
+                      f'{s["value"]:.4g} +- {s["uncertainty"]:.2g} {s["unit"]} | '
+                      f'{r["explained_fraction"]:.2f} | {r["implausibility"]:.1f} |')
+    lines += ['', f'Simulations used: {data["simulations"]}; wall time {data["wall_s"]:.1f} s.',
+              '']
+    lines += [f'![{p}]({p})' for p in plots]
+    return '\n'.join(lines) + '\n'
+
+
+def write_xlsx(d: Diagnosis, data: dict[str, Any], path: Path) -> None:
+    """Ranking, statistics and per-marker errors as three sheets."""
+    from openpyxl import Workbook
+
+    wb = Workbook()
+    ws = wb.active
+    ws.title = 'ranking'
+    ws.append(['effect', 'kind', 'probability', 'strength', 'sd', 'unit', 'explained',
+               'implausibility'])
+    for r in data['ranking']:
+        s = r['strength']
+        ws.append([r['effect'], r['kind'], r['probability'], s['value'], s['uncertainty'],
+                   s['unit'], r['explained_fraction'], r['implausibility']])
+    st = wb.create_sheet('statistics')
+    st.append(['statistic', 'measured', 'model', 'difference', 'z (seed spread)'])
+    for name, v in data['error_before']['statistics'].items():
+        st.append([name, v['measured'], v['model'], v['difference'], v['z']])
+    mk = wb.create_sheet('markers')
+    mk.append(['marker', *[f'rms error {a} [m]' for a in AXES]])
+    for m, v in data['error_before']['markers'].items():
+        mk.append([int(m), *[v[a] for a in AXES]])
+    wb.save(path)
+
+
+def print_ranking(data: dict[str, Any]) -> None:
+    """The ranking as a rich table on the terminal."""
+    from rich.console import Console
+    from rich.table import Table
+
+    table = Table(title=f'diagnosis: {data["verdict"]}')
+    for col in ('candidate', 'kind', 'probability', 'strength', 'explained', 'implausibility'):
+        table.add_column(col)
+    b = data['baseline']
+    table.add_row('nothing missing', 'baseline', f'{b["probability"]:.3f}', '-', '-',
+                  f'{b["implausibility"]:.1f}')
+    for r in data['ranking']:
+        s = r['strength']
+        table.add_row(r['effect'], r['kind'], f'{r["probability"]:.3f}',
+                      f'{s["value"]:.4g} +- {s["uncertainty"]:.2g} {s["unit"]}',
+                      f'{r["explained_fraction"]:.2f}', f'{r["implausibility"]:.1f}')
+    console = Console()
+    console.print(table)
+    for s in data['summary']:
+        console.print(s)

@@ -1,0 +1,266 @@
+"""Group statistics of a pass: what an effect moves more than chaos does (issue 13).
+
+A single marker's path is one sample of a chaotic bed (~25 mm between packings), so the
+diagnosis compares *group* statistics: markers are grouped by where they start relative to the
+tool (on its axis, beside it left / right, and by depth when they lie at several depths), the
+pass is cut into ``n_windows`` equal time windows, and per group and window the statistic is the
+time-average of the markers' mean displacement along three axes: lateral *outward* (X, signed
+away from the tool axis), vertical (Y) and forward (Z, travel). With a measured force, the mean
+draft (-Fz) per window while the tool moves is added.
+
+The model's counterpart of a measured marker is every library particle whose start lies in a
+cube (the scene's ``markers.cube_size_m``) centred on the marker's measured start: the paper's
+Cube candidates, for any layout. The model's prediction of a group statistic is the mean over
+the cubes; since the measured marker is one particle out of its cube, the within-cube spread
+(``sampling_cov``, divided by the markers in the group squared) is part of the prediction's
+uncertainty, beside the spread over packing seeds (see :mod:`dempath_diagnose.emulator`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from dempath_diagnose.records import F64, Measurement, PassRecord
+
+AXES = ('lateral_out', 'vertical', 'forward')
+SAMPLES_PER_WINDOW = 6  # interpolation points per window for the time-averages
+MIN_CUBE_MEMBERS = 3  # fewer model particles in a cube: the cube is grown
+CUBE_GROWTH = (1.0, 1.5, 2.0)  # factors tried on the cube size
+NEAREST_FALLBACK = 8  # particles taken when even the grown cube is empty
+
+
+@dataclass(frozen=True)
+class Group:
+    """Markers that share a position relative to the tool.
+
+    Attributes:
+        name: ``axis``, ``left`` or ``right``, with ``/deep`` for a lower depth band.
+        members: Indices into the layout's markers.
+        side: +1 (right, +X), -1 (left), 0 (on the axis): the sign of 'outward'.
+    """
+
+    name: str
+    members: NDArray[np.intp]
+    side: int
+
+
+@dataclass(frozen=True)
+class Layout:
+    """Marker groups and time windows of one case (from the measured start positions).
+
+    Attributes:
+        markers: (m,) marker numbers.
+        starts: (m, 3) start positions in the scene frame [m].
+        groups: The marker groups.
+        windows: (K, 2) start and end of each time window [s].
+        sides: (m,) outward sign of each marker (0 on the axis: lateral is plain X).
+        force_windows: Indices of the windows in which the tool still moves (force statistics).
+    """
+
+    markers: NDArray[np.int64]
+    starts: F64
+    groups: tuple[Group, ...]
+    windows: F64
+    sides: NDArray[np.int64]
+    force_windows: tuple[int, ...] = ()
+
+    def names(self, with_force: bool) -> list[str]:
+        """Statistic names ``group:axis:wK`` (and ``force:draft:wK``), in vector order."""
+        out = [f'{g.name}:{a}:w{k}' for g in self.groups for a in self._axes(g)
+               for k in range(len(self.windows))]
+        if with_force:
+            out += [f'force:draft:w{k}' for k in self.force_windows]
+        return out
+
+    @staticmethod
+    def _axes(group: Group) -> tuple[str, ...]:
+        return AXES if group.side else AXES[1:]  # the axis group has no outward direction
+
+
+def build_layout(markers: NDArray[np.int64], starts: F64, tool_x_m: float,
+                 axis_half_width_m: float, end_s: float, tool_stop_s: float,
+                 n_windows: int = 4, depth_band_m: float = 0.03) -> Layout:
+    """Group the markers and cut ``[0, end_s]`` into ``n_windows`` windows.
+
+    Args:
+        markers: (m,) marker numbers.
+        starts: (m, 3) start positions, scene frame [m].
+        tool_x_m: X of the tool axis [m].
+        axis_half_width_m: Markers within this lateral distance of the axis are 'on the axis'.
+        end_s: End of the measured pass [s].
+        tool_stop_s: Time the tool stops [s] (force windows end there).
+        n_windows: Number of time windows.
+        depth_band_m: Markers deeper than the group's top by more than this form a deep group.
+    """
+    dx = starts[:, 0] - tool_x_m
+    sides = np.where(np.abs(dx) <= axis_half_width_m, 0, np.sign(dx)).astype(np.int64)
+    groups = []
+    for name, side in (('axis', 0), ('left', -1), ('right', 1)):
+        members = np.flatnonzero(sides == side)
+        if not len(members):
+            continue
+        y = starts[members, 1]
+        deep = y < y.max() - depth_band_m
+        for suffix, part in (('', members[~deep]), ('/deep', members[deep])):
+            if len(part):
+                groups.append(Group(name + suffix, part, side))
+    edges = np.linspace(0.0, end_s, n_windows + 1)
+    windows = np.column_stack([edges[:-1], edges[1:]])
+    force = tuple(k for k in range(n_windows) if windows[k, 0] < tool_stop_s)
+    return Layout(markers, starts, tuple(groups), windows, sides, force)
+
+
+def _grid(windows: F64) -> F64:
+    """(K, S) sample times: S points at the centres of S equal sub-intervals of each window."""
+    frac = (np.arange(SAMPLES_PER_WINDOW) + 0.5) / SAMPLES_PER_WINDOW
+    return windows[:, :1] + (windows[:, 1:] - windows[:, :1]) * frac[None, :]
+
+
+def window_means(times: F64, values: F64, windows: F64) -> F64:
+    """Time-averages of ``values`` (nt, ...) over each window -> (K, ...), linear interpolation.
+
+    Samples that are NaN make the window mean NaN only for that column.
+    """
+    grid = _grid(windows).ravel()
+    j = np.searchsorted(times, grid, side='right') - 1
+    j = j.clip(0, max(len(times) - 2, 0))
+    t0, t1 = times[j], times[np.minimum(j + 1, len(times) - 1)]
+    w = np.where(t1 > t0, (grid - t0) / np.where(t1 > t0, t1 - t0, 1.0), 0.0).clip(0.0, 1.0)
+    shape = (len(grid),) + (1,) * (values.ndim - 1)
+    v = values[j] * (1.0 - w.reshape(shape)) + values[np.minimum(j + 1, len(times) - 1)] * \
+        w.reshape(shape)
+    return np.asarray(v.reshape(len(windows), SAMPLES_PER_WINDOW, *values.shape[1:]).mean(1))
+
+
+def oriented(displacement: F64, sides: NDArray[np.int64]) -> F64:
+    """(..., m, 3) displacements [m] -> (..., m, 3) as (lateral outward, vertical, forward)."""
+    sign = np.where(sides == 0, 1, sides).astype(np.float64)
+    return np.stack([displacement[..., 0] * sign, displacement[..., 1], displacement[..., 2]],
+                    axis=-1)
+
+
+def marker_features(meas: Measurement, layout: Layout) -> F64:
+    """(m, K, 3) window-mean displacements of each measured marker (lateral out, Y, Z) [m]."""
+    out = np.full((len(layout.markers), len(layout.windows), 3), np.nan)
+    for j in range(len(layout.markers)):
+        ok = np.isfinite(meas.positions[:, j, 0])
+        if ok.sum() < 2:
+            continue
+        d = meas.positions[ok, j] - layout.starts[j]
+        out[j] = window_means(meas.times[ok], d, layout.windows)
+    return oriented(out.transpose(1, 0, 2), layout.sides).transpose(1, 0, 2)
+
+
+def force_features(times: F64, force: F64, layout: Layout) -> F64:
+    """Mean draft -Fz [N] per force window."""
+    if not layout.force_windows:
+        return np.zeros(0)
+    draft = -force[:, 2]
+    means = window_means(times, draft, layout.windows)
+    return np.asarray(means[list(layout.force_windows)])
+
+
+def group_vector(features: F64, layout: Layout) -> F64:
+    """Group statistics (vector order of :meth:`Layout.names`) from (m, K, 3) features [m]."""
+    out = []
+    for g in layout.groups:
+        mean = np.nanmean(features[g.members], axis=0)  # (K, 3)
+        for a in Layout._axes(g):
+            out.append(mean[:, AXES.index(a)])
+    return np.concatenate(out) if out else np.zeros(0)
+
+
+def measured_statistics(meas: Measurement, layout: Layout) -> tuple[F64, F64]:
+    """The measured statistic vector and the per-marker features (m, K, 3)."""
+    features = marker_features(meas, layout)
+    y = group_vector(features, layout)
+    if meas.has_force:
+        y = np.concatenate([y, force_features(meas.force_times, meas.force, layout)])
+    return y, features
+
+
+@dataclass(frozen=True)
+class ModelStatistics:
+    """The statistics of one model pass for a layout.
+
+    Attributes:
+        vector: (k,) group statistics [m] (and draft [N] when with force).
+        sampling_cov: (k, k) covariance of a measured group statistic that picks one particle
+            per cube (within-cube spread over the group's markers squared).
+        features: (m, K, 3) cube-mean features per marker [m].
+        feature_var: (m, K, 3) within-cube variance per marker [m^2].
+        members: (m,) model particles per cube.
+    """
+
+    vector: F64
+    sampling_cov: F64
+    features: F64
+    feature_var: F64
+    members: NDArray[np.int64]
+
+
+def cube_members(start: F64, marker_starts: F64, cube: tuple[float, float, float],
+                 ) -> list[NDArray[np.intp]]:
+    """Indices of the particles whose start lies in the cube around each marker start."""
+    half = np.asarray(cube) / 2.0
+    finite = np.flatnonzero(np.isfinite(start).all(1))
+    out = []
+    for p in marker_starts:
+        for factor in CUBE_GROWTH:
+            inside = np.flatnonzero(np.all(np.abs(start - p) <= half * factor, axis=1))
+            if len(inside) >= MIN_CUBE_MEMBERS:
+                break
+        else:  # the model's bed lies elsewhere (e.g. a lower surface): the nearest particles
+            dist = np.linalg.norm(start[finite] - p, axis=1)
+            inside = finite[np.argsort(dist)[:NEAREST_FALLBACK]]
+        out.append(inside)
+    return out
+
+
+def model_statistics(rec: PassRecord, layout: Layout, cube: tuple[float, float, float],
+                     with_force: bool) -> ModelStatistics:
+    """Group statistics of a library pass for ``layout`` (see the module docstring)."""
+    start = rec.start
+    members = cube_members(start, layout.starts, cube)
+    disp = rec.positions.astype(np.float64) - start[None]
+    m, k = len(layout.markers), len(layout.windows)
+    feat, var = np.full((m, k, 3), np.nan), np.full((m, k, 3), np.nan)
+    per_particle: list[F64] = []
+    for j, idx in enumerate(members):
+        if not len(idx):
+            per_particle.append(np.zeros((0, k, 3)))
+            continue
+        f = window_means(rec.times, disp[:, idx], layout.windows).transpose(1, 0, 2)  # (p, K, 3)
+        f[..., 0] *= layout.sides[j] or 1
+        per_particle.append(f)
+        feat[j], var[j] = np.nanmean(f, axis=0), np.nanvar(f, axis=0)
+    vector = group_vector(feat, layout)
+    cov = _sampling_cov(per_particle, layout, len(vector))
+    if with_force:
+        force = force_features(rec.force_times, rec.tool_force, layout)
+        vector = np.concatenate([vector, force])
+        cov = np.pad(cov, ((0, len(force)), (0, len(force))))
+    return ModelStatistics(vector, cov, feat, var,
+                           np.array([len(i) for i in members], np.int64))
+
+
+def _sampling_cov(per_particle: list[F64], layout: Layout, n: int) -> F64:
+    """Block-diagonal covariance (one block per group) of one-particle-per-cube group means."""
+    cov = np.zeros((n, n))
+    at = 0
+    k = len(layout.windows)
+    for g in layout.groups:
+        axes = [AXES.index(a) for a in Layout._axes(g)]
+        size = len(axes) * k
+        block = np.zeros((size, size))
+        for j in g.members:
+            f = per_particle[j]
+            if len(f) >= 2:
+                flat = f[:, :, axes].transpose(0, 2, 1).reshape(len(f), size)
+                block += np.nan_to_num(np.cov(flat, rowvar=False))
+        cov[at:at + size, at:at + size] = block / max(len(g.members), 1) ** 2
+        at += size
+    return cov

@@ -1,0 +1,98 @@
+"""Simulation sweeps through Dask: a local cluster sized for the machine, or a scheduler address.
+
+Each task runs one library pass and stores it itself (atomically), so a finished run is never
+lost; a task whose worker dies is retried on another worker (``RETRIES``) and skips the run if
+its first attempt had already stored it. Local workers get ``NUMBA_NUM_THREADS`` so that
+workers x numba threads = cores (the engine's kernels are numba-parallel).
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+from collections.abc import Callable, Sequence
+from types import TracebackType
+from typing import Any
+
+from dempath_diagnose.errors import ClusterError
+
+logger = logging.getLogger(__name__)
+
+RETRIES = 3  # attempts after a worker died or a task failed
+CONNECT_TIMEOUT_S = 10.0  # waiting for a scheduler given by address [s]
+MAX_LOCAL_WORKERS = 2  # more processes than this only add memory on small machines
+
+
+def local_layout(cores: int | None = None, workers: int = 0) -> tuple[int, int]:
+    """(workers, numba threads per worker) with workers x threads = cores."""
+    cores = cores or os.cpu_count() or 1
+    n = workers or min(MAX_LOCAL_WORKERS, cores)
+    n = max(1, min(n, cores))
+    return n, max(1, cores // n)
+
+
+class DaskSweep:
+    """A Dask client on a scheduler address, or on a LocalCluster started here.
+
+    Args:
+        scheduler: ``tcp://host:port`` of a running scheduler; None for a local cluster.
+        workers: Local workers (0: by cores).
+        timeout_s: How long to try reaching a scheduler given by address [s].
+    """
+
+    def __init__(self, scheduler: str | None = None, workers: int = 0,
+                 timeout_s: float = CONNECT_TIMEOUT_S) -> None:
+        self.scheduler = scheduler
+        self.workers = workers
+        self.timeout_s = timeout_s
+        self.client: Any = None
+        self.cluster: Any = None
+
+    def __enter__(self) -> DaskSweep:
+        import dask
+        from distributed import Client, LocalCluster
+
+        if self.scheduler:
+            try:
+                with dask.config.set({'distributed.comm.timeouts.connect': self.timeout_s}):
+                    self.client = Client(self.scheduler, timeout=self.timeout_s)
+            except (OSError, TimeoutError) as err:
+                msg = f'{self.scheduler}: cannot reach the Dask scheduler ({err})'
+                raise ClusterError(msg) from err
+            return self
+        n, threads = local_layout(workers=self.workers)
+        self.cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                                    dashboard_address=None,
+                                    env={'NUMBA_NUM_THREADS': str(threads)})
+        self.client = Client(self.cluster)
+        logger.info('local Dask cluster: %d workers x %d numba threads', n, threads)
+        return self
+
+    def __exit__(self, kind: type[BaseException] | None, err: BaseException | None,
+                 tb: TracebackType | None) -> None:
+        if self.client is not None:
+            self.client.close()
+        if self.cluster is not None:
+            self.cluster.close()
+
+    def run(self, tasks: Sequence[Callable[[], Any]], done: Callable[[int], None]) -> None:
+        """Run every task (retried on failure); ``done(k)`` as each finishes.
+
+        Raises:
+            ClusterError: A task failed on every attempt (its message names the run).
+        """
+        from distributed import as_completed
+
+        if not tasks:
+            return
+        futures = {self.client.submit(task, retries=RETRIES, pure=False): k
+                   for k, task in enumerate(tasks)}
+        failed: list[str] = []
+        for future in as_completed(futures):
+            k = futures[future]
+            if future.status == 'error':
+                failed.append(f'{tasks[k]!r:.80}: {future.exception()}')
+            else:
+                done(k)
+        if failed:
+            raise ClusterError(f'{len(failed)} runs failed: {failed[0]}')

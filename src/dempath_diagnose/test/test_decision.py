@@ -1,0 +1,87 @@
+"""The decision on a hand-made emulator: each verdict path, probabilities and separators."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from dempath_diagnose.decision import decide, sigma_of
+from dempath_diagnose.emulator import CandidateEmulator, Emulator
+from dempath_diagnose.simulate import Candidate
+
+NAMES = ['right:lateral_out:w0', 'right:lateral_out:w1', 'axis:forward:w0', 'axis:forward:w1',
+         'force:draft:w0', 'force:draft:w1']
+SD = 0.002  # seed spread of every statistic [m] (and [N] for the draft)
+
+
+def make_emulator(signatures: dict[str, list[float]]) -> Emulator:
+    """Baseline 0 with sd SD; each candidate moves the statistics linearly from 0 at 0 to its
+    signature at strength 1 (prior 0..1.25)."""
+    k = len(NAMES)
+    cands = []
+    for name, sig in signatures.items():
+        cand = Candidate(name, 'effect', 'p', '1', 0.0, 2.0, 0.0)
+        cands.append(CandidateEmulator(cand, np.array([0.0, 1.0]),
+                                       np.array([np.zeros(k), np.array(sig)]),
+                                       np.full((2, k), (0.2 * SD) ** 2), (0.0, 1.25)))
+    return Emulator(NAMES, np.zeros(k), np.eye(k) * SD**2, np.zeros((k, k)), cands,
+                    np.zeros((3, k)), np.zeros((3, 1, 1, 3)), np.zeros((1, 1, 3)))
+
+
+def test_baseline_data_gives_nothing_significant() -> None:
+    """Data at the baseline mean: nothing_significant, the baseline most probable."""
+    emu = make_emulator({'a': [0.02, 0.03, 0, 0, 0, 0], 'b': [0, 0, 0.02, 0.03, 0, 0]})
+    d = decide(emu, np.zeros(6), np.ones(6, bool), np.eye(6) * SD**2)
+    assert d.verdict == 'nothing_significant'
+    assert d.baseline.probability > max(f.probability for f in d.ranking)
+    assert not d.baseline.ruled_out
+
+
+def test_strong_signature_is_named_with_its_strength() -> None:
+    """Data on candidate a's signature at strength 0.6: effect_missing a, strength ~0.6."""
+    sig = np.array([0.02, 0.03, 0, 0, 0, 0])
+    emu = make_emulator({'a': list(sig), 'b': [0, 0, 0.02, 0.03, 0, 0]})
+    d = decide(emu, 0.6 * sig, np.ones(6, bool), np.eye(6) * SD**2)
+    assert d.verdict == 'effect_missing'
+    top = d.ranking[0]
+    assert top.name == 'a' and top.probability >= 0.8
+    assert abs(top.strength - 0.6) < 2 * top.strength_sd + 0.05
+    assert d.baseline.ruled_out
+    assert top.explained_fraction > 0.8
+
+
+def test_twins_on_markers_are_inconclusive_and_the_force_separates_them() -> None:
+    """Two candidates with the same marker signature and different draft, force unmeasured:
+    inconclusive with both named and a draft-force measurement as what would separate them."""
+    emu = make_emulator({'a': [0.02, 0.03, 0, 0, 0.01, 0.02],
+                         'b': [0.02, 0.03, 0, 0, -0.01, -0.02]})
+    observed = np.array([True, True, True, True, False, False])
+    y = np.array([0.02, 0.03, 0.0, 0.0])
+    d = decide(emu, y, observed, np.eye(6) * SD**2)
+    assert d.verdict == 'inconclusive'
+    assert {'a', 'b'} <= set(d.remaining)
+    assert 'baseline' not in d.remaining
+    assert any('draft-force measurement' in s for s in d.separators), d.separators
+    assert all(f.probability < 0.8 for f in d.ranking)
+
+
+def test_with_the_force_the_twins_separate() -> None:
+    """The same twins with the draft measured: the right one is named."""
+    sig = [0.02, 0.03, 0, 0, 0.01, 0.02]
+    emu = make_emulator({'a': sig, 'b': [0.02, 0.03, 0, 0, -0.01, -0.02]})
+    d = decide(emu, np.array(sig), np.ones(6, bool), np.eye(6) * SD**2)
+    assert d.verdict == 'effect_missing' and d.ranking[0].name == 'a'
+
+
+def test_data_no_model_explains_is_inconclusive() -> None:
+    """A discrepancy no candidate produces: every model ruled out, inconclusive, not named."""
+    emu = make_emulator({'a': [0.02, 0.03, 0, 0, 0, 0], 'b': [0, 0, 0.02, 0.03, 0, 0]})
+    y = np.array([-0.03, 0.03, -0.03, 0.03, -0.03, 0.03])
+    d = decide(emu, y, np.ones(6, bool), np.eye(6) * SD**2)
+    assert d.verdict == 'inconclusive'
+    assert d.baseline.ruled_out and all(f.ruled_out for f in d.ranking)
+
+
+def test_sigma_of_matches_the_gaussian_in_one_dimension() -> None:
+    """For k = 1 the implausibility is |r| / sd."""
+    assert abs(sigma_of(9.0, 1) - 3.0) < 1e-6
+    assert abs(sigma_of(1.0, 1) - 1.0) < 1e-6

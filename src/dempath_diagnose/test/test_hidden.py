@@ -1,0 +1,78 @@
+"""Hidden-effect cases on the tiny scene: seeds the library never used, 1.5 mm camera noise.
+
+A strong tool-speed change and strong cohesion must be named; the control must not be named as
+anything. The whole command is run once (CLI: outputs, the rich ranking, the library reused).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from dempath_diagnose.cases import HiddenCase, make_case
+from dempath_diagnose.cli import diagnose_main
+from dempath_diagnose.diagnose import CaseGeometry, diagnose
+from dempath_diagnose.library import Library
+from dempath_diagnose.measure import load_force, load_tracks
+from dempath_diagnose.simulate import load_scene
+
+from .conftest import SCENE, SPEC
+
+CASES = {
+    'control': HiddenCase('control', {}, '', ('nothing_significant',), seed=7),
+    'tool_speed': HiddenCase('tool_speed', {'tool_speed.speed_scale': 1.4}, 'tool_speed',
+                             ('parameter_off',), seed=9),
+    'cohesion': HiddenCase('cohesion', {'cohesion.energy_density_j_m3': 8e4}, 'cohesion',
+                           ('effect_missing',), seed=11),
+}
+
+
+def case_files(cache: Path, name: str) -> tuple[Path, Path]:
+    """The case's markers.csv and force.csv (simulated once per session)."""
+    return make_case(load_scene(SCENE), CASES[name], cache / 'cases' / name,
+                     until_s=SPEC.duration_s, cache_dir=cache / 'packings')
+
+
+@pytest.mark.parametrize('name', ['control', 'tool_speed', 'cohesion'])
+def test_hidden_case_is_diagnosed(name: str, cache: Path, tiny_library: Library,
+                                  geometry: CaseGeometry) -> None:
+    """The verdict is right; a named candidate is the truth with probability >= 0.8."""
+    from dataclasses import replace
+
+    markers, force = case_files(cache, name)
+    meas = load_tracks(markers)
+    t, f = load_force(force)
+    result = diagnose(replace(meas, force_times=t, force=f), tiny_library, geometry)
+    case = CASES[name]
+    verdict = result.decision.verdict
+    top = result.decision.ranking[0]
+    assert verdict in case.verdicts, (verdict, [(r.name, r.probability)
+                                                for r in result.decision.ranking])
+    if case.truth:
+        assert top.name == case.truth and top.probability >= 0.8
+
+
+def test_cli_writes_every_output(cache: Path, tiny_library: Library, tmp_path: Path,
+                                 capsys: pytest.CaptureFixture[str]) -> None:
+    """`dempath diagnose` on the tool-speed case: json fields, report, plots, xlsx, ranking."""
+    markers, force = case_files(cache, 'tool_speed')
+    out = tmp_path / 'out'
+    argv = ['--measured', str(markers), '--force', str(force), '--scene', SCENE, '--out',
+            str(out), '--library-root', str(cache / 'library'), '--packing-cache',
+            str(cache / 'packings'), '--seeds', ','.join(map(str, SPEC.seeds)),
+            '--candidates', ','.join(SPEC.candidates), '--strengths', str(SPEC.n_strengths),
+            '--serial']
+    assert diagnose_main(argv) == 0
+    data = json.loads((out / 'diagnosis.json').read_text())
+    for key in ('verdict', 'ranking', 'floor', 'error_before', 'remaining', 'would_separate',
+                'simulations', 'wall_s'):
+        assert key in data, key
+    first = data['ranking'][0]
+    assert {'effect', 'kind', 'probability', 'strength', 'explained_fraction'} <= set(first)
+    assert {'value', 'uncertainty', 'unit'} <= set(first['strength'])
+    assert data['simulations'] == len(tiny_library.runs)
+    for name in ('report.md', 'statistics.png', 'error_map.png', 'force.png', 'diagnosis.xlsx'):
+        assert (out / name).stat().st_size > 0, name
+    assert 'no signature library' not in capsys.readouterr().err  # the library was reused

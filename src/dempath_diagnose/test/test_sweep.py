@@ -1,0 +1,133 @@
+"""Sweeps on a real Dask scheduler started as separate processes, and a worker killed mid-run."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+
+from dempath_diagnose.sweep import DaskSweep, local_layout
+
+DASK = str(Path(sys.executable).parent / 'dask')
+
+
+@dataclass(frozen=True)
+class StoreTask:
+    """Like a library run: skip if stored, else work ``seconds``, then store atomically."""
+
+    path: Path
+    seconds: float
+
+    def __call__(self) -> str:
+        if self.path.is_file():
+            return 'kept'
+        time.sleep(self.seconds)
+        tmp = self.path.with_suffix('.tmp')
+        tmp.write_text(f'{os.getpid()}\n')
+        tmp.replace(self.path)
+        return 'ran'
+
+
+def shipped(tasks: list[StoreTask]) -> list[Callable[[], str]]:
+    """The tasks as closures pickled by value (workers cannot import a test module)."""
+    import cloudpickle
+
+    cloudpickle.register_pickle_by_value(sys.modules[StoreTask.__module__])
+    return [lambda t=t: t() for t in tasks]
+
+
+def _start(args: list[str], log: Path) -> subprocess.Popen[bytes]:
+    return subprocess.Popen([DASK, *args], stdout=log.open('wb'), stderr=subprocess.STDOUT,
+                            start_new_session=True)
+
+
+@pytest.fixture
+def scheduler(tmp_path: Path) -> Iterator[tuple[str, list[subprocess.Popen[bytes]]]]:
+    """A `dask scheduler` and two single-thread `dask worker` processes; stopped after."""
+    if not shutil.which(DASK):
+        pytest.fail(f'{DASK}: the dask CLI is missing (pinned in requirements.txt)')
+    port_file = tmp_path / 'scheduler.json'
+    procs = [_start(['scheduler', '--port', '0', '--no-dashboard', '--scheduler-file',
+                     str(port_file)], tmp_path / 'scheduler.log')]
+    try:
+        for _ in range(300):
+            if port_file.is_file():
+                break
+            time.sleep(0.1)
+        import json
+
+        address = json.loads(port_file.read_text())['address']
+        for k in range(2):
+            procs.append(_start(['worker', address, '--nthreads', '1', '--no-dashboard',
+                                 '--name', f'w{k}'], tmp_path / f'worker{k}.log'))
+        yield address, procs
+    finally:
+        for p in reversed(procs):
+            if p.poll() is None:
+                p.terminate()
+                try:
+                    p.wait(10)
+                except subprocess.TimeoutExpired:
+                    p.kill()
+
+
+def wait_workers(address: str, n: int) -> None:
+    """Wait until ``n`` workers have joined the scheduler."""
+    from distributed import Client
+
+    with Client(address, timeout=30) as client:
+        client.wait_for_workers(n, timeout=60)
+
+
+def test_sweep_on_a_scheduler_given_by_address(
+        scheduler: tuple[str, list[subprocess.Popen[bytes]]], tmp_path: Path) -> None:
+    """Every task runs on the external cluster and reports done once."""
+    address, _ = scheduler
+    wait_workers(address, 2)
+    tasks = [StoreTask(tmp_path / f'run{k}.txt', 0.1) for k in range(6)]
+    finished: list[int] = []
+    with DaskSweep(address) as sweep:
+        sweep.run(shipped(tasks), finished.append)
+    assert sorted(finished) == list(range(6))
+    assert all(t.path.is_file() for t in tasks)
+
+
+def test_killed_worker_is_retried_and_nothing_finished_is_lost(
+        scheduler: tuple[str, list[subprocess.Popen[bytes]]], tmp_path: Path) -> None:
+    """A worker killed mid-run: its task is retried on the other worker; files already stored
+    are kept untouched."""
+    address, procs = scheduler
+    wait_workers(address, 2)
+    tasks = [StoreTask(tmp_path / f'run{k}.txt', 1.5) for k in range(4)]
+    finished: list[int] = []
+    with DaskSweep(address) as sweep:
+        import threading
+
+        runner = threading.Thread(target=sweep.run, args=(shipped(tasks), finished.append))
+        runner.start()
+        deadline = time.monotonic() + 60
+        while not any(t.path.is_file() for t in tasks) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        first = {t.path: t.path.read_text() for t in tasks if t.path.is_file()}
+        os.killpg(procs[1].pid, signal.SIGKILL)  # one worker dies while running a task
+        runner.join(120)
+    assert not runner.is_alive()
+    assert sorted(finished) == [0, 1, 2, 3]
+    assert all(t.path.is_file() for t in tasks)
+    assert all(path.read_text() == text for path, text in first.items())
+
+
+def test_local_layout_fills_the_cores_without_oversubscribing() -> None:
+    """workers x numba threads = cores."""
+    assert local_layout(cores=2) == (2, 1)
+    assert local_layout(cores=8) == (2, 4)
+    assert local_layout(cores=1) == (1, 1)
+    assert local_layout(cores=8, workers=4) == (4, 2)
