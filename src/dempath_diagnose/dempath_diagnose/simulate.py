@@ -273,7 +273,10 @@ def _resettle(scene: SceneSpec, base: SceneSpec, key: str, cache_dir: Path | Non
     state, settled = settle(engine, state, scene, scene.fill.max_settle_time_s)
     found = measure(scene, model, state)
     report = replace(report, key=key, settled=settled, from_cache=False,
-                     settle_time_s=report.settle_time_s + state.time, **found)
+                     settle_time_s=report.settle_time_s + state.time,
+                     surface_height_m=found['surface_height_m'],
+                     solid_fraction=found['solid_fraction'],
+                     bulk_density_kg_m3=found['bulk_density_kg_m3'])
     state.time, state.step = 0.0, 0
     _save_cached((cache_dir or default_cache_dir()) / f'{key}.npz', state, report)
     logger.info('re-settled the bed of %s seed %d with the run physics (%d particles)',
