@@ -8,6 +8,7 @@ publishes its points: manual and automatic tracks flow through the same reconstr
 
 from __future__ import annotations
 
+import time
 from typing import Any
 
 from rcl_interfaces.msg import ParameterDescriptor
@@ -60,6 +61,7 @@ class ClickerNode(Node):
                                             reliable_qos(10, latched=True))
         self.next = 0
         self.published = 0
+        self.finished_at: float | None = None  # monotonic time of the FINISHED event
         self.started_s = self.get_clock().now().nanoseconds * 1e-9
         self.timer = self.create_timer(1.0 / self.config.rate_hz, self.tick)
 
@@ -67,6 +69,10 @@ class ClickerNode(Node):
     def done(self) -> bool:
         """Whether every frame has been published."""
         return self.next >= len(self.frames)
+
+    def finished_for(self, seconds: float) -> bool:
+        """Whether everything was published at least ``seconds`` ago (time to deliver it)."""
+        return self.finished_at is not None and time.monotonic() - self.finished_at >= seconds
 
     def ready(self) -> bool:
         """Whether the wanted subscribers are there (or the wait has timed out)."""
@@ -91,6 +97,7 @@ class ClickerNode(Node):
             self.event(RunEvent.FINISHED, f'published {self.published} clicked points of '
                        f'{self.config.clicks_file}')
             self.timer.cancel()
+            self.finished_at = time.monotonic()
 
     def event(self, event: int, detail: str) -> None:
         """Announce a RunEvent (run id: the click file)."""
@@ -102,4 +109,4 @@ class ClickerNode(Node):
 
 def main(args: list[str] | None = None) -> int:
     """Console script ``dempath_clicker``: publish a click file, then exit."""
-    return run_node(ClickerNode, args, until=lambda node: node.done)
+    return run_node(ClickerNode, args, until=lambda node: node.finished_for(0.5))
