@@ -10,13 +10,12 @@ never used: the driver is the one Debian ships with the browser, so their versio
 from __future__ import annotations
 
 import logging
-import os
 import shutil
-import subprocess
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from dempath.aptinstall import apt_install, can_install
 from dempath.errors import DempathError
 
 LOG = logging.getLogger(__name__)
@@ -44,11 +43,6 @@ def find_chromium() -> Chromium | None:
     return Chromium(browser, driver) if browser and driver else None
 
 
-def can_install() -> bool:
-    """Whether this process may install Debian packages (root with apt-get)."""
-    return hasattr(os, 'geteuid') and os.geteuid() == 0 and shutil.which('apt-get') is not None
-
-
 def ensure_chromium(install: bool = True, timeout_s: float = 900.0) -> Chromium:
     """Find Chromium and its driver, installing the Debian packages when allowed.
 
@@ -64,16 +58,10 @@ def ensure_chromium(install: bool = True, timeout_s: float = 900.0) -> Chromium:
     if not can_install():
         msg = f'chromium: not installed and this process cannot install it; run {INSTALL_HINT!r}'
         raise BrowserNotFoundError(msg)
-    env = {**os.environ, 'DEBIAN_FRONTEND': 'noninteractive'}
-    for cmd in (['apt-get', 'update', '-q'],
-                ['apt-get', 'install', '-y', '-q', '--no-install-recommends', *APT_PACKAGES]):
-        LOG.info('running %s', ' '.join(cmd))
-        done = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=timeout_s,
-                              check=False)
-        if done.returncode != 0:
-            tail = (done.stderr or done.stdout).strip().splitlines()[-1:] or ['no output']
-            msg = f'chromium: {" ".join(cmd)!r} failed ({done.returncode}): {tail[0]}'
-            raise BrowserNotFoundError(msg)
+    failure = apt_install(APT_PACKAGES, timeout_s)
+    if failure:
+        msg = f'chromium: {failure}'
+        raise BrowserNotFoundError(msg)
     found = find_chromium()
     if found is None:
         msg = f'chromium: installed {", ".join(APT_PACKAGES)} but chromedriver is not on PATH'
