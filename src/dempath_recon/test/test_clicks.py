@@ -165,3 +165,20 @@ def test_source_without_images_is_an_error(tmp_path: Path) -> None:
         open_frames(tmp_path)
     with pytest.raises(ClickError, match='no such bag or folder'):
         open_frames(tmp_path / 'nope')
+
+
+def test_raw_image_bag_is_shown_losslessly(tmp_path: Path) -> None:
+    """sensor_msgs/Image rgb8 frames are served as PNG with the same pixels (BGR order)."""
+    store = make_typestore()
+    image_cls, header_cls, time_cls = (store.types[t] for t in (
+        'sensor_msgs/msg/Image', 'std_msgs/msg/Header', 'builtin_interfaces/msg/Time'))
+    rgb = np.random.default_rng(0).integers(0, 255, (6, 8, 3), dtype=np.uint8)
+    messages = [(f'/{cam}/image_raw', 'sensor_msgs/msg/Image', 10**9 + k, image_cls(
+        header=header_cls(stamp=time_cls(sec=1, nanosec=k), frame_id=cam), height=6, width=8,
+        encoding='rgb8', is_bigendian=0, step=24, data=rgb.ravel()))
+        for k, cam in enumerate(('cam_side', 'cam_front'))]
+    frames = open_frames(write_bag(tmp_path / 'raw', messages, typestore=store))
+    image = frames.frames[0]['cam_front']
+    assert image is not None and image.mime == 'image/png'
+    shown = cv2.imdecode(np.frombuffer(image.data, np.uint8), cv2.IMREAD_COLOR)
+    np.testing.assert_array_equal(shown, rgb[..., ::-1])
