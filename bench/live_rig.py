@@ -23,12 +23,12 @@ from std_msgs.msg import Header
 
 from dempath import topics
 from dempath.nodes.harness import RosHarness
-from dempath_calib.rig import paper_rig, sample_working_volume
 from dempath_msgs.msg import PixelPoints
 from dempath_recon.nodes.convert import s_to_stamp
 from dempath_recon.nodes.reconstructor import ReconstructorNode
 from dempath_recon.pairing import PixelFrame
 from dempath_recon.stream import MarkerStream, StreamConfig
+from dempath_twin.rig import paper_rig, sample_working_volume
 
 
 def points_msg(camera: str, stamp_s: float, uv: np.ndarray) -> PixelPoints:
@@ -78,7 +78,7 @@ def main() -> None:
         figures = {'frames_per_camera': n, 'fps': args.fps, 'method': args.method,
                    'instants': node.counts['instants'],
                    'kept_fraction': round(node.counts['instants'] / n, 4),
-                   'dropped_behind': node.work.dropped, 'unpaired': node.stream.pairer.unpaired,
+                   'dropped_behind': node.work.dropped, 'unpaired': node.stream.sync.unpaired,
                    'most_waiting': node.work.most_waiting,
                    'pair_ms': round(pair_ms(calib, args.method, uv), 2)}
     print(json.dumps(figures))

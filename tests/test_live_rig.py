@@ -22,11 +22,11 @@ from std_msgs.msg import Header
 
 from dempath import topics
 from dempath_calib.camera import StereoCalibration
-from dempath_calib.rig import paper_rig, sample_working_volume
 from dempath_msgs.msg import MarkerPoints3D, PixelPoints, RunEvent
 from dempath_recon.nodes.convert import s_to_stamp
 from dempath_recon.nodes.passgate import PassNode
 from dempath_recon.nodes.reconstructor import ReconstructorNode
+from dempath_twin.rig import paper_rig, sample_working_volume
 
 FPS = 50.0
 FRONT_OFFSET_S = 0.003  # unsynchronised cameras: the front one 3 ms late

@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 
 from dempath import topics
-from dempath_calib.rig import sample_working_volume
 from dempath_msgs.msg import MarkerPoints3D, PixelPoints, RunEvent
 from dempath_recon.clicks import Click, clicks_to_csv
 from dempath_recon.errors import ClickError
 from dempath_recon.nodes.clicker import ClickerNode
 from dempath_recon.nodes.reconstructor import ReconstructorNode
+from dempath_twin.rig import sample_working_volume
 
 
 def test_clicks_flow_through_the_reconstructor(ros_harness, rig, tmp_path: Path) -> None:

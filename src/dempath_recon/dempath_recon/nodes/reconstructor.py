@@ -75,6 +75,11 @@ class ReconstructorNode(Node):
         self.get_logger().info(f'reconstructing with {self.config.method!r}, '
                                f'slop {self.config.slop_s} s')
 
+    @property
+    def reconstructor(self) -> Any:
+        """The fitted method the node uses: ``predict(pixels (n, 4) px) -> (n, 3) m``."""
+        return self.stream.reconstructor
+
     def callback_for(self, camera: int) -> Callable[[PixelPoints], None]:
         """The subscription callback of camera SIDE (0) or FRONT (1): enqueue for the worker."""
         return lambda msg: self.enqueue(msg, camera)
@@ -101,9 +106,9 @@ class ReconstructorNode(Node):
     def publish_counts(self) -> None:
         """Frames in per camera, instants out, frames dropped (bad or never paired), waiting."""
         counts = {**self.counts, 'dropped_behind': self.work.dropped,
-                  'unpaired': self.stream.pairer.unpaired,
+                  'unpaired': self.stream.sync.unpaired,
                   'waiting': self.work.waiting, 'most_waiting': self.work.most_waiting,
-                  'waiting_partner': sum(len(q) for q in self.stream.pairer.queues),
+                  'waiting_partner': sum(len(q) for q in self.stream.sync.queues),
                   'rejected_points': sum(self.stream.rejected.values())}
         self.pub_diag.publish(counts_message(self, 'reconstruction', counts,
                                              ('dropped', 'dropped_behind', 'unpaired')))

@@ -10,10 +10,9 @@ import pytest
 
 from dempath import topics
 from dempath.bagio import make_typestore, open_bag, write_bag
-from dempath_calib.rig import paper_rig
-from dempath_recon import fieldtwin as ft
-from dempath_recon.errors import ReconstructionError
-from dempath_recon.triangulate import DLTTriangulator
+from dempath_twin import field as ft
+from dempath_twin.errors import TwinError
+from dempath_twin.rig import paper_rig
 
 
 def lifted_grid(times: np.ndarray) -> ft.MarkerTracks:
@@ -48,7 +47,7 @@ def test_bad_csv_names_file(tmp_path: Path) -> None:
     """A CSV with another header is refused with the file name in the message."""
     path = tmp_path / 'bad.csv'
     path.write_text('a,b\n1,2\n')
-    with pytest.raises(ReconstructionError, match=r'bad\.csv'):
+    with pytest.raises(TwinError, match=r'bad\.csv'):
         ft.read_marker_csv(path)
 
 
@@ -59,9 +58,12 @@ def test_clean_clicks_triangulate_to_truth() -> None:
     rig = paper_rig()
     uv = ft.project_tracks(rig.cameras, field.xyz)
     assert ft.outside_image(rig.cameras, uv) == 0
-    pixels = np.concatenate([uv[:, 0], uv[:, 1]], axis=-1).reshape(-1, 4)
-    xyz = DLTTriangulator(refine=True).fit(calibration=rig).predict(pixels)
-    np.testing.assert_allclose(xyz, field.xyz.reshape(-1, 3), atol=1e-6)
+    side, front = rig.cameras  # OpenCV's linear triangulation from the undistorted pixels
+    norm = [c.undistort_points(uv[:, k].reshape(-1, 2), normalized=True) for k, c in
+            enumerate((side, front))]
+    proj = [np.hstack([c.R, c.t.reshape(3, 1)]) for c in (side, front)]
+    xyzw = cv2.triangulatePoints(proj[0], proj[1], norm[0].T, norm[1].T)
+    np.testing.assert_allclose((xyzw[:3] / xyzw[3]).T, field.xyz.reshape(-1, 3), atol=1e-6)
 
 
 def test_click_noise_has_the_papers_spread() -> None:

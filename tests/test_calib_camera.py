@@ -11,7 +11,9 @@ from dempath_calib.camera import CameraModel, StereoCalibration
 from dempath_calib.camerainfo import read_camera_info, write_camera_info
 from dempath_calib.errors import CalibrationFileError
 from dempath_calib.pointset import load_point_set, make_point_set, save_point_set
-from dempath_calib.rig import WORKING_VOLUME, paper_rig, sample_working_volume
+from dempath_twin.rig import WORKING_VOLUME, paper_rig, sample_working_volume
+
+pytestmark = pytest.mark.usefixtures('strict_numpy')  # as the dempath_calib tests ran
 
 
 def test_rig_sees_working_volume() -> None:

@@ -7,14 +7,17 @@ from typing import Any
 
 import cv2
 import numpy as np
+import pytest
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import CameraInfo, CompressedImage, Image
 from std_srvs.srv import Trigger
 
 from dempath import topics
 from dempath_calib.nodes.calibrator import CalibratorNode
-from dempath_calib.rig import paper_rig
-from dempath_calib.twin import calibration_poses, render_views
+from dempath_twin.rig import paper_rig
+from dempath_twin.views import calibration_poses, render_views
+
+pytestmark = pytest.mark.usefixtures('strict_numpy')  # as the dempath_calib tests ran
 
 N_VIEWS = 16
 K_REL_TOL = 0.01  # fx, fy within 1% with this few views

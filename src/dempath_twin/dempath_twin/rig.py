@@ -76,7 +76,7 @@ def paper_rig() -> StereoCalibration:
         rot, t = look_at(np.array(center), np.array(LOOK_AT))
         cams.append(CameraModel(name, IMAGE_SIZE[0], IMAGE_SIZE[1], intrinsic_matrix(intr),
                                 distortion(intr), rot, t))
-    return StereoCalibration(cams[0], cams[1], {'source': 'dempath_calib.rig.paper_rig'})
+    return StereoCalibration(cams[0], cams[1], {'source': 'dempath_twin.rig.paper_rig'})
 
 
 def sample_working_volume(n: int, rng: np.random.Generator) -> FloatArray:

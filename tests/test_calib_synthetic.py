@@ -16,9 +16,11 @@ from dempath_calib.collect import ViewCollector
 from dempath_calib.errors import DegenerateViewsError, NotEnoughViewsError
 from dempath_calib.intrinsics import calibrate_intrinsics
 from dempath_calib.pairing import DetectionStream, pair_frames
-from dempath_calib.rig import paper_rig
-from dempath_calib.twin import calibration_poses, project_views, smooth_poses
 from dempath_calib.verify import compare_to_truth
+from dempath_twin.rig import paper_rig
+from dempath_twin.views import calibration_poses, project_views, smooth_poses
+
+pytestmark = pytest.mark.usefixtures('strict_numpy')  # as the dempath_calib tests ran
 
 # Tolerances with 0.2 px corner noise and 40 views (projected, not rendered).
 # The residual RMSE must match the injected noise, 0.2 * sqrt(2) = 0.283 px, within 0.04 px.
@@ -145,7 +147,7 @@ def test_collector_drops_oldest_and_counts() -> None:
 
 def test_synthetic_point_set_noise() -> None:
     """The paper-size point set has the asked size and exactly the asked pixel noise."""
-    from dempath_calib.twin import synthetic_point_set
+    from dempath_twin.views import synthetic_point_set
     ps = synthetic_point_set(5000, noise_px=0.2, seed=2)
     rig = paper_rig()
     assert len(ps) == 5000 and len(np.unique(ps.view)) > 200

@@ -20,8 +20,9 @@ from dempath import topics
 from dempath.bagio import write_bag
 from dempath_calib.board import PAPER_BOARD, BoardSpec
 from dempath_calib.camera import StereoCalibration
-from dempath_calib.rig import paper_rig
-from dempath_calib.twin import (
+from dempath_twin.images import jpeg_message, stamp_header
+from dempath_twin.rig import paper_rig
+from dempath_twin.views import (
     BoardPose,
     calibration_poses,
     render_views,
@@ -42,15 +43,10 @@ def truth_path(bag: str | Path) -> Path:
 def image_messages(image: NDArray[np.uint8], camera: str, stamp_ns: int,
                    compressed: bool, quality: int = JPEG_QUALITY) -> tuple[str, str, Any]:
     """``(topic, msgtype, rosbags message)`` of one grey image (Jazzy typestore)."""
-    store = get_typestore(Stores.ROS2_JAZZY)
-    t = store.types
-    header = t['std_msgs/msg/Header'](
-        stamp=t['builtin_interfaces/msg/Time'](sec=stamp_ns // 10**9, nanosec=stamp_ns % 10**9),
-        frame_id=f'{camera}_optical')
+    t = get_typestore(Stores.ROS2_JAZZY).types
+    header = stamp_header(t, stamp_ns, f'{camera}_optical')
     if compressed:
-        _, buf = cv2.imencode('.jpg', image, [cv2.IMWRITE_JPEG_QUALITY, quality])
-        msg = t['sensor_msgs/msg/CompressedImage'](
-            header=header, format='mono8; jpeg compressed mono8', data=buf.ravel())
+        msg = jpeg_message(t, header, image, quality, 'mono8; jpeg compressed mono8')
         return (topics.camera_topic(topics.IMAGE_COMPRESSED, camera),
                 'sensor_msgs/msg/CompressedImage', msg)
     h, w = image.shape

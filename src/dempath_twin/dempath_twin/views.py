@@ -19,15 +19,14 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from dempath_calib.board import PAPER_BOARD, BoardSpec
+from dempath_calib.board import PAPER_BOARD, SURFACE_ROT, BoardSpec
 from dempath_calib.camera import CameraModel, StereoCalibration
 from dempath_calib.pointset import PointSet, make_point_set
-from dempath_calib.render import BoardRenderer, FrameConditions
-from dempath_calib.rig import WORKING_VOLUME, paper_rig
+from dempath_twin.render import BoardRenderer, FrameConditions
+from dempath_twin.rig import WORKING_VOLUME, paper_rig
 
 LOG = logging.getLogger(__name__)
 FloatArray = NDArray[np.float64]
-SURFACE_ROT = np.array([[1.0, 0, 0], [0, 0, -1.0], [0, 1.0, 0]])  # board axes x,y,z -> X,Z,-Y
 MAX_INCIDENCE_DEG = 60.0  # largest angle between the board normal and a camera's line of sight
 DETECTABLE_DEG = 75.0  # incidence up to which project_views reports corners (detector limit)
 IMAGE_MARGIN_PX = 15.0  # board corners kept this far inside the image when the board must fit

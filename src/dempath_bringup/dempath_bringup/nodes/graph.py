@@ -1,8 +1,11 @@
 """The demo's node graph: field bag -> player -> reconstructor; simulator; comparer; recorder.
 
 All nodes run in one process on a :class:`~dempath.nodes.harness.RosHarness` (no launch);
-:func:`run_graph` is steps 3-5 of ``dempath demo`` and what ``tests/test_demo_pipeline.py`` runs
-on the tiny scene. Also the checks of its outputs against the field twin's truth.
+:func:`run_graph` is the graph step of ``dempath demo`` and what ``tests/test_demo_pipeline.py``
+runs on the tiny scene. The graph learns what it needs through the nodes' public surface (the
+recorder's ``received_counts``, the reconstructor's fitted ``reconstructor``, the comparer's
+``last_result``) and through topics (the simulator's RunEvent), never through their internals.
+Also the checks of its outputs against the field twin's truth.
 """
 
 from __future__ import annotations
@@ -55,7 +58,12 @@ class GraphSpec:
 
 @dataclass
 class GraphResult:
-    """What the graph did: counts per topic (as recorded), scores and the recorder summary."""
+    """What the graph did: counts per topic (as recorded), scores and the recorder summary.
+
+    Attributes:
+        reconstructor: the reconstructor node's fitted method (fitted once, by the node).
+        live: the comparer node's comparison behind its published scores (None: no scores).
+    """
 
     bag: Path
     received: dict[str, int]
@@ -66,6 +74,8 @@ class GraphResult:
     scored_markers: int
     summary: str
     wall_s: float
+    reconstructor: Any = None
+    live: Any = None
 
     def text(self) -> str:
         """A few printable lines."""
@@ -80,8 +90,7 @@ class GraphResult:
 
 
 def _received(recorder: Any, topic: str) -> int:
-    stats = recorder.recorder.stats.get(topic) if recorder.recorder is not None else None
-    return 0 if stats is None else int(stats.received)
+    return int(recorder.received_counts().get(topic, 0))
 
 
 def _play(harness: Any, recorder: Any, spec: GraphSpec, note: Callable[[str], None]) -> int:
@@ -113,9 +122,14 @@ def _play(harness: Any, recorder: Any, spec: GraphSpec, note: Callable[[str], No
 def _simulate(harness: Any, recorder: Any, spec: GraphSpec,
               note: Callable[[str], None]) -> Any:
     """Run the simulator node; wait until the comparer's scores are recorded."""
+    from rclpy.qos import DurabilityPolicy, QoSProfile
+
     from dempath import topics
+    from dempath_msgs.msg import RunEvent
     from dempath_sim.nodes.simulator import SimulatorNode
 
+    latched = QoSProfile(depth=10, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+    events = harness.collect(RunEvent, topics.SIM_RUN_EVENTS, latched)
     sim = harness.start(SimulatorNode, scene=spec.scene, cache_dir=spec.cache_dir)
     start = time.monotonic()
     ended: list[float] = []
@@ -125,7 +139,7 @@ def _simulate(harness: Any, recorder: Any, spec: GraphSpec,
         note(f'simulating {spec.scene}: {what}, {time.monotonic() - start:.0f} s')
         if _received(recorder, topics.COMPARE_SCORES) > 0:
             return True
-        if not sim.worker.is_alive() and not ended:
+        if not ended and any(e.event in (RunEvent.FINISHED, RunEvent.ABORTED) for e in events):
             ended.append(time.monotonic())
         return bool(ended) and time.monotonic() - ended[0] > SCORE_GRACE_S
 
@@ -152,22 +166,22 @@ def run_graph(spec: GraphSpec, note: Callable[[str], None] = lambda text: None) 
         logger_class = type(harness.probe.get_logger())  # type: ignore[no-untyped-call]  # rcutils logger
         for name in QUIET_NODES:
             logger_class(name).set_level(WARN)
-        harness.start(ReconstructorNode, method=spec.method,
-                      calibration_file=str(spec.calibration))
-        harness.start(ComparerNode, experiment=spec.experiment)
+        recon = harness.start(ReconstructorNode, method=spec.method,
+                              calibration_file=str(spec.calibration))
+        comparer = harness.start(ComparerNode, experiment=spec.experiment)
         recorder = harness.start(RecorderNode, output=str(spec.output))
-        if recorder.recorder is None:
+        if not recorder.recording:
             msg = f'{spec.output}: the recorder cannot write the bag'
             raise DempathError(msg)
         pixel_frames = _play(harness, recorder, spec, note)
         sim = _simulate(harness, recorder, spec, note)
-        stats = recorder.recorder.stats
-        received = {t: int(s.received) for t, s in stats.items()}
+        received = recorder.received_counts()
         summary = recorder.finish()
         run_id, frames = sim.run_id, sim.frames
     scores, markers = recorded_scores(spec.output)
     return GraphResult(spec.output, received, pixel_frames, run_id, frames, scores, markers,
-                       summary, time.monotonic() - start)
+                       summary, time.monotonic() - start, recon.reconstructor,
+                       comparer.last_result)
 
 
 def recorded_scores(bag: Path) -> tuple[int, int]:
@@ -189,7 +203,7 @@ def field_truth_error(bag: Path, truth_csv: Path) -> tuple[float, float]:
     """(mean, max) mm distance of the recorded MarkerPoints3D from the field twin's truth."""
     from dempath import topics
     from dempath.bagio import open_bag
-    from dempath_recon.fieldtwin import START_NS, read_marker_csv
+    from dempath_twin.field import START_NS, read_marker_csv
 
     truth = read_marker_csv(truth_csv)
     frame = {round(t * 1e4): k for k, t in enumerate(truth.times)}

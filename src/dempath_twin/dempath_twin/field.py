@@ -3,7 +3,7 @@
 It stands in for the paper's field recording (two GoPros, markers clicked by hand): true marker
 trajectories ``(t, marker, x, y, z)`` from a DEM run with a hidden physical setting are moved
 into the cameras' world frame, resampled to the cameras' 50 FPS, projected through the twin's
-true cameras (``dempath_calib.rig.paper_rig``) and disturbed by clicking noise of 2.36 px (x)
+true cameras (``dempath_twin.rig.paper_rig``) and disturbed by clicking noise of 2.36 px (x)
 and 2.75 px (y), the repeatability the paper measured (Technologies 2025, 13, 570, sec. 2.5).
 :func:`field_messages` turns them into rosbag2 messages: ``dempath_msgs/PixelPoints``
 (``SOURCE_CLICKED``) per camera and small JPEG previews with the marker spheres for Foxglove.
@@ -28,7 +28,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dempath import topics
-from dempath_recon.errors import ReconstructionError
+from dempath_twin.errors import TwinError
+from dempath_twin.images import jpeg_message, stamp_header
 
 LOG = logging.getLogger(__name__)
 FloatArray = NDArray[np.float64]
@@ -91,7 +92,7 @@ def read_marker_csv(path: str | Path) -> MarkerTracks:
     """Read measured-shape trajectories ``t,marker,x,y,z`` (s, m) into fixed-shape arrays.
 
     Raises:
-        ReconstructionError: missing file, wrong header or no rows.
+        TwinError: missing file, wrong header or no rows.
     """
     path = Path(path)
     try:
@@ -101,10 +102,10 @@ def read_marker_csv(path: str | Path) -> MarkerTracks:
             rows = [[float(v) for v in row] for row in reader if row]
     except (OSError, ValueError) as err:
         msg = f'{str(path)!r}: cannot read marker trajectories: {err}'
-        raise ReconstructionError(msg) from err
+        raise TwinError(msg) from err
     if header != ['t', 'marker', 'x', 'y', 'z'] or not rows:
         msg = f'{str(path)!r}: expected header t,marker,x,y,z and rows, got {header!r}'
-        raise ReconstructionError(msg)
+        raise TwinError(msg)
     data = np.asarray(rows)
     times, t_index = np.unique(data[:, 0], return_inverse=True)
     ids, m_index = np.unique(data[:, 1].astype(np.int32), return_inverse=True)
@@ -188,15 +189,6 @@ def render_preview(camera: Any, xyz: FloatArray, base: NDArray[np.uint8],
     return img
 
 
-def encode_jpeg(image: NDArray[np.uint8], quality: int) -> NDArray[np.uint8]:
-    """JPEG bytes of ``image`` as a uint8 array."""
-    ok, data = cv2.imencode('.jpg', image, [cv2.IMWRITE_JPEG_QUALITY, int(quality)])
-    if not ok:
-        msg = f'image {image.shape}: JPEG encoding failed'
-        raise ReconstructionError(msg)
-    return np.asarray(data, dtype=np.uint8).ravel()
-
-
 def field_messages(tracks: MarkerTracks, cameras: tuple[Any, Any], clicked: FloatArray,
                    config: FieldTwinConfig, types: Any) -> Iterator[tuple[str, str, int, Any]]:
     """Yield ``(topic, msgtype, t_ns, message)`` per frame and camera: preview JPEG, clicks.
@@ -208,9 +200,7 @@ def field_messages(tracks: MarkerTracks, cameras: tuple[Any, Any], clicked: Floa
         config: recording settings.
         types: the rosbags typestore's ``types`` (std_msgs, sensor_msgs, dempath_msgs).
     """
-    header_t, time_t = types['std_msgs/msg/Header'], types['builtin_interfaces/msg/Time']
-    image_t, points_t = (types['sensor_msgs/msg/CompressedImage'],
-                         types['dempath_msgs/msg/PixelPoints'])
+    points_t = types['dempath_msgs/msg/PixelPoints']
     size = [(round(c.width * config.image_scale), round(c.height * config.image_scale))
             for c in cameras]
     bases = [background(w, h, config.seed + i) for i, (w, h) in enumerate(size)]
@@ -218,13 +208,11 @@ def field_messages(tracks: MarkerTracks, cameras: tuple[Any, Any], clicked: Floa
     for k, t in enumerate(tracks.times - tracks.times[0]):
         t_ns = START_NS + round(float(t) * 1e9)
         for c, cam in enumerate(cameras):
-            header = header_t(stamp=time_t(sec=t_ns // 10**9, nanosec=t_ns % 10**9),
-                              frame_id=cam.name)
-            jpeg = encode_jpeg(render_preview(cam, tracks.xyz[k], bases[c], config),
-                               config.jpeg_quality)
+            header = stamp_header(types, t_ns, cam.name)
+            preview = render_preview(cam, tracks.xyz[k], bases[c], config)
             yield (topics.camera_topic(topics.IMAGE_COMPRESSED, cam.name),
                    'sensor_msgs/msg/CompressedImage', t_ns,
-                   image_t(header=header, format='jpeg', data=jpeg))
+                   jpeg_message(types, header, preview, config.jpeg_quality, 'jpeg'))
             yield (topics.camera_topic(topics.PIXEL_POINTS, cam.name),
                    'dempath_msgs/msg/PixelPoints', t_ns,
                    points_t(header=header, marker_ids=tracks.marker_ids.astype(np.int32),
