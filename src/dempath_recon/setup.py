@@ -12,7 +12,7 @@ setup(
     name=PACKAGE,
     version='0.1.0',
     packages=find_packages(exclude=['test']),
-    package_data={PACKAGE: ['py.typed', 'data/*.pt', 'data/*.json']},
+    package_data={PACKAGE: ['py.typed', 'clicker_web/*', 'data/*.pt', 'data/*.json']},
     data_files=[
         ('share/ament_index/resource_index/packages', [f'resource/{PACKAGE}']),
         (f'share/{PACKAGE}', ['package.xml']),
@@ -26,11 +26,14 @@ setup(
     entry_points={
         'console_scripts': [
             'dempath_reconstructor = dempath_recon.nodes.reconstructor:main',
+            'dempath_clicker = dempath_recon.nodes.clicker:main',
+            'dempath_pass = dempath_recon.nodes.passgate:main',
         ],
         'dempath.commands': [
             'reconstruct = dempath_recon.cli:reconstruct_main',
             'recon-train = dempath_recon.cli:train_main',
             'recon-report = dempath_recon.cli:report_main',
+            'click = dempath_recon.clickcli:click_main',
         ],
     },
 )

@@ -24,6 +24,13 @@ DIAGNOSIS = '/diagnosis'  # dempath_msgs/Diagnosis
 
 CLOCK = '/clock'  # rosgraph_msgs/Clock, published by the player
 
+# Live rig (docs/live.md): the tool's pose from the tractor (geometry_msgs/PoseStamped), pass
+# start/end from a controller or button (RunEvent), and the measured passes found from either
+TOOL_POSE = '/tool/pose'
+TOOL_EVENTS = '/tool/events'
+PASS_EVENTS = '/markers/pass_events'  # dempath_msgs/RunEvent, transient local
+DIAGNOSTICS = '/diagnostics'  # diagnostic_msgs/DiagnosticArray: counts, drops, latency
+
 
 def camera_topic(template: str, camera: str) -> str:
     """Fill a per-camera topic template, e.g. ``camera_topic(IMAGE_RAW, 'cam_side')``."""
@@ -47,3 +54,6 @@ def dempath_namespaces() -> tuple[str, ...]:
 def is_dempath_topic(topic: str) -> bool:
     """Whether ``topic`` lies under one of :func:`dempath_namespaces` (or is one of them)."""
     return any(topic == ns or topic.startswith(ns + '/') for ns in dempath_namespaces())
+
+# dempath_msgs/RunEvent from the clicker node, transient local: STARTED, then FINISHED
+CLICKER_EVENTS = '/clicker/events'

@@ -19,3 +19,7 @@ class NotFittedError(ReconstructionError):
 
 class PixelInputError(ReconstructionError):
     """Pixel input of the wrong shape or type (rejected points are reported, not raised)."""
+
+
+class ClickError(ReconstructionError):
+    """A click file, a frame source or a request of the clicker is invalid (names which, why)."""

@@ -11,9 +11,9 @@ from __future__ import annotations
 import logging
 import os
 import shutil
-import subprocess
 from dataclasses import dataclass
 
+from dempath.aptinstall import apt_install
 from dempath_sim.liggghts.errors import LiggghtsNotFoundError
 
 logger = logging.getLogger(__name__)
@@ -69,16 +69,10 @@ def install_liggghts(timeout_s: float = 900.0) -> None:
     if not can_install():
         msg = f'liggghts: not installed and this process cannot install it; run {INSTALL_HINT!r}'
         raise LiggghtsNotFoundError(msg)
-    env = {**os.environ, 'DEBIAN_FRONTEND': 'noninteractive'}
-    for cmd in (['apt-get', 'update', '-q'],
-                ['apt-get', 'install', '-y', '-q', '--no-install-recommends', APT_PACKAGE]):
-        logger.info('running %s', ' '.join(cmd))
-        done = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=timeout_s,
-                              check=False)
-        if done.returncode != 0:
-            tail = (done.stderr or done.stdout).strip().splitlines()[-1:] or ['no output']
-            msg = f'liggghts: {" ".join(cmd)!r} failed ({done.returncode}): {tail[0]}'
-            raise LiggghtsNotFoundError(msg)
+    failure = apt_install([APT_PACKAGE], timeout_s)
+    if failure:
+        msg = f'liggghts: {failure}'
+        raise LiggghtsNotFoundError(msg)
 
 
 def ensure_liggghts(binary: str | None = None, install: bool = True) -> LiggghtsInstall:
