@@ -33,6 +33,12 @@ from dempath_diagnose.records import F64
 
 MIN_GAIN = 0.05  # an iteration that removes less of the error above the floor ends the loop
 
+
+
+class SweepLost(DiagnosisError):
+    """The simulations' scheduler went away mid-sweep (the loop stops; the best so far is kept)."""
+
+
 Evaluate = Callable[[float], F64]  # strength -> (S, k) paired-corrected statistics per seed
 
 
@@ -87,6 +93,7 @@ class Recalibration:
     stop: str = ''
     changed: bool = False
     failures: int = 0
+    note: str = ''
 
     @property
     def reduction(self) -> float:
@@ -122,9 +129,20 @@ def check_strength(cand: CandidateEmulator, value: float) -> None:
         raise DiagnosisError(msg)
 
 
+def unchanged(objective: Objective, cand: CandidateEmulator) -> Recalibration:
+    """The scene as it is (iteration 0 only, stop ``nothing_to_fit``): the control's answer."""
+    floor, c = objective.floor, cand.candidate
+    before = objective.baseline()
+    out = Recalibration(c.name, c.parameter, c.unit, before, before, floor.k, floor.significant,
+                        c.current, 0.0, c.current, stop='nothing_to_fit')
+    out.steps.append(Step(0, c.current, before, before, 0, 0.0))
+    return out
+
+
 def recalibrate(objective: Objective, cand: CandidateEmulator, evaluate: Evaluate,
                 budget: int, seeds_per_eval: int,
-                progress: Callable[[Step, float], None] | None = None) -> Recalibration:
+                progress: Callable[[Step, float], None] | None = None,
+                start: float | None = None) -> Recalibration:
     """Fit ``cand``'s strength; ``evaluate`` runs the real simulations (see the module docstring).
 
     Raises:
@@ -134,18 +152,12 @@ def recalibrate(objective: Objective, cand: CandidateEmulator, evaluate: Evaluat
         raise DiagnosisError(f'--budget {budget}: at least {seeds_per_eval} simulations '
                              '(one evaluation over the packing seeds) are needed')
     t0 = time.monotonic()
-    floor = objective.floor
-    c = cand.candidate
-    before = objective.baseline()
-    fit = fit_candidate(objective.emulator, cand, objective.y, objective.observed, objective.cov)
-    out = Recalibration(c.name, c.parameter, c.unit, before, before, floor.k, floor.significant,
-                        c.current, 0.0, c.current)
-    out.steps.append(Step(0, c.current, before, before, 0, 0.0))
-    if before <= floor.significant:
-        out.stop = 'nothing_to_fit'
+    out = unchanged(objective, cand)
+    if out.before <= objective.floor.significant:
         return out
-    out.strength_sd = fit.strength_sd
-    _loop(out, objective, cand, evaluate, budget, seeds_per_eval, progress, t0)
+    fit = fit_candidate(objective.emulator, cand, objective.y, objective.observed, objective.cov)
+    out.stop, out.strength_sd = '', fit.strength_sd
+    _loop(out, objective, cand, evaluate, (budget, seeds_per_eval), progress, t0, start)
     out.changed = out.after < before
     if not out.changed:
         out.strength, out.strength_sd = c.current, 0.0
@@ -153,9 +165,10 @@ def recalibrate(objective: Objective, cand: CandidateEmulator, evaluate: Evaluat
 
 
 def _loop(out: Recalibration, objective: Objective, cand: CandidateEmulator, evaluate: Evaluate,
-          budget: int, per: int, progress: Callable[[Step, float], None] | None,
-          t0: float) -> None:
+          sizes: tuple[int, int], progress: Callable[[Step, float], None] | None,
+          t0: float, start: float | None) -> None:
     """Propose, evaluate, correct until a stop; fills ``out`` in place."""
+    budget, per = sizes
     bias: F64 | None = None
     used, x, last_fail = 0, 0.0, False
     floor = objective.floor
@@ -164,12 +177,20 @@ def _loop(out: Recalibration, objective: Objective, cand: CandidateEmulator, eva
             if used + per > budget:
                 out.stop = 'budget'
                 return
-            x = (x + cand.candidate.current) / 2 if last_fail else propose(objective, cand, bias)
+            if start is not None and len(out.steps) == 1:
+                x = start
+            elif last_fail:
+                x = (x + cand.candidate.current) / 2
+            else:
+                x = propose(objective, cand, bias)
             emulated = objective.emulated(cand, x)
             note, last_fail = '', False
             try:
                 runs = evaluate(x)
                 error = objective.real(runs)
+            except SweepLost as err:
+                out.stop, out.note = 'scheduler_lost', str(err)
+                return
             except DiagnosisError as err:
                 error, note, last_fail = float('inf'), f'failed: {err}', True
                 out.failures += 1

@@ -313,3 +313,23 @@ __all__ = [
     'tool_geometry',
     'travel_time_s',
 ]
+
+
+# --- recalibration (dempath_recalibrate): writing the recalibrated scene -----------------------
+
+def write_scene(scene: SceneSpec, overrides: dict[str, float], path: Path,
+                comments: list[str]) -> SceneSpec:
+    """Write ``scene`` with ``overrides`` (effects they touch switched on) as a YAML scene file
+    headed by ``comments``; the written file is read back (SceneError if it does not load)."""
+    import yaml
+
+    from dempath_sim.scene import load_scene as load_file
+
+    changed = scene.with_overrides(overrides) if overrides else scene
+    text = yaml.safe_dump(changed.to_dict(), sort_keys=False, default_flow_style=None)
+    head = ''.join(f'# {line}\n' for line in comments)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix('.tmp')
+    tmp.write_text(head + text)
+    tmp.replace(path)
+    return load_file(path)
