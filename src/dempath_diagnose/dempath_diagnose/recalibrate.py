@@ -158,7 +158,7 @@ def recalibrate(objective: Objective, cand: CandidateEmulator, evaluate: Evaluat
     fit = fit_candidate(objective.emulator, cand, objective.y, objective.observed, objective.cov)
     out.stop, out.strength_sd = '', fit.strength_sd
     _loop(out, objective, cand, evaluate, (budget, seeds_per_eval), progress, t0, start)
-    out.changed = out.after < before
+    out.changed = out.after < out.before
     if not out.changed:
         out.strength, out.strength_sd = c.current, 0.0
     return out

@@ -67,7 +67,8 @@ def test_control_changes_nothing_and_says_so() -> None:
 
 def test_unstable_candidate_is_scored_failed_and_the_loop_goes_on() -> None:
     obj, ce = setup(0.8)
-    r = recalibrate(obj, ce, evaluator(unstable_above=0.85), budget=30, seeds_per_eval=SEEDS)
+    r = recalibrate(obj, ce, evaluator(unstable_above=1.2), budget=30, seeds_per_eval=SEEDS,
+                    start=1.5)
     failed = [s for s in r.steps if s.note.startswith('failed')]
     assert r.failures == len(failed) >= 1 and all(s.error == np.inf for s in failed)
     assert r.changed and r.after < r.before
@@ -89,7 +90,7 @@ def test_interrupt_keeps_the_best_so_far() -> None:
         if len(calls) == 2:
             raise KeyboardInterrupt
         return inner(x)
-    r = recalibrate(obj, ce, evaluate, budget=30, seeds_per_eval=SEEDS)
+    r = recalibrate(obj, ce, evaluate, budget=30, seeds_per_eval=SEEDS, start=0.3)
     assert r.stop == 'interrupted' and r.strength == calls[0] and r.after < r.before
 
 
