@@ -25,12 +25,12 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).parent))
 
-from diagnose import cases_for  # noqa: E402  (bench/diagnose.py: the same cases)
+from diagnose import cases_for
 
-from dempath_diagnose.cases import HiddenCase, make_case  # noqa: E402
-from dempath_diagnose.library import covering_duration  # noqa: E402
-from dempath_diagnose.recal_cli import recalibrate_main  # noqa: E402
-from dempath_diagnose.simulate import load_scene, pass_travel_s, scene_candidates  # noqa: E402
+from dempath_diagnose.cases import HiddenCase, make_case
+from dempath_diagnose.library import covering_duration
+from dempath_diagnose.recal_cli import recalibrate_main
+from dempath_diagnose.simulate import load_scene, pass_travel_s, scene_candidates
 
 STRONG = ('tool_speed_1.5', 'tool_speed_0.7', 'cohesion_strong')
 CONTROLS = ('control',)

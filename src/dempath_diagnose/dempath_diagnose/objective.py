@@ -1,4 +1,4 @@
-"""The recalibration's objective: the diagnosis' Gaussian likelihood, and the floor it is judged by.
+"""The recalibration objective: the diagnosis' likelihood, and the floor it is judged by.
 
 The error of a model at strength x is the Mahalanobis distance d^2(x) of the measured group
 statistics from the model's prediction under the diagnosis' covariance (seed + one-particle

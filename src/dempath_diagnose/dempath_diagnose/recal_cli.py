@@ -19,7 +19,13 @@ from dempath.errors import DempathError
 from dempath_diagnose.cli import _parser as diagnose_parser
 from dempath_diagnose.cli import diagnosis_of
 from dempath_diagnose.errors import DiagnosisError
-from dempath_diagnose.recalibrate import Recalibration, Step, check_strength, recalibrate, unchanged
+from dempath_diagnose.recalibrate import (
+    Recalibration,
+    Step,
+    check_strength,
+    recalibrate,
+    unchanged,
+)
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -55,7 +61,8 @@ def _targets(args: argparse.Namespace, verdict: str, ranking: list[str],
             verdict, ranking = data['verdict'], [r['effect'] for r in data['ranking']]
             remaining = data.get('remaining', [])
         except (OSError, ValueError, KeyError) as err:
-            raise DiagnosisError(f'{args.diagnosis}: not a readable diagnosis.json ({err})') from err
+            msg = f'{args.diagnosis}: not a readable diagnosis.json ({err})'
+            raise DiagnosisError(msg) from err
     if verdict == 'inconclusive':
         names = ', '.join(remaining or ranking[:3])
         raise DiagnosisError(f'diagnosis: inconclusive ({names} remain); choose with --effect '

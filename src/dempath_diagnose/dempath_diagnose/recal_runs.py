@@ -16,10 +16,10 @@ from typing import Any
 
 import numpy as np
 
-from dempath_diagnose.errors import DiagnosisError
-from dempath_diagnose.recalibrate import SweepLost
 from dempath_diagnose.emulator import CandidateEmulator, Emulator
+from dempath_diagnose.errors import DiagnosisError
 from dempath_diagnose.library import Library, LibrarySpec, RunSpec, _Task
+from dempath_diagnose.recalibrate import SweepLostError
 from dempath_diagnose.records import F64, PassRecord
 from dempath_diagnose.statistics import Layout, model_statistics
 
@@ -64,7 +64,7 @@ class RealEvaluator:
         except DiagnosisError:
             raise
         except Exception as err:  # the scheduler or the connection went away
-            raise SweepLost(f'Dask scheduler: lost mid-sweep ({type(err).__name__}: {err}); '
+            raise SweepLostError(f'Dask scheduler: lost mid-sweep ({type(err).__name__}: {err}); '
                             'the runs already stored are kept') from err
         out = []
         for i, p in enumerate(paths):

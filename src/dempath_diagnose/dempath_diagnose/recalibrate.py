@@ -1,4 +1,4 @@
-"""The recalibration loop: fit the named candidate's strength, confirm with real runs, stop at the floor.
+"""The recalibration loop: fit the named candidate, confirm with real runs, stop at the floor.
 
 One parameter (the diagnosis' candidate): a bounded scalar search (scipy's ``minimize_scalar``,
 method ``bounded``) of the objective d^2 on the diagnosis' emulator over the candidate's prior
@@ -35,7 +35,7 @@ MIN_GAIN = 0.05  # an iteration that removes less of the error above the floor e
 
 
 
-class SweepLost(DiagnosisError):
+class SweepLostError(DiagnosisError):
     """The simulations' scheduler went away mid-sweep (the loop stops; the best so far is kept)."""
 
 
@@ -160,7 +160,7 @@ def recalibrate(objective: Objective, cand: CandidateEmulator, evaluate: Evaluat
     _loop(out, objective, cand, evaluate, (budget, seeds_per_eval), progress, t0, start)
     out.changed = out.after < out.before
     if not out.changed:
-        out.strength, out.strength_sd = c.current, 0.0
+        out.strength, out.strength_sd = out.current, 0.0
     return out
 
 
@@ -188,7 +188,7 @@ def _loop(out: Recalibration, objective: Objective, cand: CandidateEmulator, eva
             try:
                 runs = evaluate(x)
                 error = objective.real(runs)
-            except SweepLost as err:
+            except SweepLostError as err:
                 out.stop, out.note = 'scheduler_lost', str(err)
                 return
             except DiagnosisError as err:
