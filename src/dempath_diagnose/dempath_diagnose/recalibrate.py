@@ -26,8 +26,9 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from dempath_diagnose.decision import fit_candidate
-from dempath_diagnose.emulator import LOG_SCALE, CandidateEmulator
+from dempath_diagnose.emulator import CandidateEmulator
 from dempath_diagnose.errors import DiagnosisError
+from dempath_diagnose.library import LOG_SCALE
 from dempath_diagnose.objective import Objective
 from dempath_diagnose.records import F64
 
