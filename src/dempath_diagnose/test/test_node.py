@@ -102,7 +102,8 @@ def test_cli_reads_a_bag_of_marker_points(cache: Path, tiny_library: Library,
         ns = round(float(t) * 1e9)
         msg = point(header=header(stamp=stamp(sec=ns // 10**9, nanosec=ns % 10**9),
                                   frame_id='world'), method='dlt',
-                    marker_ids=meas.markers.astype(np.int32), x=p[:, 0], y=p[:, 1], z=p[:, 2],
+                    marker_ids=meas.markers.astype(np.int32), x=np.ascontiguousarray(p[:, 0]),
+                    y=np.ascontiguousarray(p[:, 1]), z=np.ascontiguousarray(p[:, 2]),
                     sigma_x=nan, sigma_y=nan, sigma_z=nan,
                     reprojection_error=nan.astype(np.float32))
         msgs.append((topics.MARKER_POINTS, 'dempath_msgs/msg/MarkerPoints3D', ns + 1, msg))
