@@ -25,7 +25,7 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).parent))
 
-from diagnose import cases_for
+from diagnose import bench_parser, cases_for  # bench/diagnose.py: the same cases
 
 from dempath_diagnose.cases import HiddenCase, make_case
 from dempath_diagnose.library import covering_duration
@@ -82,16 +82,11 @@ def run_case(args: argparse.Namespace, scene: Any, case: HiddenCase, duration: f
 
 def main() -> None:
     """Run the cases and print one JSON line last."""
-    p = argparse.ArgumentParser()
-    p.add_argument('--scene', default='reduced_1ms')
-    p.add_argument('--root', type=Path, default=Path.home() / '.cache/dempath/bench-diagnose')
-    p.add_argument('--seeds', default='1001,1002,1003')
-    p.add_argument('--strengths', type=int, default=2)
+    p = bench_parser()
     p.add_argument('--candidates', default='')
     p.add_argument('--budget', type=int, default=6)
     p.add_argument('--seeds-per-eval', type=int, default=2)
     p.add_argument('--cases', default=','.join(STRONG + CONTROLS))
-    p.add_argument('--serial', action='store_true')
     args = p.parse_args()
     scene = load_scene(args.scene)
     duration = covering_duration(pass_travel_s(scene, {}), 0.0)
