@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.optimize import minimize_scalar
+from scipy.stats import chi2
 
 from dempath_diagnose.decision import fit_candidate
 from dempath_diagnose.emulator import CandidateEmulator
@@ -32,6 +33,7 @@ from dempath_diagnose.library import LOG_SCALE
 from dempath_diagnose.objective import Objective
 from dempath_diagnose.records import F64
 
+CHANGE_D2 = float(chi2.ppf(0.95, 1))  # a one-parameter fit must lower d^2 this much to count
 MIN_GAIN = 0.05  # an iteration that removes less of the error above the floor ends the loop
 
 
@@ -154,12 +156,12 @@ def recalibrate(objective: Objective, cand: CandidateEmulator, evaluate: Evaluat
                              '(one evaluation over the packing seeds) are needed')
     t0 = time.monotonic()
     out = unchanged(objective, cand)
-    if out.before <= objective.floor.significant:
+    if out.before <= objective.floor.k:
         return out
     fit = fit_candidate(objective.emulator, cand, objective.y, objective.observed, objective.cov)
     out.stop, out.strength_sd = '', fit.strength_sd
     _loop(out, objective, cand, evaluate, (budget, seeds_per_eval), progress, t0, start)
-    out.changed = out.after < out.before
+    out.changed = out.before - out.after > CHANGE_D2
     if not out.changed:
         out.strength, out.strength_sd = out.current, 0.0
     return out
@@ -208,7 +210,7 @@ def _loop(out: Recalibration, objective: Objective, cand: CandidateEmulator, eva
                 out.after, out.strength = error, x
             diff, _ = cand.predict(np.array([x], np.float64))
             bias = runs.mean(0) - (objective.emulator.mu0 + diff[0])
-            if out.after <= floor.significant:
+            if out.after <= floor.k:
                 out.stop = 'floor'
                 return
             if prev_best - out.after < MIN_GAIN * max(floor.above(prev_best), 1e-12):
