@@ -97,14 +97,20 @@ def reliability(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
     return out
 
 
-def main() -> None:
-    """Run the bench and print one JSON line last."""
+def bench_parser() -> argparse.ArgumentParser:
+    """The options this bench shares with bench/recalibrate.py (scene, cache root, library)."""
     p = argparse.ArgumentParser()
     p.add_argument('--scene', default='reduced_1ms')
     p.add_argument('--root', type=Path, default=Path.home() / '.cache/dempath/bench-diagnose')
     p.add_argument('--seeds', default='1001,1002,1003')
     p.add_argument('--strengths', type=int, default=2)
     p.add_argument('--serial', action='store_true')
+    return p
+
+
+def main() -> None:
+    """Run the bench and print one JSON line last."""
+    p = bench_parser()
     p.add_argument('--resettle', action='store_true',
                    help='case beds: the seed baseline pour re-settled with the case physics')
     args = p.parse_args()

@@ -28,6 +28,7 @@ setup(
         ],
         'dempath.commands': [
             'diagnose = dempath_diagnose.cli:diagnose_main',
+            'recalibrate = dempath_diagnose.recal_cli:recalibrate_main',
         ],
     },
 )

@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from dempath.errors import DempathError
-from dempath_diagnose.diagnose import CaseGeometry, diagnose
+from dempath_diagnose.diagnose import CaseGeometry, Diagnosis, diagnose
 from dempath_diagnose.emulator import Allowance
 from dempath_diagnose.errors import DiagnosisError, MeasurementError
 from dempath_diagnose.library import (
@@ -148,6 +148,20 @@ def _build(args: argparse.Namespace, scene: SceneSpec, spec: LibrarySpec, todo: 
 def run(args: argparse.Namespace) -> dict[str, Any]:
     """The whole command; returns diagnosis.json's content."""
     t0 = time.monotonic()
+    scene, _spec, library, allowance, result = diagnosis_of(args)
+    result.wall_s = time.monotonic() - t0
+    from dempath_diagnose.report import print_ranking, write_outputs
+
+    data = write_outputs(result, args.out, {'scene': scene.name, 'library': str(library.folder),
+                                            'allowance': vars(allowance)})
+    print_ranking(data)
+    return data
+
+
+def diagnosis_of(args: argparse.Namespace,
+                 ) -> tuple[SceneSpec, LibrarySpec, Library, Allowance, Diagnosis]:
+    """Scene, library design, library (built when needed), allowance and diagnosis of the parsed
+    arguments (what ``dempath recalibrate`` builds on)."""
     origin = _origin(args.origin)
     scene = load_scene(args.scene)
     meas = load_tracks(args.measured, origin)
@@ -164,13 +178,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     result = diagnose(meas, library, CaseGeometry(tool_x, half_width, cube), allowance,
                       args.windows, str(args.force))
     result.simulations = len(library.runs)
-    result.wall_s = time.monotonic() - t0
-    from dempath_diagnose.report import print_ranking, write_outputs
-
-    data = write_outputs(result, args.out, {'scene': scene.name, 'library': str(library.folder),
-                                            'allowance': vars(allowance)})
-    print_ranking(data)
-    return data
+    return scene, spec, library, allowance, result
 
 
 def diagnose_main(argv: list[str] | None = None) -> int:

@@ -315,3 +315,33 @@ __all__ = [
     'tool_geometry',
     'travel_time_s',
 ]
+
+
+# --- recalibration (dempath_recalibrate): writing the recalibrated scene -----------------------
+
+def write_scene(scene: SceneSpec, overrides: dict[str, float], path: Path,
+                comments: list[str]) -> SceneSpec:
+    """Write the user's scene file with ``overrides`` (the effects they touch switched on) to
+    ``path``, headed by ``comments``; the rest of the file is kept as the user wrote it (a
+    relative tool mesh is made absolute). The written file is read back (SceneError if not)."""
+    import yaml
+
+    from dempath_sim.scene import load_scene as load_file
+
+    source = Path(str(scene.source))
+    raw = yaml.safe_load(source.read_text())
+    effects = raw.setdefault('effects', {})
+    for dotted, value in overrides.items():
+        name, _, param = dotted.partition('.')
+        entry = effects.setdefault(name, {})
+        entry['enabled'] = True
+        entry[param] = float(value)
+    mesh = str(raw.get('tool', {}).get('mesh', ''))
+    if mesh and ':' not in mesh and not Path(mesh).is_absolute():
+        raw['tool']['mesh'] = str((source.parent / mesh).resolve())
+    head = ''.join(f'# {line}\n' for line in comments)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix('.tmp')
+    tmp.write_text(head + yaml.safe_dump(raw, sort_keys=False, default_flow_style=None))
+    tmp.replace(path)
+    return load_file(path)
