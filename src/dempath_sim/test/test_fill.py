@@ -80,7 +80,7 @@ def test_pour_holds_the_target_mass_at_random_without_overlap() -> None:
     assert (np.abs(pos[:, 0]) + r <= scene.bin.width_x_m / 2 + 1e-12).all()
     slab = (pos[:, 1].max() + r.max() + scene.bed_thickness_m) * scene.bin.width_x_m * (
         scene.bin.length_z_m)
-    assert volume / slab == pytest.approx(scene.fill.pour_solid_fraction, rel=0.15)
+    assert 0.8 * scene.fill.pour_solid_fraction < volume / slab <= scene.fill.pour_solid_fraction
     again = pour(scene, model, build_params(scene, model))
     np.testing.assert_array_equal(again.positions, pos)
 

@@ -6,7 +6,7 @@ insertion (each sphere tried at uniformly random centres until it overlaps none 
 into a region sized so that the layer's spheres fill it at ``fill.pour_solid_fraction`` (0.35 by
 default; random sequential insertion of equal spheres jams near 0.38, Torquato et al., Phys. Rev.
 E 74, 061308, 2006). A sphere that finds no room in ``MAX_ATTEMPTS`` tries raises the slab's top
-by a diameter, so the insertion always ends. The layers are stacked (the first on the floor) and
+by a quarter diameter, so the insertion always ends (slightly looser than asked near jamming). The layers are stacked (the first on the floor) and
 fall together when the settle starts. Spheres are inserted largest first, at rest.
 
 ``lattice_pour`` keeps dempath's earlier jittered-lattice pour for benchmarks that need a closed
@@ -30,7 +30,7 @@ from dempath_sim.scene.spec import LayerSpec, SceneSpec
 F64 = NDArray[np.float64]
 DEFAULT_SOLID_FRACTION = 0.6  # random loose-to-close packing of spheres
 LATTICE_GAP = 1.04  # lattice spacing / largest diameter of a layer (lattice_pour)
-MAX_ATTEMPTS = 1000  # random tries per sphere before its slab grows
+MAX_ATTEMPTS = 5000  # random tries per sphere before its slab grows (by a quarter diameter)
 
 
 def target_solid_fraction(scene: SceneSpec, model: PhysicsModel) -> float:
@@ -65,7 +65,7 @@ def insert_random(radii, lo, hi, y_cap, seed, max_attempts):  # pragma: no cover
     """Random sequential insertion of spheres ``radii`` (n,), largest first.
 
     Centres lie in the box lo..hi (3,) shrunk by each radius; a sphere that finds no room in
-    ``max_attempts`` tries raises hi[1] by one largest diameter (never beyond ``y_cap``).
+    ``max_attempts`` tries raises hi[1] by a quarter of the largest diameter (never beyond ``y_cap``).
 
     Returns:
         (centres (n, 3) [m], the slab's final top [m]).
@@ -112,7 +112,7 @@ def insert_random(radii, lo, hi, y_cap, seed, max_attempts):  # pragma: no cover
             tries += 1
             if tries >= max_attempts:
                 tries = 0
-                top_y = min(top_y + big, y_cap)
+                top_y = min(top_y + 0.25 * big, y_cap)
         out[i] = p
         cell = (c[0] * dims[1] + c[1]) * dims[2] + c[2]
         nxt[i] = head[cell]
