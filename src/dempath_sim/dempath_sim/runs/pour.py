@@ -6,8 +6,9 @@ insertion (each sphere tried at uniformly random centres until it overlaps none 
 into a region sized so that the layer's spheres fill it at ``fill.pour_solid_fraction`` (0.35 by
 default; random sequential insertion of equal spheres jams near 0.38, Torquato et al., Phys. Rev.
 E 74, 061308, 2006). A sphere that finds no room in ``MAX_ATTEMPTS`` tries raises the slab's top
-by a quarter diameter, so the insertion always ends (slightly looser than asked near jamming). The layers are stacked (the first on the floor) and
-fall together when the settle starts. Spheres are inserted largest first, at rest.
+by a quarter diameter, so the insertion always ends (slightly looser than asked near jamming).
+The layers are stacked (the first on the floor) and fall together when the settle starts.
+Spheres are inserted largest first, at rest.
 
 ``lattice_pour`` keeps dempath's earlier jittered-lattice pour for benchmarks that need a closed
 bed of millions of spheres without settling it (``bench/paper_scene_steps.py``).
@@ -65,7 +66,8 @@ def insert_random(radii, lo, hi, y_cap, seed, max_attempts):  # pragma: no cover
     """Random sequential insertion of spheres ``radii`` (n,), largest first.
 
     Centres lie in the box lo..hi (3,) shrunk by each radius; a sphere that finds no room in
-    ``max_attempts`` tries raises hi[1] by a quarter of the largest diameter (never beyond ``y_cap``).
+    ``max_attempts`` tries raises hi[1] by a quarter of the largest diameter (at most to
+    ``y_cap``).
 
     Returns:
         (centres (n, 3) [m], the slab's final top [m]).
