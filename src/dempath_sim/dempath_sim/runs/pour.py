@@ -17,6 +17,7 @@ bed of millions of spheres without settling it (``bench/paper_scene_steps.py``).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 from numba import njit
@@ -146,12 +147,12 @@ def _state(layers: list[tuple[F64, F64]], params: SimParams) -> SimState:
     return state
 
 
-def pour(scene: SceneSpec, model: PhysicsModel, params: SimParams) -> SimState:
-    """The loose random pour of all layers, seeded by ``scene.seed``; ``extra['layer']``.
+Placer = Callable[[F64, float, np.random.Generator], tuple[F64, float]]
 
-    Each layer holds target solid fraction x layer volume of spheres, inserted at random into
-    its own slab (``fill.pour_solid_fraction``) on top of the one below.
-    """
+
+def _stack(scene: SceneSpec, model: PhysicsModel, params: SimParams, place: Placer) -> SimState:
+    """Every layer's spheres (target solid fraction x layer volume), placed by ``place``
+    (diameters, bottom y, rng -> centres, top y) one on top of the other from the floor."""
     rng = np.random.default_rng(scene.seed)
     phi = target_solid_fraction(scene, model)
     area = scene.bin.width_x_m * scene.bin.length_z_m
@@ -159,9 +160,20 @@ def pour(scene: SceneSpec, model: PhysicsModel, params: SimParams) -> SimState:
     for layer in scene.layers:
         factor = model.coarse_grain if layer.coarse_grained else 1.0
         d = sample_diameters(layer, factor, phi * area * layer.thickness_m, rng)
-        pos, y = layer_slab(scene, d, y, rng, scene.fill.pour_solid_fraction)
+        pos, y = place(d, y, rng)
         layers.append((pos, d))
     return _state(layers, params)
+
+
+def pour(scene: SceneSpec, model: PhysicsModel, params: SimParams) -> SimState:
+    """The loose random pour of all layers, seeded by ``scene.seed``; ``extra['layer']``.
+
+    Each layer holds target solid fraction x layer volume of spheres, inserted at random into
+    its own slab (``fill.pour_solid_fraction``) on top of the one below.
+    """
+    fraction = scene.fill.pour_solid_fraction
+    return _stack(scene, model, params,
+                  lambda d, y, rng: layer_slab(scene, d, y, rng, fraction))
 
 
 def lattice(scene: SceneSpec, diameters: F64, y_start: float, rng: np.random.Generator,
@@ -184,16 +196,7 @@ def lattice(scene: SceneSpec, diameters: F64, y_start: float, rng: np.random.Gen
 def lattice_pour(scene: SceneSpec, model: PhysicsModel, params: SimParams,
                  gap: float = LATTICE_GAP) -> SimState:
     """All layers on jittered cubic lattices (dempath's pour before issue 12), at rest."""
-    rng = np.random.default_rng(scene.seed)
-    phi = target_solid_fraction(scene, model)
-    area = scene.bin.width_x_m * scene.bin.length_z_m
-    y, layers = -scene.bed_thickness_m, []
-    for layer in scene.layers:
-        factor = model.coarse_grain if layer.coarse_grained else 1.0
-        d = sample_diameters(layer, factor, phi * area * layer.thickness_m, rng)
-        pos, y = lattice(scene, d, y, rng, gap)
-        layers.append((pos, d))
-    return _state(layers, params)
+    return _stack(scene, model, params, lambda d, y, rng: lattice(scene, d, y, rng, gap))
 
 
 __all__ = ['DEFAULT_SOLID_FRACTION', 'LATTICE_GAP', 'insert_random', 'lattice', 'lattice_pour',
