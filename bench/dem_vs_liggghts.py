@@ -17,7 +17,6 @@ engines / packing-seed spread). Last line: one JSON object.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import importlib.util
 import json
 import logging
@@ -31,10 +30,8 @@ from types import ModuleType
 import numba
 import numpy as np
 
-from dempath_sim.engine import Engine
 from dempath_sim.engine.state import SimState
 from dempath_sim.engine.stl import read_stl
-from dempath_sim.engine.walls import box_walls
 from dempath_sim.liggghts import commands as cmd
 from dempath_sim.liggghts.install import ensure_liggghts
 from dempath_sim.liggghts.runner import run_deck
@@ -49,21 +46,6 @@ def speed_bench() -> ModuleType:
     module = importlib.util.module_from_spec(spec)  # type: ignore[arg-type]
     spec.loader.exec_module(module)  # type: ignore[union-attr]
     return module
-
-
-def settled_bed(sb: ModuleType, layers: int, settle_steps: int) -> SimState:
-    """The settled bed, cached in /tmp as dem_engine_speed.py caches it."""
-    cache = Path(f'/tmp/dempath_bench_bed_{layers}_{settle_steps}.npz')
-    if cache.exists():
-        with np.load(cache) as data:
-            return SimState.from_spheres(data['positions'], sb.RADIUS, 0, sb.PARAMS)
-    # A 21-layer lattice collapses hard enough to pass the engine's 25 % overlap guard for a
-    # moment, so the settle (not the timed run) allows 40 %.
-    params = dataclasses.replace(sb.PARAMS, max_overlap_fraction=0.4)
-    engine = Engine(params, walls=box_walls(sb.BIN_LO, sb.BIN_HI, material=1))
-    state = engine.run(sb.lattice_bed(layers), settle_steps)
-    np.savez(cache, positions=state.positions)
-    return state
 
 
 def write_data(path: Path, state: SimState, lo: np.ndarray, hi: np.ndarray,
@@ -171,7 +153,7 @@ def speed(args: argparse.Namespace, work: Path) -> dict[str, object]:
     """Both engines on the settled >= 45,000-sphere bed with the tool passing."""
     numba.set_num_threads(min(2, numba.config.NUMBA_NUM_THREADS))
     sb = speed_bench()
-    state, tip = sb.insert_tool(settled_bed(sb, args.layers, args.settle_steps), depth=0.04,
+    state, tip = sb.insert_tool(sb.settled_bed(args.layers, args.settle_steps), depth=0.04,
                                 tip_z=0.08)
     log.info('bed: %d spheres after the tool slot', state.n)
     if args.no_rolling:  # after the (cached) settle; timed_run and liggghts_run read sb.PARAMS

@@ -26,9 +26,10 @@ import numpy as np
 
 from dempath_sim.engine import Engine, ToolPose
 from dempath_sim.engine.mesh import TriangleMesh
-from dempath_sim.runs.fill import pour, surface_height
-from dempath_sim.runs.native import carve_tool_slot
+from dempath_sim.runs.fill import surface_height
 from dempath_sim.runs.physics import TOOL, bin_walls, build_params
+from dempath_sim.runs.placement import carve_tool_slot
+from dempath_sim.runs.pour import lattice_pour
 from dempath_sim.scene import load_scene
 
 log = logging.getLogger('bench')
@@ -53,7 +54,7 @@ def main() -> None:
     model = scene.physics_model()
     params = build_params(scene, model)
     t0 = time.perf_counter()
-    state = pour(scene, model, params, gap=CLOSED_GAP)
+    state = lattice_pour(scene, model, params, gap=CLOSED_GAP)
     state.velocities[:] = 0.0
     surface = surface_height(scene, state)
     mesh = TriangleMesh.from_stl(scene.tool.mesh, material=TOOL, scale=scene.tool.scale)

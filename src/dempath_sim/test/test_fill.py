@@ -10,16 +10,9 @@ import numpy as np
 import pytest
 
 from dempath_sim.engine.state import SimState
-from dempath_sim.runs.fill import (
-    DEFAULT_SOLID_FRACTION,
-    fill_bed,
-    lattice,
-    measure,
-    packing_key,
-    pour,
-    sample_diameters,
-)
+from dempath_sim.runs.fill import fill_bed, measure, packing_key
 from dempath_sim.runs.physics import build_params
+from dempath_sim.runs.pour import DEFAULT_SOLID_FRACTION, lattice, pour, sample_diameters
 from dempath_sim.scene import bundled_scene
 from dempath_sim.scene.spec import LayerSpec, SizeDistribution
 
@@ -72,18 +65,29 @@ def test_measure_on_simple_cubic_packing() -> None:
     assert found['bulk_density_kg_m3'] == pytest.approx(1734 * found['solid_fraction'])
 
 
-def test_pour_holds_the_target_mass() -> None:
-    """The poured layers hold target solid fraction x layer volume of particles."""
+def test_pour_holds_the_target_mass_at_random_without_overlap() -> None:
+    """The poured layers hold target solid fraction x layer volume of particles, inserted at
+    random in the bin at the pour's solid fraction, no two overlapping."""
     scene = bundled_scene('tiny')
     model = scene.physics_model()
     state = pour(scene, model, build_params(scene, model))
     volume = np.sum(4 / 3 * np.pi * state.radii**3)
     nominal = scene.bin.width_x_m * scene.bin.length_z_m * scene.bed_thickness_m
     assert volume / nominal == pytest.approx(DEFAULT_SOLID_FRACTION, rel=0.02)
+    pos, r = state.positions, state.radii
+    gaps = np.linalg.norm(pos[:, None] - pos[None], axis=-1) - r[:, None] - r[None]
+    assert (gaps + 3 * np.eye(len(r)) >= -1e-12).all()
+    assert (np.abs(pos[:, 0]) + r <= scene.bin.width_x_m / 2 + 1e-12).all()
+    slab = (pos[:, 1].max() + r.max() + scene.bed_thickness_m) * scene.bin.width_x_m * (
+        scene.bin.length_z_m)
+    assert 0.8 * scene.fill.pour_solid_fraction < volume / slab <= scene.fill.pour_solid_fraction
+    again = pour(scene, model, build_params(scene, model))
+    np.testing.assert_array_equal(again.positions, pos)
 
 
 def test_packing_key_tracks_what_determines_the_packing() -> None:
-    """Seed, layers and particle friction change the key; tool friction and speed do not."""
+    """Seed, layers and particle friction change the key; tool friction and speed do not
+    (with the run's own physics: ``fill.physics: run``)."""
     scene = bundled_scene('tiny')
     key = packing_key(scene, scene.physics_model())
     same = [scene.with_overrides({'tool_friction.static_friction': 0.9}),

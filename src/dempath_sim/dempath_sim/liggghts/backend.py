@@ -18,6 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dempath_sim.effects import PhysicsModel
+from dempath_sim.engine.mesh import TriangleMesh
 from dempath_sim.engine.params import SimParams
 from dempath_sim.engine.state import SimState
 from dempath_sim.engine.stl import read_stl
@@ -29,9 +30,11 @@ from dempath_sim.liggghts.dumps import frames_by_id, read_dump, read_print
 from dempath_sim.liggghts.errors import DeckError
 from dempath_sim.liggghts.runner import RunOutput, run_deck
 from dempath_sim.runs.backend import RunOptions
-from dempath_sim.runs.fill import fill_bed, measure, pour, target_solid_fraction
+from dempath_sim.runs.fill import fill_bed, measure
 from dempath_sim.runs.markers import select_markers
 from dempath_sim.runs.physics import PARTICLES, build_params
+from dempath_sim.runs.placement import removal_mask
+from dempath_sim.runs.pour import pour, target_solid_fraction
 from dempath_sim.runs.results import SimResult
 from dempath_sim.scene.profiles import ToolPath
 from dempath_sim.scene.spec import SceneSpec
@@ -160,13 +163,12 @@ def fill_liggghts(scene: SceneSpec, workdir: Path, nprocs: int = 1,
     return SettledBed(frame.step, ids, pos, radii, report, run)
 
 
-def slot_ids(bed: SettledBed, triangles: NDArray[np.float64]) -> NDArray[np.int64]:
-    """Ids of the particles touching the tool's bounding box at its start (dempath's slot)."""
-    flat = triangles.reshape(-1, 3)
-    lo, hi = flat.min(axis=0), flat.max(axis=0)
-    r = bed.radii[:, None]
-    inside = np.all((bed.positions > lo - r) & (bed.positions < hi + r), axis=1)
-    return bed.ids[inside]
+def slot_ids(bed: SettledBed, triangles: NDArray[np.float64], placement: str = 'slot',
+             name: str = 'tool') -> NDArray[np.int64]:
+    """Ids of the particles the tool (world ``triangles``) displaces at its start, by dempath's
+    rule for ``placement`` (``runs.placement``: carve or bounding-box slot)."""
+    mesh = TriangleMesh(np.asarray(triangles, dtype=np.float64), name=name)
+    return bed.ids[removal_mask(bed.positions, bed.radii, mesh, (0.0, 0.0, 0.0), placement)]
 
 
 def tool_sweep(scene: SceneSpec, model: PhysicsModel,
@@ -262,7 +264,7 @@ class LiggghtsBackend:
         _check_stop(options, 'fill')
         packing = None
         if self.fill == 'shared_packing':
-            model = scene.physics_model()
+            model = scene.bed_model()
             state, report = fill_bed(scene, model, build_params(scene, model), options.cache_dir)
             packing = (state, report.surface_height_m)
         pour_from = 'insert' if self.fill == 'insert_pack' else 'dempath'
@@ -290,12 +292,13 @@ def _run_scene(scene: SceneSpec, workdir: Path, nprocs: int, friction: str,
     path = tool_path(scene, model, bed.report['surface_height_m'])
     tris = read_stl(scene.tool.mesh) * scene.tool.scale + np.asarray(path.start_position_m)
     write_ascii_stl(str(workdir / dk.TOOL_STL), tris.tolist(), 'tool')
-    slot = slot_ids(bed, tris)
+    slot = slot_ids(bed, tris, scene.tool.placement, str(scene.tool.mesh))
     dt = bed.report['dt_s']
     every = round(scene.output.interval_s / dt)
     snap = round(scene.output.snapshot_interval_s / dt)
     duration = path.time_to_travel(scene.tool.travel_m)
-    stage = dk.ToolStage(path, ids, 0, slot, duration, dt, every, snap)
+    stage = dk.ToolStage(path, ids, 0, slot, duration, dt, every, snap,
+                         settle_steps=round(scene.tool.settle_s / dt))
     params = build_params(scene, model)
     (workdir / 'in.tool').write_text(dk.tool_deck(scene, params, stage, friction))
     _check_stop(options, 'pass')

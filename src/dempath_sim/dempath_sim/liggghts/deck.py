@@ -331,6 +331,8 @@ class ToolStage:
         output_every: Steps between outputs.
         snapshot_every: Steps between full-bed snapshots (0 = none).
         read: The command that loads the bed (the fill's restart, or a data file).
+        settle_steps: Steps of re-settle with the tool standing at its start before the pass
+            (``tool.settle_s``; builds the contact history, as dempath's run does).
     """
 
     path: ToolPath
@@ -342,6 +344,7 @@ class ToolStage:
     output_every: int
     snapshot_every: int
     read: str = f'read_data {BED_DATA}'
+    settle_steps: int = 0
 
 
 def tool_deck(scene: SceneSpec, params: SimParams, stage: ToolStage,
@@ -360,6 +363,7 @@ def tool_deck(scene: SceneSpec, params: SimParams, stage: ToolStage,
               *_slot_lines(stage.slot_ids),
               f'fix tool all mesh/surface/stress file {TOOL_STL} type 3 reference_point '
               f'{" ".join(tip)}', cmd.mesh_wall('toolwall', params, ['tool']),
+              *([f'run {stage.settle_steps}'] if stage.settle_steps else []),
               f'variable t equal (step-{stage.start_step})*dt',
               f'variable vz equal {velocity_expression(stage.path)}',
               'variable zero equal 0',

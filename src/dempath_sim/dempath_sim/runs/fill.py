@@ -1,9 +1,17 @@
 """Filling the bin: pour the layers and let them settle, with an on-disk cache of packings.
 
-Each layer (bottom to top) is generated as a loose jittered cubic lattice holding the particle
-volume of the layer at the target solid fraction (``fill.bulk_density_target_kg_m3`` over the
-particle density, 0.6 when no target is set), dropped under gravity inside the bin walls and
-settled until the fastest particle is slower than ``fill.settle_speed_m_s``. The report gives
+Each layer (bottom to top) holds the particle volume of the layer at the target solid fraction
+(``fill.bulk_density_target_kg_m3`` over the particle density, 0.6 when no target is set), is
+inserted at random into a loose slab (``runs.pour``, as LIGGGHTS' ``insert/pack``), dropped
+under gravity inside the bin walls and settled until the fastest particle is slower than
+``fill.settle_speed_m_s``. When the settled bed is looser than the target by more than
+``fill.tolerance`` (2 % by default), it is compacted by settling it again with friction and
+rolling resistance scaled down (a bisection on the scale, each trial from the last bed that was
+still too loose) until the bulk density is within the tolerance, then settled with the full
+physics; a target the pour cannot reach (denser than the frictionless bed, or looser than the
+full-friction pour) stops with one SceneError naming the value and what was reached. The
+bed is poured with the scene file's physics (``fill.physics: scene``) so that runs which only
+change effects share it; ``fill.packing`` reads a bed made elsewhere instead. The report gives
 the achieved bulk density (mass below the surface over the bin area times the bed height),
 solid fraction and surface height (mean over the bin, away from the walls, of the highest
 particle top per column of cells two top-layer diameters wide).
@@ -27,20 +35,24 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
 from dempath_sim.effects import PhysicsModel
 from dempath_sim.engine import Engine
 from dempath_sim.engine.params import SimParams
 from dempath_sim.engine.state import SimState
+from dempath_sim.errors import SceneError
+from dempath_sim.runs.packing_io import load_packing
 from dempath_sim.runs.physics import PARTICLES, bin_walls, scaled_friction
-from dempath_sim.scene.spec import LayerSpec, NumericsSpec, SceneSpec
+from dempath_sim.runs.pour import pour, target_solid_fraction
+from dempath_sim.scene.spec import NumericsSpec, SceneSpec
 
 logger = logging.getLogger(__name__)
 
-FILL_VERSION = 1  # bump when the pour/settle procedure changes (invalidates cached packings)
-DEFAULT_SOLID_FRACTION = 0.6  # random loose-to-close packing of spheres
-LATTICE_GAP = 1.04  # lattice spacing / largest diameter of a layer
+FILL_VERSION = 2  # bump when the pour/settle procedure changes (invalidates cached packings)
+# 2: random insertion (insert/pack) instead of a jittered lattice; compaction to the target
+MAX_SOLID_FRACTION = 0.66  # no random sphere packing is denser (close packing ~0.64)
+COMPACTION_TRIALS = 7  # friction-scale bisection steps before a target counts as unreachable
+COMPACTION_SETTLE_S = 0.4  # longest settle of one compaction trial [s]
 SETTLE_CHECK_S = 0.02  # sim time between settling checks [s]
 MIN_SETTLE_S = 0.1  # never stop before this much sim time [s]
 # Bump when an engine change alters the physics of settling (invalidates packings). Changes that
@@ -64,8 +76,11 @@ class FillReport:
         within_tolerance: Whether the target was met within ``fill.tolerance`` (True if none).
         settle_time_s: Simulated pour and settle time [s].
         settled: Whether the settling criterion was met before ``max_settle_time_s``.
-        key: Cache key of the packing.
+        key: Cache key of the packing (``file:<sha>`` for a packing file).
         from_cache: Whether the packing was read from the cache.
+        target_solid_fraction: Target bulk density / particle density, or None.
+        compaction_friction_scale: Friction scale of the compaction settle (1: none).
+        source: ``pour`` or the packing file's path.
     """
 
     n_particles: int
@@ -79,6 +94,9 @@ class FillReport:
     settled: bool
     key: str
     from_cache: bool = False
+    target_solid_fraction: float | None = None
+    compaction_friction_scale: float = 1.0
+    source: str = 'pour'
 
 
 def default_cache_dir() -> Path:
@@ -114,79 +132,6 @@ def packing_key(scene: SceneSpec, model: PhysicsModel) -> str:
                'seed': scene.seed}
     text = json.dumps(payload, sort_keys=True, default=str)
     return hashlib.sha256(text.encode()).hexdigest()[:20]
-
-
-def target_solid_fraction(scene: SceneSpec, model: PhysicsModel) -> float:
-    """Solid fraction the pour aims at: target bulk density / particle density, or 0.6."""
-    target = scene.fill.bulk_density_target_kg_m3
-    if target is None:
-        return DEFAULT_SOLID_FRACTION
-    phi = target / model.particle_density_kg_m3
-    if not 0.05 < phi < 0.74:
-        logger.warning('fill: target bulk density %.0f kg/m^3 needs a solid fraction %.2f that '
-                       'random sphere packings do not reach', target, phi)
-    return float(min(max(phi, 0.05), 0.64))
-
-
-def sample_diameters(layer: LayerSpec, factor: float, volume_m3: float,
-                     rng: np.random.Generator) -> NDArray[np.float64]:
-    """Diameters [m] of one layer whose sphere volumes add up to ``volume_m3``."""
-    d0 = layer.diameter_m * factor
-    dist = layer.distribution
-    n_guess = max(1, math.ceil(volume_m3 / (math.pi / 6 * d0**3) * 1.3))
-    if dist.kind == 'uniform':
-        d = d0 * (1.0 + dist.spread * rng.uniform(-1.0, 1.0, n_guess))
-    elif dist.kind == 'discrete':
-        sizes = np.asarray(dist.diameters_m) * factor
-        number_w = np.asarray(dist.mass_fractions) / sizes**3  # mass fraction -> number fraction
-        d = rng.choice(sizes, size=n_guess * 4, p=number_w / number_w.sum())
-    else:
-        d = np.full(n_guess, d0)
-    cum = np.cumsum(math.pi / 6 * d**3)
-    return d[: int(np.searchsorted(cum, volume_m3)) + 1]
-
-
-def lattice(scene: SceneSpec, diameters: NDArray[np.float64], y_start: float,
-            rng: np.random.Generator, gap: float = LATTICE_GAP,
-            ) -> tuple[NDArray[np.float64], float]:
-    """Jittered cubic-lattice centres (n, 3) [m] for ``diameters`` above ``y_start``; top y.
-
-    ``gap`` is the lattice spacing over the largest diameter (< 1 puts neighbours in contact).
-    """
-    a = float(diameters.max()) * gap
-    half_w = scene.bin.width_x_m / 2
-    nx = max(1, int((scene.bin.width_x_m - a) // a) + 1)
-    nz = max(1, int((scene.bin.length_z_m - a) // a) + 1)
-    k = np.arange(len(diameters))
-    ix, iz, iy = k % nx, (k // nx) % nz, k // (nx * nz)
-    jitter = rng.uniform(-1.0, 1.0, (len(k), 3)) * 0.5 * (a - diameters[:, None]) / 2
-    pos = np.column_stack([-half_w + a / 2 + ix * a, y_start + a / 2 + iy * a, a / 2 + iz * a])
-    return pos + jitter, y_start + (int(iy.max()) + 1) * a
-
-
-def pour(scene: SceneSpec, model: PhysicsModel, params: SimParams,
-         gap: float = LATTICE_GAP) -> SimState:
-    """The loose initial state of all layers, seeded by ``scene.seed``; ``extra['layer']``.
-
-    ``gap``: lattice spacing over the largest diameter of a layer (see ``lattice``).
-    """
-    rng = np.random.default_rng(scene.seed)
-    phi = target_solid_fraction(scene, model)
-    area = scene.bin.width_x_m * scene.bin.length_z_m
-    y, parts, radii, layer_of = -scene.bed_thickness_m, [], [], []
-    for index, layer in enumerate(scene.layers):
-        factor = model.coarse_grain if layer.coarse_grained else 1.0
-        d = sample_diameters(layer, factor, phi * area * layer.thickness_m, rng)
-        pos, y = lattice(scene, d, y, rng, gap)
-        parts.append(pos)
-        radii.append(d / 2)
-        layer_of.append(np.full(len(d), index, np.int32))
-    positions = np.concatenate(parts)
-    velocities = rng.normal(0.0, 0.01, positions.shape)  # breaks the lattice symmetry [m/s]
-    state = SimState.from_spheres(positions, np.concatenate(radii), PARTICLES, params,
-                                  velocities=velocities)
-    state.extra['layer'] = np.concatenate(layer_of)
-    return state
 
 
 def surface_height(scene: SceneSpec, state: SimState) -> float:
@@ -263,39 +208,131 @@ def pour_and_settle(scene: SceneSpec, state: SimState, params: SimParams,
     return settle(Engine(params, walls), state, scene, limit, progress)
 
 
+def _copy(state: SimState) -> SimState:
+    return state.subset(np.ones(state.n, bool))
+
+
+def _unreachable(scene: SceneSpec, found: dict[str, float], what: str) -> SceneError:
+    target = scene.fill.bulk_density_target_kg_m3
+    return SceneError(
+        f'{scene.source}: fill.bulk_density_target_kg_m3: {target:g} kg/m^3 cannot be reached '
+        f'within {100 * scene.fill.tolerance:g} %: {what} gives '
+        f"{found['bulk_density_kg_m3']:.0f} kg/m^3 (solid fraction "
+        f"{found['solid_fraction']:.3f})")
+
+
+def compact(scene: SceneSpec, model: PhysicsModel, params: SimParams, state: SimState,
+            progress: Progress | None = None) -> tuple[SimState, float]:
+    """Settle the bed with friction scaled down until its bulk density reaches the target.
+
+    Bisection on the friction scale in (0, 1): a trial settles the last bed that was still
+    too loose with that scale; too loose, it becomes the new start and the scale goes down;
+    too dense, the scale goes up. Returns the bed within the tolerance and the scale used.
+
+    Raises:
+        SceneError: The target is denser than the bed reaches with friction scaled to ~0.
+    """
+    phi_t = target_solid_fraction(scene, model)
+    tol = scene.fill.tolerance * phi_t
+    walls = bin_walls(scene)
+    hi, lo, found = 1.0, 0.0, measure(scene, model, state)
+    for _ in range(COMPACTION_TRIALS):
+        scale = 0.5 * (hi + lo)
+        trial, _ = settle(Engine(scaled_friction(params, scale), walls), _copy(state), scene,
+                          state.time + COMPACTION_SETTLE_S, progress)
+        found = measure(scene, model, trial)
+        logger.info('fill: compaction with friction x %.3g: solid fraction %.4f (target %.4f)',
+                    scale, found['solid_fraction'], phi_t)
+        if abs(found['solid_fraction'] - phi_t) <= tol:
+            return trial, scale
+        if found['solid_fraction'] < phi_t:
+            hi, state = scale, trial
+        else:
+            lo = scale
+    raise _unreachable(scene, found, f'compaction down to friction x {0.5 * (hi + lo):.3g}')
+
+
+def _report(scene: SceneSpec, model: PhysicsModel, state: SimState, key: str, settled: bool,
+            scale: float = 1.0, source: str = 'pour') -> FillReport:
+    found: dict[str, Any] = measure(scene, model, state)
+    target = scene.fill.bulk_density_target_kg_m3
+    within = target is None or abs(found['bulk_density_kg_m3'] - target) <= (
+        scene.fill.tolerance * target)
+    return FillReport(n_particles=state.n, target_bulk_density_kg_m3=target,
+                      within_tolerance=within, settle_time_s=state.time, settled=settled,
+                      key=key, floor_y_m=-scene.bed_thickness_m,
+                      target_solid_fraction=None if target is None else target_solid_fraction(
+                          scene, model),
+                      compaction_friction_scale=scale, source=source, **found)
+
+
+def pour_to_target(scene: SceneSpec, model: PhysicsModel, params: SimParams, key: str,
+                   progress: Progress | None = None) -> tuple[SimState, FillReport]:
+    """Pour, settle and (with a target) compact the bed; SceneError if it cannot be reached."""
+    target = scene.fill.bulk_density_target_kg_m3
+    rho = model.particle_density_kg_m3
+    if target is not None and target / rho > MAX_SOLID_FRACTION:
+        raise SceneError(
+            f'{scene.source}: fill.bulk_density_target_kg_m3: {target:g} kg/m^3 needs a solid '
+            f'fraction {target / rho:.3f}; random sphere packings reach at most about '
+            f'{MAX_SOLID_FRACTION} ({MAX_SOLID_FRACTION * rho:.0f} kg/m^3 with these particles)')
+    state, settled = pour_and_settle(scene, pour(scene, model, params), params, progress)
+    report = _report(scene, model, state, key, settled)
+    if target is None or report.within_tolerance:
+        return state, report
+    if report.bulk_density_kg_m3 > target:
+        raise _unreachable(scene, asdict(report), 'the loosest pour (full friction)')
+    state, scale = compact(scene, model, params, state, progress)
+    state, settled = settle(Engine(params, bin_walls(scene)), state, scene,
+                            state.time + COMPACTION_SETTLE_S, progress)
+    return state, _report(scene, model, state, key, settled, scale)
+
+
+def packing_from_file(scene: SceneSpec, model: PhysicsModel, params: SimParams,
+                      path: Path) -> tuple[SimState, FillReport]:
+    """The scene's ``fill.packing`` as the bed (checked; at rest; layers by nearest size)."""
+    pos, radii = load_packing(scene, path)
+    state = SimState.from_spheres(pos, radii, PARTICLES, params)
+    sizes = np.array([layer.diameter_m * (model.coarse_grain if layer.coarse_grained else 1.0)
+                      for layer in scene.layers])
+    state.extra['layer'] = np.argmin(np.abs(2 * radii[:, None] - sizes[None]), axis=1).astype(
+        np.int32)
+    digest = hashlib.sha256(path.read_bytes()).hexdigest()[:12]
+    report = _report(scene, model, state, f'file:{digest}', True, source=str(path))
+    if not report.within_tolerance:
+        logger.warning('fill: packing %s has bulk density %.0f kg/m^3, not the target %.0f',
+                       path, report.bulk_density_kg_m3, report.target_bulk_density_kg_m3)
+    return state, report
+
+
 def fill_bed(scene: SceneSpec, model: PhysicsModel, params: SimParams,
              cache_dir: Path | None = None, progress: Progress | None = None,
              ) -> tuple[SimState, FillReport]:
-    """Pour and settle the bed of ``scene`` (or read it from the cache).
+    """Pour and settle the bed of ``scene`` (or read it from the cache or ``fill.packing``).
 
     Args:
         scene: The scene.
-        model: Its physics model (``scene.physics_model()``, maybe with overrides).
-        params: Engine parameters with materials PARTICLES, WALLS (and TOOL).
+        model: The physics the bed is poured with (``scene.bed_model()``: the scene file's
+            effects unless ``fill.physics: run``).
+        params: Engine parameters of ``model`` with materials PARTICLES, WALLS (and TOOL).
         cache_dir: Packing cache directory; ``default_cache_dir()`` if None.
         progress: Called with (sim time, max settle time) during the settle.
 
     Returns:
         The settled state (time reset to 0, velocities as settled) and the report.
+
+    Raises:
+        SceneError: A bad packing file or a bulk density target the pour cannot reach.
     """
+    if scene.fill.packing is not None:
+        return packing_from_file(scene, model, params, scene.fill.packing)
     key = packing_key(scene, model)
     path = (cache_dir or default_cache_dir()) / f'{key}.npz'
     if scene.fill.cache:
         for found_path in (path, bundled_packing_dir() / f'{key}.npz'):
             if found_path.is_file():
                 return _load_cached(found_path, params)
-    state, settled = pour_and_settle(scene, pour(scene, model, params), params, progress)
-    found: dict[str, Any] = measure(scene, model, state)
-    target = scene.fill.bulk_density_target_kg_m3
-    within = target is None or abs(found['bulk_density_kg_m3'] - target) <= (
-        scene.fill.tolerance * target)
-    if not within:
-        logger.warning('fill: bulk density %.0f kg/m^3 misses the target %.0f kg/m^3 by more '
-                       'than %.0f %%', found['bulk_density_kg_m3'], target,
-                       100 * scene.fill.tolerance)
-    report = FillReport(n_particles=state.n, target_bulk_density_kg_m3=target,
-                        within_tolerance=within, settle_time_s=state.time, settled=settled,
-                        key=key, floor_y_m=-scene.bed_thickness_m, **found)
+    state, report = pour_to_target(scene, model, params, key, progress)
     state.time, state.step = 0.0, 0
     if scene.fill.cache:
         _save_cached(path, state, report)

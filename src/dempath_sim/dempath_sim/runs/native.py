@@ -4,11 +4,14 @@
 (the CLI and the node call it); :func:`run_batch` runs several effect settings and seeds one after
 the other on any backend (the engine already uses every core). Steps: build the engine parameters
 from the scene's physics model; fill the bin or read the cached packing; pick markers and
-candidates; insert the tool at its depth (the particles inside the tool's bounding box at its start
-are removed, as if the tool stood in a pre-cut slot); drive it with the profile and record the
-tracked particles, the tool pose, force and torque every ``output.interval_s`` and the whole bed
-every ``output.snapshot_interval_s``. Deterministic for a given seed on one machine and thread
-count.
+candidates; insert the tool at its depth (``tool.placement``: the particles overlapping its closed
+mesh are removed, or those in its bounding box, see ``runs.placement``); re-settle the bed with the
+tool in place and the run's own physics for ``tool.settle_s`` (so that the pass starts with the
+contact history of a bed at rest against the tool, as a LIGGGHTS deck's re-settle does, also when
+the packing came from the cache or was poured with the scene file's physics); then drive the tool
+with the profile in the same engine and record the tracked particles, the tool pose, force and
+torque every ``output.interval_s`` and the whole bed every ``output.snapshot_interval_s``.
+Deterministic for a given seed on one machine and thread count.
 """
 
 from __future__ import annotations
@@ -29,31 +32,27 @@ from dempath_sim.runs.backend import Backend, Frame, Progress, RunOptions
 from dempath_sim.runs.fill import FillReport, fill_bed
 from dempath_sim.runs.markers import MarkerSelection, select_markers
 from dempath_sim.runs.physics import TOOL, bin_walls, build_params
+from dempath_sim.runs.placement import carve_tool_slot, place_tool, tool_start
 from dempath_sim.runs.results import Recorder, SimResult
 from dempath_sim.scene.profiles import ToolPath
 from dempath_sim.scene.spec import SceneSpec
 
 logger = logging.getLogger(__name__)
 
-def tool_start(scene: SceneSpec, fill: FillReport) -> tuple[float, float, float]:
-    """Tip position at time 0 [m]: depth below the settled (or nominal, offset) surface."""
-    tool = scene.tool
-    if tool.depth_reference == 'settled_surface':
-        y = fill.surface_height_m - tool.depth_m
-    else:
-        y = -tool.depth_m + tool.settling_offset_m
-    return (tool.x_m, y, tool.start_z_m)
+def pass_start_springs(engine: Engine) -> int:
+    """Particle pairs whose tangential spring is loaded when the pass starts (the contact
+    history the re-settle built; 0 for a pass started on a bed without history)."""
+    springs = engine._ht
+    return int(np.count_nonzero(np.any(springs != 0.0, axis=1)))
 
 
-def carve_tool_slot(state: SimState, mesh: TriangleMesh,
-                    start: tuple[float, float, float]) -> SimState:
-    """Remove the particles that touch the tool's bounding box at its start position."""
-    lo, hi = mesh.bounds
-    lo, hi = lo + np.asarray(start), hi + np.asarray(start)
-    r = state.radii[:, None]
-    inside = np.all((state.positions > lo - r) & (state.positions < hi + r), axis=1)
-    logger.info('tool slot: removed %d particles', int(inside.sum()))
-    return state.subset(~inside)
+def _with_run_masses(state: SimState, params: SimParams) -> SimState:
+    """The bed with masses from the run's particle density (the bed's physics may differ)."""
+    fresh = SimState.from_spheres(state.positions, state.radii, state.material, params,
+                                  velocities=state.velocities, ids=state.ids)
+    fresh.angular_velocities[:] = state.angular_velocities
+    fresh.extra = dict(state.extra)
+    return fresh
 
 
 def run_id(scene: SceneSpec) -> str:
@@ -77,6 +76,7 @@ class _Drive:
     steps_per_frame: int
     frames_per_snapshot: int
     stop_time_s: float = math.inf  # the tool stands still from here on (follow after stop)
+    removed_by_tool: int = 0
 
     def pose(self, t: float) -> ToolPose:
         position, velocity = self.path.pose_at(min(t, self.stop_time_s))
@@ -101,7 +101,7 @@ def _prepare_drive(scene: SceneSpec, params: SimParams, model: PhysicsModel, sta
     selection = select_markers(state.positions, state.radii, state.ids, scene.markers)
     mesh = TriangleMesh.from_stl(scene.tool.mesh, material=TOOL, scale=scene.tool.scale)
     start = tool_start(scene, report)
-    state = carve_tool_slot(state, mesh, start)
+    state, removed = place_tool(state, mesh, start, scene.tool.placement)
     ids, roles, marker_ids = selection.tracked(scene.output.candidates)
     lost = np.setdiff1d(ids, state.ids)
     if len(lost):
@@ -120,8 +120,27 @@ def _prepare_drive(scene: SceneSpec, params: SimParams, model: PhysicsModel, sta
     steps = max(1, round(scene.output.interval_s / dt))
     per_snap = max(1, round(scene.output.snapshot_interval_s / (steps * dt)))
     drive = _Drive(engine, path, Recorder(ids, roles, marker_ids, radii, state.ids.copy()),
-                   selection, path.time_to_travel(scene.tool.travel_m), steps, per_snap)
+                   selection, path.time_to_travel(scene.tool.travel_m), steps, per_snap,
+                   removed)
     return drive, state
+
+
+def resettle(drive: _Drive, state: SimState, duration_s: float) -> SimState:
+    """Settle the bed against the tool standing at its start (the run's engine and physics).
+
+    The same engine then drives the tool, so the pass starts with the springs this builds;
+    the state's clock is set back to 0 for the pass.
+    """
+    engine = drive.engine
+    engine.tool_pose = ToolPose(np.asarray(drive.path.pose_at(0.0)[0]), np.zeros(3))
+    steps = round(duration_s / float(engine.dt or 1.0))
+    if steps:
+        state = engine.run(state, steps)
+    logger.info('re-settle with the tool in place: %d steps (%.3f s), %d particle contacts',
+                steps, state.time, engine.n_contacts)
+    state.time, state.step = 0.0, 0
+    engine.tool_pose = drive.pose(0.0)
+    return state
 
 
 def _progress(options: RunOptions, phase: str, t: float, end: float, t0: float) -> None:
@@ -181,11 +200,16 @@ def run_scene(scene: SceneSpec, options: RunOptions | None = None) -> SimResult:
     options = options or RunOptions()
     model = scene.physics_model()
     params = build_params(scene, model)
+    bed = scene.bed_model()
     t_fill = time.monotonic()
-    state, report = fill_bed(scene, model, params, options.cache_dir,
+    state, report = fill_bed(scene, bed, build_params(scene, bed), options.cache_dir,
                              progress=_fill_progress(options, t_fill))
+    state = _with_run_masses(state, params)
     fill_wall = time.monotonic() - t_fill
     drive, state = _prepare_drive(scene, params, model, state, report)
+    t_settle = time.monotonic()
+    state = resettle(drive, state, scene.tool.settle_s)
+    springs = pass_start_springs(drive.engine)
     t_drive = time.monotonic()
     state = drive_tool(drive, state, options)
     meta: dict[str, Any] = {
@@ -194,6 +218,9 @@ def run_scene(scene: SceneSpec, options: RunOptions | None = None) -> SimResult:
         'dt_s': drive.engine.dt, 'n_particles': state.n,
         'removed_particles': drive.engine.removed_count, 'end_time_s': drive.end_time_s,
         'sim_time_s': state.time, 'fill_wall_s': fill_wall,
+        'placement': scene.tool.placement, 'removed_by_tool': drive.removed_by_tool,
+        'resettle_s': scene.tool.settle_s, 'resettle_wall_s': t_drive - t_settle,
+        'pass_start_springs': springs, 'bed_physics': scene.fill.physics,
         'drive_wall_s': time.monotonic() - t_drive,
         'grid_points': drive.selection.grid_points.tolist()}
     return drive.recorder.result(meta)
@@ -229,5 +256,5 @@ def run_batch(scene: SceneSpec, variants: Sequence[Variant], seeds: Sequence[int
     return out
 
 
-__all__ = ['NativeBackend', 'RunStoppedError', 'SimulationError', 'Variant', 'run_batch',
-           'run_id', 'run_scene']
+__all__ = ['NativeBackend', 'RunStoppedError', 'SimulationError', 'Variant', 'carve_tool_slot',
+           'pass_start_springs', 'resettle', 'run_batch', 'run_id', 'run_scene', 'tool_start']

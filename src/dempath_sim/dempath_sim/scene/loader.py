@@ -46,6 +46,7 @@ from dempath_sim.engine.params import (
     COULOMB_LIMITS,
     DEFAULT_MAX_OVERLAP_FRACTION,
 )
+from dempath_sim.engine.solid import open_edges
 from dempath_sim.engine.stl import read_stl
 from dempath_sim.errors import GeometryError, SceneError
 from dempath_sim.scene import profiles
@@ -142,7 +143,14 @@ def _read_tool(r: Reader, base_dir: Path | None, bin_spec: records.BinSpec) -> r
         start_z_m=r.number('start_z_m', 0.0, bin_spec.length_z_m),
         profile=_read_profile(r),
         profile_offset_m=r.number('profile_offset_m', 0.0, 1000.0, 0.0),
-        travel_m=r.number('travel_m', 0.0, bin_spec.length_z_m, low_open=True))
+        travel_m=r.number('travel_m', 0.0, bin_spec.length_z_m, low_open=True),
+        placement=r.text('placement', 'carve', ('carve', 'slot')),
+        settle_s=r.number('settle_s', 0.0, 10.0, 0.06))
+    bad = open_edges(read_stl(spec.mesh)) if spec.placement == 'carve' else 0
+    if bad:
+        r.fail('mesh', f'{str(spec.mesh)!r} is not a closed mesh ({bad} open or inconsistently '
+                       'oriented edges), so the carve cannot tell inside from outside; close '
+                       'it or set tool.placement: slot')
     if spec.start_z_m + spec.travel_m > bin_spec.length_z_m:
         r.fail('travel_m', f'start_z_m + travel_m = {spec.start_z_m + spec.travel_m:g} m '
                            f'runs past the bin end at {bin_spec.length_z_m:g} m')
@@ -202,6 +210,29 @@ def _read_markers(r: Reader, bin_spec: records.BinSpec) -> records.MarkerSpec:
     return spec
 
 
+def _read_packing_path(f: Reader, base_dir: Path | None) -> Path | None:
+    if not f.has('packing'):
+        return None
+    path = Path(f.text('packing')).expanduser()
+    if not path.is_absolute() and base_dir is not None:
+        path = base_dir / path
+    if not path.is_file():
+        f.fail('packing', f'packing file {str(path)!r} does not exist')
+    return path
+
+
+def _read_fill(f: Reader, base_dir: Path | None) -> records.FillSpec:
+    return records.FillSpec(
+        f.maybe_number('bulk_density_target_kg_m3', 1.0, 30000.0),
+        f.number('tolerance', 0.0, 1.0, 0.02, low_open=True),
+        f.number('settle_speed_m_s', 0.0, 10.0, 0.02, low_open=True),
+        f.number('max_settle_time_s', 0.0, 100.0, 3.0, low_open=True),
+        f.flag('cache', True), f.number('friction_scale', 0.0, 1.0, 1.0),
+        f.number('pour_solid_fraction', 0.05, 0.45, 0.35),
+        f.text('physics', 'scene', ('scene', 'run')),
+        _read_packing_path(f, base_dir))
+
+
 def _read_sections(r: Reader, source: str, base_dir: Path | None) -> dict[str, Any]:
     bin_r = r.section('bin')
     bin_spec = records.BinSpec(bin_r.number('width_x_m', 0.0, 100.0, low_open=True),
@@ -215,11 +246,7 @@ def _read_sections(r: Reader, source: str, base_dir: Path | None) -> dict[str, A
         effects=read_effects(r.section('effects', required=False)),
         tool=_read_tool(r.section('tool'), base_dir, bin_spec),
         markers=_read_markers(r.section('markers'), bin_spec),
-        fill=records.FillSpec(f.maybe_number('bulk_density_target_kg_m3', 1.0, 30000.0),
-                              f.number('tolerance', 0.0, 1.0, 0.1, low_open=True),
-                              f.number('settle_speed_m_s', 0.0, 10.0, 0.02, low_open=True),
-                              f.number('max_settle_time_s', 0.0, 100.0, 3.0, low_open=True),
-                              f.flag('cache', True), f.number('friction_scale', 0.0, 1.0, 1.0)),
+        fill=_read_fill(f, base_dir),
         output=records.OutputSpec(
             o.number('interval_s', 0.0, 10.0, 0.01, low_open=True),
             o.number('snapshot_interval_s', 0.0, 100.0, 0.1, low_open=True),
@@ -255,7 +282,7 @@ def scene_from_dict(data: Any, source: str = '<dict>',
     r.finish()
     if sections['bin'].height_y_m <= sum(x.thickness_m for x in sections['layers']):
         Reader.fail_at('bin.height_y_m', source, 'the walls must be higher than the layers')
-    return SceneSpec(**head, **sections, source=source)
+    return SceneSpec(**head, **sections, source=source, bed_effects=sections['effects'])
 
 
 def load_scene(path: str | Path) -> SceneSpec:

@@ -88,6 +88,11 @@ class ToolSpec:
         profile: The kinematic profile.
         profile_offset_m: Profile distance already travelled at time 0 [m].
         travel_m: Distance the tool moves in the simulation (active length) [m].
+        placement: ``carve`` (remove the particles overlapping the tool's closed mesh, as a
+            LIGGGHTS deck deletes them) or ``slot`` (everything in its bounding box: a pre-cut
+            slot).
+        settle_s: Re-settle of the bed with the tool in place and the run's own physics before
+            the pass [s] (builds the contact history; 0 starts the pass at once).
     """
 
     mesh: Path
@@ -100,6 +105,8 @@ class ToolSpec:
     profile: profiles.SpeedProfile
     profile_offset_m: float
     travel_m: float
+    placement: str = 'carve'
+    settle_s: float = 0.06
 
 
 @dataclass(frozen=True)
@@ -122,18 +129,25 @@ class MarkerSpec:
 
 @dataclass(frozen=True)
 class FillSpec:
-    """Pour and settle: target bulk density, settling criterion and cache use.
+    """Pour and settle: target bulk density, settling criterion, cache use, or a given bed.
 
-    ``friction_scale`` < 1 pours with less friction and rolling resistance (denser packing, the
-    usual way to reach a bulk density), then settles again with the full values.
+    ``friction_scale`` < 1 pours with less friction and rolling resistance (denser packing),
+    then settles again with the full values. ``pour_solid_fraction``: the solid fraction of the
+    random loose insertion (LIGGGHTS ``insert/pack`` ``volumefraction_region``). ``physics``:
+    ``scene`` pours the bed with the scene file's own effects (runs that change effects reuse
+    that bed and re-settle it with their own physics), ``run`` with the run's. ``packing``: a
+    bed made elsewhere (LIGGGHTS data file, CSV x,y,z,d or npz) used instead of the pour.
     """
 
     bulk_density_target_kg_m3: float | None = None
-    tolerance: float = 0.1
+    tolerance: float = 0.02
     settle_speed_m_s: float = 0.02
     max_settle_time_s: float = 3.0
     cache: bool = True
     friction_scale: float = 1.0  # factor on friction and rolling resistance while pouring
+    pour_solid_fraction: float = 0.35
+    physics: str = 'scene'
+    packing: Path | None = None
 
 
 @dataclass(frozen=True)
@@ -178,6 +192,7 @@ class SceneSpec:
     output: OutputSpec
     sim: NumericsSpec
     source: str = '<dict>'
+    bed_effects: Mapping[str, EffectSetting] | None = None  # the file's (None: ``effects``)
 
     @property
     def bed_thickness_m(self) -> float:
@@ -197,6 +212,15 @@ class SceneSpec:
                      else effect.apply_off(model))
         return model
 
+    def bed_model(self) -> PhysicsModel:
+        """The physics the bed is poured with: the scene file's effects (``fill.physics:
+        scene``) with the run's particle sizes, or the run's own (``run``)."""
+        model = self.physics_model()
+        if self.fill.physics == 'run' or self.bed_effects is None:
+            return model
+        base = replace(self, effects=self.bed_effects).physics_model()
+        return replace(base, coarse_grain=model.coarse_grain)
+
     def with_overrides(self, values: Mapping[str, float] | None = None,
                        off: Iterable[str] = (), on: Iterable[str] = (),
                        seed: int | None = None) -> SceneSpec:
@@ -215,14 +239,17 @@ class SceneSpec:
         for effect in off:
             raw.setdefault(effect, {})['enabled'] = False
         effects = read_effects(Reader(raw, 'effects', 'overrides'))
-        return replace(self, effects=effects, seed=self.seed if seed is None else seed)
+        return replace(self, effects=effects, seed=self.seed if seed is None else seed,
+                       bed_effects=self.effects if self.bed_effects is None else self.bed_effects)
 
     def to_dict(self) -> dict[str, Any]:
         """Plain, JSON-serialisable form (paths as strings), e.g. for cache keys and summaries."""
         out = asdict(self)
         out['tool']['mesh'] = str(self.tool.mesh)
-        out['effects'] = {k: {'enabled': v.enabled, **dict(v.values)}
-                          for k, v in self.effects.items()}
+        out['fill']['packing'] = None if self.fill.packing is None else str(self.fill.packing)
+        for key in ('effects', 'bed_effects'):
+            effects = getattr(self, key) or self.effects
+            out[key] = {k: {'enabled': v.enabled, **dict(v.values)} for k, v in effects.items()}
         return out
 
 
