@@ -206,12 +206,16 @@ def blowup_error(state: SimState, courant: float, n_nonfinite: int, params: SimP
         params: The parameters (time-step settings).
         dt: The time step in use [s].
     """
-    msg = (f'energy blow-up at t = {state.time:.6f} s: a particle moves '
-           f'{courant:.2f} radii per step (non-finite: {n_nonfinite}); '
-           f'dt = {dt:.3e} s, stable dt <= {stable_time_step(state, params):.3e} s: lower '
-           f'sim.time_step_s or sim.rayleigh_safety, or check the tool speed and the '
-           f'initial velocities of the particles')
+    msg = (f'energy blow-up at t = {state.time:.6f} s: a particle moves {courant:.2f} radii per '
+           f'step (non-finite: {n_nonfinite}); {_lower_dt(state, params, dt)}, or check the '
+           f'tool speed and the initial velocities of the particles')
     return SimulationError(msg)
+
+
+def _lower_dt(state: SimState, params: SimParams, dt: float) -> str:
+    """The time step in use, the stable one and the settings that lower it (message tail)."""
+    return (f'dt = {dt:.3e} s, stable dt <= {stable_time_step(state, params):.3e} s: lower '
+            f'sim.time_step_s or sim.rayleigh_safety')
 
 
 def lost_error(state: SimState, lost: int, n_start: int, params: SimParams,
@@ -227,7 +231,6 @@ def lost_error(state: SimState, lost: int, n_start: int, params: SimParams,
     """
     msg = (f'{lost} particles ({100 * lost / max(n_start, 1):.1f}% of {n_start}) have left '
            f'the domain box {params.domain_min} - {params.domain_max} m by t = '
-           f'{state.time:.6f} s: the bed is blowing up or escaping the bin (dt = {dt:.3e} s, '
-           f'stable dt <= {stable_time_step(state, params):.3e} s); lower sim.time_step_s or '
-           f'sim.rayleigh_safety, or make the bin taller (bin.height_y_m)')
+           f'{state.time:.6f} s: the bed is blowing up or escaping the bin; '
+           f'{_lower_dt(state, params, dt)}, or make the bin taller (bin.height_y_m)')
     return SimulationError(msg)
