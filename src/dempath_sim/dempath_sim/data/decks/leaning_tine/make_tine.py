@@ -45,7 +45,7 @@ QUADS = ((0, 3, 2, 1), (4, 5, 6, 7), (0, 1, 5, 4), (2, 3, 7, 6), (1, 2, 6, 5), (
 def triangles() -> list[tuple[tuple[float, float, float], ...]]:
     """Twelve triangles of the closed tine, outward winding."""
     c = corners()
-    tris = []
+    tris: list[tuple[tuple[float, float, float], ...]] = []
     for a, b, d, e in QUADS:
         tris += [(c[a], c[b], c[d]), (c[a], c[d], c[e])]
     return tris
