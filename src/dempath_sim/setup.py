@@ -11,7 +11,7 @@ setup(
     version='0.1.0',
     packages=find_packages(exclude=['test']),
     package_data={PACKAGE: ['py.typed', 'data/*.stl', 'data/*.py', 'data/scenes/*.yaml',
-                            'data/packings/*.npz']},
+                            'data/packings/*.npz', 'data/decks/*/*']},
     data_files=[
         ('share/ament_index/resource_index/packages', [f'resource/{PACKAGE}']),
         (f'share/{PACKAGE}', ['package.xml']),

@@ -39,24 +39,38 @@ def test_time_step_above_rayleigh_limit_names_stable_step() -> None:
     assert f'{dt_r:.3e}' in str(info.value)
 
 
-def test_excessive_overlap_is_reported() -> None:
-    """Spheres overlapping by 40% of a radius (default limit 30%) stop the run naming both ids."""
-    params = SimParams((GRAIN,), {(0, 0): INTER})
-    assert params.max_overlap_fraction == DEFAULT_MAX_OVERLAP_FRACTION == 0.3
-    with pytest.raises(SimulationError, match=r'overlap of 40\.0% .*particle 0 and particle 1'):
+def test_overlap_guard_is_reported() -> None:
+    """The overlap guard (a full radius by default) stops a stable contact deeper than a
+    stricter limit the user set, naming both ids, the setting and the contact's stable step."""
+    assert SimParams((GRAIN,), {(0, 0): INTER}).max_overlap_fraction == \
+        DEFAULT_MAX_OVERLAP_FRACTION == 1.0
+    params = SimParams((GRAIN,), {(0, 0): INTER}, max_overlap_fraction=0.3)
+    with pytest.raises(SimulationError, match=r'overlap between particle 0 and particle 1 .*'
+                       r'\(overlap 40\.0% of the radius\) exceeds SimParams.max_overlap_fraction'
+                       r' = 0\.3 \(sim\.max_overlap_fraction\).*stable dt <='):
         Engine(params).step(_pair(params, -0.4 * RADIUS))
 
 
-def test_energy_blow_up_is_reported() -> None:
-    """A time step at the Rayleigh limit with a hard, deep contact blows up and is caught."""
+def test_unresolved_contact_is_reported_before_it_blows_up() -> None:
+    """A time step at the Rayleigh limit with a hard, deep contact is stopped on the first
+    force pass, quoting the step that contact needs and the setting to lower."""
     probe = SimParams((GRAIN,), {(0, 0): INTER})
     state = _pair(probe, -0.45 * RADIUS)
     dt_r = rayleigh_time_step(state.radii, state.material, probe)
     params = SimParams((GRAIN,), {(0, 0): Interaction(1.0, 0.0, 0.0)}, dt=dt_r,
-                       gravity=(0.0, 0.0, 0.0), max_overlap_fraction=1.0)
-    engine = Engine(params)
-    with pytest.raises(SimulationError, match=r'energy blow-up.*stable dt'):
-        engine.run(_pair(params, -0.45 * RADIUS), 200)
+                       gravity=(0.0, 0.0, 0.0))
+    with pytest.raises(SimulationError, match=r'unstable contact between particle 0 and '
+                       r'particle 1 .*needs dt <= .* set sim\.time_step_s to'):
+        Engine(params).run(_pair(params, -0.45 * RADIUS), 200)
+
+
+def test_energy_blow_up_is_reported() -> None:
+    """A particle moving more than half its radius per step is a blow-up, named as such."""
+    params = SimParams((GRAIN,), {(0, 0): INTER}, gravity=(0.0, 0.0, 0.0))
+    state = _pair(params, 1e-2, speed=1e3)
+    with pytest.raises(SimulationError, match=r'energy blow-up.*stable dt.*lower '
+                                              r'sim\.time_step_s'):
+        Engine(params).step(state)
 
 
 def test_particles_leaving_domain_are_removed_with_warning(
@@ -74,6 +88,23 @@ def test_particles_leaving_domain_are_removed_with_warning(
     assert state.ids.tolist() == [10, 11]
     assert re.search(r'removed 1 particle.*ids \[12\]', caplog.text)
     np.testing.assert_allclose(state.positions[1], [0.006, 0.0, 0.0])
+
+
+def test_many_particles_leaving_the_domain_stop_the_run() -> None:
+    """More than 1 % (and 10) of the particles leaving the domain is a blow-up or an escaping
+    bed: the run stops saying how many left and what to change."""
+    params = SimParams((GRAIN,), {(0, 0): INTER}, gravity=(0.0, 0.0, 0.0),
+                       domain_min=(-0.1, -0.1, -0.1), domain_max=(0.1, 0.02, 0.1))
+    grid = np.stack(np.meshgrid(*[np.arange(6) * 5 * RADIUS] * 2, indexing='ij'), -1)
+    pos = np.zeros((36, 3))
+    pos[:, [0, 2]] = grid.reshape(-1, 2)
+    vel = np.zeros((36, 3))
+    vel[:12, 1] = 5.0  # a third of them thrown upwards out of the box
+    state = SimState.from_spheres(pos, RADIUS, 0, params, velocities=vel)
+    engine = Engine(params)
+    with pytest.raises(SimulationError, match=r'(1[1-2]) particles \(3\d\.\d% of 36\) have left '
+                                              r'the domain box.*bin\.height_y_m'):
+        engine.run(state, int(0.02 / engine.time_step(state)))
 
 
 def test_missing_wall_interaction_names_the_pair() -> None:

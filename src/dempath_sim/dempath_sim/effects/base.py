@@ -115,6 +115,14 @@ class PhysicsModel:
                        particle_tool=replace(self.particle_tool, **changes),
                        particle_wall=replace(self.particle_wall, **changes))
 
+    def with_scoped(self, name: str, particles: float, boundary: float) -> PhysicsModel:
+        """Set contact field ``name`` to ``particles`` between particles and to ``boundary``
+        towards the tool and the walls (an effect's scope, e.g. ``boundary_fraction``)."""
+        return replace(
+            self, particle_particle=replace(self.particle_particle, **{name: particles}),
+            particle_tool=replace(self.particle_tool, **{name: boundary}),
+            particle_wall=replace(self.particle_wall, **{name: boundary}))
+
 
 class Effect(ABC):
     """One switchable piece of physics with named, ranged parameters.

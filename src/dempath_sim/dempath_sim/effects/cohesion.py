@@ -9,7 +9,6 @@ Roberts, Proc. R. Soc. A 324 (1971) 301). The paper neglected adhesion for its d
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import replace
 
 from dempath_sim.effects.base import Effect, ParameterSpec, PhysicsModel
 
@@ -29,12 +28,8 @@ class Cohesion(Effect):
 
     def apply(self, model: PhysicsModel, values: Mapping[str, float]) -> PhysicsModel:
         k = values['energy_density_j_m3']
-        kb = k * values['boundary_fraction']
-        return replace(
-            model,
-            particle_particle=replace(model.particle_particle, cohesion_energy_density_j_m3=k),
-            particle_tool=replace(model.particle_tool, cohesion_energy_density_j_m3=kb),
-            particle_wall=replace(model.particle_wall, cohesion_energy_density_j_m3=kb))
+        return model.with_scoped('cohesion_energy_density_j_m3', k,
+                                 k * values['boundary_fraction'])
 
     def apply_off(self, model: PhysicsModel) -> PhysicsModel:
         return model.with_pairs(cohesion_energy_density_j_m3=0.0)

@@ -44,7 +44,13 @@ from dempath_sim.engine.neighbors import (
 from dempath_sim.engine.pair_forces import pair_forces, reduce_buffers
 from dempath_sim.engine.params import SimParams
 from dempath_sim.engine.reach import box_corners, box_displacement, reach_candidates
-from dempath_sim.engine.stability import check_drift, check_overlaps, checked_time_step
+from dempath_sim.engine.stability import (
+    check_contacts,
+    check_drift,
+    checked_time_step,
+    lost_error,
+    unstable_overlap,
+)
 from dempath_sim.engine.state import SimState
 from dempath_sim.engine.toolpose import ToolPose
 from dempath_sim.engine.walls import Plane, pack_planes
@@ -73,6 +79,8 @@ class Engine:
     """
 
     BLOWUP_COURANT = 0.5  # |v| dt / r above this is an energy blow-up
+    LOST_FRACTION = 0.01  # a run stops when more of its particles than this left the domain
+    LOST_MIN = 10  # ... and more than this many (single grains thrown out are only counted)
     SERIAL_BELOW = 4000  # fewer particles run on one thread (thread wake-up costs more)
     REORDER_MIN = 4000  # states this large are put in cell order at every list build
     TOOL_MARGIN_SKINS = 2.0  # tool travel [skins] covered by one set of boundary candidates
@@ -93,6 +101,8 @@ class Engine:
         """
         self.reorder = reorder
         self.candidates = candidates
+        self._n_bound = 0  # most particles bound so far (the base of the lost fraction)
+        self._screen = 0.0  # overlap / radius below which no contact is unstable at dt
         self._cand_idx: NDArray[np.int64] | None = None  # None: to be found
         self._cand_ref: F64 = np.zeros(18)  # tool pose the candidates were found for
         self.params = params
@@ -145,6 +155,9 @@ class Engine:
         self._check_pairs(state)
         self.dt = self._dt = self.time_step(state)
         n = state.n
+        tool_mat = 0 if self.tool is None else self.tool.material
+        self._screen = unstable_overlap(state, self.walls, tool_mat, self.params, self._dt)
+        self._n_bound = max(self._n_bound, n)
         self._threads = 1 if n < self.SERIAL_BELOW else numba.get_num_threads()
         self._n_chunks = max(1, min(self._threads, n))
         self._force: F64 = np.zeros((n, 3))
@@ -233,7 +246,8 @@ class Engine:
             dt: Time step used to advance the contact springs [s] (0 to evaluate only).
 
         Raises:
-            SimulationError: An overlap exceeds params.max_overlap_fraction of a radius.
+            SimulationError: A contact the time step no longer resolves, or an overlap beyond
+                params.max_overlap_fraction of a radius (see `check_contacts`).
         """
         rolling = self.params.rolling_enabled
         cohesion = self.params.cohesion_enabled
@@ -262,7 +276,7 @@ class Engine:
         self.tool_torque = total[3:]
         worst = self._worst
         self.slot_overflows += int(worst[0, 3]) if worst.shape[0] == 1 else int(worst[:, 3].sum())
-        check_overlaps(state, worst, len(self.walls), self.params, self._dt)
+        check_contacts(state, worst, self.walls, tri_mat, self.params, self._dt, self._screen)
 
     def integrate_first_half(self, state: SimState) -> tuple[float, int]:
         """Half kick and drift; returns (max displacement since the list build [m], n_out).
@@ -318,6 +332,8 @@ class Engine:
         keep = np.all((state.positions >= lo) & (state.positions <= hi), axis=1)
         gone = state.ids[~keep]
         self.removed_count += len(gone)
+        if self.removed_count > max(self.LOST_MIN, self.LOST_FRACTION * self._n_bound):
+            raise lost_error(state, self.removed_count, self._n_bound, self.params, self._dt)
         logger.warning('removed %d particle(s) that left the domain box at t = %.6f s (ids %s)',
                        len(gone), state.time, gone[:10].tolist())
         new = state.subset(keep)

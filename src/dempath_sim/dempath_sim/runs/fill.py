@@ -106,6 +106,11 @@ def default_cache_dir() -> Path:
     return base / 'packings'
 
 
+# The overlap-limit value every packing key is made with: the default when the shipped packings
+# were made; a later default does not change the keys.
+KEY_OVERLAP_FRACTION = 0.3
+
+
 def bundled_packing_dir() -> Path:
     """Settled packings shipped with dempath for its bundled scenes (read-only, looked up last)."""
     return Path(__file__).resolve().parents[1] / 'data' / 'packings'
@@ -115,10 +120,9 @@ def packing_key(scene: SceneSpec, model: PhysicsModel) -> str:
     """Hash (hex, 20 chars) of everything that determines the settled packing.
 
     The overlap limit is a safety stop, not a parameter of the packing, so it is left out (set
-    to its default) along with everything about the tool.
+    to KEY_OVERLAP_FRACTION, whatever the scene says) along with everything about the tool.
     """
-    numerics = asdict(replace(scene.sim,
-                              max_overlap_fraction=NumericsSpec.max_overlap_fraction))
+    numerics = asdict(replace(scene.sim, max_overlap_fraction=KEY_OVERLAP_FRACTION))
     for option in ('coulomb_limit', 'contact_forms'):  # options added after packings were
         if numerics[option] == getattr(NumericsSpec, option):  # shipped: at their defaults
             del numerics[option]  # the keys of those packings stay valid

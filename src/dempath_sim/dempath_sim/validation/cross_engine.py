@@ -42,10 +42,6 @@ from dempath_sim.scene.spec import SceneSpec
 logger = logging.getLogger(__name__)
 F64 = NDArray[np.float64]
 FRICTION_EFFECTS = ('particle_friction', 'wall_friction', 'tool_friction')
-# dempath's overlap stop for the compared runs [1 of the radius]. It is a safety stop, not
-# physics (LIGGGHTS has none); with mu_d = mu_s the reduced scene's soft grains (E = 1.7 MPa)
-# reach 50 % of their radius under the chisel, just past that scene's 0.5.
-OVERLAP_STOP = 0.7
 
 
 @dataclass(frozen=True)
@@ -129,19 +125,26 @@ class CrossEngineReport:
                 'fill': self.fill, 'runs': self.runs}
 
 
-def _series(stats: Sequence[MarkerStats], name: str, nt: int) -> F64:
+def _series(stats: Sequence[Any], name: str, nt: int) -> F64:
     return np.array([getattr(s, name)[:nt] for s in stats])
 
 
-def compare(dempath: Sequence[MarkerStats], liggghts: Sequence[MarkerStats],
-            seeds: Sequence[int]) -> CrossEngineReport:
-    """Differences D, spreads S (see the module docstring) of two sets of seed runs."""
+def compare(dempath: Sequence[Any], liggghts: Sequence[Any], seeds: Sequence[int],
+            names: Sequence[str] = ('axis', 'lateral')) -> CrossEngineReport:
+    """Differences D, spreads S (see the module docstring) of two sets of seed runs.
+
+    Args:
+        dempath, liggghts: Per-seed statistics with ``times``, a (nt,) series per name in
+            ``names`` and a ``draft`` number (`MarkerStats`, or any record of that shape).
+        seeds: The packing seeds.
+        names: The time series compared, besides the draft force.
+    """
     if min(len(dempath), len(liggghts)) < 2:
         msg = 'compare: need at least 2 seeds per engine for a spread'
         raise ValueError(msg)
     nt = min(len(s.times) for s in (*dempath, *liggghts))
     diff, spread = {}, {}
-    for name in ('axis', 'lateral'):
+    for name in names:
         a, b = _series(dempath, name, nt), _series(liggghts, name, nt)
         d = np.nanmean(a, axis=0) - np.nanmean(b, axis=0)
         s = np.sqrt((np.nanvar(a, axis=0, ddof=1) + np.nanvar(b, axis=0, ddof=1)) / 2)
@@ -214,8 +217,6 @@ def run_cross_engine(scene: SceneSpec, seeds: Sequence[int], workdir: Path, npro
         msg = f'fill: must be one of {FILLS}, got {fill!r}'
         raise ValueError(msg)
     base = same_physics(scene)
-    if base.sim.max_overlap_fraction < OVERLAP_STOP:
-        base = replace(base, sim=replace(base.sim, max_overlap_fraction=OVERLAP_STOP))
     columns = scene.markers.columns
     dem, lig, runs = [], [], []
     for seed in seeds:

@@ -1,0 +1,154 @@
+"""Cross-engine check that cannot pass by construction: dempath against a hand-written deck.
+
+The reference is the LIGGGHTS 3.8 deck in ``src/dempath_sim/dempath_sim/data/decks/leaning_tine``,
+written by hand as LIGGGHTS users set a bin up (nothing of dempath's deck generator or fill):
+random ``insert/pack``, the grains overlapping the tine deleted, 0.4 s settle with the tine in
+place, ``read_data`` and a 0.06 s re-settle, the pass at 1 m/s. Two dempath set-ups are compared
+with it, packing seed by packing seed:
+
+- ``same_bed``: dempath's engine from the deck's own settled bed of the seed, the tine in place
+  and the same re-settle (``validation.deck_setup.same_bed_run``): isolates the engines.
+- ``same_bed_cold``: the same without the re-settle: the pass starts from the bed as read,
+  every contact without history (how much the contact history at the start matters).
+- ``dempath``: dempath's own set-up of the same bin, the scene file ``leaning_tine.yaml``
+  through ``run_scene`` (its fill, markers, tool placement): what a user gets.
+
+Every run is reduced by the same rules (``deck_setup.deck_stats``): axis and side markers' mean
+displacement over time, the side markers' outward motion, the mean draft. For each set-up and
+statistic, D / S against the deck (D: difference of the seed means, S: pooled seed spread, RMS
+over time; ``validation.cross_engine.compare``). Each run is cached under ``--work`` (the deck's
+outputs, one ``.npz`` of figures per run), so an interrupted bench resumes. Last line: one JSON
+object.
+
+    .venv/bin/python bench/cross_engine_setup.py [--seeds 4] [--variants base,rolling,cohesion]
+        [--setups same_bed,dempath] [--np 2] [--work DIR] [--json-out FILE]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import time
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from dempath_sim.liggghts.install import ensure_liggghts
+from dempath_sim.runs import RunOptions, run_scene
+from dempath_sim.validation.cross_engine import compare, same_physics
+from dempath_sim.validation.deck_setup import (
+    RESETTLE_S,
+    DeckStats,
+    deck_frames,
+    deck_stats,
+    result_frames,
+    run_deck,
+    same_bed_run,
+    scene_for,
+)
+
+log = logging.getLogger('bench')
+STATS = ('axis', 'lateral', 'outward')
+MEAN_R = 0.0045  # m, the deck's mean grain radius (marker rule)
+
+
+def _save(path: Path, stats: DeckStats, extra: dict[str, Any]) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix('.tmp.npz')
+    np.savez(tmp, times=stats.times, axis=stats.axis, lateral=stats.lateral,
+             outward=stats.outward, draft=stats.draft,
+             meta=json.dumps({'markers': stats.markers, **extra}))
+    tmp.replace(path)
+
+
+def _load(path: Path) -> tuple[DeckStats, dict[str, Any]]:
+    with np.load(path) as d:
+        meta = json.loads(str(d['meta']))
+        return DeckStats(d['times'], d['axis'], d['lateral'], d['outward'], float(d['draft']),
+                         meta.pop('markers')), meta
+
+
+def _one_run(setup: str, variant: str, seed: int, work: Path, nprocs: int) -> DeckStats:
+    """Figures of one run, from the cache or by running it."""
+    path = work / 'stats' / f'{setup}-{variant}-s{seed}.npz'
+    if path.exists():
+        return _load(path)[0]
+    t0 = time.monotonic()
+    scene = same_physics(scene_for(variant, seed))
+    extra: dict[str, Any] = {}
+    if setup == 'liggghts':
+        run = work / 'liggghts' / f'seed{seed}' / variant
+        if not (run / 'end.dump').exists():  # the deck's last output: the run is complete
+            run_deck(seed, variant, work / 'liggghts', nprocs)
+        stats = deck_stats(deck_frames(run), MEAN_R)
+    elif setup in ('same_bed', 'same_bed_cold'):
+        if not (work / 'liggghts' / f'seed{seed}' / 'bed.data').exists():
+            run_deck(seed, variant, work / 'liggghts', nprocs)
+        frames = same_bed_run(work / 'liggghts' / f'seed{seed}' / 'bed.data', scene,
+                              RESETTLE_S if setup == 'same_bed' else 0.0)
+        stats = deck_stats(frames, MEAN_R)
+    else:
+        scene = replace(scene, output=replace(scene.output, snapshot_interval_s=0.01))
+        result = run_scene(scene, RunOptions(cache_dir=work / 'packings'))
+        stats = deck_stats(result_frames(result), MEAN_R)
+        extra['fill'] = {k: v for k, v in result.meta.get('fill', {}).items()
+                         if isinstance(v, int | float)}
+    extra['wall_s'] = time.monotonic() - t0
+    _save(path, stats, extra)
+    log.info('%s %s seed %d: outward %.1f mm, draft %.2f N (%.0f s)', setup, variant, seed,
+             1e3 * stats.outward[-1], stats.draft, extra['wall_s'])
+    return stats
+
+
+def _summary(runs: list[DeckStats]) -> dict[str, Any]:
+    out = np.array([s.outward[-1] for s in runs])
+    draft = np.array([s.draft for s in runs])
+    return {'outward_end_mm': [round(1e3 * x, 2) for x in out],
+            'outward_end_mean_mm': round(1e3 * float(out.mean()), 2),
+            'draft_n': [round(x, 3) for x in draft],
+            'draft_mean_n': round(float(draft.mean()), 3)}
+
+
+def _against(runs: list[DeckStats], deck: list[DeckStats], seeds: list[int]) -> dict[str, Any]:
+    report = compare(runs, deck, seeds, names=STATS)
+    return {'ratios': {k: round(v, 3) for k, v in report.ratios.items()},
+            'difference': report.difference, 'spread': report.spread,
+            'ratio_max': round(report.cross_engine_ratio, 3)}
+
+
+def main() -> None:
+    """Run (or read from the cache) every set-up, variant and seed; print one JSON line."""
+    ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    ap.add_argument('--seeds', type=int, default=4)
+    ap.add_argument('--variants', default='base')
+    ap.add_argument('--setups', default='same_bed,dempath')
+    ap.add_argument('--np', type=int, default=2, dest='nprocs')
+    ap.add_argument('--work', type=Path,
+                    default=Path.home() / '.cache' / 'dempath' / 'cross_engine_setup')
+    ap.add_argument('--json-out', type=Path)
+    args = ap.parse_args()
+    logging.basicConfig(level=logging.INFO, format='%(message)s')
+    ensure_liggghts()
+    t0 = time.monotonic()
+    seeds = list(range(1, args.seeds + 1))
+    figures: dict[str, Any] = {'bench': 'cross_engine_setup', 'scene': 'leaning_tine',
+                               'seeds': seeds, 'variants': {}}
+    for variant in args.variants.split(','):
+        deck = [_one_run('liggghts', variant, s, args.work, args.nprocs) for s in seeds]
+        entry: dict[str, Any] = {'liggghts': _summary(deck)}
+        for setup in args.setups.split(','):
+            runs = [_one_run(setup, variant, s, args.work, args.nprocs) for s in seeds]
+            entry[setup] = {**_summary(runs), **_against(runs, deck, seeds)}
+        figures['variants'][variant] = entry
+    figures['wall_s'] = round(time.monotonic() - t0, 1)
+    text = json.dumps(figures)
+    if args.json_out is not None:
+        args.json_out.write_text(json.dumps(figures, indent=1) + '\n')
+    print(text)
+
+
+if __name__ == '__main__':
+    main()
