@@ -66,6 +66,7 @@ def test_overlap_error_ends_the_process(overlap_limit: float, extra: list[str],
     overlap beyond the limit prints one `error:` line and exits with 1 instead of running on."""
     data = yaml.safe_load((SCENES_DIR / 'reduced_1ms.yaml').read_text())
     data['sim']['max_overlap_fraction'] = overlap_limit
+    data['tool']['settle_s'] = 0.0  # no re-settle: the limit is met in the drive itself
     scene_file = tmp_path / 'unstable.yaml'
     scene_file.write_text(yaml.safe_dump(data))
     scene = load_scene(scene_file)

@@ -164,6 +164,7 @@ def drive_tool(drive: _Drive, state: SimState, options: RunOptions) -> SimState:
     """Move the tool to the end of its travel, recording every output interval."""
     t0 = time.monotonic()
     drive.record(state, options)
+    _progress(options, 'drive', state.time, drive.end_time_s, t0)  # bar names the phase at once
     frame_s = drive.steps_per_frame * (drive.engine.dt or 1.0)
     n_frames = math.ceil(drive.end_time_s / frame_s)
     if options.follow_s > 0.0:
