@@ -38,6 +38,8 @@ class MarkerGrid:
         rows, columns: grid size (the paper: 3 x 5).
         spacing_x_m, spacing_z_m: grid pitch [m] (the paper: 0.05).
         side: +1 or -1, the side of the tool axis the further rows lie on (X direction).
+        layout_m: explicit grid points ((x, y, z), ...) [m] for markers 1..n, field frame;
+            when given it replaces the regular grid (e.g. a run's own grid points).
     """
 
     rows: int = 3
@@ -45,9 +47,13 @@ class MarkerGrid:
     spacing_x_m: float = 0.05
     spacing_z_m: float = 0.05
     side: int = 1
+    layout_m: tuple[tuple[float, float, float], ...] = ()
 
     def points(self) -> tuple[NDArray[np.int32], FloatArray]:
         """Marker numbers (m,) and grid points (m, 3) m, numbered row by row from 1."""
+        if self.layout_m:
+            xyz = np.asarray(self.layout_m, np.float64).reshape(-1, 3)
+            return np.arange(1, len(xyz) + 1, dtype=np.int32), xyz
         r, c = np.meshgrid(np.arange(self.rows), np.arange(self.columns), indexing='ij')
         numbers = (r * self.columns + c + 1).ravel().astype(np.int32)
         x = self.side * self.spacing_x_m * (r.ravel() - (self.rows - 1) / 2)

@@ -231,11 +231,20 @@ def truth_json(truth: list[FrameTruth], bed: BedRecord, scene_origin: FloatArray
         'config': {**asdict(config)},
         'cameras': [c.to_dict() for c in cameras_for(rig, config)],
         'marker_ids': bed.marker_ids.tolist(),
+        'marker_grid_m': _grid_layout(bed, scene_origin),
         'calibration_segment': calib,
         'frames': [{'camera': f.camera, 'stamp_ns': f.stamp_ns,
                     'uv': np.round(f.uv, 4).tolist(), 'visible': np.round(f.visible, 4).tolist(),
                     'xyz': np.round(f.xyz, 6).tolist()} for f in truth],
     }
+
+
+def _grid_layout(bed: BedRecord, origin: FloatArray) -> list[list[float]]:
+    """The scene's nominal marker grid points in the field frame (the experiment's set-up,
+    known to the experimenter; not a measured position), markers 1..n in order."""
+    grid = np.asarray(bed.meta.get('grid_points', []), np.float64).reshape(-1, 3) - origin
+    grid[:, 1] = 0.0  # laid on a nominally flat surface
+    return np.round(grid, 6).tolist()
 
 
 def truth_path(bag: Path) -> Path:

@@ -126,11 +126,14 @@ class FieldCamera:
         self.camera, self.look = camera, look
         u, v = np.meshgrid(np.arange(camera.width, dtype=np.float64),
                            np.arange(camera.height, dtype=np.float64))
-        ideal = camera.undistort_points(np.column_stack([u.ravel(), v.ravel()]))
-        ideal = ideal.reshape(camera.height, camera.width, 2)
-        self.origin = np.floor(ideal.reshape(-1, 2).min(0)) - 2  # (ox, oy) ideal px
-        size = np.ceil(ideal.reshape(-1, 2).max(0) - self.origin).astype(int) + 3
+        pix = np.column_stack([u.ravel(), v.ravel()])
+        ideal = camera.undistort_points(pix)
+        valid = _round_trip(camera, ideal, pix)
+        self.origin = np.floor(ideal[valid].min(0)) - 2  # (ox, oy) ideal px
+        size = np.ceil(ideal[valid].max(0) - self.origin).astype(int) + 3
         self.ideal_size = (int(size[0]), int(size[1]))  # (w, h) of the 1x ideal image
+        ideal[~valid] = -1e4  # where OpenCV's model cannot be inverted: nothing (black)
+        ideal = ideal.reshape(camera.height, camera.width, 2)
         self.map_x = (ideal[..., 0] - self.origin[0]).astype(np.float32)
         self.map_y = (ideal[..., 1] - self.origin[1]).astype(np.float32)
         self.background = _ground(self.ideal_size, np.random.default_rng(seed))
@@ -203,7 +206,7 @@ class FieldCamera:
                rng: np.random.Generator) -> NDArray[np.uint8]:
         """Distort, add the lighting gradient and sensor noise: ideal radiance -> 8-bit BGR."""
         img = cv2.remap(ideal, self.map_x, self.map_y, cv2.INTER_LINEAR,
-                        borderMode=cv2.BORDER_REPLICATE)
+                        borderMode=cv2.BORDER_CONSTANT, borderValue=0)
         h, w = img.shape[:2]
         gx, gy = light.gradient
         ramp = (1 + gx * (np.arange(w, dtype=np.float32) / w - 0.5))[None, :] \
@@ -255,6 +258,20 @@ class ShadowMap:
         """(p,) 1 for lit points (p, 3) m, 0 in shadow."""
         return lookup_shadow(np.ascontiguousarray(world @ self.frame.T), self.grid, self.map,
                              SHADOW_BIAS_M)
+
+
+def _round_trip(camera: Any, ideal: FloatArray, pix: FloatArray) -> NDArray[np.bool_]:
+    """(n,) True where the ideal pixels (n, 2) distort back onto ``pix`` (n, 2) within 0.05 px
+    (the iterative inversion of the lens model fails in the far corners of a strong k3)."""
+    k = camera.K
+    norm = np.column_stack([(ideal[:, 0] - k[0, 2]) / k[0, 0], (ideal[:, 1] - k[1, 2]) / k[1, 1],
+                            np.ones(len(ideal))])
+    ok = np.isfinite(norm).all(axis=1)
+    back = np.full_like(pix, np.inf)
+    proj, _ = cv2.projectPoints(norm[ok].reshape(-1, 1, 3), np.zeros(3), np.zeros(3), k,
+                                np.asarray(camera.dist, np.float64))
+    back[ok] = proj.reshape(-1, 2)
+    return np.asarray(np.linalg.norm(back - pix, axis=1) < 0.05)
 
 
 def _ground(size: tuple[int, int], rng: np.random.Generator) -> NDArray[np.float32]:
