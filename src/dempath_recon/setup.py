@@ -26,6 +26,7 @@ setup(
     entry_points={
         'console_scripts': [
             'dempath_reconstructor = dempath_recon.nodes.reconstructor:main',
+            'dempath_detector = dempath_recon.nodes.detector:main',
         ],
         'dempath.commands': [
             'reconstruct = dempath_recon.cli:reconstruct_main',
