@@ -145,6 +145,8 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument('--exposure', type=float, default=0.004, help='exposure time [s]')
     p.add_argument('--front-offset', type=float, default=0.003,
                    help='front camera clock and exposure offset [s]')
+    p.add_argument('--start', type=float, default=0.0, help='run time of the first frame [s]')
+    p.add_argument('--blur-subframes', type=int, default=3, help='sub-frames per exposure')
     p.add_argument('--seed', type=int, default=0)
     p.add_argument('--hidden-seed', type=int, help='packing seed when SOURCE is a scene')
     p.add_argument('--on', action='append', default=[], help='effect on when SOURCE is a scene')
@@ -171,7 +173,9 @@ def render_main(argv: list[str] | None = None) -> int:
         config = RecordingConfig(scale=args.scale, jpeg_quality=args.quality,
                                  calib_views=args.calib_views, max_frames=args.frames,
                                  front_offset_s=args.front_offset, seed=args.seed,
-                                 look=replace(Look(), exposure_s=args.exposure))
+                                 start_s=args.start,
+                                 look=replace(Look(), exposure_s=args.exposure,
+                                              blur_subframes=args.blur_subframes))
         bed = _bed(args, config.fps)
         out, truth = write_field_recording(bed, paper_rig(), args.out, config)
     except (DempathError, OSError, ValueError) as err:

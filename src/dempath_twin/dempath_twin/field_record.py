@@ -57,6 +57,7 @@ class RecordingConfig:
         calib_views: board views of the calibration segment (0 = none).
         calib_period_s: time between calibration views [s].
         max_frames: render at most this many run frames (None: all).
+        start_s: run time of the first frame [s] (skip the run's quiet start).
         seed: seed of every random draw (grain colours, light, noise).
         look: appearance settings.
     """
@@ -68,6 +69,7 @@ class RecordingConfig:
     calib_views: int = 12
     calib_period_s: float = 0.2
     max_frames: int | None = None
+    start_s: float = 0.0
     seed: int = 0
     look: Look = field(default_factory=Look)
 
@@ -185,10 +187,10 @@ def encode(image: NDArray[np.uint8], quality: int) -> NDArray[np.uint8]:
 def frame_times(bed: BedRecord, config: RecordingConfig) -> FloatArray:
     """(nf,) exposure times of the side camera [s] inside the run (front: + offset)."""
     end = float(bed.times[-1]) - max(config.front_offset_s, 0) - config.look.exposure_s
-    n = int(np.floor(end * config.fps + 1e-9)) + 1
+    n = max(int(np.floor((end - config.start_s) * config.fps + 1e-9)) + 1, 0)
     if config.max_frames is not None:
         n = min(n, config.max_frames)
-    return np.asarray(np.arange(n) / config.fps + 0.5 * config.look.exposure_s)
+    return np.asarray(config.start_s + np.arange(n) / config.fps + 0.5 * config.look.exposure_s)
 
 
 def cameras_for(rig: Any, config: RecordingConfig) -> tuple[Any, Any]:
