@@ -24,14 +24,18 @@ def sand(shape: tuple[int, int], rng: np.random.Generator) -> np.ndarray:
 
 def spot_image(shape: tuple[int, int], centres: np.ndarray, radius: float,
                rng: np.random.Generator, gain: float = 1.0, noise_dn: float = 1.5,
-               quality: int = 90, shadow_cols: int = 0) -> bytes:
+               quality: int = 90, shadow_cols: int = 0, sand_coloured: tuple[int, ...] = (),
+               dirt: tuple[float, float, float] | None = None) -> bytes:
     """JPEG of markers at ``centres`` (n, 2) px (pixel-centre convention) on sand.
 
-    ``shadow_cols`` > 0 darkens the left part of the image to 35 % (a shadow).
+    ``shadow_cols`` > 0 darkens the left part of the image to 35 % (a shadow);
+    ``sand_coloured`` markers are drawn in the sand's colour; ``dirt`` (cx, cy, r) px puts a
+    blurred brown blot of dirt on the lens.
     """
     h, w = shape
     img = sand(shape, rng)
-    for cx, cy in centres:
+    for k, (cx, cy) in enumerate(centres):
+        colour = SAND * 0.9 if k in sand_coloured else CLAY
         x0, y0 = int(np.floor(cx - radius)) - 1, int(np.floor(cy - radius)) - 1
         n = int(np.ceil(2 * radius)) + 3
         sub = (np.arange(n * SS) + 0.5) / SS - 0.5
@@ -45,8 +49,13 @@ def spot_image(shape: tuple[int, int], centres: np.ndarray, radius: float,
         cy0, cx0 = ys.start - y0, xs.start - x0
         c = cov[cy0:cy0 + ys.stop - ys.start, cx0:cx0 + xs.stop - xs.start, None]
         r = rad[cy0:cy0 + ys.stop - ys.start, cx0:cx0 + xs.stop - xs.start, None]
-        img[ys, xs] = img[ys, xs] * (1 - c) + CLAY * r
+        img[ys, xs] = img[ys, xs] * (1 - c) + colour * r
     img = img * gain
+    if dirt is not None:
+        blot = np.zeros((h, w))
+        cv2.circle(blot, (round(dirt[0]), round(dirt[1])), round(dirt[2]), 1.0, -1)
+        blot = cv2.GaussianBlur(blot, (0, 0), dirt[2] / 4)[..., None]
+        img = img * (1 - blot) + np.array([0.10, 0.16, 0.22]) * blot
     if shadow_cols:
         img[:, :shadow_cols] *= 0.35
     img = 230 * img + rng.normal(0, noise_dn, img.shape)
