@@ -74,12 +74,12 @@ def number_by_grid(camera: Camera, uv: FloatArray, grid: MarkerGrid, gate_px: fl
     if len(uv) == 0:
         return out, proj
     offsets = (uv[:, None, :] - proj[None, :, :]).reshape(-1, 2)
-    best, shift = -1, np.zeros(2)
+    best, shift = -1, np.zeros(2, np.float64)
     for off in offsets:
         d = np.linalg.norm(proj[:, None, :] + off - uv[None, :, :], axis=2)
         score = int((d.min(axis=1) < gate_px).sum())
         if score > best:
-            best, shift = score, off
+            best, shift = score, np.asarray(off, np.float64).reshape(2)
     near = np.linalg.norm(proj[:, None, :] + shift - uv[None, :, :], axis=2)
     inside = near[near.min(axis=1) < gate_px]
     if len(inside):  # refine the shift by the mean residual of the matched points

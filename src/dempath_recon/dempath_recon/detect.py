@@ -35,6 +35,7 @@ from dempath_recon.errors import ReconstructionError
 LOG = logging.getLogger(__name__)
 FloatArray = NDArray[np.float64]
 CHROMA = np.array([[1.0, 0.0, -1.0], [1.0, 1.0, 1.0]], np.float32)  # rows: B - R, B + G + R
+MIN_SUM_DN = 60.0  # below this B + G + R (mean 20 grey levels) the chroma is mostly noise
 
 
 class ImageDecodeError(ReconstructionError):
@@ -108,9 +109,13 @@ def decode_jpeg(data: bytes | NDArray[np.uint8], downscale: int = 1) -> NDArray[
 
 
 def chroma(image: NDArray[np.uint8]) -> NDArray[np.float32]:
-    """(h, w) float32 ``(B - R) / (B + G + R)`` of a BGR image; 0 where the pixel is black."""
+    """(h, w) float32 ``(B - R) / max(B + G + R, MIN_SUM_DN)`` of a BGR image.
+
+    The floor keeps dark pixels (deep shadow, vignetted corners), where the ratio would be
+    sensor noise, near zero.
+    """
     both = cv2.transform(image.astype(np.float32), CHROMA)
-    out = np.asarray(cv2.divide(both[..., 0], both[..., 1] + 3.0), np.float32)
+    out = np.asarray(cv2.divide(both[..., 0], np.maximum(both[..., 1], MIN_SUM_DN)), np.float32)
     return out
 
 
@@ -140,8 +145,8 @@ class MarkerDetector:
         """Markers in a BGR image (full size, or already at the detector's scale)."""
         s = self.config.downscale
         if s == 2 and not prescaled:
-            image = cv2.resize(image, (image.shape[1] // 2, image.shape[0] // 2),
-                               interpolation=cv2.INTER_AREA)
+            image = np.asarray(cv2.resize(image, (image.shape[1] // 2, image.shape[0] // 2),
+                                          interpolation=cv2.INTER_AREA), np.uint8)
         c = chroma(image)
         smooth = cv2.GaussianBlur(c, (0, 0), self._sigma)
         peaks = (smooth >= cv2.dilate(smooth, self._kernel)) & (c > self.config.threshold) \

@@ -28,11 +28,10 @@ from dempath_recon.associate import (
     number_by_grid,
 )
 from dempath_recon.detect import (
-    DetectorConfig,
     Detections,
+    DetectorConfig,
     ImageDecodeError,
     MarkerDetector,
-    decode_jpeg,
 )
 from dempath_recon.track import UNNUMBERED, MarkerTracker, TrackerConfig
 from dempath_recon.triangulate import Camera, triangulate_points
@@ -206,7 +205,8 @@ class StereoMarkerTracker:
             seen = self.latest[other].get(int(m))
             if m < 0 or seen is None or abs(seen[0] - stamp_s) > 1.0 / self.config.fps:
                 continue
-            d = epipolar_distance(self.cameras[camera], self.cameras[other], p[None], seen[1][None])
+            d = epipolar_distance(self.cameras[camera], self.cameras[other], p[None],
+                                  seen[1][None])
             if d[0, 0] > 3 * self.config.epipolar_px:
                 self.counts[camera].epipolar_conflicts += 1
                 LOG.warning('%s marker %d at %.3f s is %.1f px off the epipolar line', camera, m,

@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 
 sys.path.insert(0, str(Path(__file__).parent))
-from spots import spot_image  # noqa: E402
-from test_detect_track import half_size  # noqa: E402
+from spots import spot_image
+from test_detect_track import half_size
 
-from dempath_recon.associate import MarkerGrid  # noqa: E402
-from dempath_recon.stereo_track import StereoMarkerTracker, triangulate_tracks  # noqa: E402
+from dempath_recon.associate import MarkerGrid
+from dempath_recon.stereo_track import StereoMarkerTracker, triangulate_tracks
 
 N = 12
 DT = 0.02
@@ -64,7 +64,7 @@ def test_faults_are_counted(run) -> None:
 
 def test_identities_survive_the_faults(run) -> None:
     """Every numbered point is its own marker, in every frame of both cameras."""
-    cams, numbers, truth, frames, _ = run
+    cams, _, truth, frames, _ = run
     for f in frames:
         if not len(f.uv):
             continue

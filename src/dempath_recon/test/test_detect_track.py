@@ -10,18 +10,18 @@ import numpy as np
 import pytest
 
 sys.path.insert(0, str(Path(__file__).parent))
-from spots import spot_image  # noqa: E402
+from spots import spot_image
 
-from dempath_recon.associate import MarkerGrid, epipolar_distance, number_by_grid  # noqa: E402
-from dempath_recon.detect import (  # noqa: E402
-    DetectorConfig,
+from dempath_recon.associate import MarkerGrid, epipolar_distance, number_by_grid
+from dempath_recon.detect import (
     Detections,
+    DetectorConfig,
     ImageDecodeError,
     MarkerDetector,
     decode_jpeg,
 )
-from dempath_recon.stereo_track import StereoMarkerTracker, triangulate_tracks  # noqa: E402
-from dempath_recon.track import MarkerTracker, track_sequence  # noqa: E402
+from dempath_recon.stereo_track import StereoMarkerTracker, triangulate_tracks
+from dempath_recon.track import MarkerTracker, track_sequence
 
 SHAPE = (240, 320)
 
@@ -167,7 +167,7 @@ def stereo_jpegs(cams, xyz: np.ndarray, rng: np.random.Generator) -> list[bytes]
 
 @pytest.mark.parametrize('drop_side', [False, True])
 def test_stereo_pipeline_numbers_and_triangulates(rig, drop_side: bool) -> None:
-    """Grid markers seen by both cameras: numbered, tracked, 3D within 1 mm RMS; bad input counted."""
+    """Grid markers in both cameras: numbered, tracked, 3D within 1 mm RMS; faults counted."""
     grid = MarkerGrid()
     numbers, xyz0 = grid.points()
     rng = np.random.default_rng(6)

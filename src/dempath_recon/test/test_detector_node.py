@@ -12,13 +12,13 @@ from diagnostic_msgs.msg import DiagnosticArray
 from sensor_msgs.msg import CompressedImage
 
 sys.path.insert(0, str(Path(__file__).parent))
-from spots import spot_image  # noqa: E402
+from spots import spot_image
 
-from dempath import topics  # noqa: E402
-from dempath_calib.camera import StereoCalibration  # noqa: E402
-from dempath_msgs.msg import PixelPoints  # noqa: E402
-from dempath_recon.associate import MarkerGrid  # noqa: E402
-from dempath_recon.nodes.detector import DetectorNode  # noqa: E402
+from dempath import topics
+from dempath_calib.camera import StereoCalibration
+from dempath_msgs.msg import PixelPoints
+from dempath_recon.associate import MarkerGrid
+from dempath_recon.nodes.detector import DetectorNode
 
 
 def half(cam):

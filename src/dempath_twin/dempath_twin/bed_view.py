@@ -25,7 +25,7 @@ NO_HIT = -1  # index buffer value of a pixel that shows nothing
 NEAR_M = 0.05  # nearest depth rendered [m]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True)  # type: ignore[misc]  # numba ships no types
 def splat_spheres(centres: FloatArray, radii: FloatArray, intr: FloatArray,
                   zbuf: NDArray[np.float32], ibuf: NDArray[np.int32],
                   nbuf: NDArray[np.float32]) -> None:  # pragma: no cover - compiled
@@ -69,7 +69,7 @@ def splat_spheres(centres: FloatArray, radii: FloatArray, intr: FloatArray,
                     nbuf[j, i, 2] = -dz
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True)  # type: ignore[misc]  # numba ships no types
 def raster_triangles(tris: FloatArray, intr: FloatArray, index: int,
                      zbuf: NDArray[np.float32], ibuf: NDArray[np.int32],
                      nbuf: NDArray[np.float32]) -> None:  # pragma: no cover - compiled
@@ -115,7 +115,7 @@ def raster_triangles(tris: FloatArray, intr: FloatArray, index: int,
                     nbuf[j, i, 2] = n[2]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True)  # type: ignore[misc]  # numba ships no types
 def splat_shadow(points: FloatArray, radii: FloatArray, grid: FloatArray,
                  smap: NDArray[np.float32]) -> None:  # pragma: no cover - compiled
     """Orthographic shadow map: nearest depth along the light of every sphere.
@@ -145,7 +145,7 @@ def splat_shadow(points: FloatArray, radii: FloatArray, grid: FloatArray,
                         smap[j, i] = depth
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True)  # type: ignore[misc]  # numba ships no types
 def lookup_shadow(points: FloatArray, grid: FloatArray, smap: NDArray[np.float32],
                   bias: float) -> NDArray[np.float32]:  # pragma: no cover - compiled
     """(n,) 1 where a point (n, 3) in light coordinates is lit, 0 where something is nearer."""
@@ -172,7 +172,7 @@ def light_frame(direction: FloatArray) -> FloatArray:
     return np.vstack([a, np.cross(d, a), d])
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True)  # type: ignore[misc]  # numba ships no types
 def raster_shadow_triangles(tris: FloatArray, grid: FloatArray,
                             smap: NDArray[np.float32]) -> None:  # pragma: no cover - compiled
     """Orthographic shadow map of triangles (k, 3, 3) in light coordinates [m]."""

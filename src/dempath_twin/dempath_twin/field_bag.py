@@ -21,11 +21,6 @@ from typing import Any
 
 import cv2
 import numpy as np
-from numpy.typing import NDArray
-
-from dempath import topics
-from dempath.bagio import make_typestore, write_bag
-from dempath.errors import DempathError
 from dempath_twin.bed_source import BedRecord, load_bed, run_for_recording
 from dempath_twin.field_record import (
     CALIB_GAP_S,
@@ -39,6 +34,11 @@ from dempath_twin.field_record import (
     truth_json,
 )
 from dempath_twin.field_render import Look
+from numpy.typing import NDArray
+
+from dempath import topics
+from dempath.bagio import make_typestore, write_bag
+from dempath.errors import DempathError
 
 LOG = logging.getLogger(__name__)
 

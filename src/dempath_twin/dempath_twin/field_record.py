@@ -25,8 +25,6 @@ from typing import Any
 
 import cv2
 import numpy as np
-from numpy.typing import NDArray
-
 from dempath_twin.bed_source import BedRecord
 from dempath_twin.field_render import (
     CLAY_BGR,
@@ -38,6 +36,7 @@ from dempath_twin.field_render import (
     ShadowMap,
     scaled_camera,
 )
+from numpy.typing import NDArray
 
 LOG = logging.getLogger(__name__)
 FloatArray = NDArray[np.float64]
@@ -133,7 +132,7 @@ class FieldScene:
 
     def markers(self, t: float) -> FloatArray:
         """(m, 3) marker sphere centres at ``t`` [m], field frame."""
-        return self.at(t).centres[self.bed.marker_index]
+        return np.asarray(self.at(t).centres[self.bed.marker_index], np.float64)
 
 
 def lighting(times: FloatArray, rng: np.random.Generator) -> list[Light]:
@@ -246,7 +245,8 @@ def _grid_layout(bed: BedRecord, origin: FloatArray) -> list[list[float]]:
     known to the experimenter; not a measured position), markers 1..n in order."""
     grid = np.asarray(bed.meta.get('grid_points', []), np.float64).reshape(-1, 3) - origin
     grid[:, 1] = 0.0  # laid on a nominally flat surface
-    return np.round(grid, 6).tolist()
+    out: list[list[float]] = np.round(grid, 6).tolist()
+    return out
 
 
 def truth_path(bag: Path) -> Path:

@@ -20,8 +20,6 @@ from typing import Any
 
 import cv2
 import numpy as np
-from numpy.typing import NDArray
-
 from dempath_twin.bed_view import (
     NO_HIT,
     light_frame,
@@ -31,6 +29,7 @@ from dempath_twin.bed_view import (
     splat_shadow,
     splat_spheres,
 )
+from numpy.typing import NDArray
 
 FloatArray = NDArray[np.float64]
 SAND_BGR = (0.42, 0.58, 0.72)  # dry quartz sand albedo, yellow-brown
@@ -181,8 +180,9 @@ class FieldCamera:
         sph = ~is_tool
         albedo[sph] = scene.albedo[idx[sph]]
         albedo[is_tool] = STEEL_BGR
+        phase = scene.texture[np.minimum(idx, n_spheres - 1)]
         texture = 1.0 + 0.5 * self.look.grain_spread * np.sin(
-            9.0 * normal[:, 0] + 7.0 * normal[:, 1] + scene.texture[np.minimum(idx, n_spheres - 1)])
+            9.0 * normal[:, 0] + 7.0 * normal[:, 1] + phase)
         texture[is_tool] = 1.0
         amb = self.look.ambient
         shade = (amb + (1 - amb) * lambert * lit) * texture
@@ -200,7 +200,7 @@ class FieldCamera:
         small = cv2.resize(big, size, interpolation=cv2.INTER_AREA) if ss > 1 else big
         alpha = cv2.resize(cover, size, interpolation=cv2.INTER_AREA) if ss > 1 else cover
         small += (1.0 - alpha)[..., None] * self.background * light.gain
-        return small, ibuf
+        return np.asarray(small, np.float32), ibuf
 
     def expose(self, ideal: NDArray[np.float32], light: Light,
                rng: np.random.Generator) -> NDArray[np.uint8]:
@@ -214,7 +214,7 @@ class FieldCamera:
         img = 255.0 * img * ramp[..., None]
         sigma = np.sqrt(self.look.noise_dn ** 2 + 0.05 * np.maximum(img, 0))
         img = img + sigma * rng.standard_normal(img.shape, dtype=np.float32)
-        return np.clip(np.rint(img), 0, 255).astype(np.uint8)
+        return np.asarray(np.clip(np.rint(img), 0, 255), np.uint8)
 
     def visible_fraction(self, ibuf: NDArray[np.int32], scene: Scene3D,
                          index: NDArray[np.int64]) -> FloatArray:
@@ -256,8 +256,9 @@ class ShadowMap:
 
     def lit(self, world: FloatArray) -> NDArray[np.float32]:
         """(p,) 1 for lit points (p, 3) m, 0 in shadow."""
-        return lookup_shadow(np.ascontiguousarray(world @ self.frame.T), self.grid, self.map,
-                             SHADOW_BIAS_M)
+        lit = lookup_shadow(np.ascontiguousarray(world @ self.frame.T), self.grid, self.map,
+                            SHADOW_BIAS_M)
+        return np.asarray(lit, np.float32)
 
 
 def _round_trip(camera: Any, ideal: FloatArray, pix: FloatArray) -> NDArray[np.bool_]:

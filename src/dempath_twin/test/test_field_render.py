@@ -6,13 +6,13 @@ import json
 
 import numpy as np
 import pytest
-
-from dempath.bagio import open_bag
-from dempath_calib.rig import paper_rig
 from dempath_twin.bed_source import BedRecord
 from dempath_twin.field_bag import write_field_recording
 from dempath_twin.field_record import FieldScene, RecordingConfig, lighting, render_frame
 from dempath_twin.field_render import FieldCamera, Look, scaled_camera
+
+from dempath.bagio import open_bag
+from dempath_calib.rig import paper_rig
 
 R = 0.006  # grain radius [m]
 
@@ -32,7 +32,7 @@ def small_bed(n_times: int = 4) -> BedRecord:
     cover = clay + 0.014 * sight / np.linalg.norm(sight)
     pos0 = np.vstack([layer, cover[None]])
     times = np.arange(n_times) * 0.01
-    pos = np.stack([pos0 + [0.0, 0.0, 0.2 * t] for t in times]).astype(np.float32)
+    pos = np.stack([pos0 + np.array([0.0, 0.0, 0.2 * t]) for t in times]).astype(np.float32)
     grid = pos0[marker_index].copy()
     return BedRecord(times, pos, np.full(len(pos0), R), np.arange(len(pos0)),
                      np.array([1, 2, 3], np.int32), marker_index.astype(np.int64), times,
@@ -56,7 +56,7 @@ def test_markers_project_where_the_camera_says(frame) -> None:
     assert np.allclose(truth.uv, cam.camera.project(scene.markers(0.01)))
     for k in (0, 1):
         u, v = np.rint(truth.uv[k]).astype(int)
-        b, g, r = image[v, u].astype(int)
+        b, _, r = image[v, u].astype(int)
         assert b > r + 20, (k, image[v, u])
 
 

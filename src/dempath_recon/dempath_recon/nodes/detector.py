@@ -69,11 +69,10 @@ class DetectorNode(Node):
 
     def on_image(self, msg: Image) -> None:
         """Detect in one raw frame (bgr8 or rgb8)."""
-        img = np.frombuffer(bytes(msg.data), np.uint8).reshape(msg.height, msg.step)
-        img = img[:, :msg.width * 3].reshape(msg.height, msg.width, 3)
-        if msg.encoding == 'rgb8':
-            img = img[..., ::-1]
-        frame = self.core.update_image(self.camera, _stamp_s(msg), np.ascontiguousarray(img))
+        rows = np.frombuffer(bytes(msg.data), np.uint8).reshape(msg.height, msg.step)
+        img = rows[:, :msg.width * 3].reshape(msg.height, msg.width, 3)
+        bgr = img[..., ::-1] if msg.encoding == 'rgb8' else img
+        frame = self.core.update_image(self.camera, _stamp_s(msg), np.ascontiguousarray(bgr))
         self.publish(frame, msg.header)
 
     def on_other(self, msg: PixelPoints) -> None:
@@ -125,7 +124,7 @@ def _load_cameras(path: str) -> dict[str, Any]:
     from dempath_calib.errors import CalibrationError
 
     if not path:
-        raise ReconstructionError("calibration_file: required (a dempath_calib stereo YAML)")
+        raise ReconstructionError('calibration_file: required (a dempath_calib stereo YAML)')
     try:
         calib = StereoCalibration.load(path)
     except CalibrationError as err:
