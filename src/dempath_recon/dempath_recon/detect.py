@@ -34,7 +34,6 @@ from dempath_recon.errors import ReconstructionError
 
 LOG = logging.getLogger(__name__)
 FloatArray = NDArray[np.float64]
-CHROMA = np.array([[1.0, 0.0, -1.0], [1.0, 1.0, 1.0]], np.float32)  # rows: B - R, B + G + R
 MIN_SUM_DN = 60.0  # below this B + G + R (mean 20 grey levels) the chroma is mostly noise
 
 
@@ -114,9 +113,11 @@ def chroma(image: NDArray[np.uint8]) -> NDArray[np.float32]:
     The floor keeps dark pixels (deep shadow, vignetted corners), where the ratio would be
     sensor noise, near zero.
     """
-    both = cv2.transform(image.astype(np.float32), CHROMA)
-    out = np.asarray(cv2.divide(both[..., 0], np.maximum(both[..., 1], MIN_SUM_DN)), np.float32)
-    return out
+    b, g, r = cv2.split(image)
+    diff = cv2.subtract(b, r, dtype=cv2.CV_16S)
+    total = cv2.max(cv2.add(cv2.add(b, g, dtype=cv2.CV_16S), r, dtype=cv2.CV_16S),
+                    int(MIN_SUM_DN))
+    return np.asarray(cv2.divide(diff, total, scale=1.0, dtype=cv2.CV_32F), np.float32)
 
 
 class MarkerDetector:
@@ -149,9 +150,15 @@ class MarkerDetector:
                                           interpolation=cv2.INTER_AREA), np.uint8)
         c = chroma(image)
         smooth = cv2.GaussianBlur(c, (0, 0), self._sigma)
-        peaks = (smooth >= cv2.dilate(smooth, self._kernel)) & (c > self.config.threshold) \
-            & (smooth > 0.5 * self.config.threshold)
-        rows, cols = np.nonzero(peaks)
+        strong = cv2.compare(c, self.config.threshold, cv2.CMP_GT)
+        cand = cv2.findNonZero(strong)  # few pixels: test the maxima only there
+        if cand is None:
+            return Detections.empty()
+        cols, rows = cand[:, 0, 0], cand[:, 0, 1]
+        local = smooth[rows, cols]
+        peak = (local >= cv2.dilate(smooth, self._kernel)[rows, cols]) \
+            & (local > 0.5 * self.config.threshold)
+        rows, cols = rows[peak], cols[peak]
         if len(rows) > self.config.max_markers:
             keep = np.argsort(-smooth[rows, cols])[:self.config.max_markers]
             rows, cols = rows[keep], cols[keep]
