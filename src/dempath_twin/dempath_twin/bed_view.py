@@ -70,6 +70,30 @@ def splat_spheres(centres: FloatArray, radii: FloatArray, intr: FloatArray,
 
 
 @numba.njit(cache=True)  # type: ignore[misc]  # numba ships no types
+def triangle_pixels(pu: FloatArray, pv: FloatArray, w: int, h: int,
+                    ) -> tuple[NDArray[np.int64], FloatArray]:  # pragma: no cover - compiled
+    """Pixels (p, 2) as (i, j) whose centres lie in the triangle of corners (pu, pv) (3,) px,
+    inside a w x h buffer, and their barycentric weights (p, 3)."""
+    den = (pv[1] - pv[2]) * (pu[0] - pu[2]) + (pu[2] - pu[1]) * (pv[0] - pv[2])
+    i0, i1 = max(int(np.floor(pu.min())), 0), min(int(np.ceil(pu.max())), w - 1)
+    j0, j1 = max(int(np.floor(pv.min())), 0), min(int(np.ceil(pv.max())), h - 1)
+    n = max(i1 - i0 + 1, 0) * max(j1 - j0 + 1, 0) if abs(den) >= 1e-12 else 0
+    pix = np.empty((n, 2), np.int64)
+    lam = np.empty((n, 3))
+    q = 0
+    for j in range(j0, j1 + 1 if n else j0):
+        for i in range(i0, i1 + 1):
+            l0 = ((pv[1] - pv[2]) * (i - pu[2]) + (pu[2] - pu[1]) * (j - pv[2])) / den
+            l1 = ((pv[2] - pv[0]) * (i - pu[2]) + (pu[0] - pu[2]) * (j - pv[2])) / den
+            l2 = 1.0 - l0 - l1
+            if l0 >= 0 and l1 >= 0 and l2 >= 0:
+                pix[q, 0], pix[q, 1] = i, j
+                lam[q, 0], lam[q, 1], lam[q, 2] = l0, l1, l2
+                q += 1
+    return pix[:q], lam[:q]
+
+
+@numba.njit(cache=True)  # type: ignore[misc]  # numba ships no types
 def raster_triangles(tris: FloatArray, intr: FloatArray, index: int,
                      zbuf: NDArray[np.float32], ibuf: NDArray[np.int32],
                      nbuf: NDArray[np.float32]) -> None:  # pragma: no cover - compiled
@@ -94,25 +118,16 @@ def raster_triangles(tris: FloatArray, intr: FloatArray, index: int,
         pu = np.array([fx * p[0] / p[2] + cx - ox for p in (a, b, c)])
         pv = np.array([fy * p[1] / p[2] + cy - oy for p in (a, b, c)])
         iz = np.array([1.0 / a[2], 1.0 / b[2], 1.0 / c[2]])
-        den = (pv[1] - pv[2]) * (pu[0] - pu[2]) + (pu[2] - pu[1]) * (pv[0] - pv[2])
-        if abs(den) < 1e-12:
-            continue
-        i0, i1 = max(int(np.floor(pu.min())), 0), min(int(np.ceil(pu.max())), w - 1)
-        j0, j1 = max(int(np.floor(pv.min())), 0), min(int(np.ceil(pv.max())), h - 1)
-        for j in range(j0, j1 + 1):
-            for i in range(i0, i1 + 1):
-                l0 = ((pv[1] - pv[2]) * (i - pu[2]) + (pu[2] - pu[1]) * (j - pv[2])) / den
-                l1 = ((pv[2] - pv[0]) * (i - pu[2]) + (pu[0] - pu[2]) * (j - pv[2])) / den
-                l2 = 1.0 - l0 - l1
-                if l0 < 0 or l1 < 0 or l2 < 0:
-                    continue
-                depth = 1.0 / (l0 * iz[0] + l1 * iz[1] + l2 * iz[2])
-                if depth < zbuf[j, i]:
-                    zbuf[j, i] = depth
-                    ibuf[j, i] = index
-                    nbuf[j, i, 0] = n[0]
-                    nbuf[j, i, 1] = n[1]
-                    nbuf[j, i, 2] = n[2]
+        pix, lam = triangle_pixels(pu, pv, w, h)
+        for q in range(pix.shape[0]):
+            i, j = pix[q, 0], pix[q, 1]
+            depth = 1.0 / (lam[q, 0] * iz[0] + lam[q, 1] * iz[1] + lam[q, 2] * iz[2])
+            if depth < zbuf[j, i]:
+                zbuf[j, i] = depth
+                ibuf[j, i] = index
+                nbuf[j, i, 0] = n[0]
+                nbuf[j, i, 1] = n[1]
+                nbuf[j, i, 2] = n[2]
 
 
 @numba.njit(cache=True)  # type: ignore[misc]  # numba ships no types
@@ -182,17 +197,9 @@ def raster_shadow_triangles(tris: FloatArray, grid: FloatArray,
         pu = (tris[k, :, 0] - a0) / cell
         pv = (tris[k, :, 1] - b0) / cell
         pz = tris[k, :, 2]
-        den = (pv[1] - pv[2]) * (pu[0] - pu[2]) + (pu[2] - pu[1]) * (pv[0] - pv[2])
-        if abs(den) < 1e-12:
-            continue
-        i0, i1 = max(int(np.floor(pu.min())), 0), min(int(np.ceil(pu.max())), w - 1)
-        j0, j1 = max(int(np.floor(pv.min())), 0), min(int(np.ceil(pv.max())), h - 1)
-        for j in range(j0, j1 + 1):
-            for i in range(i0, i1 + 1):
-                l0 = ((pv[1] - pv[2]) * (i - pu[2]) + (pu[2] - pu[1]) * (j - pv[2])) / den
-                l1 = ((pv[2] - pv[0]) * (i - pu[2]) + (pu[0] - pu[2]) * (j - pv[2])) / den
-                l2 = 1.0 - l0 - l1
-                if l0 >= 0 and l1 >= 0 and l2 >= 0:
-                    depth = l0 * pz[0] + l1 * pz[1] + l2 * pz[2]
-                    if depth < smap[j, i]:
-                        smap[j, i] = depth
+        pix, lam = triangle_pixels(pu, pv, w, h)
+        for q in range(pix.shape[0]):
+            i, j = pix[q, 0], pix[q, 1]
+            depth = lam[q, 0] * pz[0] + lam[q, 1] * pz[1] + lam[q, 2] * pz[2]
+            if depth < smap[j, i]:
+                smap[j, i] = depth

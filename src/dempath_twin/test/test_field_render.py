@@ -82,3 +82,22 @@ def test_recording_bag_and_truth(tmp_path) -> None:
     assert np.allclose(np.subtract(front, side), 3_000_000)
     assert data['calibration_segment']['views'] == 1 and len(data['marker_grid_m']) == 3
     assert len(truth) == 4
+
+
+def test_tool_triangles_are_depth_tested_and_cast_shadows() -> None:
+    """A steel triangle in front of a grain hides it; the triangle shadows what lies under it."""
+    from dempath_twin.field_render import Scene3D, ShadowMap
+
+    cam = FieldCamera(scaled_camera(paper_rig().side, 0.25), Look(supersample=1))
+    tri = np.array([[[0.05, -0.05, -0.05], [0.05, -0.05, 0.05], [0.05, 0.08, 0.0]]])
+    grain = np.array([[0.0, 0.0, 0.0]])
+    scene = Scene3D(grain, np.array([R]), np.ones((1, 3), np.float32), np.zeros(1, np.float32),
+                    tri)
+    _, ibuf, _ = cam.buffers(scene)
+    uv = cam.camera.project(np.vstack([grain, tri[0].mean(0)[None]]))
+    ox, oy = cam.origin
+    for (u, v), want in zip(uv, (1, 1), strict=True):  # index 1 = the tool (1 sphere)
+        assert ibuf[round(v - oy), round(u - ox)] == want
+    shadow = ShadowMap(scene, (1.0, 0.0, 0.0))  # light from +X: the grain is behind the tool
+    assert shadow.lit(grain + [[R, 0.0, 0.0]])[0] == 0.0  # lit side of the grain, in shadow
+    assert shadow.lit(np.array([[0.0, 0.0, 0.2]]))[0] == 1.0
