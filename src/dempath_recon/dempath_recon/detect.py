@@ -115,8 +115,8 @@ def chroma(image: NDArray[np.uint8]) -> NDArray[np.float32]:
     """
     b, g, r = cv2.split(image)
     diff = cv2.subtract(b, r, dtype=cv2.CV_16S)
-    total = cv2.max(cv2.add(cv2.add(b, g, dtype=cv2.CV_16S), r, dtype=cv2.CV_16S),
-                    int(MIN_SUM_DN))
+    total = cv2.add(cv2.add(b, g, dtype=cv2.CV_16S), r, dtype=cv2.CV_16S)
+    np.maximum(total, np.int16(MIN_SUM_DN), out=total)
     return np.asarray(cv2.divide(diff, total, scale=1.0, dtype=cv2.CV_32F), np.float32)
 
 
@@ -150,7 +150,7 @@ class MarkerDetector:
                                           interpolation=cv2.INTER_AREA), np.uint8)
         c = chroma(image)
         smooth = cv2.GaussianBlur(c, (0, 0), self._sigma)
-        strong = cv2.compare(c, self.config.threshold, cv2.CMP_GT)
+        strong = (c > self.config.threshold).view(np.uint8)
         cand = cv2.findNonZero(strong)  # few pixels: test the maxima only there
         if cand is None:
             return Detections.empty()

@@ -99,5 +99,5 @@ def test_tool_triangles_are_depth_tested_and_cast_shadows() -> None:
     for (u, v), want in zip(uv, (1, 1), strict=True):  # index 1 = the tool (1 sphere)
         assert ibuf[round(v - oy), round(u - ox)] == want
     shadow = ShadowMap(scene, (1.0, 0.0, 0.0))  # light from +X: the grain is behind the tool
-    assert shadow.lit(grain + [[R, 0.0, 0.0]])[0] == 0.0  # lit side of the grain, in shadow
+    assert shadow.lit(grain + np.array([[R, 0.0, 0.0]]))[0] == 0.0  # in the shadow
     assert shadow.lit(np.array([[0.0, 0.0, 0.2]]))[0] == 1.0
