@@ -149,18 +149,23 @@ class MarkerDetector:
             image = np.asarray(cv2.resize(image, (image.shape[1] // 2, image.shape[0] // 2),
                                           interpolation=cv2.INTER_AREA), np.uint8)
         c = chroma(image)
-        smooth = cv2.GaussianBlur(c, (0, 0), self._sigma)
-        strong = (c > self.config.threshold).view(np.uint8)
-        cand = cv2.findNonZero(strong)  # few pixels: test the maxima only there
+        cand = cv2.findNonZero((c > self.config.threshold).view(np.uint8))
         if cand is None:
             return Detections.empty()
+        # filter only around the candidate pixels (the markers cover a small part of the view);
+        # the margin makes the result identical to filtering the whole image
+        x, y, w, h = cv2.boundingRect(cand)
+        pad = int(np.ceil(4 * self._sigma)) + self._kernel.shape[0] // 2 + 2
+        x0, y0 = max(x - pad, 0), max(y - pad, 0)
+        x1, y1 = min(x + w + pad, c.shape[1]), min(y + h + pad, c.shape[0])
+        smooth = cv2.GaussianBlur(c[y0:y1, x0:x1], (0, 0), self._sigma)
         cols, rows = cand[:, 0, 0], cand[:, 0, 1]
-        local = smooth[rows, cols]
-        peak = (local >= cv2.dilate(smooth, self._kernel)[rows, cols]) \
+        local = smooth[rows - y0, cols - x0]
+        peak = (local >= cv2.dilate(smooth, self._kernel)[rows - y0, cols - x0]) \
             & (local > 0.5 * self.config.threshold)
         rows, cols = rows[peak], cols[peak]
         if len(rows) > self.config.max_markers:
-            keep = np.argsort(-smooth[rows, cols])[:self.config.max_markers]
+            keep = np.argsort(-smooth[rows - y0, cols - x0])[:self.config.max_markers]
             rows, cols = rows[keep], cols[keep]
         if len(rows) == 0:
             return Detections.empty()

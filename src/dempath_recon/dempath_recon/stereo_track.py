@@ -201,16 +201,20 @@ class StereoMarkerTracker:
     def _check_epipolar(self, camera: str, markers: NDArray[np.int32], uv: FloatArray,
                         stamp_s: float) -> None:
         other = self.other(camera)
-        for m, p in zip(markers, uv, strict=True):
-            seen = self.latest[other].get(int(m))
-            if m < 0 or seen is None or abs(seen[0] - stamp_s) > 1.0 / self.config.fps:
-                continue
-            d = epipolar_distance(self.cameras[camera], self.cameras[other], p[None],
-                                  seen[1][None])
-            if d[0, 0] > 3 * self.config.epipolar_px:
+        seen = self.latest[other]
+        pairs = [(int(m), p, seen[int(m)][1]) for m, p in zip(markers, uv, strict=True)
+                 if m >= 0 and int(m) in seen
+                 and abs(seen[int(m)][0] - stamp_s) <= 1.0 / self.config.fps]
+        if not pairs:
+            return
+        d = np.diag(epipolar_distance(self.cameras[camera], self.cameras[other],
+                                      np.array([p[1] for p in pairs]),
+                                      np.array([p[2] for p in pairs])))
+        for (m, _, _), dist in zip(pairs, d, strict=True):
+            if dist > 3 * self.config.epipolar_px:
                 self.counts[camera].epipolar_conflicts += 1
                 LOG.warning('%s marker %d at %.3f s is %.1f px off the epipolar line', camera, m,
-                            stamp_s, d[0, 0])
+                            stamp_s, dist)
 
     def report(self) -> dict[str, Any]:
         """Counts per camera, and the stamp gaps where frames were missing."""
