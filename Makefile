@@ -3,7 +3,7 @@ SHELL := /bin/bash
 PYTHON ?= $(shell command -v python3.11 || command -v python3)
 VENV := .venv
 BIN := $(VENV)/bin
-PKGS := dempath dempath_calib dempath_recon dempath_sim dempath_compare
+PKGS := dempath dempath_calib dempath_recon dempath_sim dempath_compare dempath_twin dempath_bringup
 MSG_FILES := $(wildcard src/dempath_msgs/msg/*.msg) src/dempath_msgs/CMakeLists.txt src/dempath_msgs/pyproject.toml
 PKG_FILES := $(foreach p,$(PKGS),src/$(p)/setup.py)
 
@@ -13,7 +13,7 @@ export AMENT_PREFIX_PATH ?= $(abspath $(VENV))
 
 .PHONY: demo test lint bench setup clean
 demo: $(VENV)/.installed
-	$(BIN)/dempath demo
+	$(BIN)/dempath demo --data bags
 
 test: $(VENV)/.installed
 	$(BIN)/python -m pytest -n 2

@@ -25,11 +25,11 @@ import numba
 import numpy as np
 
 from dempath_sim.engine import Engine, ToolPose
-from dempath_sim.materials import Interaction, Material
-from dempath_sim.mesh import TriangleMesh
-from dempath_sim.params import SimParams
-from dempath_sim.state import SimState
-from dempath_sim.walls import box_walls
+from dempath_sim.engine.materials import Interaction, Material
+from dempath_sim.engine.mesh import TriangleMesh
+from dempath_sim.engine.params import SimParams
+from dempath_sim.engine.state import SimState
+from dempath_sim.engine.walls import box_walls
 
 PAPER_PARTICLES = 11_473_727
 RAM_BYTES = 24 * 2 ** 30
@@ -37,8 +37,8 @@ RADIUS = 2.0e-3  # m
 SAND = Material('sand', 2650.0, 1.7e6, 0.25)
 STEEL = Material('steel', 7800.0, 2.1e11, 0.3)
 PARAMS = SimParams((SAND, STEEL), {
-    (0, 0): Interaction(0.3, 0.71, 0.59, rolling_friction=0.26),
-    (0, 1): Interaction(0.3, 0.40, 0.30, rolling_friction=0.26)},
+    (0, 0): Interaction(0.3, 0.71, 0.59, rolling_resistance=0.26),
+    (0, 1): Interaction(0.3, 0.40, 0.30, rolling_resistance=0.26)},
     domain_min=(-1.0, -0.5, -1.0), domain_max=(1.0, 1.0, 1.0),
     max_overlap_fraction=0.4)  # E = 1.7 MPa sand is soft: the 1 m/s tool makes ~25% overlaps
 BIN_LO = (-0.08, 0.0, 0.0)  # m
@@ -48,7 +48,7 @@ CHISEL = Path(__file__).resolve().parents[1] / 'src/dempath_sim/dempath_sim/data
 
 def without_rolling(params: SimParams) -> SimParams:
     """The same parameters with rolling resistance off (Hertz-Mindlin with history only)."""
-    inter = {k: dataclasses.replace(v, rolling_friction=0.0)
+    inter = {k: dataclasses.replace(v, rolling_resistance=0.0)
              for k, v in params.interactions.items()}
     return dataclasses.replace(params, interactions=inter)
 

@@ -32,12 +32,12 @@ import numba
 import numpy as np
 
 from dempath_sim.engine import Engine
+from dempath_sim.engine.state import SimState
+from dempath_sim.engine.stl import read_stl
+from dempath_sim.engine.walls import box_walls
 from dempath_sim.liggghts import commands as cmd
 from dempath_sim.liggghts.install import ensure_liggghts
 from dempath_sim.liggghts.runner import run_deck
-from dempath_sim.state import SimState
-from dempath_sim.stl import read_stl
-from dempath_sim.walls import box_walls
 
 HERE = Path(__file__).resolve().parent
 log = logging.getLogger('bench')

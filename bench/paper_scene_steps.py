@@ -25,9 +25,10 @@ import numba
 import numpy as np
 
 from dempath_sim.engine import Engine, ToolPose
-from dempath_sim.fill import TOOL, bin_walls, pour, surface_height
-from dempath_sim.mesh import TriangleMesh
-from dempath_sim.run import build_params, carve_tool_slot
+from dempath_sim.engine.mesh import TriangleMesh
+from dempath_sim.runs.fill import pour, surface_height
+from dempath_sim.runs.native import carve_tool_slot
+from dempath_sim.runs.physics import TOOL, bin_walls, build_params
 from dempath_sim.scene import load_scene
 
 log = logging.getLogger('bench')

@@ -1,21 +1,22 @@
 """Benchmark of pixel-to-3D reconstruction on the digital twin (issue #5 targets).
 
 A paper-size calibration point set (94,939 board-corner samples, 0.2 px corner noise) comes from
-``dempath_calib.twin.synthetic_point_set`` (true board corners projected through ``paper_rig``);
+``dempath_twin.views.synthetic_point_set`` (true board corners projected through ``paper_rig``);
 4,149 rows are held out as in the paper. Every method is fitted on the other 90,790 rows with no
 access to the true cameras (the triangulation methods resect them from the training rows), then
 scored on the held-out rows: mean / SD / max 3D error [mm], R2 per axis, training wall time and
-throughput. The paper's MLP is trained for ``--mlp-epochs`` epochs (60 in the paper; a full run
-on 2 loaded CPU cores takes tens of minutes), and its per-epoch time is measured so that the
-60-epoch wall time can be stated as an extrapolation. Clicking noise of 2.36 / 2.75 px (the
-paper's) is then propagated and the coverage of the published 1-sigma is checked.
+throughput. The paper's network is trained with dempath's recipe (standardised, AdamW, one-cycle,
+12 epochs; ``--mlp-recipe paper`` for the published one, ``--mlp-epochs`` to change the epochs);
+its figures (and those of the shipped float16 file as loaded) are in ``mlp`` of the JSON line.
+Clicking noise of 2.36 / 2.75 px (the paper's) is then propagated and the coverage of the
+published 1-sigma is checked.
 
 Targets: mean <= 0.5 mm and max <= 3 mm for the best method; the fastest method meeting them
 trains in < 120 s; throughput >= 100,000 point pairs/s. The last line printed is one JSON object.
 
-Usage: ``python bench/recon_accuracy.py [--mlp-epochs N] [--torch-threads T] [--out DIR]``
-(on the shared 2-core machine one torch thread trained the big network 3-5x faster than two:
-thread hand-offs stall when other processes hold the cores; on a quiet machine try 2).
+Usage: ``python bench/recon_accuracy.py [--mlp-recipe dempath|paper] [--mlp-epochs N]
+[--torch-threads T] [--out DIR]`` (2 threads by default; on a machine loaded by other
+processes thread hand-offs stall, so the JSON gives the load, CPU time and time per epoch too).
 """
 
 from __future__ import annotations
@@ -34,9 +35,8 @@ import numpy as np
 import torch
 
 from dempath_calib.camera import CameraModel
-from dempath_calib.rig import paper_rig
-from dempath_calib.twin import synthetic_point_set
 from dempath_recon.methods import make_reconstructor
+from dempath_recon.mlp import PAPER_RECIPE
 from dempath_recon.report import (
     PAPER_TABLE5,
     best_method,
@@ -47,6 +47,8 @@ from dempath_recon.report import (
 )
 from dempath_recon.triangulate import DLTTriangulator
 from dempath_recon.uncertainty import CLICK_SIGMA_PX, coverage, propagate
+from dempath_twin.rig import paper_rig
+from dempath_twin.views import synthetic_point_set
 
 N_SAMPLES = 94_939  # the paper's point set size
 TARGET_MEAN_MM, TARGET_MAX_MM, TARGET_TRAIN_S, TARGET_PPS = 0.5, 3.0, 120.0, 100_000
@@ -92,13 +94,15 @@ def score_methods(args: argparse.Namespace, tr: tuple[np.ndarray, np.ndarray],
                                                               dict[str, Any]]:
     """Fit every method not skipped on ``tr`` and score it on ``te``."""
     rows, errors, fitted = [], {}, {}
-    mlp_params = {'epochs': args.mlp_epochs, 'random_state': args.seed, 'device': 'auto'}
+    mlp_params = {**(PAPER_RECIPE if args.mlp_recipe == 'paper' else {}),
+                  'random_state': args.seed, 'device': 'cpu'}
+    if args.mlp_epochs:
+        mlp_params['epochs'] = args.mlp_epochs
     plan = [('dlt', {}, 'cameras resected from the training rows; linear, depth re-weighted'),
             ('dlt_refined', {}, 'as dlt + 2 Gauss-Newton steps on the pixel reprojection error'),
             ('dlt_residual', {'random_state': args.seed, 'device': 'cpu'},
              'dlt + (64, 64) network on its residual'),
-            ('mlp', mlp_params, f"the paper's 2048-1024-512 network, {args.mlp_epochs} of 60 "
-                                'epochs run (see mlp_timing)')]
+            ('mlp', mlp_params, f"the paper's 2048-1024-512 network, {args.mlp_recipe} recipe")]
     for name, params, notes in plan:
         if name in args.skip:
             continue
@@ -108,6 +112,22 @@ def score_methods(args: argparse.Namespace, tr: tuple[np.ndarray, np.ndarray],
         errors[name] = err
         fitted[name] = est
     return rows, errors, fitted
+
+
+def mlp_figures(m: Any, row: Any, te: tuple[np.ndarray, np.ndarray],
+                args: argparse.Namespace) -> dict[str, Any]:
+    """The trained MLP's figures, and the shipped float16 file's as loaded (same split only)."""
+    out = {'recipe': args.mlp_recipe, 'mean_mm': row.mean_mm, 'sd_mm': row.sd_mm,
+           'max_mm': row.max_mm, 'r2': row.r2, 'train_s': m.fit_time_s_,
+           'train_cpu_s': m.fit_cpu_s_, 'epochs': m.n_iter_, 'epoch_s': m.epoch_time_s_,
+           'points_per_s': row.points_per_s, 'torch_threads': torch.get_num_threads()}
+    if args.seed == 0 and args.noise_px == 0.2:  # the shipped file's data and split
+        from dempath_recon.report import error_metrics
+        from dempath_recon.shipped import load_shipped_mlp
+
+        shipped = error_metrics(load_shipped_mlp().predict(te[0]), te[1])
+        out['shipped_as_loaded'] = {k: shipped[k] for k in ('mean_mm', 'sd_mm', 'max_mm', 'r2')}
+    return out
 
 
 def run(args: argparse.Namespace) -> dict[str, Any]:
@@ -136,12 +156,8 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
                     'cuda': torch.cuda.is_available(), 'load_avg_1min': os.getloadavg()[0]},
     }
     if 'mlp' in fitted:
-        m = fitted['mlp']
-        per_epoch = float(np.mean(m.epoch_time_s_))
-        summary['mlp_timing'] = {'epochs_run': m.n_iter_, 'epoch_s': m.epoch_time_s_,
-                                 'mean_epoch_s': per_epoch,
-                                 'estimated_60_epoch_s': 60.0 * per_epoch,
-                                 'note': 'accuracy above is after epochs_run epochs only'}
+        summary['mlp'] = mlp_figures(fitted['mlp'], next(r for r in rows if r.name == 'mlp'),
+                                     te, args)
     if best:
         summary['uncertainty'] = {'method': best,
                                   **clicked_uncertainty(fitted[best], te[1], args.seed + 1)}
@@ -158,13 +174,13 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
 def main() -> int:
     """Parse options, run, print a readable table and the JSON line."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument('--mlp-epochs', type=int, default=3, help='epochs of the paper MLP')
+    parser.add_argument('--mlp-recipe', choices=('dempath', 'paper'), default='dempath')
+    parser.add_argument('--mlp-epochs', type=int, default=0, help="MLP epochs (0: the recipe's)")
     parser.add_argument('--noise-px', type=float, default=0.2, help='corner noise [px]')
     parser.add_argument('--seed', type=int, default=0)
     parser.add_argument('--skip', default='', help='comma-separated methods to leave out')
     parser.add_argument('--out', default='', help='folder for report.md / histogram PNG')
-    parser.add_argument('--torch-threads', type=int, default=1,
-                        help='torch CPU threads (1 is fastest on a shared, loaded machine)')
+    parser.add_argument('--torch-threads', type=int, default=2, help='torch CPU threads')
     args = parser.parse_args()
     torch.set_num_threads(args.torch_threads)
     args.skip = set(filter(None, args.skip.split(',')))

@@ -13,10 +13,10 @@ from dempath_calib.board import PAPER_BOARD, CornerDetector
 from dempath_calib.camera import StereoCalibration
 from dempath_calib.cli import calibrate_main
 from dempath_calib.errors import InputSourceError
-from dempath_calib.rig import paper_rig
 from dempath_calib.sources import BagSource, FolderSource, open_source, read_timestamps_csv
-from dempath_calib.twin import calibration_poses, render_views
-from dempath_calib.twinbag import write_twin_videos
+from dempath_twin.calibbag import write_twin_videos
+from dempath_twin.rig import paper_rig
+from dempath_twin.views import calibration_poses, render_views
 
 ROOT = Path(__file__).resolve().parents[1]
 SHIPPED = ROOT / 'bags' / 'calib_twin_small'

@@ -23,11 +23,12 @@ import pytest
 
 from dempath_calib.camera import StereoCalibration
 from dempath_calib.camerainfo import read_camera_info
-from dempath_calib.cli import calibrate_main, rig_main
+from dempath_calib.cli import calibrate_main
 from dempath_calib.pointset import load_point_set
-from dempath_calib.rig import paper_rig
-from dempath_calib.twinbag import truth_path, write_calibration_bag
 from dempath_calib.verify import compare_to_truth
+from dempath_twin.calibbag import truth_path, write_calibration_bag
+from dempath_twin.cli import rig_main
+from dempath_twin.rig import paper_rig
 
 TOL = {'f_rel_pct': 0.5, 'c_px': 3.0, 'rotation_deg': 0.3, 'center_mm': 3.0,
        'spacing_mean_mm': 0.1, 'spacing_sd_mm': 0.5, 'rmse_px': 0.3}

@@ -6,14 +6,13 @@ from collections import Counter
 from pathlib import Path
 
 import numpy as np
-import pytest
 from mcap.reader import make_reader
 
 from dempath import topics
 from dempath.bagio import make_typestore, write_bag
-from dempath.demo import GraphSpec, demo_main, field_truth_error, run_graph
-from dempath_calib.rig import paper_rig
-from dempath_recon import fieldtwin as ft
+from dempath_bringup.nodes.graph import GraphSpec, field_truth_error, run_graph
+from dempath_twin import field as ft
+from dempath_twin.rig import paper_rig
 
 ROOT = Path(__file__).resolve().parents[1]
 TRUTH = ROOT / 'bags' / 'field_twin_tiny.truth.csv'
@@ -58,18 +57,10 @@ def test_graph_reconstructs_simulates_and_scores(tmp_path: Path) -> None:
     assert result.scored_markers == 15
     assert result.scores >= 15
     assert result.sim_frames > 10
+    assert result.live is not None and len(result.live.measured) == 15  # the node's own scores
     counts = mcap_topic_counts(result.bag)
     assert counts[topics.MARKER_POINTS] == frames
     assert counts[topics.SIM_STATES] == result.sim_frames
     assert counts[topics.COMPARE_SCORES] >= 1
     assert counts[topics.SIM_RUN_EVENTS] >= 2  # STARTED and FINISHED
     assert counts[topics.camera_topic(topics.PIXEL_POINTS, 'cam_side')] == frames
-
-
-def test_demo_names_a_missing_bag(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    """A field bag that does not exist gives one error line naming it and exit code 1."""
-    missing = tmp_path / 'no_such_bag'
-    assert demo_main(['--field-bag', str(missing), '--out', str(tmp_path / 'out')]) == 1
-    err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1
-    assert err[0].startswith('error: ') and 'no_such_bag' in err[0]

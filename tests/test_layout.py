@@ -1,19 +1,37 @@
-"""The workspace layout rules: ROS stays in nodes/, every package has the ROS 2 package files."""
+"""The workspace layout rules: ROS stays in nodes/, floors, declared dependencies, package files.
+
+The floors (house style 16, drawn in docs/design.md): a package imports only packages on its own
+floor or below, and packages on one floor do not import each other in a cycle. Imports are read
+with ``ast``, so imports inside functions (the lazy ones) count too. Every package under ``src/``
+with a ``package.xml`` is checked, whichever exist.
+"""
 
 from __future__ import annotations
 
+import ast
 import re
+import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-PYTHON_PACKAGES = ('dempath', 'dempath_calib', 'dempath_recon', 'dempath_sim', 'dempath_compare')
+FLOORS = {  # package -> floor; a package may import its own floor and the ones below
+    'dempath_msgs': 1, 'dempath': 1,
+    'dempath_calib': 2, 'dempath_sim': 2, 'dempath_compare': 2,
+    'dempath_recon': 3, 'dempath_twin': 3,
+    'dempath_diagnose': 4,
+    'dempath_bringup': 5,
+}
+PYTHON_PACKAGES = tuple(sorted(p.name for p in (ROOT / 'src').iterdir()
+                               if (p / 'package.xml').is_file() and (p / p.name).is_dir()))
+ROS_PACKAGES = tuple(sorted(p.name for p in (ROOT / 'src').iterdir()
+                            if (p / 'package.xml').is_file()))
 ROS_IMPORT = re.compile(r'^\s*(import|from)\s+(rclpy|\w+_msgs)\b', re.MULTILINE)
 
 
 def core_modules() -> list[Path]:
-    """Every module of the five Python packages outside their nodes/ subpackages."""
+    """Every module of the Python packages outside their nodes/ subpackages."""
     found = []
     for pkg in PYTHON_PACKAGES:
         for path in (ROOT / 'src' / pkg / pkg).rglob('*.py'):
@@ -28,7 +46,86 @@ def test_core_modules_do_not_import_ros() -> None:
     assert leaks == [], f'core modules importing ROS: {leaks}'
 
 
-@pytest.mark.parametrize('pkg', [*PYTHON_PACKAGES, 'dempath_msgs'])
+def imported_packages(folder: Path) -> dict[str, set[str]]:
+    """dempath package -> the files under ``folder`` importing it (any depth, lazy included)."""
+    found: dict[str, set[str]] = {}
+    for path in folder.rglob('*.py'):
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            if isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+                names = [node.module]
+            else:
+                continue
+            for name in names:
+                top = name.split('.')[0]
+                if top in FLOORS:
+                    found.setdefault(top, set()).add(str(path.relative_to(ROOT)))
+    return found
+
+
+def declared(pkg: str, tags: tuple[str, ...]) -> set[str]:
+    """dempath packages named by ``tags`` (e.g. exec_depend) in ``pkg``'s package.xml."""
+    root = ET.parse(ROOT / 'src' / pkg / 'package.xml').getroot()
+    return {e.text.strip() for tag in tags for e in root.iter(tag)
+            if e.text and e.text.strip() in FLOORS}
+
+
+def test_every_package_has_a_floor() -> None:
+    """A new package is placed on a floor (here and in docs/design.md) before it lands."""
+    assert set(ROS_PACKAGES) <= set(FLOORS), set(ROS_PACKAGES) - set(FLOORS)
+
+
+@pytest.mark.parametrize('pkg', PYTHON_PACKAGES)
+@pytest.mark.parametrize('part', ['code', 'test'])
+def test_no_import_from_a_higher_floor(pkg: str, part: str) -> None:
+    """A package (its code and its own tests) imports nothing from a higher floor."""
+    folder = ROOT / 'src' / pkg / (pkg if part == 'code' else 'test')
+    if not folder.is_dir():
+        pytest.skip(f'{pkg} has no {part} folder')
+    higher = {dep: sorted(files) for dep, files in imported_packages(folder).items()
+              if FLOORS[dep] > FLOORS[pkg]}
+    assert higher == {}, f'{pkg} (floor {FLOORS[pkg]}) imports from a higher floor: {higher}'
+
+
+def test_no_cycle_between_packages() -> None:
+    """The package import graph (code only) has no cycle, within a floor either."""
+    graph = {pkg: set(imported_packages(ROOT / 'src' / pkg / pkg)) - {pkg}
+             for pkg in PYTHON_PACKAGES}
+    done: set[str] = set()
+
+    def visit(pkg: str, path: tuple[str, ...]) -> None:
+        assert pkg not in path, f'import cycle: {" -> ".join((*path, pkg))}'
+        if pkg not in done:
+            for dep in graph.get(pkg, ()):
+                visit(dep, (*path, pkg))
+            done.add(pkg)
+
+    for pkg in graph:
+        visit(pkg, ())
+
+
+@pytest.mark.parametrize('pkg', PYTHON_PACKAGES)
+def test_package_xml_declares_what_is_imported(pkg: str) -> None:
+    """Code imports -> exec_depend; test-only imports -> exec_depend or test_depend."""
+    run = declared(pkg, ('exec_depend', 'depend'))
+    code = set(imported_packages(ROOT / 'src' / pkg / pkg)) - {pkg}
+    assert code <= run, f'{pkg}/package.xml lacks exec_depend on {sorted(code - run)}'
+    test_dir = ROOT / 'src' / pkg / 'test'
+    tests = set(imported_packages(test_dir)) - {pkg} if test_dir.is_dir() else set()
+    both = run | declared(pkg, ('test_depend',))
+    assert tests <= both, f'{pkg}/package.xml lacks test_depend on {sorted(tests - both)}'
+
+
+@pytest.mark.parametrize('pkg', ROS_PACKAGES)
+def test_package_xml_depends_only_downwards(pkg: str) -> None:
+    """Declared dempath dependencies point to the same floor or below, never up."""
+    deps = declared(pkg, ('exec_depend', 'depend', 'build_depend', 'test_depend')) - {pkg}
+    up = sorted(d for d in deps if FLOORS[d] > FLOORS[pkg])
+    assert up == [], f'{pkg}/package.xml depends on higher floors: {up}'
+
+
+@pytest.mark.parametrize('pkg', ROS_PACKAGES)
 def test_ros_package_files(pkg: str) -> None:
     """Each package is a ROS 2 package (package.xml format 3) named like its folder."""
     xml = (ROOT / 'src' / pkg / 'package.xml').read_text()

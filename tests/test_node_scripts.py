@@ -1,4 +1,8 @@
-"""Every node's console script starts, spins and stops cleanly on SIGINT (the Jazzy main form)."""
+"""Every node's console script starts, spins and stops cleanly on SIGINT (the Jazzy main form).
+
+The test waits until the node is in the ROS graph (seen by the harness' probe in the same
+domain) before it sends Ctrl-C, so a slow start on a loaded machine is not mistaken for a fault.
+"""
 
 from __future__ import annotations
 
@@ -6,27 +10,34 @@ import os
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
 
-from dempath.nodes.harness import unique_domain_id
+from dempath.nodes.harness import RosHarness
 
 BIN = Path(sys.executable).parent
-SCRIPTS = ['dempath_comparer', 'dempath_calibrator', 'dempath_recorder']
+SCRIPTS = ['dempath_comparer', 'dempath_calibrator', 'dempath_recorder']  # = node names
+START_TIMEOUT_S = 120.0  # imports (numpy, OpenCV, torch) can take long on a busy machine
 
 
 @pytest.mark.parametrize('script', SCRIPTS)
-def test_script_starts_and_stops_on_sigint(script: str, tmp_path: Path) -> None:
+def test_script_starts_and_stops_on_sigint(script: str, tmp_path: Path,
+                                           ros_harness: RosHarness) -> None:
     """The node comes up, and Ctrl-C ends it with status 0 and no traceback."""
-    env = {**os.environ, 'ROS_DOMAIN_ID': str(unique_domain_id())}
+    env = {**os.environ, 'ROS_DOMAIN_ID': str(ros_harness.domain_id)}
     args = [str(BIN / script), '--ros-args', '-p', f'output:={tmp_path / "bag"}'] \
         if script == 'dempath_recorder' else [str(BIN / script)]
     proc = subprocess.Popen(args, cwd=tmp_path, env=env, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
-    time.sleep(4.0)
+    node_name = script
+    up = ros_harness.spin_until(
+        lambda: proc.poll() is not None or node_name in ros_harness.probe.get_node_names(),
+        timeout_s=START_TIMEOUT_S)
     assert proc.poll() is None, f'{script} exited early: {proc.communicate()}'
+    if not up:
+        proc.kill()
+        pytest.fail(f'{script}: node {node_name!r} not in the graph after {START_TIMEOUT_S} s')
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=30)
     assert proc.returncode == 0, f'{script}: status {proc.returncode}\n{err}'

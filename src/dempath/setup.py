@@ -32,7 +32,6 @@ setup(
             'record = dempath.commands:record_main',
             'bag-info = dempath.commands:bag_info_main',
             'bag-recover = dempath.commands:bag_recover_main',
-            'demo = dempath.demo:demo_main',
         ],
     },
 )

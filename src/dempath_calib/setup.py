@@ -18,7 +18,7 @@ setup(
     zip_safe=False,
     maintainer='dempath developers',
     maintainer_email='dempath@users.noreply.github.com',
-    description='Two-camera ChArUco calibration for dempath: twin rig, intrinsics, stereo.',
+    description='Two-camera ChArUco calibration for dempath: intrinsics, stereo, world frame.',
     license='Apache-2.0',
     entry_points={
         'console_scripts': [
@@ -26,7 +26,7 @@ setup(
         ],
         'dempath.commands': [
             'calibrate = dempath_calib.cli:calibrate_main',
-            'rig = dempath_calib.cli:rig_main',
+            'calib-check = dempath_calib.checkcli:calib_check_main',
         ],
     },
 )

@@ -20,6 +20,12 @@ from numpy.typing import NDArray
 
 FloatArray = NDArray[np.float64]
 
+# The world frame a board defines when it lies on the undisturbed surface, printed face up, rows
+# along the tool travel: board axes x, y, z -> world X (lateral), Z (travel), -Y (down), with the
+# board's centre at the origin. The calibrator's 'surface' world frame and the twin's first
+# (surface) pose both use it; it is a property of the board on the sand, not of the twin.
+SURFACE_ROT = np.array([[1.0, 0, 0], [0, 0, -1.0], [0, 1.0, 0]])  # world <- board rotation
+
 
 class BoardKind(Enum):
     """Kind of calibration target."""

@@ -17,14 +17,14 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from dempath_calib.board import PAPER_BOARD, BoardKind, BoardSpec, CornerDetector
+from dempath_calib.board import PAPER_BOARD, SURFACE_ROT, BoardKind, BoardSpec, CornerDetector
 from dempath_calib.camera import CameraModel, StereoCalibration
 from dempath_calib.errors import CalibrationError
 from dempath_calib.intrinsics import DistortionModel, IntrinsicResult, calibrate_intrinsics
 from dempath_calib.pairing import DetectionStream, pair_frames
 from dempath_calib.pointset import PointSet, make_point_set
 from dempath_calib.stereo import StereoResult, bundle_adjust
-from dempath_calib.twin import SURFACE_ROT
+from dempath_calib.syncmotion import grid_minimum
 from dempath_calib.verify import distance_summary, neighbour_distances
 
 LOG = logging.getLogger(__name__)
@@ -214,12 +214,7 @@ def estimate_offset(streams: tuple[DetectionStream, DetectionStream],
         msg = (f'offset: no candidate within +-{config.max_offset_s} s gives '
                f'{config.min_shared_views} frames seen by both cameras')
         raise CalibrationError(msg)
-    best = int(np.argmin(costs))
-    offset = float(candidates[best])
-    if 0 < best < len(costs) - 1 and np.isfinite(costs[best - 1:best + 2]).all():
-        y0, y1, y2 = costs[best - 1:best + 2]
-        den = y0 - 2 * y1 + y2
-        offset += float(0.5 * (y0 - y2) / den * step) if den > 0 else 0.0
+    offset, best = grid_minimum(np.asarray(candidates, np.float64), costs)
     LOG.info('front clock offset %.4f s (RMSE %.3f px at the best candidate)', offset,
              costs[best])
     return offset

@@ -1,5 +1,5 @@
-"""``dempath calibrate`` (calibrate from a bag, frame folder or two videos) and ``dempath rig``
-(the twin rig's cameras, or its calibration bag with the truth)."""
+"""``dempath calibrate``: calibrate from a bag, frame folder or two videos (``dempath rig``, the
+twin's calibration recording, is in dempath_twin)."""
 
 from __future__ import annotations
 
@@ -10,9 +10,7 @@ import sys
 from collections.abc import Iterator
 from dataclasses import replace
 from itertools import chain
-from pathlib import Path
 
-import yaml  # type: ignore[import-untyped]
 from tqdm import tqdm
 
 from dempath.errors import DempathError
@@ -21,14 +19,26 @@ from dempath_calib.calibrator import CalibrationConfig, Calibrator
 from dempath_calib.errors import CalibrationError
 from dempath_calib.intrinsics import DistortionModel
 from dempath_calib.outputs import save_result
-from dempath_calib.rig import paper_rig
 from dempath_calib.sources import Frame, open_source
-from dempath_calib.twinbag import truth_path, write_calibration_bag
 
 BOARDS = {'paper': PAPER_BOARD, 'caliscope': CALISCOPE_BOARD}
 
 
-def _board(args: argparse.Namespace) -> BoardSpec:
+def add_board_options(p: argparse.ArgumentParser) -> None:
+    """The board options shared by ``dempath calibrate`` and ``dempath calib-check``."""
+    p.add_argument('--board', choices=sorted(BOARDS), default='paper',
+                   help='preset board (paper: 7x5 40.4 mm DICT_5X5_100)')
+    p.add_argument('--columns', type=int, help='squares along x')
+    p.add_argument('--rows', type=int, help='squares along y')
+    p.add_argument('--square', type=float, help='square side [m]')
+    p.add_argument('--marker', type=float, help='marker side [m]')
+    p.add_argument('--dictionary', help='OpenCV dictionary, e.g. DICT_5X5_100')
+    p.add_argument('--chessboard', action='store_true', help='plain chessboard target')
+    p.add_argument('--inverted', action='store_true', help='board printed white on black')
+
+
+def board_from_args(args: argparse.Namespace) -> BoardSpec:
+    """The board of ``add_board_options``' options: the preset with the given changes."""
     board = BOARDS[args.board]
     changes = {k: v for k, v in (('columns', args.columns), ('rows', args.rows),
                                  ('square_m', args.square), ('marker_m', args.marker),
@@ -47,15 +57,7 @@ def calibrate_parser() -> argparse.ArgumentParser:
                                 'videos (side first).')
     p.add_argument('inputs', nargs='+', help='bag | frame folder | side.mp4 front.mp4')
     p.add_argument('--out', required=True, help='output folder')
-    p.add_argument('--board', choices=sorted(BOARDS), default='paper',
-                   help='preset board (paper: 7x5 40.4 mm DICT_5X5_100)')
-    p.add_argument('--columns', type=int, help='squares along x')
-    p.add_argument('--rows', type=int, help='squares along y')
-    p.add_argument('--square', type=float, help='square side [m]')
-    p.add_argument('--marker', type=float, help='marker side [m]')
-    p.add_argument('--dictionary', help='OpenCV dictionary, e.g. DICT_5X5_100')
-    p.add_argument('--chessboard', action='store_true', help='plain chessboard target')
-    p.add_argument('--inverted', action='store_true', help='board printed white on black')
+    add_board_options(p)
     p.add_argument('--distortion', default='k1k2p1p2k3',
                    choices=[m.value for m in DistortionModel], help='distortion model')
     p.add_argument('--world', default='surface', choices=['surface', 'side'],
@@ -75,7 +77,8 @@ def calibrate_parser() -> argparse.ArgumentParser:
 def _config(args: argparse.Namespace, size: tuple[int, int]) -> CalibrationConfig:
     try:
         offset = None if args.offset == 'auto' else float(args.offset)
-        return CalibrationConfig(board=_board(args), distortion=DistortionModel(args.distortion),
+        return CalibrationConfig(board=board_from_args(args),
+                                 distortion=DistortionModel(args.distortion),
                                  world=args.world, offset_s=offset, image_size=size,
                                  min_views=args.min_views, max_offset_s=args.max_offset)
     except ValueError as err:
@@ -122,30 +125,3 @@ def _collect(cal: Calibrator, first: Frame, frames: Iterator[Frame], total: int,
             counts[cam] += 1
             bar.update(1)
             bar.set_postfix_str(cal.progress().line(), refresh=False)
-
-
-def rig_main(argv: list[str]) -> int:
-    """``dempath rig [OUT_BAG]``: print the twin rig's cameras, or write its calibration bag."""
-    p = argparse.ArgumentParser(prog='dempath rig', description='The twin rig: print its true '
-                                'cameras (YAML), or render its calibration recording into a '
-                                'rosbag2 MCAP bag with the truth JSON beside it.')
-    p.add_argument('bag', nargs='?', help='bag folder to create')
-    p.add_argument('--views', type=int, default=40, help='board poses')
-    p.add_argument('--seed', type=int, default=0)
-    p.add_argument('--raw', action='store_true', help='mono8 Image instead of JPEG')
-    p.add_argument('--front-delay', type=float, default=0.0, help='front clock delay [s]')
-    p.add_argument('--quality', type=int, default=92, help='JPEG quality (0-100)')
-    args = p.parse_args(argv)
-    if args.bag is None:
-        print(yaml.safe_dump(paper_rig().to_dict(), sort_keys=False))
-        return 0
-    if Path(args.bag).exists():
-        print(f'error: {args.bag}: already exists', file=sys.stderr)
-        return 1
-    if args.views < 1:
-        print(f'error: --views: must be >= 1, got {args.views}', file=sys.stderr)
-        return 1
-    bag = write_calibration_bag(args.bag, args.views, args.seed, not args.raw,
-                                front_delay_s=args.front_delay, quality=args.quality)
-    print(json.dumps({'bag': str(bag), 'truth': str(truth_path(bag))}))
-    return 0

@@ -2,8 +2,9 @@
 
 Each camera's frames are detected on their own (a stream of ``(stamp_s, corners)``), so the two
 recordings never need to be read in step. Frames are then paired by time: front stamp + offset
-against side stamp, mutual nearest within a tolerance, the front corners interpolated to the
-side frame's instant. The unknown offset itself is found by ``calibrator.estimate_offset``.
+against side stamp, mutual nearest within a tolerance (``dempath.sync.sync_stamps``, the
+workspace's one stamp synchroniser), the front corners interpolated to the side frame's
+instant. The unknown offset itself is found by ``calibrator.estimate_offset``.
 """
 
 from __future__ import annotations
@@ -13,6 +14,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
+
+from dempath.sync import sync_stamps
 
 LOG = logging.getLogger(__name__)
 FloatArray = NDArray[np.float64]
@@ -75,18 +78,17 @@ def pair_frames(side: DetectionStream, front: DetectionStream, offset_s: float =
     if tol_s is None:
         periods = [np.median(np.diff(t)) for t in (ts, tf) if len(t) > 1]
         tol_s = 0.5 * min(periods) if periods else 1e-3
-    pairs = _mutual_nearest(ts, tf, tol_s)
+    pairs, alone_s, alone_f = sync_stamps(ts, tf, tol_s, wait_for_nearest=True)
+    pairs.sort()
     k = side.n_corners
-    paired_s = {i for i, _ in pairs}
-    paired_f = {j for _, j in pairs}
     rows: list[tuple[float, FloatArray, FloatArray]] = []
     nan = np.full((k, 2), np.nan)
     if interpolate:
         rows += [(ts[i], cs[i], _front_at(ts[i], j, tf, cf)) for i, j in pairs]
     else:
         rows += [(ts[i], cs[i], cf[j]) for i, j in pairs]
-    rows += [(ts[i], cs[i], nan) for i in range(len(ts)) if i not in paired_s]
-    rows += [(tf[j], nan, cf[j]) for j in range(len(tf)) if j not in paired_f]
+    rows += [(ts[i], cs[i], nan) for i in sorted(alone_s)]
+    rows += [(tf[j], nan, cf[j]) for j in sorted(alone_f)]
     rows.sort(key=lambda r: r[0])
     stamps = np.array([r[0] for r in rows])
     corners = np.array([np.stack([r[1], r[2]]) for r in rows]).reshape(-1, 2, k, 2)
@@ -107,16 +109,3 @@ def _front_at(t: float, j: int, tf: FloatArray, cf: FloatArray) -> FloatArray:
         return np.full_like(cf[j], np.nan)
     a = (t - tf[k]) / (tf[k + 1] - tf[k])
     return np.asarray((1 - a) * cf[k] + a * cf[k + 1], np.float64)
-
-
-def _mutual_nearest(ta: FloatArray, tb: FloatArray, tol: float) -> list[tuple[int, int]]:
-    if len(ta) == 0 or len(tb) == 0:
-        return []
-    ja = np.clip(np.searchsorted(tb, ta), 1, max(len(tb) - 1, 1))
-    cand = np.where(np.abs(tb[ja - 1] - ta) <= np.abs(tb[np.minimum(ja, len(tb) - 1)] - ta),
-                    ja - 1, np.minimum(ja, len(tb) - 1))
-    ib = np.clip(np.searchsorted(ta, tb), 1, max(len(ta) - 1, 1))
-    back = np.where(np.abs(ta[ib - 1] - tb) <= np.abs(ta[np.minimum(ib, len(ta) - 1)] - tb),
-                    ib - 1, np.minimum(ib, len(ta) - 1))
-    return [(i, int(j)) for i, j in enumerate(cand)
-            if back[j] == i and abs(tb[j] - ta[i]) <= tol]

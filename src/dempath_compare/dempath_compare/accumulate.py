@@ -12,6 +12,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dempath_compare.records import MEASURED, Track
+from dempath_compare.runinfo import run_info
 
 
 class TrajectoryAccumulator:
@@ -55,7 +56,8 @@ class TrajectoryAccumulator:
             group, ident = key
             label = f'{group}/marker{ident}' if kind == MEASURED else f'{group}/{ident}'
             out.append(Track(label, group, ident, self._markers[key], np.array(times),
-                             np.array(self._points[key]).reshape(len(times), 3)))
+                             np.array(self._points[key]).reshape(len(times), 3), '', '',
+                             *run_info(group)))
         return out
 
     def clear(self) -> None:

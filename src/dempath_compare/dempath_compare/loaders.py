@@ -16,16 +16,19 @@ and the others model data. Bags hold ``dempath_msgs/MarkerPoints3D`` (measured) 
 from __future__ import annotations
 
 import csv
+import json
 import logging
 import re
 from collections.abc import Iterable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from dempath_compare.errors import InputError
 from dempath_compare.records import MEASURED, MODEL, Track
+from dempath_compare.runinfo import run_info
 
 log = logging.getLogger(__name__)
 
@@ -61,12 +64,14 @@ def read_csv_columns(path: Path) -> dict[str, NDArray[np.float64]]:
     return {name: data[:, k] for k, name in enumerate(header)}
 
 
-def load_csv(path: str | Path, kind: str) -> list[Track]:
+def load_csv(path: str | Path, kind: str, meta: dict[str, Any] | None = None) -> list[Track]:
     """Tracks of one CSV file.
 
     Args:
         path: CSV file in one of the module's shapes.
         kind: ``MEASURED`` or ``MODEL`` (decides whether ``marker`` or ``id`` names a track).
+        meta: run metadata (a ``dempath simulate`` summary.json) for the speed, run id and
+            seed; without it they come from the file name (:mod:`dempath_compare.runinfo`).
 
     Raises:
         InputError: unreadable file, missing columns, non-integer ids.
@@ -85,13 +90,15 @@ def load_csv(path: str | Path, kind: str) -> list[Track]:
         idents = np.full(n_rows, _number_in_name(path), dtype=np.int64)
     markers = _integers(path, 'marker', cols['marker']) if 'marker' in cols else None
     xyz = np.stack([cols['x'], cols['y'], cols['z']], axis=1)
+    info = run_info(path.stem, meta)
     tracks = []
     for ident in dict.fromkeys(idents.tolist()):
         rows = np.flatnonzero(idents == ident)
         marker = ident if kind == MEASURED else (int(markers[rows[0]]) if markers is not None
                                                  else 0)
         label = f'{path.stem}/marker{ident}' if kind == MEASURED else f'{path.stem}/{ident}'
-        tracks.append(Track(label, path.stem, int(ident), marker, cols['t'][rows], xyz[rows]))
+        tracks.append(Track(label, path.stem, int(ident), marker, cols['t'][rows], xyz[rows],
+                            '', '', *info))
     return tracks
 
 
@@ -148,7 +155,8 @@ def load_source(path: str | Path, kind: str) -> list[Track]:
 
         tracks = load_bag(path, kind)
     elif path.is_dir():
-        tracks = [t for f in csv_files(path, kind) for t in load_csv(f, kind)]
+        meta = run_metadata(path) if kind == MODEL else None
+        tracks = [t for f in csv_files(path, kind) for t in load_csv(f, kind, meta)]
     elif path.suffix.lower() == '.csv':
         tracks = load_csv(path, kind)
     else:
@@ -160,6 +168,26 @@ def load_source(path: str | Path, kind: str) -> list[Track]:
     _check_unique(path, tracks)
     log.info('%s: %d %s trajectories', path, len(tracks), kind)
     return tracks
+
+
+def run_metadata(folder: Path) -> dict[str, Any] | None:
+    """The ``summary.json`` of a ``dempath simulate`` output folder, None when there is none.
+
+    Raises:
+        InputError: the file exists but is not a JSON object.
+    """
+    path = folder / 'summary.json'
+    if not path.is_file():
+        return None
+    try:
+        meta = json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, ValueError) as err:
+        msg = f'{path}: not readable run metadata ({err})'
+        raise InputError(msg) from err
+    if not isinstance(meta, dict):
+        msg = f'{path}: run metadata must be a JSON object'
+        raise InputError(msg)
+    return meta
 
 
 def _check_unique(path: Path, tracks: Iterable[Track]) -> None:

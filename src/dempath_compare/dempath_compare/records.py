@@ -8,6 +8,7 @@ Positions are in the paper's world frame: X lateral, Y vertical up, Z direction 
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from typing import NamedTuple
@@ -31,6 +32,11 @@ class Track(NamedTuple):
         positions: (k, 3) m.
         problem: why it cannot be scored; empty when fine.
         note: warning that does not stop scoring (e.g. NaN samples dropped).
+        speed_m_s: tool speed of the experiment or run [m/s]; NaN when unknown.
+        run_id: model run (or experiment) id; the group name when nothing else is known.
+        seed: packing seed of a model run; -1 when unknown.
+
+    The loaders fill the last three (:mod:`dempath_compare.runinfo` says from what).
     """
 
     label: str
@@ -41,6 +47,9 @@ class Track(NamedTuple):
     positions: NDArray[np.float64]
     problem: str = ''
     note: str = ''
+    speed_m_s: float = math.nan
+    run_id: str = ''
+    seed: int = -1
 
 
 @dataclass(frozen=True)
@@ -58,6 +67,9 @@ class TrajectorySet:
         problems: (n,) problem per trajectory, empty when it can be scored.
         notes: (n,) warnings per trajectory.
         origins: (n, 3) m, first position before the shift to the origin (NaN if unknown).
+        speeds: (n,) tool speed [m/s] of each trajectory's experiment or run (NaN: unknown).
+        run_ids: (n,) run (or experiment) ids.
+        seeds: (n,) packing seeds (-1: unknown).
     """
 
     labels: tuple[str, ...]
@@ -70,6 +82,9 @@ class TrajectorySet:
     problems: tuple[str, ...]
     notes: tuple[str, ...]
     origins: NDArray[np.float64]
+    speeds: NDArray[np.float64]
+    run_ids: tuple[str, ...]
+    seeds: NDArray[np.int64]
 
     def __len__(self) -> int:
         return len(self.labels)
@@ -89,7 +104,7 @@ class TrajectorySet:
         k = int(self.lengths[i])
         return Track(self.labels[i], self.groups[i], int(self.idents[i]), int(self.marker_ids[i]),
                      self.times[i, :k].copy(), self.positions[i, :k].copy(), self.problems[i],
-                     self.notes[i])
+                     self.notes[i], float(self.speeds[i]), self.run_ids[i], int(self.seeds[i]))
 
     def positions_list(self, index: Sequence[int] | NDArray[np.int64]
                        ) -> list[NDArray[np.float64]]:
@@ -134,7 +149,9 @@ def pack_tracks(tracks: Sequence[Track], shift_to_origin: bool = False) -> Traje
         marker_ids=np.array([t.marker_id for t in tracks], dtype=np.int64).reshape(n),
         times=times, positions=positions, lengths=np.array(usable, dtype=np.int64).reshape(n),
         problems=tuple(t.problem for t in tracks), notes=tuple(t.note for t in tracks),
-        origins=origins)
+        origins=origins, speeds=np.array([t.speed_m_s for t in tracks], np.float64).reshape(n),
+        run_ids=tuple(t.run_id for t in tracks),
+        seeds=np.array([t.seed for t in tracks], dtype=np.int64).reshape(n))
 
 
 def concat_sets(sets: Sequence[TrajectorySet]) -> TrajectorySet:
@@ -157,4 +174,7 @@ def concat_sets(sets: Sequence[TrajectorySet]) -> TrajectorySet:
         lengths=np.concatenate([s.lengths for s in sets]),
         problems=tuple(x for s in sets for x in s.problems),
         notes=tuple(x for s in sets for x in s.notes),
-        origins=np.concatenate([s.origins for s in sets]))
+        origins=np.concatenate([s.origins for s in sets]),
+        speeds=np.concatenate([s.speeds for s in sets]),
+        run_ids=tuple(x for s in sets for x in s.run_ids),
+        seeds=np.concatenate([s.seeds for s in sets]))

@@ -91,20 +91,15 @@ def pair_mask(measured: TrajectorySet, model: TrajectorySet,
 
         mask &= cube_candidates(measured.origins, model.origins, config.cube_size)
     if config.match_speed:
-        mask &= same_speed(measured.groups, model.groups)
+        mask &= same_speed(measured.speeds, model.speeds)
     return np.asarray(mask)
 
 
-def same_speed(groups_e: tuple[str, ...], groups_m: tuple[str, ...]) -> NDArray[np.bool_]:
-    """(n_e, n_m) False only where both names state a tool speed and the speeds differ."""
-    from dempath_compare.summary import speed_label
-
-    def speeds(groups: tuple[str, ...]) -> NDArray[np.str_]:
-        labels = {g: speed_label(g) for g in set(groups)}
-        return np.array([labels[g] if labels[g].endswith(' m/s') else '' for g in groups])
-
-    se, sm = speeds(groups_e), speeds(groups_m)
-    return np.asarray((se[:, None] == sm[None, :]) | (se[:, None] == '') | (sm[None, :] == ''))
+def same_speed(speeds_e: NDArray[np.float64], speeds_m: NDArray[np.float64]
+               ) -> NDArray[np.bool_]:
+    """(n_e, n_m) False only where both tool speeds [m/s] are known (not NaN) and differ."""
+    se, sm = np.asarray(speeds_e)[:, None], np.asarray(speeds_m)[None, :]
+    return np.asarray((se == sm) | np.isnan(se) | np.isnan(sm))
 
 
 def dtw_distances(measured: TrajectorySet, model: TrajectorySet,

@@ -8,11 +8,11 @@ The spread is the standard deviation over the N best (ddof = 0).
 
 from __future__ import annotations
 
-import re
 from typing import NamedTuple
 
 import numpy as np
 
+from dempath_compare.runinfo import speed_from_name, speed_text
 from dempath_compare.scoring import CompareResult
 
 PAPER_MEAN_NRMSE = {'1 m/s': 4.7, '1.5 m/s': 9.41}  # Table 7 / abstract of the paper [%]
@@ -42,12 +42,8 @@ class Table7(NamedTuple):
 
 
 def speed_label(group: str) -> str:
-    """Tool speed named in an experiment name ('experiment_1p5ms' -> '1.5 m/s'), else the name."""
-    found = re.search(r'(\d+(?:[._p]\d+)?)\s*_?m_?(?:/|p|per)?_?s(?![a-z])', group.lower())
-    if not found:
-        return group
-    value = float(re.sub(r'[_p]', '.', found.group(1)))
-    return f'{value:g} m/s'
+    """The name convention alone: 'experiment_1p5ms' -> '1.5 m/s', else the name."""
+    return speed_text(speed_from_name(group), group)
 
 
 def build_table7(result: CompareResult, top_n: int | None = None) -> Table7:
@@ -61,7 +57,8 @@ def build_table7(result: CompareResult, top_n: int | None = None) -> Table7:
         mae, rmse = scores.s_mean[e, best], scores.rmse[e, best]
         range_m = float(scores.ranges[e])
         nrmse = float(np.mean(rmse)) / range_m * 100.0 if range_m > 0 else float('nan')
-        rows.append(Table7Row(measured.groups[e], speed_label(measured.groups[e]),
+        rows.append(Table7Row(measured.groups[e],
+                              speed_text(float(measured.speeds[e]), measured.groups[e]),
                               int(measured.idents[e]), measured.labels[e], len(best),
                               float(np.mean(mae)), float(np.std(mae)), float(np.mean(rmse)),
                               float(np.std(rmse)), range_m, nrmse))

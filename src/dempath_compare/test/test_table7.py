@@ -31,12 +31,13 @@ def candidate(run: str, marker: int, ident: int, offset: float) -> Track:
 
 
 def fixture() -> tuple[list[Track], list[Track]]:
-    """Two tool speeds, two markers each, five candidates per marker."""
+    """Two tool speeds (as the loaders fill them), two markers each, five candidates each."""
     meas, model = [], []
-    for tag in ('1ms', '1p5ms'):
+    for tag, speed in (('1ms', 1.0), ('1p5ms', 1.5)):
         for marker, scale in ((9, 1.0), (10, 2.0)):
-            meas.append(measured(f'experiment_{tag}', marker))
-            model += [candidate(f'model_{tag}', marker, 1000 * marker + k, scale * off)
+            meas.append(measured(f'experiment_{tag}', marker)._replace(speed_m_s=speed))
+            model += [candidate(f'model_{tag}', marker, 1000 * marker + k,
+                                scale * off)._replace(speed_m_s=speed)
                       for k, off in enumerate(OFFSETS)]
     return meas, model
 

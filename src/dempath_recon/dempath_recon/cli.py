@@ -18,7 +18,9 @@ from numpy.typing import NDArray
 from dempath.errors import DempathError
 from dempath_recon.errors import ModelFileError, ReconstructionError
 from dempath_recon.methods import METHODS, load_calibration, load_reconstructor, make_reconstructor
+from dempath_recon.mlp import PAPER_RECIPE
 from dempath_recon.report import evaluate, holdout_split, write_report
+from dempath_recon.shipped import RIG_NOTE
 from dempath_recon.uncertainty import CLICK_SIGMA_PX, propagate, sigma_from_covariance
 
 logger = logging.getLogger(__name__)
@@ -48,7 +50,11 @@ def _hidden(text: str) -> tuple[int, ...]:
 def _learned_params(args: argparse.Namespace, method: str) -> dict[str, Any]:
     params: dict[str, Any] = {'random_state': args.seed, 'device': args.device}
     if method == 'mlp':
-        params.update(epochs=args.mlp_epochs, hidden_sizes=_hidden(args.mlp_hidden))
+        if args.mlp_recipe == 'paper':
+            params.update(PAPER_RECIPE)
+        params['hidden_sizes'] = _hidden(args.mlp_hidden)
+        if args.mlp_epochs is not None:
+            params['epochs'] = args.mlp_epochs
     return params if method in ('mlp', 'dlt_residual') else {}
 
 
@@ -56,7 +62,11 @@ def _common(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--calibration', default='', help='stereo calibration YAML')
     parser.add_argument('--seed', type=int, default=0, help='random seed')
     parser.add_argument('--device', default='cpu', help='torch device: cpu, cuda, auto')
-    parser.add_argument('--mlp-epochs', type=int, default=60, help='epochs of the paper MLP')
+    parser.add_argument('--mlp-recipe', choices=('dempath', 'paper'), default='dempath',
+                        help="training of the MLP: dempath's (standardised, AdamW, one-cycle, "
+                             "12 epochs) or the paper's (min-max, dropout, Adam, 60 epochs)")
+    parser.add_argument('--mlp-epochs', type=int, default=None,
+                        help="epochs of the MLP (default: the recipe's, 12 or 60)")
     parser.add_argument('--mlp-hidden', default='2048,1024,512', help='hidden layer sizes')
 
 
@@ -66,6 +76,8 @@ def train_main(argv: list[str]) -> int:
     parser.add_argument('points', help='calibration point set (.npz or .csv, dempath_calib)')
     parser.add_argument('--method', choices=METHODS, default='dlt_residual')
     parser.add_argument('--out', required=True, help='model file (.pt) or calibration (.yaml)')
+    parser.add_argument('--weights', choices=('float32', 'float16'), default='float32',
+                        help='precision of the saved MLP weights (float16: half the size)')
     _common(parser)
     args = parser.parse_args(argv)
     try:
@@ -73,7 +85,9 @@ def train_main(argv: list[str]) -> int:
         calib = load_calibration(args.calibration) if args.calibration else None
         est = make_reconstructor(args.method, **_learned_params(args, args.method))
         est.fit(ps.pixels, ps.xyz, calibration=calib)
-        if hasattr(est, 'save'):
+        if args.method == 'mlp':
+            est.save(args.out, weights=args.weights)
+        elif hasattr(est, 'save'):
             est.save(args.out)
         else:
             _save_cameras(est.cameras_, args.out)
@@ -113,7 +127,9 @@ def reconstruct_main(argv: list[str]) -> int:
                                      description=reconstruct_main.__doc__)
     parser.add_argument('pixels', help='CSV with columns xs,ys,xf,yf (other columns are kept)')
     parser.add_argument('--method', choices=METHODS, default='dlt')
-    parser.add_argument('--model', default='', help='model file for mlp / dlt_residual')
+    parser.add_argument('--model', default='',
+                        help='model file for mlp / dlt_residual (mlp without one: the shipped '
+                             'network, valid for the twin rig only)')
     parser.add_argument('--out', required=True, help='output CSV: input columns + x,y,z [m]')
     parser.add_argument('--sigma', action='store_true', help='add sigma_x,sigma_y,sigma_z [m]')
     parser.add_argument('--sigma-px', default='2.36,2.75', help='pixel noise x,y [px]')
@@ -122,6 +138,8 @@ def reconstruct_main(argv: list[str]) -> int:
     try:
         rows, pixels = _read_pixels_csv(args.pixels)
         est = load_reconstructor(args.method, args.calibration, args.model, args.device)
+        if args.method == 'mlp' and not args.model:
+            print(f'mlp: the shipped network, {RIG_NOTE}', file=sys.stderr)
         xyz = est.predict(pixels)
         sx, sy = (float(v) for v in args.sigma_px.split(',')) if args.sigma_px else CLICK_SIGMA_PX
         sigma = sigma_from_covariance(propagate(est, pixels, (sx, sy))) if args.sigma else None

@@ -8,7 +8,8 @@ A reconstructor has ``fit(X (n, 4) px, y (n, 3) m, calibration=...) -> self`` an
   resects the cameras from the point set);
 - ``dlt_refined``: the same plus Gauss-Newton refinement of the pixel reprojection error;
 - ``dlt_residual``: triangulation plus a small network learning its residual;
-- ``mlp``: the paper's 2048-1024-512 network.
+- ``mlp``: the paper's 2048-1024-512 network (a trained one for the twin rig ships with the
+  package, ``dempath_recon.shipped``).
 """
 
 from __future__ import annotations
@@ -80,7 +81,8 @@ def load_reconstructor(method: str, calibration_file: str = '', model_file: str 
     Args:
         method: one of ``METHODS``.
         calibration_file: stereo YAML; required by ``dlt`` and ``dlt_refined``.
-        model_file: torch file written by ``save``; required by ``mlp`` and ``dlt_residual``.
+        model_file: torch file written by ``save``; required by ``dlt_residual``; for ``mlp``
+            empty means the shipped network, valid for the twin rig only.
         device: torch device for the learned methods.
 
     Raises:
@@ -92,6 +94,10 @@ def load_reconstructor(method: str, calibration_file: str = '', model_file: str 
             msg = f'calibration_file: method {method!r} needs a stereo calibration YAML'
             raise ReconstructionError(msg)
         return make_reconstructor(method).fit(calibration=load_calibration(calibration_file))
+    if method == 'mlp' and not model_file:
+        from dempath_recon.shipped import load_shipped_mlp
+
+        return load_shipped_mlp(device)
     if method in ('mlp', 'dlt_residual'):
         if not model_file:
             msg = f'model_file: method {method!r} needs a trained model file'

@@ -1,11 +1,18 @@
 # ruff: noqa: N803, N806  (matrix notation of the references: K, R, P, X)
 """Shared pieces of the learned reconstructors: scalers, the dense network and its training loop.
 
-The training loop reproduces what Keras' ``model.fit(..., validation_split=0.2,
+With ``optimizer='adam'``, ``schedule='constant'`` and a validation fraction, the training loop
+reproduces what Keras' ``model.fit(..., validation_split=0.2,
 callbacks=[EarlyStopping(patience=10, restore_best_weights=True)])`` does in the paper: mean
 squared error on scaled targets, Adam, mini-batches reshuffled every epoch, the validation loss
 measured after each epoch, and the best weights restored at the end. One difference is stated:
 the validation rows are a seeded random 20% (Keras takes the last 20% of the array unshuffled).
+
+``optimizer='adamw'`` with ``schedule='onecycle'`` is the budgeted recipe (decoupled weight decay,
+Loshchilov & Hutter 2019; the one-cycle learning rate, Smith & Topin 2019, torch's
+``OneCycleLR``): the learning rate warms up, peaks, and anneals to near zero over a fixed number
+of epochs, so a short run ends at a converged point instead of wherever early stopping finds it.
+With ``validation_fraction=0`` every row trains and the final weights are kept.
 """
 
 from __future__ import annotations
@@ -62,14 +69,73 @@ class MinMaxScaler:
         """Inverse of ``transform``."""
         return np.asarray(scaled, np.float64) * self.span + self.data_min
 
-    def to_dict(self) -> dict[str, list[float]]:
+    def to_dict(self) -> dict[str, Any]:
         """Plain lists for the model file."""
-        return {'data_min': self.data_min.tolist(), 'data_max': self.data_max.tolist()}
+        return {'kind': 'minmax', 'data_min': self.data_min.tolist(),
+                'data_max': self.data_max.tolist()}
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> MinMaxScaler:
         """Inverse of ``to_dict``."""
         return cls(np.asarray(data['data_min'], float), np.asarray(data['data_max'], float))
+
+
+@dataclass
+class StandardScaler:
+    """Per-column map to zero mean and unit standard deviation (scikit-learn's StandardScaler).
+
+    Attributes:
+        mean: (d,) column means of the training data.
+        scale: (d,) column standard deviations (1 for a constant column).
+    """
+
+    mean: FloatArray = field(default_factory=lambda: np.zeros(0))
+    scale: FloatArray = field(default_factory=lambda: np.ones(0))
+
+    def fit(self, data: FloatArray) -> StandardScaler:
+        """Learn the column means and standard deviations of ``data`` (n, d)."""
+        self.mean = np.nanmean(data, axis=0).astype(np.float64)
+        std = np.nanstd(data, axis=0).astype(np.float64)
+        self.scale = np.where(std > 0, std, 1.0)
+        return self
+
+    def transform(self, data: FloatArray) -> FloatArray:
+        """(n, d) -> (n, d) standardised."""
+        return (np.asarray(data, np.float64) - self.mean) / self.scale
+
+    def inverse_transform(self, scaled: FloatArray) -> FloatArray:
+        """Inverse of ``transform``."""
+        return np.asarray(scaled, np.float64) * self.scale + self.mean
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain lists for the model file."""
+        return {'kind': 'standard', 'mean': self.mean.tolist(), 'scale': self.scale.tolist()}
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> StandardScaler:
+        """Inverse of ``to_dict``."""
+        return cls(np.asarray(data['mean'], float), np.asarray(data['scale'], float))
+
+
+Scaler = MinMaxScaler | StandardScaler
+SCALINGS = ('minmax', 'standard')
+
+
+def make_scaler(kind: str) -> Scaler:
+    """A new scaler by name: 'minmax' (0..1, the paper's) or 'standard' (zero mean, unit SD)."""
+    if kind == 'minmax':
+        return MinMaxScaler()
+    if kind == 'standard':
+        return StandardScaler()
+    msg = f'scaling: unknown {kind!r}; known: {", ".join(SCALINGS)}'
+    raise ValueError(msg)
+
+
+def scaler_from_dict(data: dict[str, Any]) -> Scaler:
+    """A scaler from a model file's dict (files without 'kind' are min-max, format 1)."""
+    if data.get('kind', 'minmax') == 'standard':
+        return StandardScaler.from_dict(data)
+    return MinMaxScaler.from_dict(data)
 
 
 def resolve_device(device: str) -> torch.device:
@@ -93,25 +159,41 @@ def build_mlp(n_in: int, hidden_sizes: tuple[int, ...], n_out: int,
     return nn.Sequential(*layers)
 
 
+OPTIMIZERS = ('adam', 'adamw')
+SCHEDULES = ('constant', 'onecycle')
+
+
 @dataclass(frozen=True)
 class TrainSettings:
-    """Hyperparameters of :func:`train_network` (validated on construction)."""
+    """Hyperparameters of :func:`train_network` (validated on construction).
+
+    ``learning_rate`` is the constant rate, or the peak of the one-cycle schedule.
+    ``validation_fraction`` 0 trains on every row and keeps the last weights (no early stop).
+    """
 
     epochs: int
     batch_size: int
     validation_fraction: float
     patience: int
     learning_rate: float
+    optimizer: str = 'adam'
+    schedule: str = 'constant'
+    weight_decay: float = 0.0
 
     def __post_init__(self) -> None:
         if self.epochs < 1 or self.batch_size < 1 or self.patience < 1:
             msg = f'epochs/batch_size/patience: must be >= 1, got {self}'
             raise ValueError(msg)
-        if not 0.0 < self.validation_fraction < 1.0:
-            msg = f'validation_fraction: must be in (0, 1), got {self.validation_fraction}'
+        if not 0.0 <= self.validation_fraction < 1.0:
+            msg = f'validation_fraction: must be in [0, 1), got {self.validation_fraction}'
             raise ValueError(msg)
-        if self.learning_rate <= 0:
-            msg = f'learning_rate: must be > 0, got {self.learning_rate}'
+        if self.learning_rate <= 0 or self.weight_decay < 0:
+            msg = (f'learning_rate / weight_decay: must be > 0 / >= 0, got '
+                   f'{self.learning_rate} / {self.weight_decay}')
+            raise ValueError(msg)
+        if self.optimizer not in OPTIMIZERS or self.schedule not in SCHEDULES:
+            msg = (f'optimizer / schedule: expected one of {OPTIMIZERS} / {SCHEDULES}, got '
+                   f'{self.optimizer!r} / {self.schedule!r}')
             raise ValueError(msg)
 
 
@@ -167,27 +249,60 @@ def train_network(model: nn.Module, X: FloatArray, y: FloatArray, settings: Trai
         return _train(model, X, y, settings, seed, device)
 
 
-def _epoch(model: nn.Module, opt: torch.optim.Optimizer, X: torch.Tensor, y: torch.Tensor,
-           batch_size: int, gen: torch.Generator) -> float:
-    """One pass over reshuffled mini-batches; returns the mean training loss."""
+def _epoch(model: nn.Module, opt: torch.optim.Optimizer, data: tuple[torch.Tensor, torch.Tensor],
+           batch_size: int, gen: torch.Generator,
+           sched: torch.optim.lr_scheduler.LRScheduler | None) -> float:
+    """One pass over reshuffled mini-batches (a scheduler steps per batch); mean training loss."""
+    X, y = data
     model.train()
     order = torch.randperm(len(X), generator=gen).to(X.device)
     total = 0.0
     for i in range(0, len(X), batch_size):
         idx = order[i:i + batch_size]
-        opt.zero_grad()
+        opt.zero_grad(set_to_none=True)
         loss = ((model(X[idx]) - y[idx]) ** 2).mean()
         loss.backward()
         opt.step()
+        if sched is not None:
+            sched.step()
         total += float(loss.detach()) * len(idx)
     return total / len(X)
+
+
+def _optimizer(model: nn.Module, settings: TrainSettings, n_train: int) -> tuple[
+        torch.optim.Optimizer, torch.optim.lr_scheduler.LRScheduler | None]:
+    """The optimizer and the per-batch learning-rate schedule (None: constant) of ``settings``."""
+    kind = torch.optim.AdamW if settings.optimizer == 'adamw' else torch.optim.Adam
+    opt = kind(model.parameters(), lr=settings.learning_rate, weight_decay=settings.weight_decay)
+    if settings.schedule == 'constant':
+        return opt, None
+    steps = settings.epochs * -(-n_train // settings.batch_size)
+    return opt, torch.optim.lr_scheduler.OneCycleLR(opt, max_lr=settings.learning_rate,
+                                                    total_steps=steps)
+
+
+class _BestWeights:
+    """Early stopping on the validation loss: the best epoch, its weights, epochs since."""
+
+    def __init__(self, model: nn.Module, patience: int) -> None:
+        self.patience, self.loss, self.epoch, self.wait = patience, float('inf'), 0, 0
+        self.state = copy.deepcopy(model.state_dict())
+
+    def stop_after(self, model: nn.Module, loss: float, epoch: int) -> bool:
+        """Record epoch ``epoch`` (1-based) with validation ``loss``; True when to stop."""
+        if loss < self.loss:
+            self.loss, self.epoch, self.wait = loss, epoch, 0
+            self.state = copy.deepcopy(model.state_dict())
+            return False
+        self.wait += 1
+        return self.wait >= self.patience
 
 
 def _train(model: nn.Module, X: FloatArray, y: FloatArray, settings: TrainSettings,
            seed: int, device: torch.device) -> TrainLog:
     """The loop of :func:`train_network`."""
     n_val = round(settings.validation_fraction * len(X))
-    if n_val < 1 or len(X) - n_val < 1:
+    if (settings.validation_fraction > 0 and n_val < 1) or len(X) - n_val < 1:
         msg = f'training data: {len(X)} rows are too few for a validation split'
         raise ReconstructionError(msg)
     gen = torch.Generator().manual_seed(seed)
@@ -196,24 +311,23 @@ def _train(model: nn.Module, X: FloatArray, y: FloatArray, settings: TrainSettin
     Xt = torch.as_tensor(X, dtype=torch.float32)[perm].to(device)
     yt = torch.as_tensor(y, dtype=torch.float32)[perm].to(device)
     model.to(device)
-    opt = torch.optim.Adam(model.parameters(), lr=settings.learning_rate)
-    log, best, best_state, wait = TrainLog(), float('inf'), copy.deepcopy(model.state_dict()), 0
-    for epoch in range(settings.epochs):
+    opt, sched = _optimizer(model, settings, len(X) - n_val)
+    log, best = TrainLog(), _BestWeights(model, settings.patience) if n_val else None
+    for epoch in range(1, settings.epochs + 1):
         start = time.perf_counter()
-        log.loss_curve.append(_epoch(model, opt, Xt[n_val:], yt[n_val:], settings.batch_size,
-                                     gen))
-        log.validation_curve.append(_mse(model, Xt[:n_val], yt[:n_val], settings.batch_size))
+        log.loss_curve.append(_epoch(model, opt, (Xt[n_val:], yt[n_val:]), settings.batch_size,
+                                     gen, sched))
+        if n_val:
+            log.validation_curve.append(_mse(model, Xt[:n_val], yt[:n_val], settings.batch_size))
         log.epoch_s.append(time.perf_counter() - start)
-        logger.info('epoch %d: loss %.3g, validation %.3g, %.1f s', epoch + 1,
-                    log.loss_curve[-1], log.validation_curve[-1], log.epoch_s[-1])
-        if log.validation_curve[-1] < best:
-            best, wait, log.best_epoch = log.validation_curve[-1], 0, epoch + 1
-            best_state = copy.deepcopy(model.state_dict())
-        else:
-            wait += 1
-            if wait >= settings.patience:
-                break
-    model.load_state_dict(best_state)
+        logger.info('epoch %d: loss %.3g, validation %s, %.1f s', epoch, log.loss_curve[-1],
+                    f'{log.validation_curve[-1]:.3g}' if n_val else 'none', log.epoch_s[-1])
+        log.best_epoch = epoch  # without validation rows every epoch counts, the last is kept
+        if best is not None and best.stop_after(model, log.validation_curve[-1], epoch):
+            break
+    if best is not None:
+        model.load_state_dict(best.state)
+        log.best_epoch = best.epoch
     model.eval()
     return log
 

@@ -1,20 +1,14 @@
-"""Approximate time synchronisation of the two cameras' pixel points, then pairing by marker id.
+"""The two cameras' pixel frames, and the matching of a synchronised pair by marker id.
 
-``message_filters`` is not available from PyPI, so the pairing lives here, in plain Python: a
-frame of one camera is paired with the frame of the other camera whose stamp is nearest, if it
-is within ``slop_s``. Frames are expected in stamp order per camera (as a player or a camera
-driver delivers them); with both cameras at the same frame rate and ``slop_s`` under half the
-frame period, the greedy nearest match is the only possible one. Frames that find no partner
-are dropped and counted, never silently.
-
-Within a pair of frames, points are matched by marker id; an id seen by only one camera, or twice
-in one frame, is counted as rejected with its reason.
+The frames of the two cameras are paired by stamp in ``dempath.sync`` (the one stamp
+synchroniser of the workspace: nearest stamp within ``slop_s``, frames without a partner counted).
+Within a pair of frames, points are matched here by marker id; an id seen by only one camera, or
+twice in one frame, is counted as rejected with its reason.
 """
 
 from __future__ import annotations
 
-from collections import Counter, deque
-from collections.abc import Iterable
+from collections import Counter
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -90,55 +84,3 @@ def match_ids(side: PixelFrame, front: PixelFrame) -> PairedFrame:
     pixels = np.hstack([side.uv[keep[0]][i_s], front.uv[keep[1]][i_f]])
     return PairedFrame(side.stamp_s, front.stamp_s - side.stamp_s, common, pixels,
                        {k: v for k, v in rejected.items() if v})
-
-
-class StampPairer:
-    """Streaming pairing of the two cameras' frames by nearest stamp within ``slop_s``.
-
-    Args:
-        slop_s: largest stamp difference of a pair [s].
-        queue_size: frames kept per camera while waiting for a partner.
-    """
-
-    def __init__(self, slop_s: float, queue_size: int = 16) -> None:
-        if not slop_s >= 0.0:
-            msg = f'slop_s: must be >= 0, got {slop_s!r}'
-            raise ValueError(msg)
-        if queue_size < 1:
-            msg = f'queue_size: must be >= 1, got {queue_size!r}'
-            raise ValueError(msg)
-        self.slop_s = slop_s
-        self.queues: tuple[deque[PixelFrame], deque[PixelFrame]] = (deque(), deque())
-        self.queue_size = queue_size
-        self.unpaired = 0  # frames dropped without a partner
-
-    def update(self, frame: PixelFrame) -> list[PairedFrame]:
-        """Add one frame; return the pair it completes (empty list when none yet)."""
-        other = self.queues[1 - frame.camera]
-        if other:
-            gaps = [abs(f.stamp_s - frame.stamp_s) for f in other]
-            best = int(np.argmin(gaps))
-            if gaps[best] <= self.slop_s:
-                partner = other[best]
-                self.unpaired += best  # older frames of the other camera can no longer pair
-                for _ in range(best + 1):
-                    other.popleft()
-                side, front = (frame, partner) if frame.camera == SIDE else (partner, frame)
-                return [match_ids(side, front)]
-        own = self.queues[frame.camera]
-        own.append(frame)
-        while other and other[0].stamp_s < frame.stamp_s - self.slop_s:
-            other.popleft()  # too old to pair with this or any later frame of this camera
-            self.unpaired += 1
-        if len(own) > self.queue_size:
-            own.popleft()
-            self.unpaired += 1
-        return []
-
-
-def pair_frames(frames: Iterable[PixelFrame], slop_s: float,
-                queue_size: int = 16) -> tuple[list[PairedFrame], int]:
-    """Batch form of :class:`StampPairer`: frames in arrival order -> (pairs, unpaired count)."""
-    pairer = StampPairer(slop_s, queue_size)
-    pairs = [p for f in frames for p in pairer.update(f)]
-    return pairs, pairer.unpaired + sum(len(q) for q in pairer.queues)

@@ -33,6 +33,7 @@ from dempath_recon.nets import (
     resolve_device,
     train_network,
 )
+from dempath_recon.params import ParamsMixin
 from dempath_recon.triangulate import DLTTriangulator
 
 FloatArray = NDArray[np.float64]
@@ -40,7 +41,7 @@ logger = logging.getLogger(__name__)
 MODEL_FORMAT = 'dempath-residual-1'
 
 
-class ResidualReconstructor:
+class ResidualReconstructor(ParamsMixin):
     """DLT triangulation corrected by a small network trained on its residual.
 
     Args:
@@ -70,13 +71,6 @@ class ResidualReconstructor:
         self.refine = refine
         self.random_state = random_state
         self.device = device
-
-    def get_params(self) -> dict[str, Any]:
-        """Hyperparameters as a JSON-able dict."""
-        return {'hidden_sizes': list(self.hidden_sizes), 'epochs': self.epochs,
-                'batch_size': self.batch_size, 'validation_fraction': self.validation_fraction,
-                'patience': self.patience, 'learning_rate': self.learning_rate,
-                'refine': self.refine, 'random_state': self.random_state, 'device': self.device}
 
     def _features(self, X: FloatArray, base_xyz: FloatArray) -> FloatArray:
         return np.hstack([self.x_scaler_.transform(X), self.p_scaler_.transform(base_xyz)])

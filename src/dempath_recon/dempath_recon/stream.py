@@ -16,8 +16,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from dempath.sync import StampSync
 from dempath_recon.methods import METHODS, load_calibration, load_reconstructor
-from dempath_recon.pairing import PairedFrame, PixelFrame, StampPairer
+from dempath_recon.pairing import PairedFrame, PixelFrame, match_ids
 from dempath_recon.triangulate import reprojection_errors, split_views
 from dempath_recon.uncertainty import CLICK_SIGMA_PX, propagate, sigma_from_covariance
 
@@ -136,7 +137,7 @@ class MarkerStream:
                  sizes: Sequence[tuple[int, int]], cameras: Sequence[Any] | None = None,
                  queue_size: int = 16) -> None:
         self.reconstructor = reconstructor
-        self.pairer = StampPairer(slop_s, queue_size)
+        self.sync: StampSync[PixelFrame] = StampSync(slop_s, queue_size)
         self.sigma_px = sigma_px
         self.sizes = tuple(sizes)
         self.cameras = cameras if cameras is not None else getattr(reconstructor, 'cameras_',
@@ -157,7 +158,9 @@ class MarkerStream:
 
     def update(self, frame: PixelFrame) -> list[MarkerFrame3D]:
         """Add one camera frame; return the reconstructed instant it completes, if any."""
-        return [self.reconstruct_pair(p) for p in self.pairer.update(frame)]
+        out = self.sync.update(frame.camera, frame.stamp_s, frame)
+        pairs = [p for s in out if (p := s.pair()) is not None]
+        return [self.reconstruct_pair(match_ids(side, front)) for side, front in pairs]
 
     def reconstruct_pair(self, pair: PairedFrame) -> MarkerFrame3D:
         """Reject unusable points, reconstruct the rest, attach uncertainty."""

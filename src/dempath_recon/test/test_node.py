@@ -9,11 +9,11 @@ from visualization_msgs.msg import MarkerArray
 
 from dempath import topics
 from dempath.nodes.harness import unique_domain_id
-from dempath_calib.rig import sample_working_volume
 from dempath_msgs.msg import MarkerPoints3D, PixelPoints
 from dempath_recon.errors import ModelFileError
 from dempath_recon.nodes.reconstructor import ReconstructorNode, main
 from dempath_recon.stream import REASON_NAN, REASON_OUTSIDE
+from dempath_twin.rig import sample_working_volume
 
 
 def pixel_msg(cam, stamp_ns: int, ids: list[int], uv: np.ndarray) -> PixelPoints:

@@ -5,7 +5,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dempath_calib.rig import sample_working_volume
 from dempath_recon.errors import ModelFileError, ReconstructionError
 from dempath_recon.pairing import FRONT, SIDE, PixelFrame
 from dempath_recon.stream import (
@@ -17,6 +16,7 @@ from dempath_recon.stream import (
     reconstruct_sequence,
     reject_pixels,
 )
+from dempath_twin.rig import sample_working_volume
 
 
 def marker_frames(rig, n_frames: int, seed: int) -> tuple[list[PixelFrame], np.ndarray]:

@@ -5,7 +5,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dempath_calib.rig import sample_working_volume
 from dempath_recon.errors import NotFittedError, PixelInputError, ReconstructionError
 from dempath_recon.resection import resect_stereo
 from dempath_recon.triangulate import (
@@ -16,6 +15,7 @@ from dempath_recon.triangulate import (
     split_views,
     triangulate_points,
 )
+from dempath_twin.rig import sample_working_volume
 
 
 def test_projection_matches_opencv(rig) -> None:

@@ -5,7 +5,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dempath_calib.rig import sample_working_volume
 from dempath_recon.triangulate import DLTTriangulator
 from dempath_recon.uncertainty import (
     CLICK_SIGMA_PX,
@@ -15,6 +14,7 @@ from dempath_recon.uncertainty import (
     propagate,
     sigma_from_covariance,
 )
+from dempath_twin.rig import sample_working_volume
 
 
 @pytest.fixture(scope='module')

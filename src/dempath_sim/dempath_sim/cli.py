@@ -20,43 +20,14 @@ from typing import Any
 
 from dempath.errors import DempathError
 from dempath_sim.effects import effect_table
-from dempath_sim.run import Progress, RunOptions, run_scene
-from dempath_sim.scene import SceneError, SceneSpec, bundled_scene, list_bundled_scenes, load_scene
-
-
-def resolve_scene(text: str) -> SceneSpec:
-    """Load a scene file or a shipped scene (``reduced_1ms``, ``builtin:reduced_1ms``)."""
-    path = Path(text)
-    if text.startswith('builtin:'):
-        return bundled_scene(text.removeprefix('builtin:'))
-    if path.is_file() or path.suffix in {'.yaml', '.yml'} or '/' in text:
-        return load_scene(path)
-    if text in list_bundled_scenes():
-        return bundled_scene(text)
-    msg = (f'{text}: neither a scene file nor a shipped scene; shipped: '
-           f'{", ".join(list_bundled_scenes())}')
-    raise SceneError(msg)
+from dempath_sim.runs import Progress, RunOptions, run_scene
+from dempath_sim.scene import SceneError, SceneSpec, parse_overrides, resolve_scene
 
 
 def _error_line(scene: str, err: Exception) -> str:
     """``error: <input>: <problem>``; scene errors already start with their file."""
     text = ' '.join(str(err).split())
     return f'error: {text}' if isinstance(err, SceneError) else f'error: {scene}: {text}'
-
-
-def parse_overrides(items: list[str]) -> dict[str, float]:
-    """``['cohesion.energy_density_j_m3=5e4']`` -> ``{'cohesion.energy_density_j_m3': 5e4}``."""
-    out = {}
-    for item in items:
-        key, _, value = item.partition('=')
-        try:
-            number = float(value)
-        except ValueError:
-            number = None
-        if number is None or '.' not in key:
-            raise SceneError(f'--effect {item}: expected EFFECT.PARAMETER=NUMBER')
-        out[key.strip()] = number
-    return out
 
 
 def _simulate_parser() -> argparse.ArgumentParser:

@@ -1,4 +1,4 @@
-"""Errors of the DEM engine. Messages name the input and what is wrong with it."""
+"""Errors of dempath_sim (engine, scenes, runs). Messages name the input and what is wrong."""
 
 from __future__ import annotations
 
@@ -15,3 +15,7 @@ class GeometryError(DempathError):
 
 class RunStoppedError(SimulationError):
     """The run was asked to stop (``RunOptions.stop``) before it had any output."""
+
+
+class SceneError(DempathError):
+    """A scene file is missing, unreadable, or has a wrong key, unit or value."""

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from dempath_sim.scene import SceneError, SceneSpec
+from dempath_sim.scene import SceneError, SceneSpec, parse_overrides, resolve_scene
 
 
 @dataclass(frozen=True)
@@ -58,8 +58,6 @@ class SimulatorConfig:
         Raises:
             SceneError: Bad scene file, name or override.
         """
-        from dempath_sim.cli import parse_overrides, resolve_scene
-
         scene = resolve_scene(self.scene).with_overrides(
             parse_overrides(list(self.effects)), off=self.off,
             seed=None if self.seed < 0 else self.seed)

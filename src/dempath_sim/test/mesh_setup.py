@@ -9,15 +9,15 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from dempath_sim.materials import Interaction, Material
-from dempath_sim.params import SimParams
-from dempath_sim.walls import Plane
+from dempath_sim.engine.materials import Interaction, Material
+from dempath_sim.engine.params import SimParams
+from dempath_sim.engine.walls import Plane
 
 GRAIN = Material('grain', 2500.0, 5.0e7, 0.25)
 STEEL = Material('steel', 7800.0, 2.1e11, 0.3)
 RADIUS = 2.0e-3  # m, sphere radius
 PARAMS = SimParams((GRAIN, STEEL), {(0, 0): Interaction(0.5, 0.5, 0.4),
-                                    (0, 1): Interaction(0.5, 0.4, 0.3, rolling_friction=0.1)})
+                                    (0, 1): Interaction(0.5, 0.4, 0.3, rolling_resistance=0.1)})
 FLOOR = (Plane((0.0, 0.0, 0.0), (0.0, 1.0, 0.0), 1),)  # steel plane y = 0, the mesh's twin
 
 

@@ -9,14 +9,14 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from dempath_sim.contact import TAB_CN, TAB_CT, TAB_KN, TAB_KT, build_pair_table
-from dempath_sim.contact_hertz_mindlin import hertz_mindlin
 from dempath_sim.engine import Engine, ToolPose
-from dempath_sim.materials import Interaction, Material
-from dempath_sim.mesh import TriangleMesh
-from dempath_sim.params import SimParams
-from dempath_sim.state import SimState
-from dempath_sim.walls import box_walls
+from dempath_sim.engine.laws.dispatch import TAB_CN, TAB_CT, TAB_KN, TAB_KT, build_pair_table
+from dempath_sim.engine.laws.hertz_mindlin import hertz_mindlin
+from dempath_sim.engine.materials import Interaction, Material
+from dempath_sim.engine.mesh import TriangleMesh
+from dempath_sim.engine.params import SimParams
+from dempath_sim.engine.state import SimState
+from dempath_sim.engine.walls import box_walls
 
 F64 = NDArray[np.float64]
 GRAIN = Material('grain', 2500.0, 5.0e7, 0.25)
@@ -24,8 +24,8 @@ STEEL = Material('steel', 7800.0, 2.1e11, 0.3)
 RADIUS = 2.0e-3  # m
 PITCH = 5.0e-3  # m, lattice spacing of the bed (1 mm gaps: room to rearrange)
 PARAMS = SimParams((GRAIN, STEEL), {
-    (0, 0): Interaction(0.3, 0.71, 0.59, rolling_friction=0.26),
-    (0, 1): Interaction(0.3, 0.4, 0.3, rolling_friction=0.1)}, max_overlap_fraction=0.2)
+    (0, 0): Interaction(0.3, 0.71, 0.59, rolling_resistance=0.26),
+    (0, 1): Interaction(0.3, 0.4, 0.3, rolling_resistance=0.1)}, max_overlap_fraction=0.2)
 TOOL_SPEED = 0.5  # m/s along -Z
 
 

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from dempath_sim.cli import simulate_main
-from dempath_sim.results import SimResult
+from dempath_sim.runs.results import SimResult
 
 
 def test_simulate_writes_outputs(tmp_path: Path, tmp_path_factory: pytest.TempPathFactory,
@@ -49,7 +49,7 @@ def test_simulate_bad_input(argv: list[str], needle: str, tmp_path: Path,
 def test_progress_bar_shows_sim_time_and_rtf() -> None:
     """The progress callback fills one task per phase with sim time and real-time factor."""
     from dempath_sim.cli import _progress_bar
-    from dempath_sim.run import Progress
+    from dempath_sim.runs import Progress
 
     bar, update = _progress_bar(quiet=False)
     update(Progress('fill', 0.1, 0.5, 2.0))

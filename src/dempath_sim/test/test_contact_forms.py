@@ -12,16 +12,16 @@ import pytest
 import yaml
 
 import dempath_sim
-from dempath_sim.contact_hertz_mindlin import hertz_mindlin, hertz_mindlin_constants
 from dempath_sim.engine import Engine
-from dempath_sim.fill import packing_key
-from dempath_sim.materials import Interaction, Material
-from dempath_sim.params import SimParams
-from dempath_sim.rolling_epsd2 import rolling_epsd2
+from dempath_sim.engine.laws.hertz_mindlin import hertz_mindlin, hertz_mindlin_constants
+from dempath_sim.engine.laws.rolling_epsd2 import rolling_epsd2
+from dempath_sim.engine.materials import Interaction, Material
+from dempath_sim.engine.params import SimParams
+from dempath_sim.engine.state import SimState
+from dempath_sim.engine.walls import Plane
+from dempath_sim.runs.fill import packing_key
 from dempath_sim.scene import SceneError, bundled_scene, scene_from_dict
-from dempath_sim.state import SimState
 from dempath_sim.validation.cross_engine import same_physics
-from dempath_sim.walls import Plane
 
 SCENES = Path(dempath_sim.__file__).resolve().parent / 'data' / 'scenes'
 E_STAR, G_STAR, BETA = 1.0e6, 4.0e5, 0.35  # Pa, Pa, - (soft sand, e ~ 0.3)

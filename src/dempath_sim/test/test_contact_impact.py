@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from dempath_sim.engine import Engine
-from dempath_sim.materials import Interaction, Material, pair_properties
-from dempath_sim.params import SimParams
-from dempath_sim.state import SimState
-from dempath_sim.timestep import hertz_contact_time
+from dempath_sim.engine.materials import Interaction, Material, pair_properties
+from dempath_sim.engine.params import SimParams
+from dempath_sim.engine.state import SimState
+from dempath_sim.engine.timestep import hertz_contact_time
 
 GLASS = Material('glass', 2500.0, 5.0e7, 0.25)
 RADIUS = 2.0e-3  # m

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from dempath_sim.contact_hertz_mindlin import hertz_mindlin, hertz_mindlin_constants
+from dempath_sim.engine.laws.hertz_mindlin import hertz_mindlin, hertz_mindlin_constants
 
 E_STAR, G_STAR, BETA = 1.0e6, 4.0e5, 0.35  # Pa, Pa, - (soft sand, e ~ 0.3)
 R_EFF, M_EFF, DT = 2e-3, 3e-5, 1e-5  # m, kg, s

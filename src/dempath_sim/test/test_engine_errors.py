@@ -8,13 +8,13 @@ import re
 import numpy as np
 import pytest
 
-from dempath_sim.engine import Engine, ToolPose
+from dempath_sim.engine import DEFAULT_MAX_OVERLAP_FRACTION, Engine, ToolPose
+from dempath_sim.engine.materials import Interaction, Material
+from dempath_sim.engine.params import SimParams
+from dempath_sim.engine.state import SimState
+from dempath_sim.engine.timestep import rayleigh_time_step
+from dempath_sim.engine.walls import box_walls
 from dempath_sim.errors import SimulationError
-from dempath_sim.materials import Interaction, Material
-from dempath_sim.params import SimParams
-from dempath_sim.state import SimState
-from dempath_sim.timestep import rayleigh_time_step
-from dempath_sim.walls import box_walls
 
 GRAIN = Material('grain', 2500.0, 1.0e7, 0.25)
 STEEL = Material('steel', 7800.0, 2.1e11, 0.3)
@@ -40,10 +40,11 @@ def test_time_step_above_rayleigh_limit_names_stable_step() -> None:
 
 
 def test_excessive_overlap_is_reported() -> None:
-    """Spheres overlapping by 20% of a radius stop the run naming both particle ids."""
+    """Spheres overlapping by 40% of a radius (default limit 30%) stop the run naming both ids."""
     params = SimParams((GRAIN,), {(0, 0): INTER})
-    with pytest.raises(SimulationError, match=r'overlap of 20\.0% .*particle 0 and particle 1'):
-        Engine(params).step(_pair(params, -0.2 * RADIUS))
+    assert params.max_overlap_fraction == DEFAULT_MAX_OVERLAP_FRACTION == 0.3
+    with pytest.raises(SimulationError, match=r'overlap of 40\.0% .*particle 0 and particle 1'):
+        Engine(params).step(_pair(params, -0.4 * RADIUS))
 
 
 def test_energy_blow_up_is_reported() -> None:

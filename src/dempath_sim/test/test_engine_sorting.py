@@ -5,17 +5,17 @@ from __future__ import annotations
 import numpy as np
 
 from dempath_sim.engine import Engine
-from dempath_sim.materials import Interaction, Material
-from dempath_sim.neighbors import build_neighbor_list, cell_order
-from dempath_sim.params import SimParams
-from dempath_sim.state import SimState
-from dempath_sim.walls import box_walls
+from dempath_sim.engine.materials import Interaction, Material
+from dempath_sim.engine.neighbors import build_neighbor_list, cell_order
+from dempath_sim.engine.params import SimParams
+from dempath_sim.engine.state import SimState
+from dempath_sim.engine.walls import box_walls
 
 SAND = Material('sand', 2650.0, 5.0e6, 0.25)
 STEEL = Material('steel', 7800.0, 2.1e11, 0.3)
 PARAMS = SimParams((SAND, STEEL), {
-    (0, 0): Interaction(0.3, 0.7, 0.6, rolling_friction=0.2),
-    (0, 1): Interaction(0.3, 0.4, 0.3, rolling_friction=0.2)},
+    (0, 0): Interaction(0.3, 0.7, 0.6, rolling_resistance=0.2),
+    (0, 1): Interaction(0.3, 0.4, 0.3, rolling_resistance=0.2)},
     domain_min=(-0.05, -0.01, -0.05), domain_max=(0.05, 0.06, 0.05),
     max_overlap_fraction=0.2)
 LO, HI = (-0.02, 0.0, -0.02), (0.02, 0.2, 0.02)  # m

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from dempath_sim.engine import Engine, ToolPose
-from dempath_sim.mesh import TriangleMesh
-from dempath_sim.params import SimParams
-from dempath_sim.state import SimState
-from dempath_sim.walls import Plane
+from dempath_sim.engine.mesh import TriangleMesh
+from dempath_sim.engine.params import SimParams
+from dempath_sim.engine.state import SimState
+from dempath_sim.engine.walls import Plane
 
 from .mesh_setup import FLOOR, PARAMS, RADIUS, flat_patch
 

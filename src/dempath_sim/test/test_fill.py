@@ -9,7 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from dempath_sim.fill import (
+from dempath_sim.engine.state import SimState
+from dempath_sim.runs.fill import (
     DEFAULT_SOLID_FRACTION,
     fill_bed,
     lattice,
@@ -18,10 +19,9 @@ from dempath_sim.fill import (
     pour,
     sample_diameters,
 )
-from dempath_sim.run import build_params
+from dempath_sim.runs.physics import build_params
 from dempath_sim.scene import bundled_scene
-from dempath_sim.scene_spec import LayerSpec, SizeDistribution
-from dempath_sim.state import SimState
+from dempath_sim.scene.spec import LayerSpec, SizeDistribution
 
 
 def test_sample_diameters_fill_the_volume() -> None:
@@ -113,7 +113,7 @@ def test_fill_settles_and_caches(tmp_path_factory: pytest.TempPathFactory) -> No
 
 def test_bundled_packing_matches_reduced_scenes() -> None:
     """The shipped packing still belongs to the reduced scenes (else the demo refills)."""
-    from dempath_sim.fill import bundled_packing_dir, packing_key
+    from dempath_sim.runs.fill import bundled_packing_dir, packing_key
     from dempath_sim.scene import bundled_scene
 
     for name in ('reduced_1ms', 'reduced_1_5ms'):

@@ -9,14 +9,25 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from dempath_sim.contact import TAB_CN, TAB_CT, TAB_KN, TAB_KT, TAB_MUS, build_pair_table
-from dempath_sim.contact_hertz_mindlin import hertz_mindlin
 from dempath_sim.engine import Engine, ToolPose
-from dempath_sim.kernel_cache import KERNEL_STAMP, kernel_source_digest, refresh_kernel_cache
-from dempath_sim.materials import Interaction, Material
-from dempath_sim.mesh import TriangleMesh
-from dempath_sim.params import SimParams
-from dempath_sim.state import SimState
+from dempath_sim.engine.kernel_cache import (
+    KERNEL_STAMP,
+    kernel_source_digest,
+    refresh_kernel_cache,
+)
+from dempath_sim.engine.laws.dispatch import (
+    TAB_CN,
+    TAB_CT,
+    TAB_KN,
+    TAB_KT,
+    TAB_MUS,
+    build_pair_table,
+)
+from dempath_sim.engine.laws.hertz_mindlin import hertz_mindlin
+from dempath_sim.engine.materials import Interaction, Material
+from dempath_sim.engine.mesh import TriangleMesh
+from dempath_sim.engine.params import SimParams
+from dempath_sim.engine.state import SimState
 
 TILT = math.radians(25.0)
 NORMAL = np.array([0.0, math.cos(TILT), math.sin(TILT)])  # of the inclined steel face
@@ -45,6 +56,31 @@ def test_cache_dropped_when_kernel_sources_change(tmp_path: Path) -> None:
     (pkg / 'law.py').write_text('from numba import njit  # changed law\n')
     assert refresh_kernel_cache(cache, pkg, kernel_source_digest(pkg)) == 1
     assert not (cache / names[0]).exists()
+
+
+def test_digest_covers_kernel_modules_in_subpackages(tmp_path: Path) -> None:
+    """A law in a sub-package (engine/laws/) is part of the digest, moved or changed."""
+    pkg = tmp_path / 'engine'
+    (pkg / 'laws').mkdir(parents=True)
+    (pkg / 'boundary.py').write_text('from numba import njit\n')
+    (pkg / 'laws' / 'hertz.py').write_text('from numba import njit\n')
+    digest = kernel_source_digest(pkg)
+    (pkg / 'laws' / 'hertz.py').write_text('from numba import njit  # changed law\n')
+    changed = kernel_source_digest(pkg)
+    assert changed != digest
+    (pkg / 'laws' / 'hertz.py').rename(pkg / 'hertz.py')  # same text, moved
+    assert kernel_source_digest(pkg) not in (digest, changed)
+
+
+def test_every_kernel_directory_has_its_cache_refreshed() -> None:
+    """Each engine directory holding kernel modules has a kernel whose cache is refreshed."""
+    import dempath_sim.engine as engine_pkg
+    from dempath_sim.engine.kernel_cache import _KERNELS_BY_DIRECTORY
+
+    root = Path(engine_pkg.__file__).parent
+    kernel_dirs = {p.parent for p in root.rglob('*.py') if 'njit' in p.read_text()}
+    refreshed = {Path(k.py_func.__code__.co_filename).parent for k in _KERNELS_BY_DIRECTORY}
+    assert kernel_dirs == refreshed == {root, root / 'laws'}
 
 
 def _params(limit: str) -> SimParams:

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 from dempath_sim.engine import Engine
-from dempath_sim.kernel_threads import threads_at_most
-from dempath_sim.state import SimState
+from dempath_sim.engine.kernel_threads import threads_at_most
+from dempath_sim.engine.state import SimState
 
 from .mesh_setup import FLOOR, PARAMS, RADIUS
 

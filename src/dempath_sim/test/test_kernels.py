@@ -7,19 +7,19 @@ import math
 import numpy as np
 import pytest
 
-from dempath_sim.boundary import MAX_CANDIDATES, N_SLOTS, boundary_forces
-from dempath_sim.contact import build_pair_table
-from dempath_sim.integrate import first_half, second_half
-from dempath_sim.materials import Interaction, Material
-from dempath_sim.mesh import closest_point_triangle, closest_point_triangle_numpy
-from dempath_sim.neighbors import build_neighbor_list, transfer_history
-from dempath_sim.pair_forces import pair_forces, reduce_buffers
-from dempath_sim.params import SimParams
+from dempath_sim.engine.boundary import MAX_CANDIDATES, N_SLOTS, boundary_forces
+from dempath_sim.engine.integrate import first_half, second_half
+from dempath_sim.engine.laws.dispatch import build_pair_table
+from dempath_sim.engine.materials import Interaction, Material
+from dempath_sim.engine.mesh import closest_point_triangle, closest_point_triangle_numpy
+from dempath_sim.engine.neighbors import build_neighbor_list, transfer_history
+from dempath_sim.engine.pair_forces import pair_forces, reduce_buffers
+from dempath_sim.engine.params import SimParams
 
 MATS = (Material('sand', 2650.0, 5.0e6, 0.25), Material('steel', 7800.0, 2.1e11, 0.3))
 PARAMS = SimParams(MATS, {
-    (0, 0): Interaction(0.3, 0.71, 0.59, rolling_friction=0.26, cohesion_energy_density=3e4),
-    (0, 1): Interaction(0.3, 0.4, 0.3, rolling_friction=0.1, cohesion_energy_density=1e4)})
+    (0, 0): Interaction(0.3, 0.71, 0.59, rolling_resistance=0.26, cohesion_energy_density=3e4),
+    (0, 1): Interaction(0.3, 0.4, 0.3, rolling_resistance=0.1, cohesion_energy_density=1e4)})
 
 
 def reference_contact(row: np.ndarray, delta: float, r_eff: float, m_eff: float, area: float,

@@ -7,16 +7,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from dempath_sim.engine.materials import Interaction, Material
+from dempath_sim.engine.params import SimParams
 from dempath_sim.liggghts import commands as cmd
 from dempath_sim.liggghts.deck import fill_plan, layer_templates, primes_from, velocity_expression
 from dempath_sim.liggghts.dumps import frames_by_id, read_dump, read_print
 from dempath_sim.liggghts.errors import DumpError, LiggghtsNotFoundError, LiggghtsRunError
 from dempath_sim.liggghts.install import LiggghtsInstall, ensure_liggghts, find_liggghts
 from dempath_sim.liggghts.runner import run_deck
-from dempath_sim.materials import Interaction, Material
-from dempath_sim.params import SimParams
-from dempath_sim.profiles import SpeedProfile, ToolPath
 from dempath_sim.scene import bundled_scene
+from dempath_sim.scene.profiles import SpeedProfile, ToolPath
 
 
 def _params(rolling: float = 0.26, cohesion: float = 0.0) -> SimParams:
@@ -32,6 +32,26 @@ def test_missing_binary_names_it_and_the_fix() -> None:
     assert find_liggghts('/nonexistent/liggghts') is None
     with pytest.raises(LiggghtsNotFoundError, match=r'/nonexistent/liggghts: .*apt-get install'):
         ensure_liggghts('/nonexistent/liggghts', install=False)
+
+
+def test_backend_checks_its_settings_and_honours_stop(tmp_path: Path) -> None:
+    """Bad settings name the field; a stop set before the run stops it before any I/O."""
+    from threading import Event
+
+    from dempath_sim.errors import RunStoppedError
+    from dempath_sim.liggghts import LiggghtsBackend
+    from dempath_sim.runs import RunOptions
+
+    with pytest.raises(ValueError, match=r'LiggghtsBackend\.fill: .*got \'poured\''):
+        LiggghtsBackend(tmp_path, fill='poured')
+    with pytest.raises(ValueError, match=r'LiggghtsBackend\.nprocs: must be >= 1, got 0'):
+        LiggghtsBackend(tmp_path, nprocs=0)
+    stop = Event()
+    stop.set()
+    backend = LiggghtsBackend(tmp_path / 'run')
+    with pytest.raises(RunStoppedError, match='before the fill'):
+        backend.run(bundled_scene('tiny'), RunOptions(stop=stop))
+    assert not (tmp_path / 'run').exists()
 
 
 def test_failing_deck_gives_one_line_with_the_log(liggghts: LiggghtsInstall,
@@ -129,10 +149,10 @@ def test_truncated_dump_and_bad_print_name_the_file(tmp_path: Path) -> None:
 @pytest.mark.liggghts
 def test_tiny_scene_runs_end_to_end_on_liggghts(liggghts: LiggghtsInstall, tmp_path: Path) -> None:
     """The tiny scene fills, drives the tool its travel and returns 15 tracked markers."""
-    from dempath_sim.liggghts.backend import run_scene_liggghts
+    from dempath_sim.liggghts import LiggghtsBackend
 
     scene = bundled_scene('tiny')
-    result = run_scene_liggghts(scene, tmp_path)
+    result = LiggghtsBackend(tmp_path).run(scene)
     assert len(result.marker_numbers) == 15
     dt = result.meta['dt_s']  # dempath's time step, so outputs fall where dempath's do
     step = round(scene.output.interval_s / dt) * dt

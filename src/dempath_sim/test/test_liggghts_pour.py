@@ -9,13 +9,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from dempath_sim.fill import pour
+from dempath_sim.engine.timestep import rayleigh_time_step
 from dempath_sim.liggghts.deck import POUR_DUMP, settle_lines
 from dempath_sim.liggghts.dumps import frames_by_id, read_dump
 from dempath_sim.liggghts.install import LiggghtsInstall
-from dempath_sim.run import build_params
+from dempath_sim.runs.fill import pour
+from dempath_sim.runs.physics import build_params
 from dempath_sim.scene import bundled_scene
-from dempath_sim.timestep import rayleigh_time_step
 
 
 def test_settle_stage_stops_like_dempath() -> None:

@@ -5,14 +5,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dempath_sim.markers import (
+from dempath_sim.runs.markers import (
     ROLE_CANDIDATE,
     ROLE_MARKER,
     MarkerSelectionError,
     grid_xz,
     select_markers,
 )
-from dempath_sim.scene_spec import MarkerSpec
+from dempath_sim.scene.spec import MarkerSpec
 
 D = 0.004  # grain diameter of the paper's top layer [m]
 

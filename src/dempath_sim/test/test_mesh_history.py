@@ -9,9 +9,9 @@ import pytest
 from numpy.typing import NDArray
 
 from dempath_sim.engine import Engine
-from dempath_sim.mesh import TriangleMesh, closest_point_triangle_numpy
-from dempath_sim.state import SimState
-from dempath_sim.walls import Plane
+from dempath_sim.engine.mesh import TriangleMesh, closest_point_triangle_numpy
+from dempath_sim.engine.state import SimState
+from dempath_sim.engine.walls import Plane
 
 from .mesh_setup import FLOOR, GRAIN, PARAMS, RADIUS, STEEL, flat_patch
 

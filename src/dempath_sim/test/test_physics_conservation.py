@@ -5,12 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dempath_sim.energy import total_energy
 from dempath_sim.engine import Engine
-from dempath_sim.materials import Interaction, Material
-from dempath_sim.params import SimParams
-from dempath_sim.state import SimState
-from dempath_sim.walls import box_walls
+from dempath_sim.engine.energy import total_energy
+from dempath_sim.engine.materials import Interaction, Material
+from dempath_sim.engine.params import SimParams
+from dempath_sim.engine.state import SimState
+from dempath_sim.engine.walls import box_walls
 
 GRAIN = Material('grain', 2500.0, 5.0e7, 0.25)
 RADIUS = 2.0e-3  # m
@@ -46,7 +46,7 @@ def test_energy_drift_below_one_percent_with_restitution_one() -> None:
 def test_momentum_conserved_without_walls_and_gravity() -> None:
     """A colliding cluster with friction, damping, rolling resistance and cohesion keeps its
     linear and angular momentum (no walls, no gravity)."""
-    inter = Interaction(0.4, 0.6, 0.5, rolling_friction=0.2, cohesion_energy_density=2.0e4)
+    inter = Interaction(0.4, 0.6, 0.5, rolling_resistance=0.2, cohesion_energy_density=2.0e4)
     params = SimParams((GRAIN,), {(0, 0): inter}, gravity=(0.0, 0.0, 0.0),
                        max_overlap_fraction=0.2)
     rng = np.random.default_rng(2)

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from dempath_sim.engine import Engine
-from dempath_sim.materials import Interaction, Material, pair_properties
-from dempath_sim.params import SimParams
-from dempath_sim.state import SimState
-from dempath_sim.walls import Plane
+from dempath_sim.engine.materials import Interaction, Material, pair_properties
+from dempath_sim.engine.params import SimParams
+from dempath_sim.engine.state import SimState
+from dempath_sim.engine.walls import Plane
 
 SAND = Material('sand', 2650.0, 1.0e8, 0.25)
 G = 9.81  # m/s^2
@@ -93,7 +93,7 @@ def _late_drift(angle_deg: float, inter: Interaction) -> float:
 def test_sliding_onset_at_friction_coefficient(angle_deg: float, moves: bool) -> None:
     """With rolling blocked (mu_r = 5) a sphere holds while tan(theta) < mu = 0.4 (21.8 deg)
     and slides beyond."""
-    drift = _late_drift(angle_deg, Interaction(0.5, 0.4, 0.4, rolling_friction=5.0))
+    drift = _late_drift(angle_deg, Interaction(0.5, 0.4, 0.4, rolling_resistance=5.0))
     assert (drift > 1e-4) == moves, f'drift {drift:.3e} m at {angle_deg} deg'
 
 
@@ -101,13 +101,13 @@ def test_sliding_onset_at_friction_coefficient(angle_deg: float, moves: bool) ->
 def test_rolling_onset_at_rolling_resistance(angle_deg: float, moves: bool) -> None:
     """EPSD2 rolling resistance mu_r = 0.2 holds a sphere while tan(theta) < mu_r (11.3 deg)
     and lets it roll beyond."""
-    drift = _late_drift(angle_deg, Interaction(0.5, 0.7, 0.6, rolling_friction=0.2))
+    drift = _late_drift(angle_deg, Interaction(0.5, 0.7, 0.6, rolling_resistance=0.2))
     assert (drift > 1e-4) == moves, f'drift {drift:.3e} m at {angle_deg} deg'
 
 
 def test_rolling_with_resistance_matches_analytic() -> None:
     """Beyond the onset, a sphere rolls with a = 5/7 g (sin(theta) - mu_r cos(theta))."""
     theta = math.radians(16.0)
-    acc = _slope_acceleration(16.0, Interaction(0.5, 0.7, 0.6, rolling_friction=0.2))
+    acc = _slope_acceleration(16.0, Interaction(0.5, 0.7, 0.6, rolling_resistance=0.2))
     expected = 5.0 / 7.0 * G * (math.sin(theta) - 0.2 * math.cos(theta))
     assert acc == pytest.approx(expected, rel=0.03)

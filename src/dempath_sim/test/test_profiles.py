@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dempath_sim.profiles import PAPER_1_5MS, PAPER_1MS, PRESETS, SpeedProfile, ToolPath
+from dempath_sim.scene.profiles import PAPER_1_5MS, PAPER_1MS, PRESETS, SpeedProfile, ToolPath
 
 
 def test_profile_1_matches_paper() -> None:

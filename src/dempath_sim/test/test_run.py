@@ -7,11 +7,18 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from dempath_sim.markers import ROLE_MARKER
-from dempath_sim.profiles import ToolPath
-from dempath_sim.results import SimResult
-from dempath_sim.run import Frame, RunOptions, Variant, run_batch, run_scene
+from dempath_sim.runs import (
+    ROLE_MARKER,
+    Frame,
+    NativeBackend,
+    RunOptions,
+    SimResult,
+    Variant,
+    run_batch,
+    run_scene,
+)
 from dempath_sim.scene import bundled_scene
+from dempath_sim.scene.profiles import ToolPath
 
 
 def cache_dir(factory: pytest.TempPathFactory) -> Path:
@@ -84,11 +91,12 @@ def test_csv_and_npz_round_trip(tiny_run: tuple[SimResult, list[Frame]], tmp_pat
 
 def test_deterministic_and_batch(tiny_run: tuple[SimResult, list[Frame]],
                                  tmp_path_factory: pytest.TempPathFactory) -> None:
-    """The same scene and seed repeat exactly; a batch runs each variant."""
+    """The same scene and seed repeat exactly; a batch runs each variant on the backend."""
     result, _ = tiny_run
     variants = [Variant('base'), Variant('slick', off=('tool_friction',))]
     runs = run_batch(bundled_scene('tiny'), variants,
-                     options=RunOptions(cache_dir=cache_dir(tmp_path_factory)))
+                     options=RunOptions(cache_dir=cache_dir(tmp_path_factory)),
+                     backend=NativeBackend())
     assert [v.label for v, _, _ in runs] == ['base', 'slick']
     np.testing.assert_array_equal(runs[0][2].positions, result.positions)
     assert runs[1][2].meta['run_id'] != result.meta['run_id']

@@ -7,11 +7,12 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from dempath_sim.fill import PARTICLES, TOOL, WALLS, FillReport
-from dempath_sim.mesh import TriangleMesh
-from dempath_sim.run import build_params, carve_tool_slot, tool_start
+from dempath_sim.engine.mesh import TriangleMesh
+from dempath_sim.engine.state import SimState
+from dempath_sim.runs.fill import FillReport
+from dempath_sim.runs.native import carve_tool_slot, tool_start
+from dempath_sim.runs.physics import PARTICLES, TOOL, WALLS, build_params
 from dempath_sim.scene import bundled_scene
-from dempath_sim.state import SimState
 
 
 def report(surface: float) -> FillReport:
@@ -26,7 +27,7 @@ def test_params_carry_the_paper_tables() -> None:
     assert params.materials[PARTICLES].youngs_modulus == pytest.approx(1.7e6)
     assert params.materials[TOOL].density == 7800
     pp, pt = params.interaction(PARTICLES, PARTICLES), params.interaction(PARTICLES, TOOL)
-    assert (pp.static_friction, pp.dynamic_friction, pp.rolling_friction) == (0.71, 0.59, 0.26)
+    assert (pp.static_friction, pp.dynamic_friction, pp.rolling_resistance) == (0.71, 0.59, 0.26)
     assert (pt.static_friction, pt.dynamic_friction, pt.restitution) == (0.40, 0.30, 0.30)
     assert params.interaction(PARTICLES, WALLS).static_friction == 0.40
     assert params.domain_min[1] < -scene.bed_thickness_m

@@ -7,9 +7,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from dempath_sim.engine.mesh import TriangleMesh
+from dempath_sim.engine.stl import read_stl, write_stl_ascii
 from dempath_sim.errors import GeometryError
-from dempath_sim.mesh import TriangleMesh
-from dempath_sim.stl import read_stl, write_stl_ascii
 
 TRIS = np.array([[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
                  [[1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]]])

@@ -105,6 +105,17 @@ class RecorderNode(Node):
         if self.recorder is not None:
             self.get_logger().info(self.recorder.summary().splitlines()[-1])
 
+    @property
+    def recording(self) -> bool:
+        """True while the bag is open (False when it could not be created, or after finish)."""
+        return self.recorder is not None
+
+    def received_counts(self) -> dict[str, int]:
+        """Messages received so far per topic ({} when not recording)."""
+        if self.recorder is None:
+            return {}
+        return {topic: int(st.received) for topic, st in self.recorder.stats.items()}
+
     def finish(self) -> str:
         """Finalise the bag (idempotent) and return the per-topic summary ('' if idle)."""
         if self.recorder is None:

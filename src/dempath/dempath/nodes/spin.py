@@ -1,7 +1,8 @@
 """The body of every dempath node's console script, in the Jazzy form.
 
 ``rclpy.init``; build the node (a bad file or parameter ends with one ``error:`` line and exit
-status 1); spin until Ctrl-C, SIGTERM or the node says it is done; then shut down in order:
+status 1); spin until Ctrl-C, SIGTERM or the node says it is done (Ctrl-C while the node is
+still being built ends cleanly too); then shut down in order:
 the node's own finishing step, the executor, the node, the context.
 """
 
@@ -40,6 +41,9 @@ def run_node(make_node: Callable[[], N], args: list[str] | None = None,
         print(f'error: {err}', file=sys.stderr)
         rclpy.try_shutdown()
         return 1
+    except (KeyboardInterrupt, ExternalShutdownException):
+        rclpy.try_shutdown()  # Ctrl-C while the node was still being built: a clean stop
+        return 0
     executor = SingleThreadedExecutor()
     executor.add_node(node)
     try:

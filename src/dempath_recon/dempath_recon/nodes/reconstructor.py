@@ -60,6 +60,11 @@ class ReconstructorNode(Node):
         self.get_logger().info(f'reconstructing with {self.config.method!r}, '
                                f'slop {self.config.slop_s} s')
 
+    @property
+    def reconstructor(self) -> Any:
+        """The fitted method the node uses: ``predict(pixels (n, 4) px) -> (n, 3) m``."""
+        return self.stream.reconstructor
+
     def callback_for(self, camera: int) -> Callable[[PixelPoints], None]:
         """The subscription callback of camera SIDE (0) or FRONT (1)."""
         return lambda msg: self.on_pixels(msg, camera)

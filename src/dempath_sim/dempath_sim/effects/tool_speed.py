@@ -1,7 +1,8 @@
 """Tool speed: the scene's kinematic profile driven faster or slower.
 
 Speeds scale by f and accelerations by f^2, so the phase distances of the profile stay as the
-scene gives them (accelerate, steady, decelerate; see ``dempath_sim.profiles``). Not switchable.
+scene gives them (accelerate, steady, decelerate; see ``dempath_sim.scene.profiles``). Not
+switchable.
 """
 
 from __future__ import annotations

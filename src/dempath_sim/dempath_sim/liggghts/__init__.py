@@ -2,5 +2,21 @@
 
 Modules: ``install`` (find / apt-install LIGGGHTS), ``runner`` (run a deck, one-line errors),
 ``commands`` (deck building blocks shared by scenes and validation cases), ``deck`` (scene ->
-deck), ``dumps`` (dump and force files -> arrays), ``backend`` (scene -> SimResult).
+deck), ``dumps`` (dump and force files -> arrays), ``backend`` (`LiggghtsBackend`, the
+`dempath_sim.runs.Backend` on LIGGGHTS: scene -> SimResult).
 """
+
+from __future__ import annotations
+
+from dempath_sim.liggghts.backend import FILLS, LiggghtsBackend
+from dempath_sim.liggghts.errors import (
+    DeckError,
+    DumpError,
+    LiggghtsError,
+    LiggghtsNotFoundError,
+    LiggghtsRunError,
+)
+from dempath_sim.liggghts.install import LiggghtsInstall, ensure_liggghts
+
+__all__ = ['FILLS', 'DeckError', 'DumpError', 'LiggghtsBackend', 'LiggghtsError',
+           'LiggghtsInstall', 'LiggghtsNotFoundError', 'LiggghtsRunError', 'ensure_liggghts']

@@ -1,6 +1,6 @@
-"""Run a dempath scene on LIGGGHTS 3.8 and read it back as a :class:`SimResult`.
+"""LIGGGHTS 3.8 as a `dempath_sim.runs.Backend`: a dempath scene in, a :class:`SimResult` out.
 
-``run_scene_liggghts(scene, workdir)`` writes and runs the fill deck, picks the markers and
+``LiggghtsBackend(workdir).run(scene)`` writes and runs the fill deck, picks the markers and
 candidates on the settled LIGGGHTS bed with dempath's own rules (``markers.select_markers``),
 places the tool at the scene's depth below the settled surface, writes and runs the tool deck,
 and reads the tracked dump and the tool force file into the same record the dempath engine
@@ -18,21 +18,23 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dempath_sim.effects import PhysicsModel
-from dempath_sim.fill import PARTICLES, measure, pour, target_solid_fraction
+from dempath_sim.engine.params import SimParams
+from dempath_sim.engine.state import SimState
+from dempath_sim.engine.stl import read_stl
+from dempath_sim.engine.timestep import rayleigh_time_step
+from dempath_sim.errors import RunStoppedError
 from dempath_sim.liggghts import deck as dk
 from dempath_sim.liggghts.commands import write_ascii_stl
 from dempath_sim.liggghts.dumps import frames_by_id, read_dump, read_print
 from dempath_sim.liggghts.errors import DeckError
 from dempath_sim.liggghts.runner import RunOutput, run_deck
-from dempath_sim.markers import select_markers
-from dempath_sim.params import SimParams
-from dempath_sim.profiles import ToolPath
-from dempath_sim.results import SimResult
-from dempath_sim.run import build_params
-from dempath_sim.scene_spec import SceneSpec
-from dempath_sim.state import SimState
-from dempath_sim.stl import read_stl
-from dempath_sim.timestep import rayleigh_time_step
+from dempath_sim.runs.backend import RunOptions
+from dempath_sim.runs.fill import fill_bed, measure, pour, target_solid_fraction
+from dempath_sim.runs.markers import select_markers
+from dempath_sim.runs.physics import PARTICLES, build_params
+from dempath_sim.runs.results import SimResult
+from dempath_sim.scene.profiles import ToolPath
+from dempath_sim.scene.spec import SceneSpec
 
 logger = logging.getLogger(__name__)
 Box = tuple[list[float], list[float]]  # (lo, hi) corners of the simulation box [m]
@@ -65,6 +67,7 @@ class SettledBed:
 
 
 POURS = ('dempath', 'insert')  # loose bed of the LIGGGHTS fill: dempath's pour or insert/pack
+FRICTIONS = ('static', 'dynamic')  # dempath coefficient used as LIGGGHTS' single friction
 
 
 def dempath_time_step(params: SimParams, state: SimState) -> float:
@@ -208,27 +211,75 @@ def bed_from_packing(scene: SceneSpec, state: SimState, surface_y: float,
                       RunOutput(workdir, workdir / 'bed.data', 0.0, 0.0, 1))
 
 
-def run_scene_liggghts(scene: SceneSpec, workdir: str | Path, nprocs: int = 1,
-                       friction: str = 'static',
-                       packing: tuple[SimState, float] | None = None,
-                       pour_from: str = 'dempath') -> SimResult:
-    """Fill, place markers and the tool, run the pass on LIGGGHTS; return the SimResult.
+FILLS = ('shared_pour', 'insert_pack', 'shared_packing')  # how LIGGGHTS gets its bed
+
+
+class LiggghtsBackend:
+    """LIGGGHTS 3.8 as a `Backend`: fill, place markers and the tool, run the pass, read back.
+
+    The constructor only stores the settings (no I/O); LIGGGHTS is looked for when a run starts.
 
     Args:
-        scene: The scene (effects applied through ``scene.physics_model()``).
         workdir: Directory for decks, logs and dumps (kept for inspection).
         nprocs: MPI processes.
         friction: Which dempath friction coefficient LIGGGHTS uses ('static' or 'dynamic').
-        packing: Start from this dempath packing and its surface height [m] instead of a
-            LIGGGHTS fill (tracked ids are then dempath ids + 1).
-        pour_from: The loose bed of the LIGGGHTS fill (see ``fill_liggghts``).
+        fill: How LIGGGHTS gets its bed. ``'shared_pour'``: it settles dempath's loose pour of
+            the seed (``runs.fill.pour``) with its own physics; ``'insert_pack'``: it pours its
+            own loose bed with ``fix insert/pack``; ``'shared_packing'``: it starts from
+            dempath's settled packing (``runs.fill.fill_bed`` with ``options.cache_dir``;
+            tracked ids are then dempath ids + 1).
 
     Raises:
-        LiggghtsNotFoundError: LIGGGHTS or mpirun missing.
-        LiggghtsRunError: A LIGGGHTS run failed (names the log).
-        DumpError: A dump is missing or malformed.
+        ValueError: ``nprocs`` < 1, or ``friction`` or ``fill`` unknown.
     """
-    workdir = Path(workdir)
+
+    name = 'liggghts'
+
+    def __init__(self, workdir: str | Path, nprocs: int = 1, friction: str = 'static',
+                 fill: str = 'shared_pour') -> None:
+        for field, value, allowed in (('friction', friction, FRICTIONS), ('fill', fill, FILLS)):
+            if value not in allowed:
+                msg = f'LiggghtsBackend.{field}: must be one of {allowed}, got {value!r}'
+                raise ValueError(msg)
+        if nprocs < 1:
+            msg = f'LiggghtsBackend.nprocs: must be >= 1, got {nprocs!r}'
+            raise ValueError(msg)
+        self.workdir, self.nprocs = Path(workdir), nprocs
+        self.friction, self.fill = friction, fill
+
+    def run(self, scene: SceneSpec, options: RunOptions | None = None) -> SimResult:
+        """Run ``scene`` on LIGGGHTS. Of ``options`` it uses ``cache_dir`` (shared_packing)
+        and ``stop`` (checked before the fill and before the pass); LIGGGHTS runs as a
+        subprocess, so there are no frames and no progress.
+
+        Raises:
+            LiggghtsNotFoundError: LIGGGHTS or mpirun missing.
+            LiggghtsRunError: A LIGGGHTS run failed (names the log).
+            DumpError: A dump is missing or malformed.
+            RunStoppedError: ``options.stop`` was set before the pass.
+        """
+        options = options or RunOptions()
+        _check_stop(options, 'fill')
+        packing = None
+        if self.fill == 'shared_packing':
+            model = scene.physics_model()
+            state, report = fill_bed(scene, model, build_params(scene, model), options.cache_dir)
+            packing = (state, report.surface_height_m)
+        pour_from = 'insert' if self.fill == 'insert_pack' else 'dempath'
+        return _run_scene(scene, self.workdir, self.nprocs, self.friction, packing, pour_from,
+                          options)
+
+
+def _check_stop(options: RunOptions, phase: str) -> None:
+    if options.stop is not None and options.stop.is_set():
+        msg = f'LIGGGHTS run stopped before the {phase} (no output yet)'
+        raise RunStoppedError(msg)
+
+
+def _run_scene(scene: SceneSpec, workdir: Path, nprocs: int, friction: str,
+               packing: tuple[SimState, float] | None, pour_from: str,
+               options: RunOptions) -> SimResult:
+    """Fill (or take ``packing`` and its surface height [m]), pick markers, run the pass."""
     model = scene.physics_model()
     if packing is None:
         bed = fill_liggghts(scene, workdir, nprocs, friction, pour_from)
@@ -247,6 +298,7 @@ def run_scene_liggghts(scene: SceneSpec, workdir: str | Path, nprocs: int = 1,
     stage = dk.ToolStage(path, ids, 0, slot, duration, dt, every, snap)
     params = build_params(scene, model)
     (workdir / 'in.tool').write_text(dk.tool_deck(scene, params, stage, friction))
+    _check_stop(options, 'pass')
     run = run_deck(workdir / 'in.tool', nprocs=nprocs)
     return _result(workdir, stage, ids, roles, marker_ids, bed, run, scene)
 

@@ -28,7 +28,7 @@ def liggghts_main(argv: list[str]) -> int:
     if args.nprocs < 1:
         print(f'error: --np: must be >= 1, got {args.nprocs}', file=sys.stderr)
         return 1
-    from dempath_sim.liggghts.backend import run_scene_liggghts
+    from dempath_sim.liggghts.backend import LiggghtsBackend
     from dempath_sim.liggghts.install import ensure_liggghts
     from dempath_sim.scene import load_scene
 
@@ -37,7 +37,7 @@ def liggghts_main(argv: list[str]) -> int:
         if args.seed is not None:
             scene = scene.with_overrides(seed=args.seed)
         ensure_liggghts(install=args.install)
-        result = run_scene_liggghts(scene, args.out, args.nprocs, args.friction)
+        result = LiggghtsBackend(args.out, args.nprocs, args.friction).run(scene)
         result.save_npz(args.out / 'result.npz')
         result.write_marker_csv(args.out / 'markers.csv')
         result.write_model_csv(args.out / 'model.csv')

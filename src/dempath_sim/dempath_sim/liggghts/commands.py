@@ -1,6 +1,6 @@
 """Building blocks of LIGGGHTS 3.8 input decks shared by the scene backend and validation cases.
 
-Material index ``i`` of :class:`~dempath_sim.params.SimParams` becomes LIGGGHTS atom type
+Material index ``i`` of :class:`~dempath_sim.engine.params.SimParams` becomes LIGGGHTS atom type
 ``i + 1``. The contact law is ``pair_style gran model hertz tangential history`` (Hertz normal
 force with a dashpot from the restitution, Mindlin tangential spring with history and a Coulomb
 limit; Di Renzo & Di Maio 2004, LIGGGHTS doc ``gran_model_hertz``), plus ``rolling_friction
@@ -14,8 +14,8 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
+from dempath_sim.engine.params import SimParams
 from dempath_sim.liggghts.errors import DeckError
-from dempath_sim.params import SimParams
 
 # LIGGGHTS refuses Young's moduli below 5 MPa in SI units unless 'soft_particles yes' is given
 # (global_properties.cpp); the paper's sand (Table 6: 1.70 MPa) needs it.
@@ -97,7 +97,7 @@ def materials(params: SimParams, friction: str = 'static') -> list[str]:
         _pair_matrix(params, 'coefficientFriction', f'{friction}_friction'),
     ]
     if params.rolling_enabled:
-        lines.append(_pair_matrix(params, 'coefficientRollingFriction', 'rolling_friction'))
+        lines.append(_pair_matrix(params, 'coefficientRollingFriction', 'rolling_resistance'))
     if params.cohesion_enabled:
         lines.append(_pair_matrix(params, 'cohesionEnergyDensity', 'cohesion_energy_density'))
     return lines

@@ -10,8 +10,7 @@ from std_msgs.msg import ColorRGBA, Header
 from visualization_msgs.msg import Marker, MarkerArray
 
 from dempath_msgs.msg import ParticleStates, RunEvent, ToolForce
-from dempath_sim.markers import ROLE_MARKER
-from dempath_sim.run import Frame
+from dempath_sim.runs import ROLE_MARKER, Frame
 
 FRAME_ID = 'world'  # the paper's frame: X lateral, Y up, Z travel
 

@@ -22,9 +22,9 @@ from dempath import topics
 from dempath.errors import DempathError
 from dempath.nodes.spin import run_node
 from dempath_msgs.msg import ParticleStates, RunEvent, ToolForce
-from dempath_sim.mesh import TriangleMesh
+from dempath_sim.engine.mesh import TriangleMesh
 from dempath_sim.nodes import convert
-from dempath_sim.run import Frame, Progress, RunOptions, run_id, run_scene
+from dempath_sim.runs import Frame, Progress, RunOptions, run_id, run_scene
 from dempath_sim.simconfig import SimulatorConfig
 
 LOG_PERIOD_S = 1.0  # wall time between progress log lines

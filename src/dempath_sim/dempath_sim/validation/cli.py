@@ -15,8 +15,7 @@ import sys
 from pathlib import Path
 
 from dempath.errors import DempathError
-
-CASES = ('impact', 'incline', 'energy', 'repose')  # the report's cases, in order
+from dempath_sim.validation import CASES
 
 
 def _repose_overrides(items: list[str]) -> dict[str, float]:

@@ -35,9 +35,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from dempath_sim.markers import ROLE_MARKER
-from dempath_sim.results import SimResult
-from dempath_sim.scene_spec import SceneSpec
+from dempath_sim.liggghts.backend import FILLS, LiggghtsBackend
+from dempath_sim.runs import ROLE_MARKER, Backend, NativeBackend, RunOptions, SimResult
+from dempath_sim.scene.spec import SceneSpec
 
 logger = logging.getLogger(__name__)
 F64 = NDArray[np.float64]
@@ -153,7 +153,6 @@ def compare(dempath: Sequence[MarkerStats], liggghts: Sequence[MarkerStats],
     return CrossEngineReport(tuple(seeds), diff, spread, list(dempath), list(liggghts))
 
 
-FILLS = ('shared_pour', 'insert_pack', 'shared_packing')  # see run_cross_engine
 
 
 def _fill_figures(meta: dict[str, Any], wall: dict[str, float]) -> dict[str, float]:
@@ -165,21 +164,16 @@ def _fill_figures(meta: dict[str, Any], wall: dict[str, float]) -> dict[str, flo
 
 def _run_seed(scene: SceneSpec, workdir: Path, nprocs: int, cache_dir: Path | None,
               fill: str) -> tuple[SimResult, SimResult]:
-    from dempath_sim.fill import fill_bed
-    from dempath_sim.liggghts.backend import run_scene_liggghts
-    from dempath_sim.run import RunOptions, build_params, run_scene
-
-    logger.info('cross-engine: seed %d on dempath', scene.seed)
-    dem = run_scene(scene, RunOptions(cache_dir=cache_dir))
-    logger.info('cross-engine: seed %d on LIGGGHTS (%s)', scene.seed, fill)
-    packing = None
-    if fill == 'shared_packing':
-        model = scene.physics_model()
-        state, report = fill_bed(scene, model, build_params(scene, model), cache_dir)
-        packing = (state, report.surface_height_m)
-    lig = run_scene_liggghts(scene, workdir / f'liggghts-s{scene.seed}', nprocs, packing=packing,
-                             pour_from='insert' if fill == 'insert_pack' else 'dempath')
+    options = RunOptions(cache_dir=cache_dir)
+    backends = (NativeBackend(),
+                LiggghtsBackend(workdir / f'liggghts-s{scene.seed}', nprocs, fill=fill))
+    dem, lig = (_run_on(backend, scene, options) for backend in backends)
     return dem, lig
+
+
+def _run_on(backend: Backend, scene: SceneSpec, options: RunOptions) -> SimResult:
+    logger.info('cross-engine: seed %d on %s', scene.seed, backend.name)
+    return backend.run(scene, options)
 
 
 def _run_figures(seed: int, dem: SimResult, lig: SimResult) -> dict[str, Any]:

@@ -15,29 +15,27 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from dempath_sim.engine import Interaction, SimParams, box_walls
+from dempath_sim.engine.materials import pair_properties
 from dempath_sim.liggghts import commands as cmd
 from dempath_sim.liggghts.dumps import read_dump
-from dempath_sim.liggghts.runner import run_deck
-from dempath_sim.materials import Interaction, Material, pair_properties
-from dempath_sim.params import SimParams
+from dempath_sim.validation import cases
 
 F64 = NDArray[np.float64]
 
 
 @dataclass(frozen=True)
-class EnergyCase:
-    """A gas of elastic spheres in a box.
+class EnergyCase(cases.SphereCase):
+    """A gas of elastic spheres in a box (the spheres: see `SphereCase`).
 
     Attributes:
         n_side: Spheres per lattice edge (n_side^3 spheres).
-        radius: Sphere radius [m].
         speed: Standard deviation of each initial velocity component [m/s].
         steps: Number of steps.
         seed: Seed of the initial velocities.
     """
 
     n_side: int = 6
-    radius: float = 0.002
     speed: float = 0.5
     steps: int = 10_000
     seed: int = 0
@@ -49,12 +47,8 @@ class EnergyCase:
 
     def params(self) -> SimParams:
         """Sand particles (0) and steel walls (1), e = 1, no friction, no gravity."""
-        sand = Material('sand', 2650.0, 1.7e6, 0.25)
-        steel = Material('steel', 7800.0, 2.1e11, 0.3)
-        elastic = Interaction(1.0, 0.0, 0.0)
-        return SimParams(materials=(sand, steel), interactions={(0, 0): elastic,
-                                                                (0, 1): elastic},
-                         gravity=(0.0, 0.0, 0.0), max_overlap_fraction=0.5)
+        return cases.case_params(self.material(), Interaction(1.0, 0.0, 0.0), walls=1,
+                                 gravity=(0.0, 0.0, 0.0), max_overlap_fraction=0.5)
 
     def initial(self) -> tuple[F64, F64]:
         """Lattice positions (n, 3) [m] and Gaussian velocities (n, 3) [m/s], zero momentum."""
@@ -103,15 +97,10 @@ class EnergyResult:
 
 def energy_dempath(case: EnergyCase) -> EnergyResult:
     """Run the box on the dempath engine."""
-    from dempath_sim.engine import Engine
-    from dempath_sim.state import SimState
-    from dempath_sim.walls import box_walls
-
-    params = case.params()
     pos, vel = case.initial()
-    state = SimState.from_spheres(pos, np.full(len(pos), case.radius), 0, params,
-                                  velocities=vel)
-    engine = Engine(params, box_walls((0.0,) * 3, (case.box,) * 3, material=1, open_top=False))
+    walls = box_walls((0.0,) * 3, (case.box,) * 3, material=1, open_top=False)
+    engine, state = cases.dempath_run(case.params(), pos, np.full(len(pos), case.radius),
+                                      walls, velocities=vel)
     e0 = total_energy(case, state.positions, state.velocities, state.angular_velocities)
     state = engine.run(state, case.steps)
     e1 = total_energy(case, state.positions, state.velocities, state.angular_velocities)
@@ -123,21 +112,18 @@ def energy_liggghts(case: EnergyCase, workdir: Path, dt: float) -> EnergyResult:
     params = case.params()
     pos, vel = case.initial()
     b = case.box
-    lines = cmd.header((0, 0, 0), (b, b, b), 2, 0.5 * case.radius, True)
-    lines += ['hard_particles yes', *cmd.materials(params), *cmd.pair_style(params),
-              f'timestep {cmd.fmt(dt)}']
+    lines = cases.liggghts_preamble(params, (0, 0, 0), (b, b, b), 0.5 * case.radius, dt)
     lines += [cmd.plane_wall(f'w{a}{k}', params, a, k * b, 1) for a in 'xyz' for k in (0, 1)]
     for k, (p, v) in enumerate(zip(pos, vel, strict=True)):
         lines += [f'create_atoms 1 single {cmd.fmt(p[0])} {cmd.fmt(p[1])} {cmd.fmt(p[2])} '
                   'units box', f'set atom {k + 1} vx {cmd.fmt(v[0])} vy {cmd.fmt(v[1])} '
                   f'vz {cmd.fmt(v[2])}']
-    lines += [f'set group all diameter {cmd.fmt(2 * case.radius)} density 2650',
+    lines += [f'set group all diameter {cmd.fmt(2 * case.radius)} '
+              f'density {cmd.fmt(case.density)}',
               'fix integr all nve/sphere',
               f'dump d all custom {case.steps} energy.dump id x y z vx vy vz omegax omegay '
               'omegaz', 'dump_modify d sort id', f'run {case.steps}']
-    workdir.mkdir(parents=True, exist_ok=True)
-    (workdir / 'in.energy').write_text('\n'.join(lines) + '\n')
-    run_deck(workdir / 'in.energy')
+    cases.run_liggghts(workdir, 'energy', lines)
     frames = read_dump(workdir / 'energy.dump')
     e = [total_energy(case, f.data[:, 1:4], f.data[:, 4:7], f.data[:, 7:10])
          for f in (frames[0], frames[-1])]

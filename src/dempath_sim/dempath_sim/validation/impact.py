@@ -15,33 +15,24 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from dempath_sim.engine import Engine, Interaction, SimParams, SimState
 from dempath_sim.liggghts import commands as cmd
-from dempath_sim.liggghts.runner import run_deck
-from dempath_sim.materials import Interaction, Material
-from dempath_sim.params import SimParams
+from dempath_sim.validation import cases
 from dempath_sim.validation.hertz import HertzPair, contact_time, damped_impact, sphere_pair
 
 
 @dataclass(frozen=True)
-class ImpactCase:
-    """One impact: sand-like spheres (paper Table 2 / 6 values by default).
+class ImpactCase(cases.SphereCase):
+    """One impact: sand-like spheres (paper Table 2 / 6 values by default; see `SphereCase`).
 
     Attributes:
         speed: Relative approach speed v [m/s].
         restitution: Set coefficient of restitution e [-].
-        radius: Sphere radius [m].
-        density: Solid density [kg/m^3].
-        youngs: Young's modulus [Pa].
-        poisson: Poisson's ratio [-].
         steps_per_contact: Time steps per analytic contact duration.
     """
 
     speed: float
     restitution: float
-    radius: float = 0.002
-    density: float = 2650.0
-    youngs: float = 1.7e6
-    poisson: float = 0.25
     steps_per_contact: int = 400
 
     @property
@@ -57,11 +48,9 @@ class ImpactCase:
 
     def params(self) -> SimParams:
         """One material, one interaction, no gravity."""
-        sand = Material('sand', self.density, self.youngs, self.poisson)
-        inter = Interaction(self.restitution, 0.5, 0.5)
         # Soft sand at 1-3 m/s overlaps by up to ~20% of the radius (Hertz: d_max above).
-        return SimParams(materials=(sand,), interactions={(0, 0): inter},
-                         gravity=(0.0, 0.0, 0.0), dt=self.dt, max_overlap_fraction=0.5)
+        return cases.case_params(self.material(), Interaction(self.restitution, 0.5, 0.5),
+                                 gravity=(0.0, 0.0, 0.0), dt=self.dt, max_overlap_fraction=0.5)
 
 
 @dataclass(frozen=True)
@@ -124,16 +113,14 @@ def measure(engine: str, case: ImpactCase, times: NDArray[np.float64], gaps: NDA
                         reference_duration(case))
 
 
-def _liggghts_deck(case: ImpactCase) -> str:
+def _liggghts_deck(case: ImpactCase) -> list[str]:
     params = case.params()
     r, gap0 = case.radius, 0.05 * case.radius
     x0 = r + gap0 / 2.0
     steps = int(3 * case.steps_per_contact + gap0 / case.speed / case.dt) + 50
-    lines = cmd.header((-20 * r, -4 * r, -4 * r), (20 * r, 4 * r, 4 * r), 1, 0.5 * r,
-                       cmd.needs_soft(params))
-    lines += cmd.materials(params) + cmd.pair_style(params)
-    lines += [f'timestep {cmd.fmt(case.dt)}',
-              f'create_atoms 1 single {cmd.fmt(-x0)} 0 0 units box',
+    lines = cases.liggghts_preamble(params, (-20 * r, -4 * r, -4 * r),
+                                    (20 * r, 4 * r, 4 * r), 0.5 * r, case.dt, hard=False)
+    lines += [f'create_atoms 1 single {cmd.fmt(-x0)} 0 0 units box',
               f'create_atoms 1 single {cmd.fmt(x0)} 0 0 units box',
               f'set group all diameter {cmd.fmt(2 * r)} density {cmd.fmt(case.density)}',
               f'set atom 1 vx {cmd.fmt(case.speed / 2)}',
@@ -144,31 +131,23 @@ def _liggghts_deck(case: ImpactCase) -> str:
               'variable vrel equal vx[1]-vx[2]',
               'fix out all print 1 "${t} ${gap} ${vrel}" file impact.txt screen no',
               'thermo 100000', f'run {steps}']
-    return '\n'.join(lines) + '\n'
+    return lines
 
 
 def impact_liggghts(case: ImpactCase, workdir: Path) -> ImpactResult:
     """Run the impact with LIGGGHTS in ``workdir`` and measure it."""
-    workdir.mkdir(parents=True, exist_ok=True)
-    deck = workdir / 'in.impact'
-    deck.write_text(_liggghts_deck(case))
-    run_deck(deck)
+    cases.run_liggghts(workdir, 'impact', _liggghts_deck(case))
     data = np.loadtxt(workdir / 'impact.txt', comments='#', ndmin=2)
     return measure('liggghts', case, data[:, 0], data[:, 1], data[:, 2])
 
 
 def impact_dempath(case: ImpactCase) -> ImpactResult:
     """Run the impact with the dempath engine and measure it."""
-    from dempath_sim.engine import Engine
-    from dempath_sim.state import SimState
-
-    params = case.params()
     r, gap0 = case.radius, 0.05 * case.radius
     x0 = r + gap0 / 2.0
     pos = np.array([[-x0, 0.0, 0.0], [x0, 0.0, 0.0]])
     vel = np.array([[case.speed / 2, 0.0, 0.0], [-case.speed / 2, 0.0, 0.0]])
-    state = SimState.from_spheres(pos, np.full(2, r), 0, params, velocities=vel)
-    engine = Engine(params)
+    engine, state = cases.dempath_run(case.params(), pos, np.full(2, r), velocities=vel)
     rows: list[tuple[float, float, float]] = []
 
     def sample(st: SimState, _eng: Engine) -> None:

@@ -22,24 +22,22 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from dempath_sim.engine import Interaction, SimParams
 from dempath_sim.liggghts import commands as cmd
 from dempath_sim.liggghts.dumps import read_print
-from dempath_sim.liggghts.runner import run_deck
-from dempath_sim.materials import Interaction, Material
-from dempath_sim.params import SimParams
+from dempath_sim.validation import cases
 
 G = 9.81
 
 
 @dataclass(frozen=True)
-class InclineCase:
-    """One incline run.
+class InclineCase(cases.SphereCase):
+    """One incline run (the sphere: see `SphereCase`).
 
     Attributes:
         angle_deg: Incline angle theta [deg].
         friction: Particle-plane Coulomb coefficient mu [-].
         rolling: Particle-plane rolling resistance mu_r [-] (0 = off).
-        radius: Sphere radius [m].
         duration: Simulated time [s].
         fit_from: Start of the fitted window [s] (after the contact settles).
     """
@@ -47,7 +45,6 @@ class InclineCase:
     angle_deg: float
     friction: float = 0.4
     rolling: float = 0.0
-    radius: float = 0.002
     duration: float = 0.3
     fit_from: float = 0.05
 
@@ -59,11 +56,8 @@ class InclineCase:
 
     def params(self) -> SimParams:
         """Sand sphere (0, paper Table 6 modulus) on a steel plane (1)."""
-        sand = Material('sand', 2650.0, 1.7e6, 0.25)
-        steel = Material('steel', 7800.0, 2.1e11, 0.3)
         inter = Interaction(0.3, self.friction, self.friction, self.rolling)
-        return SimParams(materials=(sand, steel), interactions={(0, 0): inter, (0, 1): inter},
-                         gravity=self.gravity)
+        return cases.case_params(self.material(), inter, walls=1, gravity=self.gravity)
 
     def regime(self) -> str:
         """'rest', 'roll' or 'slide' by the analytic criteria."""
@@ -106,14 +100,8 @@ def fit_acceleration(case: InclineCase, t: NDArray[np.float64], x: NDArray[np.fl
 
 def incline_dempath(case: InclineCase) -> InclineResult:
     """Run the case on the dempath engine."""
-    from dempath_sim.engine import Engine
-    from dempath_sim.state import SimState
-    from dempath_sim.walls import Plane
-
-    params = case.params()
-    state = SimState.from_spheres(np.array([[0.0, case.radius, 0.0]]),
-                                  np.array([case.radius]), 0, params)
-    engine = Engine(params, [Plane((0.0, 0.0, 0.0), (0.0, 1.0, 0.0), 1)])
+    engine, state = cases.dempath_run(case.params(), np.array([[0.0, case.radius, 0.0]]),
+                                      np.array([case.radius]), [cases.FLOOR])
     rows: list[tuple[float, float]] = []
     engine.run(state, 1, callback=lambda st, _e: rows.append((st.time, st.positions[0, 0])))
     steps = int(case.duration / float(engine.dt or 1.0))
@@ -127,17 +115,14 @@ def incline_liggghts(case: InclineCase, workdir: Path, dt: float) -> InclineResu
     """Run the case on LIGGGHTS with time step ``dt`` [s]."""
     params = case.params()
     r = case.radius
-    lines = cmd.header((-0.5, -4 * r, -4 * r), (2.0, 4 * r, 4 * r), 2, 0.5 * r, True)
-    lines += ['hard_particles yes', *cmd.materials(params), *cmd.pair_style(params),
-              *cmd.gravity(params), f'timestep {cmd.fmt(dt)}',
-              cmd.plane_wall('floor', params, 'y', 0.0, 1),
+    lines = cases.liggghts_preamble(params, (-0.5, -4 * r, -4 * r), (2.0, 4 * r, 4 * r),
+                                    0.5 * r, dt)
+    lines += [cmd.plane_wall('floor', params, 'y', 0.0, 1),
               f'create_atoms 1 single 0 {cmd.fmt(r)} 0 units box',
-              f'set group all diameter {cmd.fmt(2 * r)} density 2650',
+              f'set group all diameter {cmd.fmt(2 * r)} density {cmd.fmt(case.density)}',
               'fix integr all nve/sphere', 'variable t equal step*dt', 'variable x equal x[1]',
               'fix out all print 10 "${t} ${x}" file incline.txt screen no',
               f'run {int(case.duration / dt)}']
-    workdir.mkdir(parents=True, exist_ok=True)
-    (workdir / 'in.incline').write_text('\n'.join(lines) + '\n')
-    run_deck(workdir / 'in.incline')
+    cases.run_liggghts(workdir, 'incline', lines)
     data = read_print(workdir / 'incline.txt', 2)
     return InclineResult('liggghts', case, fit_acceleration(case, data[:, 0], data[:, 1]))

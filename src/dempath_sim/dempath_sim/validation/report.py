@@ -18,8 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from dempath_sim.validation import energy, impact, incline, repose
-from dempath_sim.validation.cli import CASES
+from dempath_sim.validation import CASES, energy, impact, incline, repose
 from dempath_sim.validation.cross_engine import CrossEngineReport
 
 logger = logging.getLogger(__name__)
@@ -135,7 +134,7 @@ def _energy(rep: Report) -> None:
 def _repose_runs(rep: Report, cases: list[repose.ReposeCase]) -> list[repose.ReposeResult]:
     """Run every seed's case on dempath and (when present) LIGGGHTS; per-run rows (with the
     wall time) go to ``rep.figures['repose_runs']``."""
-    from dempath_sim.timestep import rayleigh_time_step
+    from dempath_sim.engine.timestep import rayleigh_time_step
 
     res, rows = [], []
     for case in cases:

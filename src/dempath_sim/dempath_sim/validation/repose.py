@@ -37,11 +37,10 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from dempath_sim.engine import Interaction, SimParams, ToolPose, TriangleMesh
 from dempath_sim.liggghts import commands as cmd
 from dempath_sim.liggghts.dumps import read_dump
-from dempath_sim.liggghts.runner import run_deck
-from dempath_sim.materials import Interaction, Material
-from dempath_sim.params import SimParams
+from dempath_sim.validation import cases
 
 F64 = NDArray[np.float64]
 logger = logging.getLogger(__name__)
@@ -101,14 +100,11 @@ class ReposeCase:
 
     def params(self) -> SimParams:
         """Sand (0), steel base (1), steel cylinder (2): Tables 2 and 6 of the paper."""
-        sand = Material('sand', self.density, 1.7e6, 0.25)
-        steel = Material('steel', 7800.0, 2.1e11, 0.3)
         pp = Interaction(0.3, 0.71, 0.59, 0.26)
         pb = Interaction(0.3, 0.40, 0.30, 0.26)
-        return SimParams(materials=(sand, steel, steel),
-                         interactions={(0, 0): pp, (0, 1): pb, (0, 2): pb},
-                         domain_min=(-0.5, -0.05, -0.5), domain_max=(0.5, 0.5, 0.5),
-                         max_overlap_fraction=0.3)
+        return cases.case_params(cases.sand(self.density), pp, pb, walls=2,
+                                 domain_min=(-0.5, -0.05, -0.5), domain_max=(0.5, 0.5, 0.5),
+                                 max_overlap_fraction=0.3)
 
     def particles(self) -> tuple[F64, F64]:
         """Jittered lattice centres (n, 3) [m] inside the tube and radii (n,) [m]."""
@@ -306,16 +302,9 @@ def repose_dempath(case: ReposeCase) -> ReposeResult:
     The rest phase runs in 0.05 s chunks and stops once no sphere moves faster than
     ``case.rest_speed`` (or after ``case.rest_s``).
     """
-    from dempath_sim.engine import Engine, ToolPose
-    from dempath_sim.mesh import TriangleMesh
-    from dempath_sim.state import SimState
-    from dempath_sim.walls import Plane
-
-    params = case.params()
     pos, radii = case.particles()
-    state = SimState.from_spheres(pos, radii, 0, params)
-    engine = Engine(params, [Plane((0.0, 0.0, 0.0), (0.0, 1.0, 0.0), 1)],
-                    TriangleMesh(case.tube(), material=2, name='tube'))
+    engine, state = cases.dempath_run(case.params(), pos, radii, [cases.FLOOR],
+                                      TriangleMesh(case.tube(), material=2, name='tube'))
     engine.bind(state)
     dt = float(engine.dt or 0.0)
     state = engine.run(state, int(case.settle_s / dt))
@@ -349,11 +338,10 @@ def repose_liggghts(case: ReposeCase, workdir: Path, dt: float, nprocs: int = 1,
     workdir.mkdir(parents=True, exist_ok=True)
     cmd.write_ascii_stl(str(workdir / 'tube.stl'), case.tube().tolist(), 'tube')
     big = 0.3
-    lines = cmd.header((-big, -0.01, -big), (big, 2 * case.cylinder_height + 0.05, big), 3,
-                       0.5 * case.particle_diameter, True)
-    lines += ['hard_particles yes', *cmd.materials(params, friction), *cmd.pair_style(params),
-              *cmd.gravity(params), f'timestep {cmd.fmt(dt)}',
-              cmd.plane_wall('base', params, 'y', 0.0, 1),
+    lines = cases.liggghts_preamble(params, (-big, -0.01, -big),
+                                    (big, 2 * case.cylinder_height + 0.05, big),
+                                    0.5 * case.particle_diameter, dt, friction)
+    lines += [cmd.plane_wall('base', params, 'y', 0.0, 1),
               'fix tube all mesh/surface file tube.stl type 3',
               cmd.mesh_wall('tubewall', params, ['tube'])]
     for k, (p, r) in enumerate(zip(pos, radii, strict=True)):
@@ -366,8 +354,7 @@ def repose_liggghts(case: ReposeCase, workdir: Path, dt: float, nprocs: int = 1,
               f'run {int(case.lift_s / dt)}', 'unfix lift',
               f'run {int(case.rest_s / dt)}',
               'write_dump all custom pile.dump id x y z radius']
-    (workdir / 'in.repose').write_text('\n'.join(lines) + '\n')
-    run_deck(workdir / 'in.repose', nprocs=nprocs)
+    cases.run_liggghts(workdir, 'repose', lines, nprocs)
     frame = read_dump(workdir / 'pile.dump')[-1]
     xyz = frame.data[:, 1:4]
     sim_time = case.settle_s + case.lift_s + case.rest_s

@@ -1,0 +1,224 @@
+"""The demo's node graph: field bag -> player -> reconstructor; simulator; comparer; recorder.
+
+All nodes run in one process on a :class:`~dempath.nodes.harness.RosHarness` (no launch);
+:func:`run_graph` is the graph step of ``dempath demo`` and what ``tests/test_demo_pipeline.py``
+runs on the tiny scene. The graph learns what it needs through the nodes' public surface (the
+recorder's ``received_counts``, the reconstructor's fitted ``reconstructor``, the comparer's
+``last_result``) and through topics (the simulator's RunEvent), never through their internals.
+Also the checks of its outputs against the field twin's truth.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from dempath.errors import DempathError
+
+METHOD = 'dlt_refined'  # triangulation + Gauss-Newton in pixels: no training, < 1 s to fit
+WARN = 30  # rcutils log level WARN: the nodes stay quiet unless something is wrong
+QUIET_NODES = ('dempath_reconstructor', 'dempath_comparer', 'dempath_recorder', 'dempath_player',
+               'dempath_simulator')
+SCORE_GRACE_S = 10.0  # wait for scores this long after the model run ended [s]
+
+
+@dataclass(frozen=True)
+class GraphSpec:
+    """What the node graph runs.
+
+    Attributes:
+        field_bag: bag with PixelPoints of both cameras (and optional image previews).
+        calibration: stereo calibration YAML for the reconstructor.
+        scene: model scene (file or shipped name), run with its own effects.
+        output: bag folder the recorder creates.
+        method: reconstruction method of the reconstructor node.
+        rate: playback speed factor of the field bag (0: as fast as possible).
+        experiment: name of the measured experiment in the scores.
+        cache_dir: packing cache of the simulator ('' for the default).
+        play_timeout_s: longest wait for the playback and its 3D points [s].
+        sim_timeout_s: longest wait for the simulation and its scores [s].
+    """
+
+    field_bag: Path
+    calibration: Path
+    scene: str
+    output: Path
+    method: str = METHOD
+    rate: float = 1.0
+    experiment: str = 'field_twin'
+    cache_dir: str = ''
+    play_timeout_s: float = 120.0
+    sim_timeout_s: float = 3600.0
+
+
+@dataclass
+class GraphResult:
+    """What the graph did: counts per topic (as recorded), scores and the recorder summary.
+
+    Attributes:
+        reconstructor: the reconstructor node's fitted method (fitted once, by the node).
+        live: the comparer node's comparison behind its published scores (None: no scores).
+    """
+
+    bag: Path
+    received: dict[str, int]
+    pixel_frames: int
+    run_id: str
+    sim_frames: int
+    scores: int
+    scored_markers: int
+    summary: str
+    wall_s: float
+    reconstructor: Any = None
+    live: Any = None
+
+    def text(self) -> str:
+        """A few printable lines."""
+        from dempath import topics
+
+        got = self.received.get
+        return (f'{self.pixel_frames} clicked frame pairs -> {got(topics.MARKER_POINTS, 0)} '
+                f'MarkerPoints3D; model run {self.run_id}: {self.sim_frames} ParticleStates; '
+                f'comparer: {self.scores} scores for {self.scored_markers} markers\n'
+                f'recorded {sum(self.received.values())} messages on {len(self.received)} '
+                f'topics into {self.bag} ({self.wall_s:.1f} s)')
+
+
+def _received(recorder: Any, topic: str) -> int:
+    return int(recorder.received_counts().get(topic, 0))
+
+
+def _play(harness: Any, recorder: Any, spec: GraphSpec, note: Callable[[str], None]) -> int:
+    """Play the field bag; wait until the reconstructor's points of every pair are recorded."""
+    from dempath import topics
+    from dempath.nodes.player import PlayerNode
+
+    player = harness.start(PlayerNode, bag=str(spec.field_bag), rate=float(spec.rate),
+                           wait_for_subscribers=1)
+    pixel = [topics.camera_topic(topics.PIXEL_POINTS, c) for c in topics.CAMERAS]
+
+    def expected() -> int:
+        published = player.stats.published if player.stats is not None else {}
+        return min(int(published.get(t, 0)) for t in pixel)
+
+    def done() -> bool:
+        note(f'playing {spec.field_bag.name}: '
+             f'{_received(recorder, topics.MARKER_POINTS)} MarkerPoints3D')
+        return player.finished.is_set() and \
+            _received(recorder, topics.MARKER_POINTS) >= expected()
+
+    if not harness.spin_until(done, timeout_s=spec.play_timeout_s, step_s=0.02):
+        msg = (f'{spec.field_bag}: playback incomplete after {spec.play_timeout_s} s '
+               f'({_received(recorder, topics.MARKER_POINTS)} of {expected()} 3D frames)')
+        raise DempathError(msg)
+    return expected()
+
+
+def _simulate(harness: Any, recorder: Any, spec: GraphSpec,
+              note: Callable[[str], None]) -> Any:
+    """Run the simulator node; wait until the comparer's scores are recorded."""
+    from rclpy.qos import DurabilityPolicy, QoSProfile
+
+    from dempath import topics
+    from dempath_msgs.msg import RunEvent
+    from dempath_sim.nodes.simulator import SimulatorNode
+
+    latched = QoSProfile(depth=10, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+    events = harness.collect(RunEvent, topics.SIM_RUN_EVENTS, latched)
+    sim = harness.start(SimulatorNode, scene=spec.scene, cache_dir=spec.cache_dir)
+    start = time.monotonic()
+    ended: list[float] = []
+
+    def done() -> bool:
+        what = f'{sim.frames} frames' if sim.frames else 'fill or cached packing'
+        note(f'simulating {spec.scene}: {what}, {time.monotonic() - start:.0f} s')
+        if _received(recorder, topics.COMPARE_SCORES) > 0:
+            return True
+        if not ended and any(e.event in (RunEvent.FINISHED, RunEvent.ABORTED) for e in events):
+            ended.append(time.monotonic())
+        return bool(ended) and time.monotonic() - ended[0] > SCORE_GRACE_S
+
+    harness.spin_until(done, timeout_s=spec.sim_timeout_s, step_s=0.05)
+    if _received(recorder, topics.COMPARE_SCORES) == 0:
+        msg = f'{spec.scene}: no scores after the model run (see the log above)'
+        raise DempathError(msg)
+    return sim
+
+
+def run_graph(spec: GraphSpec, note: Callable[[str], None] = lambda text: None) -> GraphResult:
+    """Field bag -> player -> reconstructor -> comparer <- simulator; recorder records all.
+
+    Raises:
+        DempathError: a node cannot start, the playback or the run does not complete.
+    """
+    from dempath.nodes.harness import RosHarness
+    from dempath.nodes.recorder import RecorderNode
+    from dempath_compare.nodes.comparer import ComparerNode
+    from dempath_recon.nodes.reconstructor import ReconstructorNode
+
+    start = time.monotonic()
+    with RosHarness() as harness:
+        logger_class = type(harness.probe.get_logger())  # type: ignore[no-untyped-call]  # rcutils logger
+        for name in QUIET_NODES:
+            logger_class(name).set_level(WARN)
+        recon = harness.start(ReconstructorNode, method=spec.method,
+                              calibration_file=str(spec.calibration))
+        comparer = harness.start(ComparerNode, experiment=spec.experiment)
+        recorder = harness.start(RecorderNode, output=str(spec.output))
+        if not recorder.recording:
+            msg = f'{spec.output}: the recorder cannot write the bag'
+            raise DempathError(msg)
+        pixel_frames = _play(harness, recorder, spec, note)
+        sim = _simulate(harness, recorder, spec, note)
+        received = recorder.received_counts()
+        summary = recorder.finish()
+        run_id, frames = sim.run_id, sim.frames
+    scores, markers = recorded_scores(spec.output)
+    return GraphResult(spec.output, received, pixel_frames, run_id, frames, scores, markers,
+                       summary, time.monotonic() - start, recon.reconstructor,
+                       comparer.last_result)
+
+
+def recorded_scores(bag: Path) -> tuple[int, int]:
+    """(valid scores, markers with a valid score) in the bag's TrajectoryScoreArray messages."""
+    from dempath import topics
+    from dempath.bagio import open_bag
+
+    count, markers = 0, set()
+    with open_bag(bag, [topics.COMPARE_SCORES]) as reader:
+        for raw in reader.messages([topics.COMPARE_SCORES]):
+            for score in reader.deserialize(raw).scores:
+                if score.valid:
+                    count += 1
+                    markers.add(int(score.marker_id))
+    return count, len(markers)
+
+
+def field_truth_error(bag: Path, truth_csv: Path) -> tuple[float, float]:
+    """(mean, max) mm distance of the recorded MarkerPoints3D from the field twin's truth."""
+    from dempath import topics
+    from dempath.bagio import open_bag
+    from dempath_twin.field import START_NS, read_marker_csv
+
+    truth = read_marker_csv(truth_csv)
+    frame = {round(t * 1e4): k for k, t in enumerate(truth.times)}
+    column = {int(m): j for j, m in enumerate(truth.marker_ids)}
+    errors = []
+    with open_bag(bag, [topics.MARKER_POINTS]) as reader:
+        for raw in reader.messages([topics.MARKER_POINTS]):
+            msg = reader.deserialize(raw)
+            t_ns = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec - START_NS
+            k = frame.get(round(t_ns * 1e-5))
+            for m, x, y, z in zip(msg.marker_ids, msg.x, msg.y, msg.z, strict=True):
+                if k is not None and int(m) in column:
+                    errors.append(np.linalg.norm(np.array([x, y, z]) - truth.xyz[k, column[m]]))
+    if not errors:
+        msg = f'{bag}: no MarkerPoints3D at the stamps of {truth_csv}'
+        raise DempathError(msg)
+    err_mm = 1e3 * np.asarray(errors)
+    return float(np.nanmean(err_mm)), float(np.nanmax(err_mm))

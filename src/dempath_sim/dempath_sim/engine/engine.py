@@ -1,0 +1,400 @@
+"""The DEM engine: soft spheres, plane walls and a kinematic triangle-mesh tool.
+
+Model assumptions: rigid spheres that overlap softly (Hertz-Mindlin with restitution damping,
+optional EPSD2 rolling resistance and SJKR cohesion; see `laws/dispatch.py`); walls are
+infinite planes and the tool a rigid triangle mesh moved kinematically (its motion is imposed,
+not computed); gravity is uniform (default -Y); no fluid, no particle breakage. Units SI; frame
+X lateral, Y up, Z tool travel.
+
+One `Engine.step` is the named stages of a velocity-Verlet step (see `integrate.py`):
+`integrate_first_half` (half kick + drift, domain and blow-up checks, see `stability.py`),
+`find_contacts` (neighbour-list rebuild when a particle moved more than skin / 2, history
+carried over; states of REORDER_MIN or more particles are first put in cell order, see
+`SimState.reorder`: index order changes, ids follow the particles),
+`contact_forces` (particle-particle, particle-plane, particle-tool), `integrate_second_half`.
+The plane and tool pass runs over the particles that can reach a plane or the tool until the
+next list build (`reach.reach_candidates`, from the build positions); the candidates are
+found again when the tool has moved more than TOOL_MARGIN_SKINS skins since they were found.
+The arrays of `SimState` are updated in place; when particles leave the domain box they are
+removed with a warning and a new, compacted state is returned, so always use the returned state.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Callable, Sequence
+
+import numba
+import numpy as np
+from numpy.typing import NDArray
+
+from dempath_sim.engine.boundary import MAX_CANDIDATES, N_SLOTS, boundary_forces
+from dempath_sim.engine.integrate import first_half, second_half
+from dempath_sim.engine.kernel_cache import refresh_own_kernel_cache
+from dempath_sim.engine.kernel_threads import prefer_openmp_layer, threads_at_most
+from dempath_sim.engine.laws.dispatch import TAB_OK, build_pair_table
+from dempath_sim.engine.mesh import TriangleMesh, build_triangle_grid, mesh_margin
+from dempath_sim.engine.neighbors import (
+    build_neighbor_list,
+    cell_order,
+    permute_in_place,
+    transfer_history,
+)
+from dempath_sim.engine.pair_forces import pair_forces, reduce_buffers
+from dempath_sim.engine.params import SimParams
+from dempath_sim.engine.reach import box_corners, box_displacement, reach_candidates
+from dempath_sim.engine.stability import check_drift, check_overlaps, checked_time_step
+from dempath_sim.engine.state import SimState
+from dempath_sim.engine.toolpose import ToolPose
+from dempath_sim.engine.walls import Plane, pack_planes
+from dempath_sim.errors import SimulationError
+
+__all__ = ['Engine']
+
+logger = logging.getLogger(__name__)
+
+F64 = NDArray[np.float64]
+
+refresh_own_kernel_cache()
+prefer_openmp_layer()
+
+
+class Engine:
+    """Steps a `SimState` in time with walls and an optional kinematic tool.
+
+    Attributes:
+        dt: Time step [s] (set when the first state is bound; see `time_step`).
+        tool_force: (3,) force of the particles on the tool after the last step [N].
+        tool_torque: (3,) torque on the tool about its origin after the last step [N m].
+        removed_count: Particles removed because they left the domain box.
+        n_rebuilds: Neighbour-list builds so far.
+        slot_overflows: Geometry contacts resolved without history (all slots busy).
+    """
+
+    BLOWUP_COURANT = 0.5  # |v| dt / r above this is an energy blow-up
+    SERIAL_BELOW = 4000  # fewer particles run on one thread (thread wake-up costs more)
+    REORDER_MIN = 4000  # states this large are put in cell order at every list build
+    TOOL_MARGIN_SKINS = 2.0  # tool travel [skins] covered by one set of boundary candidates
+
+    def __init__(self, params: SimParams, walls: Sequence[Plane] = (),
+                 tool: TriangleMesh | None = None, reorder: bool = True,
+                 candidates: bool = True) -> None:
+        """Keep the set-up; no allocation until a state is stepped.
+
+        Args:
+            params: Physical and numerical parameters.
+            walls: Plane walls (see `walls.box_walls`).
+            tool: Tool mesh in its own frame, moved by the ToolPose of each step, or None.
+            reorder: Sort states of >= REORDER_MIN particles in cell order at each list build
+                (memory locality; same physics; outputs must then go by `SimState.ids`).
+            candidates: Run the plane/tool pass over the particles within reach only (same
+                physics; False tests every particle every step).
+        """
+        self.reorder = reorder
+        self.candidates = candidates
+        self._cand_idx: NDArray[np.int64] | None = None  # None: to be found
+        self._cand_ref: F64 = np.zeros(18)  # tool pose the candidates were found for
+        self.params = params
+        self.walls = tuple(walls)
+        self.tool = tool
+        self._tab = build_pair_table(params)
+        self._planes, self._plane_mat = pack_planes(self.walls)
+        self._gravity = np.asarray(params.gravity, np.float64)
+        self._dom_lo = np.asarray(params.domain_min, np.float64)
+        self._dom_hi = np.asarray(params.domain_max, np.float64)
+        self._tris = np.zeros((0, 3, 3)) if tool is None else tool.triangles
+        self._packed: tuple[ToolPose | None, F64] = (None, np.zeros(18))
+        for m in (*(p.material for p in self.walls), *(() if tool is None else (tool.material,))):
+            if not 0 <= m < len(params.materials):
+                msg = f'Engine: wall/tool material index {m} is not in SimParams.materials'
+                raise SimulationError(msg)
+        self.dt: float | None = None
+        self._dt = math.nan  # self.dt as a float once a state is bound
+        self.tool_force = np.zeros(3)
+        self.tool_torque = np.zeros(3)
+        self.tool_pose = ToolPose(np.zeros(3), np.zeros(3))
+        self.removed_count = 0
+        self.n_rebuilds = 0
+        self.slot_overflows = 0
+        self._bound: SimState | None = None
+        self._no_grid = (np.zeros(3), 1.0, np.ones(3, np.int64), np.zeros(2, np.int64),
+                         np.zeros(0, np.int32))
+
+    # ----------------------------------------------------------------- set-up
+    def time_step(self, state: SimState) -> float:
+        """The time step for this state: params.dt, or rayleigh_safety * Rayleigh time step [s].
+
+        Raises:
+            SimulationError: params.dt exceeds the Rayleigh time step (message gives the limit).
+        """
+        return checked_time_step(state, self.params)
+
+    def _check_pairs(self, state: SimState) -> None:
+        used = np.unique(state.material)
+        others = [*(p.material for p in self.walls)]
+        if self.tool is not None:
+            others.append(self.tool.material)
+        for a in used:
+            for b in (*used, *others):
+                if self._tab[a, b, TAB_OK] == 0:
+                    self.params.interaction(int(a), int(b))  # raises naming the pair
+
+    def bind(self, state: SimState) -> None:
+        """Allocate buffers and the neighbour list for `state` and compute its forces at t."""
+        self._check_pairs(state)
+        self.dt = self._dt = self.time_step(state)
+        n = state.n
+        self._threads = 1 if n < self.SERIAL_BELOW else numba.get_num_threads()
+        self._n_chunks = max(1, min(self._threads, n))
+        self._force: F64 = np.zeros((n, 3))
+        self._torque: F64 = np.zeros((n, 3))
+        self._fbuf = np.zeros((self._n_chunks, n, 3))
+        self._tbuf = np.zeros((self._n_chunks, n, 3))
+        self._gkey: NDArray[np.int32] = np.full((n, N_SLOTS), -1, np.int32)
+        self._ght: F64 = np.zeros((n, N_SLOTS, 3))
+        self._ghr: F64 = np.zeros((n, N_SLOTS, 3))
+        self._perm_tmp = np.empty(self._ght.nbytes, np.uint8)  # cell-order permutation scratch
+        self._scratch()
+        self._skin = self.params.skin * (float(state.radii.min()) if n else 0.0)
+        self._start: NDArray[np.int64] = np.zeros(n + 1, np.int64)
+        self._nbr: NDArray[np.int32] = np.zeros(0, np.int32)
+        self._ht = np.zeros((0, 3))
+        self._hr = np.zeros((0, 3))
+        grid = self._grid = None if self.tool is None else build_triangle_grid(
+            self.tool, mesh_margin(state.radii))
+        self._tool_hi = np.zeros(3) if grid is None else grid.lo + grid.dims * grid.cell
+        self._tool_corners = box_corners(np.zeros(3) if grid is None else grid.lo, self._tool_hi)
+        self._bound = state
+        with threads_at_most(self._threads):
+            self.find_contacts(state, np.arange(n))
+            self.contact_forces(state, self.tool_pose, dt=0.0)
+
+    def _scratch(self) -> None:
+        nc = self._n_chunks
+        self._worst = np.zeros((nc, 4))
+        self._stats = np.zeros((nc, 4))
+        self._tool_acc = np.zeros((nc, 6))
+        self._cand = np.zeros((nc, MAX_CANDIDATES, 9))
+        self._tmp_t = np.zeros((nc, 1, 3))
+        self._tmp_r = np.zeros((nc, 1, 3))
+
+    # ----------------------------------------------------------------- stages
+    def find_contacts(self, state: SimState, new_to_old: NDArray[np.int64]) -> None:
+        """Rebuild the half neighbour list and carry the contact springs over.
+
+        Args:
+            state: The bound state.
+            new_to_old: (n,) index of each current particle in the arrays of the previous list.
+        """
+        if self.reorder and state.n >= self.REORDER_MIN:
+            order = cell_order(state.positions, state.radii, self._skin)
+            state.reorder(order, self._perm_tmp)
+            for a in (self._force, self._torque, self._gkey, self._ght, self._ghr):
+                permute_in_place(a, order, self._perm_tmp)
+            new_to_old = np.asarray(new_to_old)[order]
+        rows = np.diff(self._start)
+        cap = int(rows.max()) * 5 // 4 + 4 if rows.size == state.n and rows.size else 0
+        start, nbr = build_neighbor_list(state.positions, state.radii, self._skin, cap)
+        ht = np.empty((len(nbr), 3))
+        hr = np.empty((len(nbr), 3))
+        transfer_history(new_to_old.astype(np.int64), self._start, self._nbr, self._ht, self._hr,
+                         start, nbr, ht, hr)
+        self._start, self._nbr, self._ht, self._hr = start, nbr, ht, hr
+        self._pos_build = state.positions.copy()
+        self._cand_idx = None
+        self.n_rebuilds += 1
+
+    def _boundary_particles(self, state: SimState, packed: F64) -> NDArray[np.int64]:
+        """Particles the plane/tool pass must test at this step (see `reach_candidates`)."""
+        if not self.candidates:
+            return np.arange(state.n)
+        grid = self._grid
+        margin = self.TOOL_MARGIN_SKINS * self._skin
+        if (grid is not None and self._cand_idx is not None and packed is not self._cand_ref
+                and box_displacement(self._tool_corners, self._cand_ref, packed) > margin):
+            self._cand_idx = None  # the tool left the reach of these candidates
+        if self._cand_idx is None:
+            keep = np.empty(state.n, np.bool_)
+            lo, hi, reach = ((grid.lo, self._tool_hi, self._skin + margin) if grid is not None
+                             else (np.zeros(3), np.zeros(3), -1.0))
+            reach_candidates(self._pos_build, state.radii, self._planes, self._skin, packed,
+                             lo, hi, reach, self._gkey, self._ght, self._ghr, keep)
+            self._cand_idx = np.flatnonzero(keep)
+            self._cand_ref = packed
+        return self._cand_idx
+
+    def contact_forces(self, state: SimState, pose: ToolPose, dt: float) -> None:
+        """Forces and torques of all contacts into the engine's force/torque arrays.
+
+        Args:
+            state: The bound state at the new positions.
+            pose: Tool pose at the same time.
+            dt: Time step used to advance the contact springs [s] (0 to evaluate only).
+
+        Raises:
+            SimulationError: An overlap exceeds params.max_overlap_fraction of a radius.
+        """
+        rolling = self.params.rolling_enabled
+        cohesion = self.params.cohesion_enabled
+        if self._packed[0] is not pose:
+            self._packed = (pose, pose.packed())
+        grid = self._grid
+        g_args = self._no_grid if grid is None else (grid.lo, grid.cell, grid.dims,
+                                                     grid.cell_start, grid.cell_tris)
+        tri_mat = 0 if self.tool is None else self.tool.material
+        with threads_at_most(self._threads):
+            pair_forces(state.positions, state.velocities, state.angular_velocities,
+                        state.radii, state.masses, state.material, self._start, self._nbr,
+                        self._ht, self._hr, self._tab, dt, rolling, cohesion, self._fbuf,
+                        self._tbuf, self._worst)
+            reduce_buffers(self._fbuf, self._tbuf, self._force, self._torque)
+            self._worst[:, 3] = 0.0
+            boundary_forces(state.positions, state.velocities, state.angular_velocities,
+                            state.radii, state.masses, state.material, self._planes,
+                            self._plane_mat, self._tris, tri_mat, *g_args, self._packed[1],
+                            self._gkey, self._ght, self._ghr, self._tab, dt, rolling, cohesion,
+                            self._force, self._torque, self._tool_acc, self._worst, self._cand,
+                            self._tmp_t, self._tmp_r,
+                            self._boundary_particles(state, self._packed[1]))
+        total = self._tool_acc.sum(axis=0)
+        self.tool_force = total[:3]
+        self.tool_torque = total[3:]
+        worst = self._worst
+        self.slot_overflows += int(worst[0, 3]) if worst.shape[0] == 1 else int(worst[:, 3].sum())
+        check_overlaps(state, worst, len(self.walls), self.params, self._dt)
+
+    def integrate_first_half(self, state: SimState) -> tuple[float, int]:
+        """Half kick and drift; returns (max displacement since the list build [m], n_out).
+
+        Raises:
+            SimulationError: Non-finite velocities or |v| dt / r > BLOWUP_COURANT.
+        """
+        first_half(state.positions, state.velocities, state.angular_velocities, self._force,
+                   self._torque, state.masses, state.inertias, state.radii, self._gravity,
+                   self._dt, self._pos_build, self._dom_lo, self._dom_hi, self._stats)
+        return check_drift(state, self._stats, self.BLOWUP_COURANT, self.params, self._dt)
+
+    def integrate_second_half(self, state: SimState) -> None:
+        """Second half kick with the new forces; advances time and step."""
+        second_half(state.velocities, state.angular_velocities, self._force, self._torque,
+                    state.masses, state.inertias, self._gravity, self._dt)
+        state.time += self._dt
+        state.step += 1
+
+    # ----------------------------------------------------------------- stepping
+    def step(self, state: SimState, tool_pose: ToolPose | None = None) -> SimState:
+        """Advance one time step.
+
+        Args:
+            state: The state (bound on first use; a different object is bound afresh, which
+                resets the contact history).
+            tool_pose: Tool pose at state.time + dt; the previous pose if None.
+
+        Returns:
+            The state after the step: the same object, or a compacted copy if particles left
+            the domain (they are removed with a warning and counted in removed_count).
+
+        Raises:
+            SimulationError: Unstable time step, excessive overlap or energy blow-up.
+        """
+        if state is not self._bound or self._force.shape[0] != state.n:
+            self.bind(state)
+        if tool_pose is not None:
+            self.tool_pose = tool_pose
+        with threads_at_most(self._threads):
+            moved, n_out = self.integrate_first_half(state)
+            if n_out:
+                state = self._remove_outside(state)
+            elif moved > 0.5 * self._skin:
+                self.find_contacts(state, np.arange(state.n))
+            self.contact_forces(state, self.tool_pose, self._dt)
+            self.integrate_second_half(state)
+        return state
+
+    def _remove_outside(self, state: SimState) -> SimState:
+        lo = np.asarray(self.params.domain_min)
+        hi = np.asarray(self.params.domain_max)
+        keep = np.all((state.positions >= lo) & (state.positions <= hi), axis=1)
+        gone = state.ids[~keep]
+        self.removed_count += len(gone)
+        logger.warning('removed %d particle(s) that left the domain box at t = %.6f s (ids %s)',
+                       len(gone), state.time, gone[:10].tolist())
+        new = state.subset(keep)
+        new_to_old = np.flatnonzero(keep)
+        self._force = np.ascontiguousarray(self._force[keep])
+        self._torque = np.ascontiguousarray(self._torque[keep])
+        self._gkey = np.ascontiguousarray(self._gkey[keep])
+        self._ght = np.ascontiguousarray(self._ght[keep])
+        self._ghr = np.ascontiguousarray(self._ghr[keep])
+        self._n_chunks = max(1, min(self._n_chunks, new.n))
+        self._fbuf = np.zeros((self._n_chunks, new.n, 3))
+        self._tbuf = np.zeros((self._n_chunks, new.n, 3))
+        self._scratch()
+        self._bound = new
+        self.find_contacts(new, new_to_old)
+        return new
+
+    def run(self, state: SimState, n_steps: int,
+            tool_motion: Callable[[float], ToolPose] | None = None,
+            callback: Callable[[SimState, Engine], None] | None = None,
+            callback_every: int = 1) -> SimState:
+        """Advance n_steps steps; the tool follows tool_motion(t) (pose at time t).
+
+        Args:
+            state: Initial state.
+            n_steps: Number of steps.
+            tool_motion: Tool pose as a function of time [s]; the tool stays put if None.
+            callback: Called as callback(state, engine) after every callback_every steps.
+            callback_every: Steps between callbacks.
+
+        Returns:
+            The final state (see `step`).
+        """
+        if callback_every < 1:
+            msg = f'Engine.run: callback_every must be >= 1, got {callback_every!r}'
+            raise SimulationError(msg)
+        if state is not self._bound:
+            self.bind(state)
+        for k in range(n_steps):
+            pose = None if tool_motion is None else tool_motion(state.time + self._dt)
+            state = self.step(state, pose)
+            if callback is not None and (k + 1) % callback_every == 0:
+                callback(state, self)
+        return state
+
+    # ----------------------------------------------------------------- introspection
+    @property
+    def forces(self) -> tuple[F64, F64]:
+        """(force (n, 3) [N], torque (n, 3) [N m]) of the contacts at the last evaluation."""
+        return self._force, self._torque
+
+    @property
+    def n_pairs(self) -> int:
+        """Entries of the neighbour list (pairs within the skin)."""
+        return int(self._nbr.size)
+
+    @property
+    def n_contacts(self) -> int:
+        """Particle-particle pairs overlapping now (numpy over the neighbour list)."""
+        st = self._bound
+        if st is None or self._nbr.size == 0:
+            return 0
+        i = np.repeat(np.arange(st.n), np.diff(self._start))
+        j = self._nbr
+        d = np.linalg.norm(st.positions[i] - st.positions[j], axis=1)
+        return int(np.count_nonzero(d < st.radii[i] + st.radii[j]))
+
+    def memory_bytes(self) -> dict[str, int]:
+        """Bytes held: per-particle arrays of engine + state, and neighbour-list entries."""
+        st = self._bound
+        per_particle = (self._force.nbytes + self._torque.nbytes + self._fbuf.nbytes
+                        + self._tbuf.nbytes + self._gkey.nbytes + self._ght.nbytes
+                        + self._ghr.nbytes + self._pos_build.nbytes + self._start.nbytes)
+        if st is not None:
+            per_particle += sum(a.nbytes for a in (
+                st.positions, st.velocities, st.angular_velocities, st.radii, st.masses,
+                st.inertias, st.material, st.ids))
+        pairs = self._nbr.nbytes + self._ht.nbytes + self._hr.nbytes
+        return {'particle_arrays': int(per_particle), 'pair_arrays': int(pairs),
+                'pairs': int(self._nbr.size)}

@@ -1,0 +1,198 @@
+# mypy: disable-error-code="no-untyped-def"
+"""Triangle-mesh geometry of the tool: the mesh record, a triangle grid and closest points.
+
+The mesh is stored in its own (tool) frame; a `ToolPose` places that frame in the world. For
+the contact search the triangles are binned in a uniform grid of the tool frame, each triangle in
+every cell its bounding box, grown by the largest particle radius, touches; a particle then only
+tests the triangles of its own cell. The closest point of a triangle to a sphere centre follows
+Ericson, Real-Time Collision Detection (2005), 5.1.5.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from numba import njit
+from numpy.typing import NDArray
+
+from dempath_sim.engine.stl import read_stl
+from dempath_sim.errors import GeometryError
+
+MAX_GRID_CELLS = 2_000_000  # the triangle grid is coarsened beyond this
+
+
+@dataclass(frozen=True)
+class TriangleMesh:
+    """A rigid triangle mesh in its own frame.
+
+    Attributes:
+        triangles: (n_tri, 3, 3) vertices [m] in the tool frame.
+        material: Material index into SimParams.materials.
+        name: Label for messages (e.g. the STL path).
+    """
+
+    triangles: NDArray[np.float64]
+    material: int = 0
+    name: str = 'mesh'
+
+    def __post_init__(self) -> None:
+        """Check the shape and drop degenerate (zero-area) triangles."""
+        tris = np.ascontiguousarray(self.triangles, dtype=np.float64)
+        if tris.ndim != 3 or tris.shape[1:] != (3, 3) or not np.isfinite(tris).all():
+            msg = f'TriangleMesh {self.name!r}: triangles must be finite (n, 3, 3), ' \
+                  f'got shape {tris.shape}'
+            raise GeometryError(msg)
+        area = np.linalg.norm(np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0]), axis=1)
+        tris = tris[area > 1e-12 * max(float(area.max(initial=0.0)), 1e-30)]
+        if len(tris) == 0:
+            msg = f'TriangleMesh {self.name!r}: no triangle with a non-zero area'
+            raise GeometryError(msg)
+        object.__setattr__(self, 'triangles', tris)
+
+    @classmethod
+    def from_stl(cls, path: str | Path, material: int = 0, scale: float = 1.0,
+                 offset: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> TriangleMesh:
+        """Load an STL file; vertices become scale * v + offset [m].
+
+        Raises:
+            GeometryError: The file is missing, empty, truncated or malformed.
+        """
+        tris = read_stl(path) * scale + np.asarray(offset, dtype=np.float64)
+        return cls(tris, material, str(path))
+
+    @property
+    def bounds(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """(lo (3,), hi (3,)) bounding box in the tool frame [m]."""
+        flat = self.triangles.reshape(-1, 3)
+        return flat.min(axis=0), flat.max(axis=0)
+
+
+@dataclass(frozen=True)
+class TriangleGrid:
+    """Triangles binned in a uniform grid of the tool frame (CSR: cell -> triangle indices)."""
+
+    lo: NDArray[np.float64]
+    cell: float
+    dims: NDArray[np.int64]
+    cell_start: NDArray[np.int64]
+    cell_tris: NDArray[np.int32]
+
+
+def build_triangle_grid(mesh: TriangleMesh, margin: float) -> TriangleGrid:
+    """Bin the triangles into cells of edge about 2 margin, each box grown by margin [m]."""
+    tris = mesh.triangles
+    tlo = tris.min(axis=1) - margin
+    thi = tris.max(axis=1) + margin
+    lo = tlo.min(axis=0)
+    extent = thi.max(axis=0) - lo
+    cell = max(2.0 * margin, 1e-6)
+    while np.prod(np.floor(extent / cell) + 1) > MAX_GRID_CELLS:
+        cell *= 1.25
+    dims = (np.floor(extent / cell) + 1).astype(np.int64)
+    c_lo = np.clip(np.floor((tlo - lo) / cell).astype(np.int64), 0, dims - 1)
+    c_hi = np.clip(np.floor((thi - lo) / cell).astype(np.int64), 0, dims - 1)
+    cells: list[NDArray[np.int64]] = []
+    owners: list[NDArray[np.int64]] = []
+    reach = margin + 0.5 * math.sqrt(3.0) * cell  # a cell centre farther away cannot matter
+    for t in range(len(tris)):
+        ax = [np.arange(c_lo[t, d], c_hi[t, d] + 1) for d in range(3)]
+        gx, gy, gz = np.meshgrid(*ax, indexing='ij')
+        centres = lo + (np.stack([gx, gy, gz], axis=-1).reshape(-1, 3) + 0.5) * cell
+        near = cells_near_triangle(centres, tris[t], reach)
+        ids = ((gx * dims[1] + gy) * dims[2] + gz).ravel()[near]
+        cells.append(ids)
+        owners.append(np.full(len(ids), t))
+    cell_ids = np.concatenate(cells)
+    tri_ids = np.concatenate(owners)
+    order = np.argsort(cell_ids, kind='stable')
+    n_cells = int(np.prod(dims))
+    start = np.zeros(n_cells + 1, np.int64)
+    np.add.at(start, cell_ids + 1, 1)
+    np.cumsum(start, out=start)
+    return TriangleGrid(lo, float(cell), dims, start, tri_ids[order].astype(np.int32))
+
+
+@njit(fastmath=True, cache=True)
+def closest_point_triangle(px, py, pz, tri):  # pragma: no cover - compiled
+    """Closest point of triangle tri (3, 3) to p (Ericson 2005, 5.1.5).
+
+    Returns:
+        (qx, qy, qz): the closest point [m].
+    """
+    ax, ay, az = tri[0, 0], tri[0, 1], tri[0, 2]
+    abx, aby, abz = tri[1, 0] - ax, tri[1, 1] - ay, tri[1, 2] - az
+    acx, acy, acz = tri[2, 0] - ax, tri[2, 1] - ay, tri[2, 2] - az
+    apx, apy, apz = px - ax, py - ay, pz - az
+    d1 = abx * apx + aby * apy + abz * apz
+    d2 = acx * apx + acy * apy + acz * apz
+    if d1 <= 0.0 and d2 <= 0.0:
+        return ax, ay, az
+    bpx, bpy, bpz = px - tri[1, 0], py - tri[1, 1], pz - tri[1, 2]
+    d3 = abx * bpx + aby * bpy + abz * bpz
+    d4 = acx * bpx + acy * bpy + acz * bpz
+    if d3 >= 0.0 and d4 <= d3:
+        return tri[1, 0], tri[1, 1], tri[1, 2]
+    vc = d1 * d4 - d3 * d2
+    if vc <= 0.0 and d1 >= 0.0 and d3 <= 0.0:
+        v = d1 / (d1 - d3)
+        return ax + v * abx, ay + v * aby, az + v * abz
+    cpx, cpy, cpz = px - tri[2, 0], py - tri[2, 1], pz - tri[2, 2]
+    d5 = abx * cpx + aby * cpy + abz * cpz
+    d6 = acx * cpx + acy * cpy + acz * cpz
+    if d6 >= 0.0 and d5 <= d6:
+        return tri[2, 0], tri[2, 1], tri[2, 2]
+    vb = d5 * d2 - d1 * d6
+    if vb <= 0.0 and d2 >= 0.0 and d6 <= 0.0:
+        w = d2 / (d2 - d6)
+        return ax + w * acx, ay + w * acy, az + w * acz
+    va = d3 * d6 - d5 * d4
+    if va <= 0.0 and (d4 - d3) >= 0.0 and (d5 - d6) >= 0.0:
+        w = (d4 - d3) / ((d4 - d3) + (d5 - d6))
+        bx, by, bz = tri[1, 0], tri[1, 1], tri[1, 2]
+        return (bx + w * (tri[2, 0] - bx), by + w * (tri[2, 1] - by), bz + w * (tri[2, 2] - bz))
+    denom = 1.0 / (va + vb + vc)
+    v = vb * denom
+    w = vc * denom
+    return (ax + abx * v + acx * w, ay + aby * v + acy * w, az + abz * v + acz * w)
+
+
+@njit(cache=True)
+def cells_near_triangle(centres, tri, reach):  # pragma: no cover - compiled
+    """(m,) bool: which points of centres (m, 3) lie within reach of the triangle (3, 3)."""
+    out = np.zeros(centres.shape[0], np.bool_)
+    for k in range(centres.shape[0]):
+        qx, qy, qz = closest_point_triangle(centres[k, 0], centres[k, 1], centres[k, 2], tri)
+        d2 = (centres[k, 0] - qx) ** 2 + (centres[k, 1] - qy) ** 2 + (centres[k, 2] - qz) ** 2
+        out[k] = d2 <= reach * reach
+    return out
+
+
+def closest_point_triangle_numpy(p: NDArray[np.float64],
+                                 tri: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Slow reference: closest point by projecting on the plane or clamping to the 3 edges."""
+    a, b, c = tri
+    nrm = np.cross(b - a, c - a)
+    nrm = nrm / np.linalg.norm(nrm)
+    q = p - np.dot(p - a, nrm) * nrm
+    bary = np.linalg.solve(np.stack([b - a, c - a, nrm], axis=1), q - a)
+    if bary[0] >= 0 and bary[1] >= 0 and bary[0] + bary[1] <= 1:
+        return np.asarray(q, dtype=np.float64)
+    best: NDArray[np.float64] = a
+    for u, v in ((a, b), (b, c), (c, a)):
+        t = float(np.clip(np.dot(p - u, v - u) / np.dot(v - u, v - u), 0.0, 1.0))
+        cand = u + t * (v - u)
+        if np.linalg.norm(p - cand) < np.linalg.norm(p - best):
+            best = cand
+    return np.asarray(best, dtype=np.float64)
+
+
+def mesh_margin(radii: NDArray[np.float64]) -> float:
+    """Grid margin for particles of these radii: the largest radius with 1% slack [m]."""
+    return 1.01 * float(np.max(radii)) if len(radii) else 0.0
+
+
+__all__ = ['TriangleGrid', 'TriangleMesh', 'build_triangle_grid', 'closest_point_triangle',
+           'closest_point_triangle_numpy', 'mesh_margin']

@@ -1,0 +1,123 @@
+# mypy: disable-error-code="no-untyped-def"
+"""Particle-particle contact forces over a half neighbour list, race-free with per-chunk buffers.
+
+The particles are split into `n_chunks` contiguous ranges (one per thread); the pair (i, j) with
+j > i is resolved once by the chunk owning i, which adds +F to i and -F to j in its own buffer, so
+no two threads write the same memory. `reduce_buffers` sums the buffers. Laws: see
+`laws/dispatch.py`.
+Lever arms follow LIGGGHTS: the contact point lies r - delta/2 from each centre.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit, prange
+
+from dempath_sim.engine.laws.cohesion_sjkr import sjkr_area_pair
+from dempath_sim.engine.laws.dispatch import resolve_contact
+
+
+@njit(parallel=True, fastmath=True, cache=True)
+def pair_forces(pos, vel, omg, rad, mass, mat, start, nbr, ht, hr, tab, dt, rolling, cohesion,
+                fbuf, tbuf, worst):  # pragma: no cover - compiled
+    """Accumulate particle-particle forces and torques into per-chunk buffers.
+
+    Args:
+        pos, vel, omg: (n, 3) positions [m], velocities [m/s], angular velocities [rad/s].
+        rad, mass: (n,) radii [m] and masses [kg].
+        mat: (n,) int32 material indices.
+        start: (n + 1,) int64 CSR offsets of the half neighbour list.
+        nbr: (m,) int32 neighbour j > i of each list entry.
+        ht, hr: (m, 3) tangential [m] and rolling [N m] spring histories per list entry.
+        tab: Pair table (see contact.build_pair_table).
+        dt: Time step [s].
+        rolling, cohesion: Switches of the optional laws.
+        fbuf, tbuf: (n_chunks, n, 3) force [N] and torque [N m] buffers (overwritten).
+        worst: (n_chunks, 3) out: largest overlap / smaller radius and the pair (i, j).
+    """
+    n_chunks = fbuf.shape[0]
+    n = pos.shape[0]
+    for c in prange(n_chunks):
+        fb = fbuf[c]
+        tb = tbuf[c]
+        fb[:, :] = 0.0
+        tb[:, :] = 0.0
+        w_ratio = 0.0
+        w_i = -1
+        w_j = -1
+        for i in range(c * n // n_chunks, (c + 1) * n // n_chunks):
+            for k in range(start[i], start[i + 1]):
+                j = nbr[k]
+                dx = pos[i, 0] - pos[j, 0]
+                dy = pos[i, 1] - pos[j, 1]
+                dz = pos[i, 2] - pos[j, 2]
+                d2 = dx * dx + dy * dy + dz * dz
+                rs = rad[i] + rad[j]
+                if d2 >= rs * rs:
+                    if ht[k, 0] != 0.0 or ht[k, 1] != 0.0 or ht[k, 2] != 0.0 \
+                            or hr[k, 0] != 0.0 or hr[k, 1] != 0.0 or hr[k, 2] != 0.0:
+                        for q in range(3):  # just separated: springs reset (written only
+                            ht[k, q] = 0.0  # then, so that untouched rows stay clean in
+                            hr[k, q] = 0.0  # cache and are not written back)
+                    continue
+                d = math.sqrt(d2)
+                delta = rs - d
+                r_min = min(rad[i], rad[j])
+                if delta > w_ratio * r_min:  # the division only for a new worst overlap
+                    w_ratio = delta / r_min
+                    w_i = i
+                    w_j = j
+                nx = dx / d
+                ny = dy / d
+                nz = dz / d
+                li = rad[i] - 0.5 * delta  # lever arm of i (contact point at -li n)
+                lj = rad[j] - 0.5 * delta  # lever arm of j (contact point at +lj n)
+                # v_rel = v_i + w_i x (-li n) - v_j - w_j x (lj n)
+                cx = -(li * omg[i, 0] + lj * omg[j, 0])
+                cy = -(li * omg[i, 1] + lj * omg[j, 1])
+                cz = -(li * omg[i, 2] + lj * omg[j, 2])
+                vx = vel[i, 0] - vel[j, 0] + cy * nz - cz * ny
+                vy = vel[i, 1] - vel[j, 1] + cz * nx - cx * nz
+                vz = vel[i, 2] - vel[j, 2] + cx * ny - cy * nx
+                area = sjkr_area_pair(d, rad[i], rad[j]) if cohesion else 0.0
+                r_eff = rad[i] * rad[j] / rs
+                m_eff = mass[i] * mass[j] / (mass[i] + mass[j])
+                fx, fy, fz, mx, my, mz, _ = resolve_contact(
+                    tab, mat[i], mat[j], delta, r_eff, m_eff, area, nx, ny, nz, vx, vy, vz,
+                    omg[i, 0] - omg[j, 0], omg[i, 1] - omg[j, 1], omg[i, 2] - omg[j, 2],
+                    ht, hr, k, dt, rolling)
+                fb[i, 0] += fx
+                fb[i, 1] += fy
+                fb[i, 2] += fz
+                fb[j, 0] -= fx
+                fb[j, 1] -= fy
+                fb[j, 2] -= fz
+                # torque = lever x F with lever -li n (i) and +lj n (j, force -F): both -l n x F
+                tx = ny * fz - nz * fy
+                ty = nz * fx - nx * fz
+                tz = nx * fy - ny * fx
+                tb[i, 0] += -li * tx + mx
+                tb[i, 1] += -li * ty + my
+                tb[i, 2] += -li * tz + mz
+                tb[j, 0] += -lj * tx - mx
+                tb[j, 1] += -lj * ty - my
+                tb[j, 2] += -lj * tz - mz
+        worst[c, 0] = w_ratio
+        worst[c, 1] = w_i
+        worst[c, 2] = w_j
+
+
+@njit(parallel=True, cache=True)
+def reduce_buffers(fbuf, tbuf, force, torque):  # pragma: no cover - compiled
+    """force[i] = sum_c fbuf[c, i], torque[i] = sum_c tbuf[c, i] (overwrites force, torque)."""
+    n_chunks = fbuf.shape[0]
+    for i in prange(force.shape[0]):
+        for q in range(3):
+            f = 0.0
+            t = 0.0
+            for c in range(n_chunks):
+                f += fbuf[c, i, q]
+                t += tbuf[c, i, q]
+            force[i, q] = f
+            torque[i, q] = t

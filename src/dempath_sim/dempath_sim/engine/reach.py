@@ -1,0 +1,83 @@
+# mypy: disable-error-code="no-untyped-def"
+"""Which particles the plane and tool pass must test: reach lists built at each list build.
+
+A particle farther than its reach from every plane and from the tool's box cannot touch them
+before the next neighbour-list build (or before the tool has moved beyond the margin, which
+:func:`box_displacement` measures), so the boundary pass skips it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+from numpy.typing import NDArray
+
+from dempath_sim.engine.boundary import plane_distance, to_tool_frame
+
+# (8, 3) corner k of a box takes hi on axis a where bit a of k is set, lo elsewhere.
+CORNER_BITS = np.array([[(k >> a) & 1 for a in range(3)] for k in range(8)], np.bool_)
+
+
+@njit(cache=True)
+def reach_candidates(pos_build, rad, planes, plane_reach, tool_ref, g_lo, g_hi, tool_reach,
+                     gkey, ght, ghr, keep):  # pragma: no cover - compiled
+    """Mark the particles that may touch a plane or the tool; clear the others' history slots.
+
+    A particle within plane_reach + r of a plane, or whose centre lies within tool_reach of the
+    triangle grid's box (tool frame of the pose tool_ref), both at the build positions, is kept.
+    With particles at most skin / 2 from pos_build and tool points at most D from their place
+    at tool_ref, plane_reach >= skin / 2 and tool_reach >= skin / 2 + D make the others unable
+    to touch: their slots would be cleared by the full pass this step, so they are here.
+
+    Args:
+        pos_build: (n, 3) positions at the neighbour-list build [m]; rad: (n,) radii [m].
+        planes: (n_planes, 6) point and inward unit normal.
+        plane_reach, tool_reach: Margins [m] (see above); tool_reach < 0: no tool.
+        tool_ref: (18,) packed tool pose (see boundary_forces).
+        g_lo, g_hi: (3,) triangle grid box in the tool frame [m].
+        gkey, ght, ghr: History slots (see boundary_forces), cleared for the dropped particles.
+        keep: (n,) bool out.
+    """
+    for i in range(pos_build.shape[0]):
+        near = False
+        for p in range(planes.shape[0]):
+            s = plane_distance(planes, p, pos_build[i, 0], pos_build[i, 1], pos_build[i, 2])
+            if s < rad[i] + plane_reach:
+                near = True
+                break
+        if not near and tool_reach >= 0.0:
+            px, py, pz = to_tool_frame(tool_ref, pos_build[i, 0], pos_build[i, 1],
+                                       pos_build[i, 2])
+            near = (g_lo[0] - tool_reach <= px <= g_hi[0] + tool_reach
+                    and g_lo[1] - tool_reach <= py <= g_hi[1] + tool_reach
+                    and g_lo[2] - tool_reach <= pz <= g_hi[2] + tool_reach)
+        keep[i] = near
+        if not near:
+            for k in range(gkey.shape[1]):
+                if gkey[i, k] != -1:
+                    gkey[i, k] = -1
+                    for q in range(3):
+                        ght[i, k, q] = 0.0
+                        ghr[i, k, q] = 0.0
+
+
+def box_corners(lo: NDArray[np.float64], hi: NDArray[np.float64]) -> NDArray[np.float64]:
+    """(8, 3) corners of the box [lo, hi] [m], corner k taking hi on the axes set in bit k."""
+    return np.where(CORNER_BITS, np.asarray(hi, np.float64), np.asarray(lo, np.float64))
+
+
+def box_displacement(corners: NDArray[np.float64], pose_a: NDArray[np.float64],
+                     pose_b: NDArray[np.float64]) -> float:
+    """Largest distance a point of a box (tool frame) moves between two poses [m].
+
+    The displacement (R_b - R_a) p + t_b - t_a is affine in p, so its largest norm over the box
+    is reached at a corner.
+
+    Args:
+        corners: (8, 3) corners of the box in the tool frame [m] (see `box_corners`).
+        pose_a, pose_b: (18,) packed tool poses (see boundary_forces).
+    """
+    rot_a = pose_a[9:18].reshape(3, 3)
+    rot_b = pose_b[9:18].reshape(3, 3)
+    moved = corners @ (rot_b - rot_a).T + (pose_b[:3] - pose_a[:3])
+    return float(np.sqrt((moved * moved).sum(axis=1).max()))

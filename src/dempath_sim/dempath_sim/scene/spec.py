@@ -1,0 +1,267 @@
+"""Scene records: frozen dataclasses of a validated scene, and the reading of its effects.
+
+The loader (`loader.py`) builds these records; `read_effects` lives here because
+`SceneSpec.with_overrides` re-reads the effect settings, so this module imports nothing back
+from the loader.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+from dataclasses import asdict, dataclass, replace
+from pathlib import Path
+from typing import Any
+
+from dempath_sim.effects import Effect, PhysicsModel, all_effects
+from dempath_sim.effects.base import ContactPair
+from dempath_sim.engine.params import DEFAULT_MAX_OVERLAP_FRACTION
+from dempath_sim.errors import SceneError
+from dempath_sim.scene import profiles
+from dempath_sim.scene._reader import Reader
+
+
+@dataclass(frozen=True)
+class BinSpec:
+    """Soil bin box [m]: X width, Z length (travel direction), Y height of the walls."""
+
+    width_x_m: float
+    length_z_m: float
+    height_y_m: float
+
+
+@dataclass(frozen=True)
+class SizeDistribution:
+    """Particle diameter distribution of a layer.
+
+    ``mono``: every diameter equal to the layer's. ``uniform``: uniform in d (1 +- spread).
+    ``discrete``: diameters [m] drawn with the given mass fractions (normalised).
+    """
+
+    kind: str = 'mono'
+    spread: float = 0.0
+    diameters_m: tuple[float, ...] = ()
+    mass_fractions: tuple[float, ...] = ()
+
+
+@dataclass(frozen=True)
+class LayerSpec:
+    """One horizontal layer of the bed (listed bottom to top)."""
+
+    name: str
+    diameter_m: float
+    thickness_m: float
+    distribution: SizeDistribution
+    coarse_grained: bool = True  # whether the particle_size effect scales this layer
+
+
+@dataclass(frozen=True)
+class MaterialSpec:
+    """Bulk properties of one solid; the particles' Young's modulus is an effect parameter."""
+
+    density_kg_m3: float
+    poisson_ratio: float
+    youngs_modulus_pa: float | None = None
+
+
+@dataclass(frozen=True)
+class EffectSetting:
+    """Whether an effect is on in the scene and its parameter values (SI)."""
+
+    enabled: bool
+    values: Mapping[str, float]
+
+
+@dataclass(frozen=True)
+class ToolSpec:
+    """Tool mesh, placement and drive.
+
+    Attributes:
+        mesh: Path of the STL; the mesh's origin is the tool's reference point (the tip).
+        scale: Uniform scale of the mesh [1] (e.g. 0.001 for a mesh in millimetres).
+        depth_m: Working depth of the tip below the surface [m] (paper: 0.184).
+        depth_reference: ``settled_surface`` (the measured surface after the fill) or
+            ``nominal_surface`` (Y = 0, shifted by ``settling_offset_m``).
+        settling_offset_m: Shift of the tool for gravitational settling with the nominal
+            surface [m] (paper: -0.017, Sec. 2.6).
+        x_m: Lateral position of the tool axis [m].
+        start_z_m: Z of the tip at simulation time 0 [m].
+        profile: The kinematic profile.
+        profile_offset_m: Profile distance already travelled at time 0 [m].
+        travel_m: Distance the tool moves in the simulation (active length) [m].
+    """
+
+    mesh: Path
+    scale: float
+    depth_m: float
+    depth_reference: str
+    settling_offset_m: float
+    x_m: float
+    start_z_m: float
+    profile: profiles.SpeedProfile
+    profile_offset_m: float
+    travel_m: float
+
+
+@dataclass(frozen=True)
+class MarkerSpec:
+    """Marker grid (paper Sec. 2.1: 3 x 5, 50 mm, 1-5 on the tool axis) and candidate cube.
+
+    Markers are numbered row by row: row 0 (on the tool axis, X = x_m) holds 1..columns in
+    travel order, row r lies at X = x_m + r * side * spacing_x_m.
+    """
+
+    rows: int = 3
+    columns: int = 5
+    spacing_x_m: float = 0.05
+    spacing_z_m: float = 0.05
+    first_z_m: float = 0.0
+    x_m: float = 0.0
+    side: int = 1
+    cube_size_m: tuple[float, float, float] = (0.03, 0.02, 0.01)
+
+
+@dataclass(frozen=True)
+class FillSpec:
+    """Pour and settle: target bulk density, settling criterion and cache use.
+
+    ``friction_scale`` < 1 pours with less friction and rolling resistance (denser packing, the
+    usual way to reach a bulk density), then settles again with the full values.
+    """
+
+    bulk_density_target_kg_m3: float | None = None
+    tolerance: float = 0.1
+    settle_speed_m_s: float = 0.02
+    max_settle_time_s: float = 3.0
+    cache: bool = True
+    friction_scale: float = 1.0  # factor on friction and rolling resistance while pouring
+
+
+@dataclass(frozen=True)
+class OutputSpec:
+    """Recording intervals [s] and whether candidates are recorded."""
+
+    interval_s: float = 0.01
+    snapshot_interval_s: float = 0.1
+    candidates: bool = True
+
+
+@dataclass(frozen=True)
+class NumericsSpec:
+    """Time step [s] (None: Rayleigh step x safety), its safety factor and the overlap limit.
+
+    Soft particles (the paper's E = 1.7 MPa) overlap by about 10 % of their radius when the
+    tool hits them at 1 m/s (Hertz: delta = (15 m v^2 / (16 E* R^0.5))^(2/5)), so the limit
+    before the engine stops is higher than for stiff grains.
+    """
+
+    time_step_s: float | None = None
+    rayleigh_safety: float = 0.2
+    max_overlap_fraction: float = DEFAULT_MAX_OVERLAP_FRACTION
+    coulomb_limit: str = 'total'  # 'total' (spring + dashpot) or 'spring' (LIGGGHTS 3.8)
+    contact_forms: str = 'dempath'  # 'dempath' or 'liggghts' (see SimParams.contact_forms)
+
+
+@dataclass(frozen=True)
+class SceneSpec:
+    """A whole scene, validated. Build with :func:`load_scene` or :func:`scene_from_dict`."""
+
+    name: str
+    description: str
+    seed: int
+    bin: BinSpec
+    layers: tuple[LayerSpec, ...]
+    materials: Mapping[str, MaterialSpec]
+    effects: Mapping[str, EffectSetting]
+    tool: ToolSpec
+    markers: MarkerSpec
+    fill: FillSpec
+    output: OutputSpec
+    sim: NumericsSpec
+    source: str = '<dict>'
+
+    @property
+    def bed_thickness_m(self) -> float:
+        """Nominal thickness of the bed, the sum of the layers [m]."""
+        return sum(layer.thickness_m for layer in self.layers)
+
+    def is_enabled(self, effect: str) -> bool:
+        """Whether ``effect`` is on in this scene."""
+        return self.effects[effect].enabled
+
+    def physics_model(self) -> PhysicsModel:
+        """The scene's materials with every effect applied (on: its values; off: absent)."""
+        model = base_model(self.materials)
+        for name, effect in all_effects().items():
+            setting = self.effects[name]
+            model = (effect.apply(model, setting.values) if setting.enabled
+                     else effect.apply_off(model))
+        return model
+
+    def with_overrides(self, values: Mapping[str, float] | None = None,
+                       off: Iterable[str] = (), on: Iterable[str] = (),
+                       seed: int | None = None) -> SceneSpec:
+        """A copy with effect parameters set (``{'cohesion.energy_density_j_m3': 5e4}``),
+        effects switched off or on, and optionally another seed; SceneError on a bad name."""
+        raw = {k: {'enabled': v.enabled, **v.values} for k, v in self.effects.items()}
+        for dotted, value in (values or {}).items():
+            effect, _, param = dotted.partition('.')
+            if not param:
+                raise SceneError(f'override {dotted!r}: expected EFFECT.PARAMETER=VALUE')
+            raw.setdefault(effect, {})[param] = value
+            if effect in raw and 'enabled' in raw[effect]:
+                raw[effect]['enabled'] = True
+        for effect in on:
+            raw.setdefault(effect, {})['enabled'] = True
+        for effect in off:
+            raw.setdefault(effect, {})['enabled'] = False
+        effects = read_effects(Reader(raw, 'effects', 'overrides'))
+        return replace(self, effects=effects, seed=self.seed if seed is None else seed)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain, JSON-serialisable form (paths as strings), e.g. for cache keys and summaries."""
+        out = asdict(self)
+        out['tool']['mesh'] = str(self.tool.mesh)
+        out['effects'] = {k: {'enabled': v.enabled, **dict(v.values)}
+                          for k, v in self.effects.items()}
+        return out
+
+
+def base_model(materials: Mapping[str, MaterialSpec]) -> PhysicsModel:
+    p, t, w = materials['particles'], materials['tool'], materials['walls']
+    neutral = ContactPair(0.0, 0.0, 0.3)
+    return PhysicsModel(
+        particle_density_kg_m3=p.density_kg_m3, particle_youngs_modulus_pa=1.7e6,
+        particle_poisson=p.poisson_ratio, tool_density_kg_m3=t.density_kg_m3,
+        tool_youngs_modulus_pa=float(t.youngs_modulus_pa or 2.1e11),
+        tool_poisson=t.poisson_ratio,
+        wall_youngs_modulus_pa=float(w.youngs_modulus_pa or 2.1e11),
+        wall_poisson=w.poisson_ratio, particle_particle=neutral, particle_tool=neutral,
+        particle_wall=neutral)
+
+
+def _read_effect(effect: Effect, r: Reader) -> EffectSetting:
+    enabled = r.flag('enabled', effect.default_enabled)
+    if not enabled and not effect.switchable:
+        r.fail('enabled', f'effect {effect.name!r} is a model parameter and cannot be '
+                          'switched off; change its parameters instead')
+    values = {p.name: r.number(p.name, p.low, p.high, p.default) for p in effect.parameters}
+    r.finish()
+    try:
+        effect.apply(_probe_model(), values)
+    except ValueError as err:
+        r.fail_at(r.path, r.source, str(err))
+    return EffectSetting(enabled, values)
+
+
+def _probe_model() -> PhysicsModel:
+    steel = MaterialSpec(7800.0, 0.3, 2.1e11)
+    return base_model({'particles': MaterialSpec(1734.0, 0.25), 'tool': steel, 'walls': steel})
+
+
+def read_effects(r: Reader) -> dict[str, EffectSetting]:
+    """Every registered effect's setting from the ``effects`` section (defaults if absent)."""
+    effects = all_effects()
+    out = {name: _read_effect(effect, r.section(name, required=False))
+           for name, effect in effects.items()}
+    r.finish()
+    return out

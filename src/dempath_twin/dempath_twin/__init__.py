@@ -1,0 +1,1 @@
+"""Everything synthetic in dempath: the twin rig, rendered board and field recordings, twins."""
