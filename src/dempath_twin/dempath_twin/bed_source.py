@@ -23,14 +23,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from dempath.errors import DempathError
+from dempath_twin.errors import TwinError
 
 LOG = logging.getLogger(__name__)
 FloatArray = NDArray[np.float64]
 SNAPSHOTS_PER_FRAME = 2  # snapshots per camera frame: lets each camera render at its own instant
 
 
-class BedSourceError(DempathError):
+class BedSourceError(TwinError):
     """A run or scene cannot give the bed at the frame rate (names the input and the fault)."""
 
 
@@ -89,7 +89,7 @@ def run_for_recording(scene: Any, out: Path, fps: float = 50.0,
     Returns:
         The run folder (``result.npz``, ``bed_radii.npz``, ``summary.json``).
     """
-    from dempath_sim.run import RunOptions, run_scene
+    from dempath_sim.runs import RunOptions, run_scene
 
     scene = _scene_for_recording(scene, fps)
     result = run_scene(scene, RunOptions(cache_dir=cache_dir))
@@ -104,8 +104,7 @@ def run_for_recording(scene: Any, out: Path, fps: float = 50.0,
 
 def _packing_radii(scene: Any, cache_dir: Path | None) -> tuple[NDArray[np.int64], FloatArray]:
     """Ids and radii of the run's settled packing (read from the packing cache)."""
-    from dempath_sim.fill import fill_bed
-    from dempath_sim.run import build_params
+    from dempath_sim.runs import build_params, fill_bed
 
     model = scene.physics_model()
     state, _ = fill_bed(scene, model, build_params(scene, model), cache_dir)
@@ -126,7 +125,7 @@ def load_bed(run_dir: Path, fps: float, scene: Any | None = None,
     Raises:
         BedSourceError: missing files, no snapshots, or snapshots sparser than the frames.
     """
-    from dempath_sim.results import SimResult
+    from dempath_sim.runs import SimResult
 
     path = run_dir / 'result.npz'
     try:
@@ -174,10 +173,10 @@ def _radii(run_dir: Path, result: Any, scene: Any | None,
 
 def _tool_mesh(scene: Any | None, meta: dict[str, Any]) -> FloatArray:
     """(k, 3, 3) tool triangles at its reference pose [m] (the scene's mesh and scale)."""
-    from dempath_sim.mesh import TriangleMesh
+    from dempath_sim.engine import TriangleMesh
 
     if scene is None:
-        from dempath_sim.cli import resolve_scene
+        from dempath_sim.scene import resolve_scene
 
         scene = resolve_scene(str(meta['source']))
     mesh = TriangleMesh.from_stl(scene.tool.mesh, material=0, scale=scene.tool.scale)

@@ -21,6 +21,11 @@ from typing import Any
 
 import cv2
 import numpy as np
+from numpy.typing import NDArray
+
+from dempath import topics
+from dempath.bagio import make_typestore, write_bag
+from dempath.errors import DempathError
 from dempath_twin.bed_source import BedRecord, load_bed, run_for_recording
 from dempath_twin.field_record import (
     CALIB_GAP_S,
@@ -28,26 +33,14 @@ from dempath_twin.field_record import (
     FrameTruth,
     RecordingConfig,
     cameras_for,
-    encode,
     field_frames,
     save_truth,
     truth_json,
 )
 from dempath_twin.field_render import Look
-from numpy.typing import NDArray
-
-from dempath import topics
-from dempath.bagio import make_typestore, write_bag
-from dempath.errors import DempathError
+from dempath_twin.images import jpeg_message, stamp_header
 
 LOG = logging.getLogger(__name__)
-
-
-def _header(types: Any, stamp_ns: int, frame_id: str) -> Any:
-    return types['std_msgs/msg/Header'](
-        stamp=types['builtin_interfaces/msg/Time'](sec=stamp_ns // 10**9,
-                                                   nanosec=stamp_ns % 10**9),
-        frame_id=frame_id)
 
 
 def camera_info(types: Any, camera: Any, stamp_ns: int) -> Any:
@@ -57,7 +50,7 @@ def camera_info(types: Any, camera: Any, stamp_ns: int) -> Any:
     roi = types['sensor_msgs/msg/RegionOfInterest'](x_offset=0, y_offset=0, height=0, width=0,
                                                     do_rectify=False)
     return types['sensor_msgs/msg/CameraInfo'](
-        header=_header(types, stamp_ns, f'{camera.name}_optical'), height=camera.height,
+        header=stamp_header(types, stamp_ns, f'{camera.name}_optical'), height=camera.height,
         width=camera.width, distortion_model='plumb_bob',
         d=np.asarray(camera.dist, np.float64), k=k.ravel(), r=np.eye(3).ravel(), p=p.ravel(),
         binning_x=0, binning_y=0, roi=roi)
@@ -66,9 +59,8 @@ def camera_info(types: Any, camera: Any, stamp_ns: int) -> Any:
 def image_messages(types: Any, camera: Any, image: NDArray[np.uint8], stamp_ns: int,
                    quality: int) -> Iterator[tuple[str, str, int, Any]]:
     """The JPEG image and the CameraInfo of one frame as bag messages."""
-    msg = types['sensor_msgs/msg/CompressedImage'](
-        header=_header(types, stamp_ns, f'{camera.name}_optical'),
-        format='bgr8; jpeg compressed bgr8', data=encode(image, quality))
+    msg = jpeg_message(types, stamp_header(types, stamp_ns, f'{camera.name}_optical'), image,
+                       quality, 'bgr8; jpeg compressed bgr8')
     yield (topics.camera_topic(topics.IMAGE_COMPRESSED, camera.name),
            'sensor_msgs/msg/CompressedImage', stamp_ns, msg)
     yield (topics.camera_topic(topics.CAMERA_INFO, camera.name), 'sensor_msgs/msg/CameraInfo',
@@ -79,7 +71,7 @@ def calibration_frames(rig: Any, config: RecordingConfig,
                        ) -> tuple[list[tuple[int, NDArray[np.uint8], int]], dict[str, Any]]:
     """The calibration segment: ``(camera index, BGR image, stamp)`` and its truth."""
     from dempath_calib.camera import StereoCalibration
-    from dempath_calib.twin import calibration_poses, render_views, truth_dict
+    from dempath_twin.views import calibration_poses, render_views, truth_dict
 
     if config.calib_views == 0:
         return [], {'views': 0}
@@ -135,7 +127,8 @@ def _origin(bed: BedRecord) -> Any:
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog='dempath twin render', description=__doc__.splitlines()[0])
+    p = argparse.ArgumentParser(prog='dempath twin render',
+                                description=(__doc__ or '').splitlines()[0])
     p.add_argument('source', help='dempath_sim run folder (result.npz) or scene file / name')
     p.add_argument('--out', type=Path, required=True, help='bag folder to create')
     p.add_argument('--scale', type=float, default=1.0, help='sensor scale of 1920x1080')
@@ -154,7 +147,7 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def _bed(args: argparse.Namespace, fps: float) -> BedRecord:
-    from dempath_sim.cli import resolve_scene
+    from dempath_sim.scene import resolve_scene
 
     source = Path(args.source)
     if (source / 'result.npz').is_file():
@@ -166,7 +159,7 @@ def _bed(args: argparse.Namespace, fps: float) -> BedRecord:
 
 def render_main(argv: list[str] | None = None) -> int:
     """``dempath twin render SCENE_OR_RUN --out BAG``; one error line and 1 on bad input."""
-    from dempath_calib.rig import paper_rig
+    from dempath_twin.rig import paper_rig
 
     args = _parser().parse_args(argv)
     try:

@@ -23,8 +23,9 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
-import cv2
 import numpy as np
+from numpy.typing import NDArray
+
 from dempath_twin.bed_source import BedRecord
 from dempath_twin.field_render import (
     CLAY_BGR,
@@ -36,7 +37,6 @@ from dempath_twin.field_render import (
     ShadowMap,
     scaled_camera,
 )
-from numpy.typing import NDArray
 
 LOG = logging.getLogger(__name__)
 FloatArray = NDArray[np.float64]
@@ -173,14 +173,6 @@ def render_frame(camera: FieldCamera, scene: FieldScene, t: float, light: Light,
     inside = (uv[:, 0] >= 0) & (uv[:, 0] <= cam.width - 1) & (uv[:, 1] >= 0) \
         & (uv[:, 1] <= cam.height - 1)
     return image, FrameTruth(cam.name, 0, uv, np.where(inside, visible, 0.0), xyz)
-
-
-def encode(image: NDArray[np.uint8], quality: int) -> NDArray[np.uint8]:
-    """JPEG bytes of a BGR image."""
-    ok, buf = cv2.imencode('.jpg', image, [cv2.IMWRITE_JPEG_QUALITY, int(quality)])
-    if not ok:
-        raise ValueError(f'image {image.shape}: JPEG encoding failed')
-    return np.asarray(buf, np.uint8).ravel()
 
 
 def frame_times(bed: BedRecord, config: RecordingConfig) -> FloatArray:

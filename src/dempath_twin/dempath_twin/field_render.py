@@ -20,6 +20,8 @@ from typing import Any
 
 import cv2
 import numpy as np
+from numpy.typing import NDArray
+
 from dempath_twin.bed_view import (
     NO_HIT,
     light_frame,
@@ -29,7 +31,6 @@ from dempath_twin.bed_view import (
     splat_shadow,
     splat_spheres,
 )
-from numpy.typing import NDArray
 
 FloatArray = NDArray[np.float64]
 SAND_BGR = (0.42, 0.58, 0.72)  # dry quartz sand albedo, yellow-brown

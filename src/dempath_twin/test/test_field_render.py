@@ -6,13 +6,13 @@ import json
 
 import numpy as np
 import pytest
+
+from dempath.bagio import open_bag
 from dempath_twin.bed_source import BedRecord
 from dempath_twin.field_bag import write_field_recording
 from dempath_twin.field_record import FieldScene, RecordingConfig, lighting, render_frame
 from dempath_twin.field_render import FieldCamera, Look, scaled_camera
-
-from dempath.bagio import open_bag
-from dempath_calib.rig import paper_rig
+from dempath_twin.rig import paper_rig
 
 R = 0.006  # grain radius [m]
 
