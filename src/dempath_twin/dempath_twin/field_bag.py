@@ -82,7 +82,8 @@ def calibration_frames(rig: Any, config: RecordingConfig,
     for i, images in enumerate(render_views(poses, config.seed, small)):
         for c, grey in enumerate(images):
             t = i * config.calib_period_s + (config.front_offset_s if c else 0.0)
-            frames.append((c, cv2.cvtColor(grey, cv2.COLOR_GRAY2BGR), START_NS + round(t * 1e9)))
+            bgr = np.asarray(cv2.cvtColor(grey, cv2.COLOR_GRAY2BGR), np.uint8)
+            frames.append((c, bgr, START_NS + round(t * 1e9)))
     truth = truth_dict(small, _board(), poses)
     truth['views'] = config.calib_views
     truth['period_s'] = config.calib_period_s

@@ -166,7 +166,7 @@ def render_frame(camera: FieldCamera, scene: FieldScene, t: float, light: Light,
         acc = ideal if acc is None else acc + ideal
         visible += camera.visible_fraction(ibuf, s3d, scene.bed.marker_index) / n
     assert acc is not None
-    image = camera.expose(acc / n, light, rng)
+    image = camera.expose(np.asarray(acc / n, np.float32), light, rng)
     xyz = scene.markers(t)
     uv = camera.camera.project(xyz)
     cam = camera.camera
