@@ -28,6 +28,7 @@ setup(
             'dempath_reconstructor = dempath_recon.nodes.reconstructor:main',
             'dempath_clicker = dempath_recon.nodes.clicker:main',
             'dempath_pass = dempath_recon.nodes.passgate:main',
+            'dempath_detector = dempath_recon.nodes.detector:main',
         ],
         'dempath.commands': [
             'reconstruct = dempath_recon.cli:reconstruct_main',

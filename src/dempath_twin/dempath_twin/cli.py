@@ -43,11 +43,18 @@ def rig_main(argv: list[str]) -> int:
 
 
 def twin_main(argv: list[str]) -> int:
-    """``dempath twin field OUT [--scene NAME] [--sim-dir DIR]``: write a field twin bag."""
+    """``dempath twin field OUT ...`` (clicked field twin) or ``dempath twin render SOURCE --out
+    BAG ...`` (rendered field recording, :func:`dempath_twin.field_bag.render_main`)."""
     from dempath_twin.fieldbag import make_field_twin
+
+    if argv[:1] == ['render']:
+        from dempath_twin.field_bag import render_main
+
+        return render_main(argv[1:])
 
     p = argparse.ArgumentParser(prog='dempath twin', description='Synthetic recordings.')
     sub = p.add_subparsers(dest='what', required=True)
+    sub.add_parser('render', help='rendered field recording of a run (see: twin render -h)')
     f = sub.add_parser('field', help='field twin: a hidden DEM run seen by the twin rig')
     f.add_argument('out', type=Path, help='bag folder to create (replaced if it exists)')
     f.add_argument('--scene', default='tiny', help='shipped scene name or scene file')

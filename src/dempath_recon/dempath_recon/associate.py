@@ -1,0 +1,127 @@
+"""Giving each camera's tracks the scene's marker numbers: initial grid and epipolar geometry.
+
+The markers are laid in the paper's grid (rows x columns, 50 mm apart, numbered row by row, row
+0 on the tool axis; ``dempath_sim.scene.MarkerSpec``). In the first frame each camera's
+detections are matched one to one to the grid projected through the calibration: the grid's
+height above the calibration board and the markers' small offsets from their grid points are
+unknown, so the projected grid is first shifted by the image translation on which most grid
+points find a detection (a vote over all detection-minus-grid offsets), then
+``linear_sum_assignment`` links them inside a gate.
+
+A track that starts later (a marker that comes back where its lost track did not expect it) is
+numbered from the other camera: among the markers this camera has not seen in this frame, the
+one whose latest position in the other camera lies on this detection's epipolar line (within
+``epipolar_px``) and is the only such candidate. Distances to the epipolar line are measured in
+undistorted pixels (Hartley & Zisserman, Multiple View Geometry, 2nd ed., sec. 9.2).
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.optimize import linear_sum_assignment
+
+from dempath_recon.triangulate import Camera, undistort_normalized
+
+LOG = logging.getLogger(__name__)
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class MarkerGrid:
+    """The initial marker grid in the field frame (origin at the grid centre on the surface).
+
+    Attributes:
+        rows, columns: grid size (the paper: 3 x 5).
+        spacing_x_m, spacing_z_m: grid pitch [m] (the paper: 0.05).
+        side: +1 or -1, the side of the tool axis the further rows lie on (X direction).
+        layout_m: explicit grid points ((x, y, z), ...) [m] for markers 1..n, field frame;
+            when given it replaces the regular grid (e.g. a run's own grid points).
+    """
+
+    rows: int = 3
+    columns: int = 5
+    spacing_x_m: float = 0.05
+    spacing_z_m: float = 0.05
+    side: int = 1
+    layout_m: tuple[tuple[float, float, float], ...] = ()
+
+    def points(self) -> tuple[NDArray[np.int32], FloatArray]:
+        """Marker numbers (m,) and grid points (m, 3) m, numbered row by row from 1."""
+        if self.layout_m:
+            xyz = np.asarray(self.layout_m, np.float64).reshape(-1, 3)
+            return np.arange(1, len(xyz) + 1, dtype=np.int32), xyz
+        r, c = np.meshgrid(np.arange(self.rows), np.arange(self.columns), indexing='ij')
+        numbers = (r * self.columns + c + 1).ravel().astype(np.int32)
+        x = self.side * self.spacing_x_m * (r.ravel() - (self.rows - 1) / 2)
+        z = self.spacing_z_m * (c.ravel() - (self.columns - 1) / 2)
+        return numbers, np.column_stack([x, np.zeros_like(x), z])
+
+
+def number_by_grid(camera: Camera, uv: FloatArray, grid: MarkerGrid, gate_px: float = 12.0,
+                   ) -> tuple[NDArray[np.int32], FloatArray]:
+    """Marker number of each detection (n, 2) px in the first frame (-1 = no grid point).
+
+    Returns:
+        ``(numbers (n,), grid_uv (m, 2))``: the numbers and the shifted projected grid [px].
+    """
+    numbers, xyz = grid.points()
+    proj = np.asarray(camera.project(xyz), np.float64)  # type: ignore[attr-defined]
+    out = np.full(len(uv), -1, np.int32)
+    if len(uv) == 0:
+        return out, proj
+    offsets = (uv[:, None, :] - proj[None, :, :]).reshape(-1, 2)
+    best, shift = -1, np.zeros(2, np.float64)
+    for off in offsets:
+        d = np.linalg.norm(proj[:, None, :] + off - uv[None, :, :], axis=2)
+        score = int((d.min(axis=1) < gate_px).sum())
+        if score > best:
+            best, shift = score, np.asarray(off, np.float64).reshape(2)
+    near = np.linalg.norm(proj[:, None, :] + shift - uv[None, :, :], axis=2)
+    inside = near[near.min(axis=1) < gate_px]
+    if len(inside):  # refine the shift by the mean residual of the matched points
+        shift = shift + np.mean(uv[inside.argmin(axis=1)] - (proj + shift)[near.min(axis=1)
+                                                                           < gate_px], axis=0)
+    cost = np.linalg.norm(proj[:, None, :] + shift - uv[None, :, :], axis=2)
+    rows, cols = linear_sum_assignment(np.where(cost < gate_px, cost, 1e9))
+    for r, c in zip(rows, cols, strict=True):
+        if cost[r, c] < gate_px:
+            out[c] = numbers[r]
+    return out, proj + shift
+
+
+def essential(cam_a: Camera, cam_b: Camera) -> FloatArray:
+    """(3, 3) essential matrix with ``x_b^T E x_a = 0`` for normalised points of the two."""
+    r_ab = cam_b.R @ cam_a.R.T
+    t_ab = cam_b.t - r_ab @ cam_a.t
+    tx = np.array([[0, -t_ab[2], t_ab[1]], [t_ab[2], 0, -t_ab[0]], [-t_ab[1], t_ab[0], 0]])
+    return np.asarray(tx @ r_ab, np.float64)
+
+
+def epipolar_distance(cam_a: Camera, cam_b: Camera, uv_a: FloatArray,
+                      uv_b: FloatArray) -> FloatArray:
+    """(n, k) distance [px of camera b] of points (k, 2) in b from the lines of (n, 2) in a."""
+    xa = undistort_normalized(cam_a, np.asarray(uv_a, np.float64).reshape(-1, 2))
+    xb = undistort_normalized(cam_b, np.asarray(uv_b, np.float64).reshape(-1, 2))
+    lines = np.column_stack([xa, np.ones(len(xa))]) @ essential(cam_a, cam_b).T  # (n, 3)
+    hb = np.column_stack([xb, np.ones(len(xb))])
+    num = np.abs(lines @ hb.T)
+    den = np.hypot(lines[:, 0], lines[:, 1])[:, None]
+    return np.asarray(num / np.maximum(den, 1e-12) * cam_b.K[0, 0], np.float64)
+
+
+def number_by_epipolar(cam_a: Camera, cam_b: Camera, uv_a: FloatArray,
+                       candidates: dict[int, FloatArray], epipolar_px: float = 4.0) -> int:
+    """The one marker of ``candidates`` (number -> (2,) px in b) on ``uv_a``'s epipolar line.
+
+    Returns -1 when none or more than one candidate lies within ``epipolar_px``.
+    """
+    if not candidates:
+        return -1
+    nums = list(candidates)
+    d = epipolar_distance(cam_a, cam_b, uv_a[None], np.array([candidates[n] for n in nums]))[0]
+    close = np.flatnonzero(d < epipolar_px)
+    return int(nums[close[0]]) if len(close) == 1 else -1

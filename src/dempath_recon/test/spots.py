@@ -1,0 +1,65 @@
+"""Synthetic marker images with known sub-pixel centres for the detection and tracking tests.
+
+Blue clay discs (shaded like spheres) on a sand texture, rendered 8x supersampled and box
+filtered, with read noise and JPEG: a known-truth image that does not need the field renderer.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+SAND = np.array([0.42, 0.58, 0.72])  # BGR albedo
+CLAY = np.array([0.62, 0.22, 0.10])
+SS = 8  # supersampling
+
+
+def sand(shape: tuple[int, int], rng: np.random.Generator) -> np.ndarray:
+    """(h, w, 3) float sand radiance: grains of about 3 px with their own tone."""
+    h, w = shape
+    tone = cv2.resize(rng.normal(1.0, 0.12, (h // 3 + 1, w // 3 + 1)), (w, h),
+                      interpolation=cv2.INTER_NEAREST)
+    return SAND[None, None, :] * tone[..., None]
+
+
+def spot_image(shape: tuple[int, int], centres: np.ndarray, radius: float,
+               rng: np.random.Generator, gain: float = 1.0, noise_dn: float = 1.5,
+               quality: int = 90, shadow_cols: int = 0, sand_coloured: tuple[int, ...] = (),
+               dirt: tuple[float, float, float] | None = None) -> bytes:
+    """JPEG of markers at ``centres`` (n, 2) px (pixel-centre convention) on sand.
+
+    ``shadow_cols`` > 0 darkens the left part of the image to 35 % (a shadow);
+    ``sand_coloured`` markers are drawn in the sand's colour; ``dirt`` (cx, cy, r) px puts a
+    blurred brown blot of dirt on the lens.
+    """
+    h, w = shape
+    img = sand(shape, rng)
+    for k, (cx, cy) in enumerate(centres):
+        colour = SAND * 0.9 if k in sand_coloured else CLAY
+        x0, y0 = int(np.floor(cx - radius)) - 1, int(np.floor(cy - radius)) - 1
+        n = int(np.ceil(2 * radius)) + 3
+        sub = (np.arange(n * SS) + 0.5) / SS - 0.5
+        xx, yy = np.meshgrid(x0 + sub, y0 + sub)
+        d2 = ((xx - cx) ** 2 + (yy - cy) ** 2) / radius ** 2
+        inside = d2 < 1
+        shade = np.where(inside, 0.5 + 0.5 * np.sqrt(np.clip(1 - d2, 0, 1)), 0)
+        cov = cv2.resize(inside.astype(np.float64), (n, n), interpolation=cv2.INTER_AREA)
+        rad = cv2.resize(shade, (n, n), interpolation=cv2.INTER_AREA)
+        ys, xs = slice(max(y0, 0), min(y0 + n, h)), slice(max(x0, 0), min(x0 + n, w))
+        cy0, cx0 = ys.start - y0, xs.start - x0
+        c = cov[cy0:cy0 + ys.stop - ys.start, cx0:cx0 + xs.stop - xs.start, None]
+        r = rad[cy0:cy0 + ys.stop - ys.start, cx0:cx0 + xs.stop - xs.start, None]
+        img[ys, xs] = img[ys, xs] * (1 - c) + colour * r
+    img = img * gain
+    if dirt is not None:
+        blot = np.zeros((h, w))
+        cv2.circle(blot, (round(dirt[0]), round(dirt[1])), round(dirt[2]), 1.0, -1)
+        blot = cv2.GaussianBlur(blot, (0, 0), dirt[2] / 4)[..., None]
+        img = img * (1 - blot) + np.array([0.10, 0.16, 0.22]) * blot
+    if shadow_cols:
+        img[:, :shadow_cols] *= 0.35
+    img = 230 * img + rng.normal(0, noise_dn, img.shape)
+    ok, buf = cv2.imencode('.jpg', np.clip(np.rint(img), 0, 255).astype(np.uint8),
+                           [cv2.IMWRITE_JPEG_QUALITY, quality])
+    assert ok
+    return buf.tobytes()

@@ -1,0 +1,103 @@
+"""Rendered field recordings: geometry, occlusion by grains, and the bag with its truth."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from dempath.bagio import open_bag
+from dempath_twin.bed_source import BedRecord
+from dempath_twin.field_bag import write_field_recording
+from dempath_twin.field_record import FieldScene, RecordingConfig, lighting, render_frame
+from dempath_twin.field_render import FieldCamera, Look, scaled_camera
+from dempath_twin.rig import paper_rig
+
+R = 0.006  # grain radius [m]
+
+
+def small_bed(n_times: int = 4) -> BedRecord:
+    """A 12 mm grain layer (Y = 0) with 3 markers; a grain lies over marker 3 towards the side
+    camera (between them).
+
+    The bed slides along +Z at 0.2 m/s so that frames differ.
+    """
+    xs, zs = np.meshgrid(np.arange(-0.06, 0.061, 2 * R), np.arange(-0.09, 0.091, 2 * R))
+    layer = np.column_stack([xs.ravel(), np.zeros(xs.size), zs.ravel()])
+    marker_index = np.array([np.argmin(np.linalg.norm(layer - p, axis=1))
+                             for p in ([-0.036, 0, 0.0], [0.0, 0, 0.0], [0.036, 0, 0.0])])
+    clay = layer[marker_index[2]] + [0.0, R - 0.004, 0.0]  # clay sphere top flush with grain
+    sight = paper_rig().side.center - clay
+    cover = clay + 0.014 * sight / np.linalg.norm(sight)
+    pos0 = np.vstack([layer, cover[None]])
+    times = np.arange(n_times) * 0.01
+    pos = np.stack([pos0 + np.array([0.0, 0.0, 0.2 * t]) for t in times]).astype(np.float32)
+    grid = pos0[marker_index].copy()
+    return BedRecord(times, pos, np.full(len(pos0), R), np.arange(len(pos0)),
+                     np.array([1, 2, 3], np.int32), marker_index.astype(np.int64), times,
+                     np.tile([0.0, 0.3, 0.5], (n_times, 1)), np.zeros((0, 3, 3)),
+                     {'run_id': 'synthetic', 'grid_points': grid.tolist()})
+
+
+@pytest.fixture(scope='module')
+def frame():
+    """One rendered side-camera frame of the small bed at a quarter of 1920 x 1080."""
+    cam = FieldCamera(scaled_camera(paper_rig().side, 0.5), Look(blur_subframes=1))
+    rng = np.random.default_rng(0)
+    scene = FieldScene(small_bed(), cam.look, rng)
+    light = lighting(np.array([0.0, 0.02]), rng)[0]
+    return cam, scene, render_frame(cam, scene, 0.01, light, rng)
+
+
+def test_markers_project_where_the_camera_says(frame) -> None:
+    """Truth pixels are camera.project of the clay spheres' centres; they look blue there."""
+    cam, scene, (image, truth) = frame
+    assert np.allclose(truth.uv, cam.camera.project(scene.markers(0.01)))
+    for k in (0, 1):
+        u, v = np.rint(truth.uv[k]).astype(int)
+        b, _, r = image[v, u].astype(int)
+        assert b > r + 20, (k, image[v, u])
+
+
+def test_occlusion_comes_from_the_grains(frame) -> None:
+    """Markers 1-2 are mostly visible; marker 3, under a grain, is hidden by it."""
+    _, _, (_, truth) = frame
+    assert truth.visible[0] > 0.6 and truth.visible[1] > 0.6, truth.visible
+    assert truth.visible[2] < 0.2, truth.visible
+
+
+def test_recording_bag_and_truth(tmp_path) -> None:
+    """Bag with JPEG + CameraInfo per camera, front stamps 3 ms later, truth beside the bag."""
+    config = RecordingConfig(scale=0.25, calib_views=1, max_frames=2,
+                             look=Look(blur_subframes=2, supersample=1))
+    bag, truth = write_field_recording(small_bed(), paper_rig(), tmp_path / 'rec', config)
+    with open_bag(bag) as reader:
+        assert set(reader.topics) == {f'/{c}/{t}' for c in ('cam_side', 'cam_front')
+                                      for t in ('image_raw/compressed', 'camera_info')}
+        assert reader.topics['/cam_side/image_raw/compressed'].msgcount == 3
+    data = json.loads((tmp_path / 'rec.truth.json').read_text())
+    side = [f['stamp_ns'] for f in data['frames'] if f['camera'] == 'cam_side']
+    front = [f['stamp_ns'] for f in data['frames'] if f['camera'] == 'cam_front']
+    assert np.allclose(np.subtract(front, side), 3_000_000)
+    assert data['calibration_segment']['views'] == 1 and len(data['marker_grid_m']) == 3
+    assert len(truth) == 4
+
+
+def test_tool_triangles_are_depth_tested_and_cast_shadows() -> None:
+    """A steel triangle in front of a grain hides it; the triangle shadows what lies under it."""
+    from dempath_twin.field_render import Scene3D, ShadowMap
+
+    cam = FieldCamera(scaled_camera(paper_rig().side, 0.25), Look(supersample=1))
+    tri = np.array([[[0.05, -0.05, -0.05], [0.05, -0.05, 0.05], [0.05, 0.08, 0.0]]])
+    grain = np.array([[0.0, 0.0, 0.0]])
+    scene = Scene3D(grain, np.array([R]), np.ones((1, 3), np.float32), np.zeros(1, np.float32),
+                    tri)
+    _, ibuf, _ = cam.buffers(scene)
+    uv = cam.camera.project(np.vstack([grain, tri[0].mean(0)[None]]))
+    ox, oy = cam.origin
+    for (u, v), want in zip(uv, (1, 1), strict=True):  # index 1 = the tool (1 sphere)
+        assert ibuf[round(v - oy), round(u - ox)] == want
+    shadow = ShadowMap(scene, (1.0, 0.0, 0.0))  # light from +X: the grain is behind the tool
+    assert shadow.lit(grain + np.array([[R, 0.0, 0.0]]))[0] == 0.0  # in the shadow
+    assert shadow.lit(np.array([[0.0, 0.0, 0.2]]))[0] == 1.0
