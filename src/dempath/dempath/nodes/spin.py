@@ -1,13 +1,14 @@
 """The body of every dempath node's console script, in the Jazzy form.
 
 ``rclpy.init``; build the node (a bad file or parameter ends with one ``error:`` line and exit
-status 1); spin until Ctrl-C, SIGTERM or the node says it is done (Ctrl-C while the node is
-still being built ends cleanly too); then shut down in order:
-the node's own finishing step, the executor, the node, the context.
+status 1); spin until Ctrl-C, SIGTERM or the node says it is done (a signal that arrives while
+the node is still being built is held until spinning starts, so it too ends cleanly); then
+shut down in order: the node's own finishing step, the executor, the node, the context.
 """
 
 from __future__ import annotations
 
+import signal
 import sys
 from collections.abc import Callable
 from typing import TypeVar
@@ -20,6 +21,7 @@ from dempath.errors import DempathError
 from dempath.rosenv import apply_ros_defaults
 
 N = TypeVar('N', bound=Node)
+HELD_SIGNALS = {signal.SIGINT, signal.SIGTERM}  # held while the node is built
 
 
 def run_node(make_node: Callable[[], N], args: list[str] | None = None,
@@ -34,19 +36,21 @@ def run_node(make_node: Callable[[], N], args: list[str] | None = None,
         on_exit: Called before the executor shuts down (e.g. finalise a recording).
     """
     apply_ros_defaults()
+    # Ctrl-C or SIGTERM while the node is being built is held (in every thread, as the ROS
+    # threads inherit the mask) and lands once spinning starts, so it ends the node cleanly.
+    signal.pthread_sigmask(signal.SIG_BLOCK, HELD_SIGNALS)
     rclpy.init(args=args)
     try:
         node = make_node()
     except (DempathError, ValueError) as err:
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, HELD_SIGNALS)
         print(f'error: {err}', file=sys.stderr)
         rclpy.try_shutdown()
         return 1
-    except (KeyboardInterrupt, ExternalShutdownException):
-        rclpy.try_shutdown()  # Ctrl-C while the node was still being built: a clean stop
-        return 0
     executor = SingleThreadedExecutor()
     executor.add_node(node)
     try:
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, HELD_SIGNALS)
         if until is None:
             executor.spin()
         while until is not None and rclpy.ok() and not until(node):
