@@ -59,7 +59,7 @@ def write_case(case: CasePass, folder: Path, noise_m: float = 0.0015, seed: int 
 
 def make_case(scene: SceneSpec, hidden: HiddenCase, folder: Path, *, until_s: float,
               noise_m: float = 0.0015, cache_dir: Path | None = None,
-              own_pour: bool = True) -> tuple[Path, Path]:
+              own_pour: bool = False) -> tuple[Path, Path]:
     """Run ``hidden`` on ``scene`` and write it as a measurement of [0, ``until_s``] (a camera
     recording of fixed length; cached in ``folder``)."""
     markers, force = folder / 'markers.csv', folder / 'force.csv'

@@ -30,6 +30,7 @@ from dempath_diagnose.simulate import (
     LIBRARY_CANDIDATES,
     Candidate,
     SceneSpec,
+    ensure_bed,
     pass_travel_s,
     physics_key,
     run_pass,
@@ -191,6 +192,8 @@ def build_library(scene: SceneSpec, spec: LibrarySpec, root: Path | None = None,
         'candidates': [asdict(c) for c in candidates],
         'runs': [asdict(r) for r in runs]}, indent=1))
     todo = [r for r in runs if not (folder / 'runs' / r.filename).is_file()]
+    pours = [_Pour(scene, s, cache_dir) for s in sorted({r.seed for r in todo})]
+    executor(pours, lambda _: None)  # one bed per seed first: no two workers pour the same
     tasks = [_Task(scene, r, folder / 'runs' / r.filename, spec, cache_dir) for r in todo]
     finished = [0]
 
@@ -201,6 +204,18 @@ def build_library(scene: SceneSpec, spec: LibrarySpec, root: Path | None = None,
 
     executor(tasks, done)
     return folder
+
+
+@dataclass(frozen=True)
+class _Pour:
+    """The settled bed of one seed, poured into the packing cache (a picklable callable)."""
+
+    scene: Any
+    seed: int
+    cache_dir: Path | None
+
+    def __call__(self) -> bool:
+        return ensure_bed(self.scene.with_overrides(seed=self.seed), self.cache_dir)
 
 
 @dataclass(frozen=True)

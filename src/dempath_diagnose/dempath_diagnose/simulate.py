@@ -2,11 +2,12 @@
 
 Everything the diagnosis needs from the simulator goes through this module, so that a change of
 dempath_sim's layout (issue 11) is ported here and nowhere else. A pass starts from the settled
-bed of the *baseline* scene for its seed, re-settled with the run's own physics when that
-differs (:func:`ensure_bed`), so that runs that differ only in the physics share the packing and
-chaos cancels in paired differences. The whole bed is recorded every ``frame_s`` and the
-particles near the surface are kept (:class:`~dempath_diagnose.records.PassRecord`), so any
-marker layout and time window can be served later without new runs.
+bed of the *baseline* scene for its seed (:func:`ensure_bed`; dempath_sim's ``fill.physics:
+scene``), re-settled against the tool with the run's own physics, so that runs that differ only
+in the physics share the packing and chaos cancels in paired differences. The whole bed is
+recorded every ``frame_s`` and the particles near the surface are kept
+(:class:`~dempath_diagnose.records.PassRecord`), so any marker layout and time window can be
+served later without new runs.
 
 Assumptions: a candidate's strength is the value of its main parameter; the other parameters of
 the effect (dynamic friction) are scaled with it in the scene's proportion.
@@ -166,7 +167,6 @@ def run_pass(scene: SceneSpec, seed: int, overrides: dict[str, float], *,
     base = replace(base, output=output)
     try:
         changed = base.with_overrides(overrides) if overrides else base
-        ensure_bed(changed, cache_dir, base)
         result = run_scene(changed, RunOptions(cache_dir=cache_dir, follow_s=follow_s))
     except (DempathError, ValueError) as err:
         msg = f'{scene.name} seed {seed} {overrides or "baseline"}: {err}'
@@ -204,21 +204,22 @@ class CasePass:
 
 
 def run_case(scene: SceneSpec, seed: int, overrides: dict[str, float], *, follow_s: float = 0.0,
-             cache_dir: Path | None = None, own_pour: bool = True) -> CasePass:
+             cache_dir: Path | None = None, own_pour: bool = False) -> CasePass:
     """A hidden-effect case: ``scene`` with ``overrides`` on a seed the library never used.
 
-    With ``own_pour`` (default) the bed is poured with the case's own physics, a set-up the
-    library never used; otherwise that seed's baseline pour re-settled with the case's physics.
-    (The tiny scene's strongly cohesive pours do not settle within its fill time: such a bed
-    still sinks during the pass, a set-up difference rather than the effect.)
+    By default the case's bed is poured with the scene file's physics on its own seed and
+    re-settled against the tool with the case's physics, the set-up the library's runs use.
+    With ``own_pour`` the bed is poured with the case's own physics (``fill.physics: run``), a
+    set-up the library never used (one more pour per case; the tiny scene's strongly cohesive
+    pours do not settle within its fill time, and such a bed still sinks during the pass).
     """
     from dempath_sim.runs import RunOptions, run_scene
 
     try:
         base = _sweep_scene(scene.with_overrides(seed=seed))
         changed = base.with_overrides(overrides) if overrides else base
-        if not own_pour:
-            ensure_bed(changed, cache_dir, base)
+        if own_pour:
+            changed = replace(changed, fill=replace(changed.fill, physics='run'))
         result = run_scene(changed, RunOptions(cache_dir=cache_dir, follow_s=follow_s))
     except (DempathError, ValueError) as err:
         raise DiagnosisError(f'case {overrides or "control"} seed {seed}: {err}') from err
@@ -228,59 +229,24 @@ def run_case(scene: SceneSpec, seed: int, overrides: dict[str, float], *, follow
                     np.asarray(result.tool_force))
 
 
-def ensure_bed(scene: SceneSpec, cache_dir: Path | None = None,
-               base: SceneSpec | None = None) -> bool:
-    """Make sure the packing cache holds the settled bed of ``scene`` (its seed); True if made.
+def ensure_bed(scene: SceneSpec, cache_dir: Path | None = None) -> bool:
+    """Make sure the packing cache holds the settled bed a pass of ``scene`` reads; True if made.
 
-    With ``base`` (the baseline scene, same seed) and other particle physics in ``scene``, the
-    bed is not poured again: the baseline's settled bed is re-settled with ``scene``'s own
-    physics (as LIGGGHTS users re-settle a saved bed) and cached under ``scene``'s packing key.
-    Runs that differ only in the physics then share the packing, so chaos cancels in paired
-    differences. Every pass reads its bed from the cache, so the first pass on a seed starts
-    from the same state (no contact history) as the later ones.
+    That bed is poured with the physics of ``scene.bed_model()``: the scene file's own effects
+    (``fill.physics: scene``, the default), whatever a candidate's overrides change, so runs
+    that differ only in the physics share one bed per seed and chaos cancels in paired
+    differences; each run then re-settles it against the tool with its own physics
+    (``tool.settle_s``), as LIGGGHTS users re-settle a saved bed.
     """
     from dempath_sim.runs.fill import default_cache_dir, fill_bed, packing_key
     from dempath_sim.runs.physics import build_params
 
-    model = scene.physics_model()
+    model = scene.bed_model()
     key = packing_key(scene, model)
     if ((cache_dir or default_cache_dir()) / f'{key}.npz').is_file():
         return False
-    if base is None or packing_key(base, base.physics_model()) == key:
-        _, report = fill_bed(scene, model, build_params(scene, model), cache_dir)
-        return not report.from_cache
-    ensure_bed(base, cache_dir)
-    _resettle(scene, base, key, cache_dir)
-    return True
-
-
-def _resettle(scene: SceneSpec, base: SceneSpec, key: str, cache_dir: Path | None) -> None:
-    """Settle the cached bed of ``base`` with ``scene``'s physics; cache it under ``key``."""
-    from dempath_sim.engine import Engine
-    from dempath_sim.runs.fill import (
-        _save_cached,
-        default_cache_dir,
-        fill_bed,
-        measure,
-        settle,
-    )
-    from dempath_sim.runs.physics import bin_walls, build_params
-
-    base_model = base.physics_model()
-    state, report = fill_bed(base, base_model, build_params(base, base_model), cache_dir)
-    model = scene.physics_model()
-    engine = Engine(build_params(scene, model), bin_walls(scene))
-    state, settled = settle(engine, state, scene, scene.fill.max_settle_time_s)
-    found = measure(scene, model, state)
-    report = replace(report, key=key, settled=settled, from_cache=False,
-                     settle_time_s=report.settle_time_s + state.time,
-                     surface_height_m=found['surface_height_m'],
-                     solid_fraction=found['solid_fraction'],
-                     bulk_density_kg_m3=found['bulk_density_kg_m3'])
-    state.time, state.step = 0.0, 0
-    _save_cached((cache_dir or default_cache_dir()) / f'{key}.npz', state, report)
-    logger.info('re-settled the bed of %s seed %d with the run physics (%d particles)',
-                scene.name, scene.seed, report.n_particles)
+    _, report = fill_bed(scene, model, build_params(scene, model), cache_dir)
+    return not report.from_cache
 
 
 def _record(result: Any, keep_depth_m: float, overrides: dict[str, float],
@@ -306,6 +272,7 @@ __all__ = [
     'LIBRARY_CANDIDATES',
     'Candidate',
     'CasePass',
+    'ensure_bed',
     'load_scene',
     'pass_travel_s',
     'physics_key',
