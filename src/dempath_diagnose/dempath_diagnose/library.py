@@ -192,9 +192,9 @@ def build_library(scene: SceneSpec, spec: LibrarySpec, root: Path | None = None,
         'candidates': [asdict(c) for c in candidates],
         'runs': [asdict(r) for r in runs]}, indent=1))
     todo = [r for r in runs if not (folder / 'runs' / r.filename).is_file()]
-    pours = [_Pour(scene, s, cache_dir) for s in sorted({r.seed for r in todo})]
+    pours = [LibraryPour(scene, s, cache_dir) for s in sorted({r.seed for r in todo})]
     executor(pours, lambda _: None)  # one bed per seed first: no two workers pour the same
-    tasks = [_Task(scene, r, folder / 'runs' / r.filename, spec, cache_dir) for r in todo]
+    tasks = [LibraryTask(scene, r, folder / 'runs' / r.filename, spec, cache_dir) for r in todo]
     finished = [0]
 
     def done(_: int) -> None:
@@ -207,7 +207,7 @@ def build_library(scene: SceneSpec, spec: LibrarySpec, root: Path | None = None,
 
 
 @dataclass(frozen=True)
-class _Pour:
+class LibraryPour:
     """The settled bed of one seed, poured into the packing cache (a picklable callable)."""
 
     scene: Any
@@ -219,7 +219,7 @@ class _Pour:
 
 
 @dataclass(frozen=True)
-class _Task:
+class LibraryTask:
     """One library run as a picklable callable (for Dask workers): run it and store it."""
 
     scene: Any

@@ -18,7 +18,7 @@ import numpy as np
 
 from dempath_diagnose.emulator import CandidateEmulator, Emulator
 from dempath_diagnose.errors import DiagnosisError
-from dempath_diagnose.library import Library, LibrarySpec, RunSpec, _Task
+from dempath_diagnose.library import Library, LibrarySpec, LibraryTask, RunSpec
 from dempath_diagnose.recalibrate import SweepLostError
 from dempath_diagnose.records import F64, PassRecord
 from dempath_diagnose.statistics import Layout, model_statistics
@@ -55,8 +55,8 @@ class RealEvaluator:
         seeds = self.library.seeds()[:self.seeds]
         runs = [RunSpec(f'recal-{c.name}@{x:.6g}', s, c.name, x, c.overrides(x)) for s in seeds]
         paths = [self.folder / 'runs' / r.filename for r in runs]
-        tasks = [_Task(self.scene, r, p, self.spec, self.cache_dir) for r, p in zip(runs, paths,
-                                                                                     strict=True)]
+        tasks = [LibraryTask(self.scene, r, p, self.spec, self.cache_dir)
+                 for r, p in zip(runs, paths, strict=True)]
         todo = [t for t, p in zip(tasks, paths, strict=True) if not p.is_file()]
         (self.folder / 'runs').mkdir(parents=True, exist_ok=True)
         try:
