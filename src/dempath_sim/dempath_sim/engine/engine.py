@@ -38,6 +38,7 @@ from dempath_sim.engine.mesh import TriangleMesh, build_triangle_grid, mesh_marg
 from dempath_sim.engine.neighbors import (
     build_neighbor_list,
     cell_order,
+    overlapping_pairs,
     permute_in_place,
     transfer_history,
 )
@@ -338,11 +339,8 @@ class Engine:
                        len(gone), state.time, gone[:10].tolist())
         new = state.subset(keep)
         new_to_old = np.flatnonzero(keep)
-        self._force = np.ascontiguousarray(self._force[keep])
-        self._torque = np.ascontiguousarray(self._torque[keep])
-        self._gkey = np.ascontiguousarray(self._gkey[keep])
-        self._ght = np.ascontiguousarray(self._ght[keep])
-        self._ghr = np.ascontiguousarray(self._ghr[keep])
+        for name in ('_force', '_torque', '_gkey', '_ght', '_ghr'):  # per-particle buffers
+            setattr(self, name, np.ascontiguousarray(getattr(self, name)[keep]))
         self._n_chunks = max(1, min(self._n_chunks, new.n))
         self._fbuf = np.zeros((self._n_chunks, new.n, 3))
         self._tbuf = np.zeros((self._n_chunks, new.n, 3))
@@ -391,15 +389,16 @@ class Engine:
         return int(self._nbr.size)
 
     @property
+    def loaded_springs(self) -> int:
+        """Particle pairs whose tangential spring is loaded now (their contact history)."""
+        return int(np.count_nonzero(np.any(self._ht != 0.0, axis=1)))
+
+    @property
     def n_contacts(self) -> int:
         """Particle-particle pairs overlapping now (numpy over the neighbour list)."""
         st = self._bound
-        if st is None or self._nbr.size == 0:
-            return 0
-        i = np.repeat(np.arange(st.n), np.diff(self._start))
-        j = self._nbr
-        d = np.linalg.norm(st.positions[i] - st.positions[j], axis=1)
-        return int(np.count_nonzero(d < st.radii[i] + st.radii[j]))
+        return 0 if st is None else overlapping_pairs(st.positions, st.radii, self._start,
+                                                      self._nbr)
 
     def memory_bytes(self) -> dict[str, int]:
         """Bytes held: per-particle arrays of engine + state, and neighbour-list entries."""

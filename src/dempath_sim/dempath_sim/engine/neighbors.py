@@ -248,3 +248,13 @@ def transfer_history(new_to_old, old_start, old_nbr, old_ht, old_hr, start, nbr,
                         ht[k, d] = sign * old_ht[q, d]
                         hr[k, d] = sign * old_hr[q, d]
                     break
+
+
+def overlapping_pairs(positions: NDArray[np.float64], radii: NDArray[np.float64],
+                      start: NDArray[np.int64], nbr: NDArray[np.int64]) -> int:
+    """Pairs of the neighbour list (CSR ``start`` (n + 1,), ``nbr``) whose spheres overlap now."""
+    if nbr.size == 0:
+        return 0
+    i = np.repeat(np.arange(len(start) - 1), np.diff(start))
+    d = np.linalg.norm(positions[i] - positions[nbr], axis=1)
+    return int(np.count_nonzero(d < radii[i] + radii[nbr]))

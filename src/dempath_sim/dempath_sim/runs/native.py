@@ -42,8 +42,7 @@ logger = logging.getLogger(__name__)
 def pass_start_springs(engine: Engine) -> int:
     """Particle pairs whose tangential spring is loaded when the pass starts (the contact
     history the re-settle built; 0 for a pass started on a bed without history)."""
-    springs = engine._ht
-    return int(np.count_nonzero(np.any(springs != 0.0, axis=1)))
+    return engine.loaded_springs
 
 
 def _with_run_masses(state: SimState, params: SimParams) -> SimState:
