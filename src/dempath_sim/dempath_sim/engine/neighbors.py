@@ -251,7 +251,7 @@ def transfer_history(new_to_old, old_start, old_nbr, old_ht, old_hr, start, nbr,
 
 
 def overlapping_pairs(positions: NDArray[np.float64], radii: NDArray[np.float64],
-                      start: NDArray[np.int64], nbr: NDArray[np.int64]) -> int:
+                      start: NDArray[np.int64], nbr: NDArray[np.int32]) -> int:
     """Pairs of the neighbour list (CSR ``start`` (n + 1,), ``nbr``) whose spheres overlap now."""
     if nbr.size == 0:
         return 0
