@@ -31,7 +31,7 @@ from dempath_diagnose.library import (
     library_state,
     serial_executor,
 )
-from dempath_diagnose.simulate import load_scene, pass_travel_s
+from dempath_diagnose.simulate import LIBRARY_CANDIDATES, load_scene, pass_travel_s
 
 NAMED = ('effect_missing', 'parameter_off')
 OPEN = ('nothing_significant', 'inconclusive')
@@ -111,6 +111,8 @@ def bench_parser() -> argparse.ArgumentParser:
     p.add_argument('--root', type=Path, default=Path.home() / '.cache/dempath/bench-diagnose')
     p.add_argument('--seeds', default='1001,1002,1003')
     p.add_argument('--strengths', type=int, default=2)
+    p.add_argument('--candidates', default=','.join(LIBRARY_CANDIDATES),
+                   help='library candidates (comma-separated effect names)')
     p.add_argument('--serial', action='store_true')
     return p
 
@@ -125,7 +127,8 @@ def main() -> None:
     scene = load_scene(args.scene)
     duration = covering_duration(pass_travel_s(scene, {}), 0.0)
     spec = LibrarySpec(seeds=tuple(int(s) for s in args.seeds.split(',')), duration_s=duration,
-                       n_strengths=args.strengths)
+                       n_strengths=args.strengths,
+                       candidates=tuple(c for c in args.candidates.split(',') if c))
     lib_root, packings = args.root / 'library', args.root / 'packings'
     timing = args.root / 'timing.json'
     spent = json.loads(timing.read_text()) if timing.is_file() else {'library_s': 0.0}
@@ -151,7 +154,8 @@ def main() -> None:
             out = folder / ('diag_force' if with_force else 'diag_markers')
             argv = ['--measured', str(markers), '--scene', args.scene, '--out', str(out),
                     '--library-root', str(lib_root), '--packing-cache', str(packings),
-                    '--seeds', args.seeds, '--strengths', str(args.strengths), '--serial']
+                    '--seeds', args.seeds, '--strengths', str(args.strengths),
+                    '--candidates', args.candidates, '--serial']
             if with_force:
                 argv += ['--force', str(force)]
             if diagnose_main(argv) != 0:
