@@ -20,6 +20,7 @@ from dempath.errors import DempathError
 from dempath_diagnose.cli import _parser as diagnose_parser
 from dempath_diagnose.cli import diagnosis_of
 from dempath_diagnose.errors import DiagnosisError
+from dempath_diagnose.library import serial_executor
 from dempath_diagnose.recal_progress import Callback, fan_out, printer
 from dempath_diagnose.recal_targets import also_candidates, budgets, targets
 from dempath_diagnose.recalibrate import Recalibration, check_strength, recalibrate, unchanged
@@ -45,8 +46,6 @@ def _parser() -> argparse.ArgumentParser:
 def _executor(args: argparse.Namespace, stack: ExitStack) -> Any:
     """Serial, or a Dask executor that tells a lost scheduler from a failed run."""
     if args.serial:
-        from dempath_diagnose.library import serial_executor
-
         return serial_executor
     from dempath_diagnose.recal_runs import dask_executor
     from dempath_diagnose.sweep import DaskSweep
@@ -87,7 +86,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     _, _, cube = tool_geometry(scene)
     results: list[tuple[Recalibration, Any]] = []
     with ExitStack() as stack:
-        executor = _executor(args, stack) if todo else None
+        executor = _executor(args, stack) if todo else serial_executor
         progress = _callback(args, stack)
         for (name, start), budget in zip(todo, budgets(args.budget, args.seeds_per_eval,
                                                        len(todo)), strict=False):
@@ -114,8 +113,9 @@ def _write(results: list[tuple[Recalibration, Any]], scene: Any, library: Any, d
 
     best, evaluate = min(results, key=lambda re: re[0].after)
     write_scene_of(best, scene, args.out)
-    tried = {r.effect: {'error_after': r.after, 'reduction': r.reduction, 'stop': r.stop,
-                        'simulations': r.steps[-1].simulations} for r, _ in results}
+    tried: dict[str, dict[str, Any]] = {
+        r.effect: {'error_after': r.after, 'reduction': r.reduction, 'stop': r.stop,
+                   'simulations': r.steps[-1].simulations} for r, _ in results}
     extra: dict[str, Any] = {'tried': tried}
     if len(results) > 1:
         down = [k for k, v in tried.items() if v['reduction'] > 0]

@@ -29,7 +29,7 @@ def paper_and_trajectories(best: Recalibration, evaluate: Any, library: Any, d: 
     after = [(p.stem, PassRecord.load(p)) for p in after_files]
     ((_, files),) = library.model_runs('').items()
     floor = [(f, library.records[f]) for f in files]
-    paper = before_after(meas, d.layout, cube, before, after, floor)
+    paper = before_after(meas, d.layout, cube, before, after, floor, args.noise)
     paper['after_is_before'] = not after
     fig = plot_trajectories(meas, d.layout, cube, [r for _, r in before],
                             [r for _, r in after], args.out / 'trajectories.png')

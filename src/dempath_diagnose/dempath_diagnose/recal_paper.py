@@ -10,9 +10,10 @@ cube (the paper's Cube candidates, :func:`~dempath_diagnose.statistics.cube_memb
 
 The floor is what the true model itself gives on these metrics over packing seeds: each baseline
 seed in turn plays the measurement (for every marker, the particle starting nearest the marker's
-measured start, as a real marker is one grain of its cube) and is compared with the cube
-candidates of the other seeds; the floor is the mean (and sd) of those comparisons. A mean nRMSE
-at the floor is all that chaos allows; the fall is judged against it, not against zero.
+measured start, as a real marker is one grain of its cube, plus the measurement noise) and is
+compared with the cube candidates of the other seeds; the floor is the mean (and sd) of those
+comparisons. A mean nRMSE at the floor is all that chaos allows; the fall is judged against it,
+not against zero.
 """
 
 from __future__ import annotations
@@ -127,17 +128,22 @@ def table7(measured: Sequence[Any], model: Sequence[Any],
                         table7_markdown(table))
 
 
-def nearest_tracks(rec: PassRecord, layout: Layout) -> list[Any]:
-    """A seed playing the measurement: per marker, the particle starting nearest it."""
+def nearest_tracks(rec: PassRecord, layout: Layout, noise_m: float = 0.0,
+                   seed: int = 0) -> list[Any]:
+    """A seed playing the measurement: per marker, the particle starting nearest it, with
+    Gaussian noise of ``noise_m`` per axis as the cameras add (it widens the trajectory range,
+    the nRMSE's normaliser, of markers that barely move: without it the floor is too high)."""
     from dempath_compare.records import Track
 
+    rng = np.random.default_rng(seed)
     start = rec.start
     finite = np.isfinite(start).all(1)
     out = []
     for m, p in zip(layout.markers, layout.starts, strict=True):
         dist = np.where(finite, np.linalg.norm(start - p, axis=1), np.inf)
         i = int(np.argmin(dist))
-        pos = np.asarray(rec.positions[:, i], np.float64)
+        pos = np.asarray(rec.positions[:, i], np.float64) + rng.normal(
+            0.0, noise_m, (len(rec.times), 3))
         ok = np.isfinite(pos).all(1)
         out.append(Track(f'pseudo/marker{m}', 'measured', int(m), int(m), rec.times[ok],
                          pos[ok]))
@@ -145,13 +151,16 @@ def nearest_tracks(rec: PassRecord, layout: Layout) -> list[Any]:
 
 
 def paper_floor(records: Sequence[tuple[str, PassRecord]], layout: Layout,
-                cube: tuple[float, float, float]) -> PaperFloor:
-    """The floor on the paper's metrics (see the module docstring); needs two seeds or more."""
+                cube: tuple[float, float, float], noise_m: float = 0.0) -> PaperFloor:
+    """The floor on the paper's metrics (see the module docstring); needs two seeds or more.
+
+    ``noise_m``: the measurement noise per axis added to the seed playing the measurement [m].
+    """
     means: list[float] = []
     per: dict[int, list[float]] = {}
     for k, (_, rec) in enumerate(records):
         others = [r for i, r in enumerate(records) if i != k]
-        t = table7(nearest_tracks(rec, layout), model_tracks(others, layout, cube),
+        t = table7(nearest_tracks(rec, layout, noise_m, k), model_tracks(others, layout, cube),
                    [int(m) for m in layout.markers])
         means.append(t.mean_nrmse)
         for m, v in zip(t.markers, t.nrmse, strict=True):
@@ -165,13 +174,17 @@ def paper_floor(records: Sequence[tuple[str, PassRecord]], layout: Layout,
 def before_after(meas: Measurement, layout: Layout, cube: tuple[float, float, float],
                  before: Sequence[tuple[str, PassRecord]],
                  after: Sequence[tuple[str, PassRecord]],
-                 floor_runs: Sequence[tuple[str, PassRecord]]) -> dict[str, Any]:
-    """Table 7 before, after and the floor, as diagnosis.json / recalibration.json hold them."""
+                 floor_runs: Sequence[tuple[str, PassRecord]], noise_m: float = 0.0,
+                 ) -> dict[str, Any]:
+    """Table 7 before, after and the floor, as diagnosis.json / recalibration.json hold them.
+
+    ``noise_m``: measurement noise per axis of the measured markers [m] (given to the floor).
+    """
     measured = measured_tracks(meas)
     markers = [int(m) for m in layout.markers]
     b = table7(measured, model_tracks(before, layout, cube), markers)
     a = table7(measured, model_tracks(after, layout, cube), markers) if after else b
-    f = paper_floor(floor_runs, layout, cube)
+    f = paper_floor(floor_runs, layout, cube, noise_m)
     return {'before': b.to_json(), 'after': a.to_json(), 'floor': f.to_json(),
             'table7_before_md': b.markdown, 'table7_after_md': a.markdown,
             'top_n': TOP_N}

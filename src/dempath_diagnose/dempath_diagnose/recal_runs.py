@@ -45,7 +45,7 @@ def dask_executor(client: Any) -> Executor:
             futures = {client.submit(t, retries=RETRIES, pure=False): k
                        for k, t in enumerate(tasks)}
             failed = []
-            for future in as_completed(futures):
+            for future in as_completed(futures):  # type: ignore[no-untyped-call]
                 if future.status == 'cancelled':
                     raise SweepLostError(f'Dask scheduler {client.scheduler.address}: lost '
                                          'mid-sweep; the runs already stored are kept, a '

@@ -225,9 +225,9 @@ def _next(objective: Objective, cands: Sequence[CandidateEmulator], out: Recalib
     """The strengths of the next real evaluation."""
     current = np.array([p.current for p in out.params])
     if start is not None and len(out.steps) == 1:
-        return np.concatenate([[start], current[1:]])
+        return np.asarray(np.concatenate([[start], current[1:]]), np.float64)
     if last_fail:
-        return (x + current) / 2
+        return np.asarray((x + current) / 2, np.float64)
     best = np.array(out.steps[0].strengths) if len(out.steps) == 1 else x
     return propose(objective, cands, bias, best)
 
@@ -283,5 +283,5 @@ def _loop(out: Recalibration, objective: Objective, cands: Sequence[CandidateEmu
 
 def _emulated_diff(cands: Sequence[CandidateEmulator], x: F64) -> F64:
     """(k,) the emulator's summed paired difference at strengths ``x``."""
-    return np.sum([c.predict(np.array([v], np.float64))[0][0]
-                   for c, v in zip(cands, x, strict=True)], axis=0)
+    return np.asarray(np.sum([c.predict(np.array([v], np.float64))[0][0]
+                              for c, v in zip(cands, x, strict=True)], axis=0), np.float64)
