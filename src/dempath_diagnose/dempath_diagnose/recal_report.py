@@ -37,6 +37,7 @@ def _pyplot() -> Any:
 
 def plot_steps(r: Recalibration, path: Path) -> str:
     """Error vs iteration with the floor band, each fitted strength below."""
+    from matplotlib.ticker import MaxNLocator
     from scipy import stats
 
     plt = _pyplot()
@@ -68,6 +69,7 @@ def plot_steps(r: Recalibration, path: Path) -> str:
             b.legend(fontsize=7)
         b.set_ylabel(f'{p.name}.{p.parameter}\n[{p.unit}]', fontsize=8)
     axes[-1].set_xlabel('iteration')
+    axes[-1].xaxis.set_major_locator(MaxNLocator(integer=True))
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
