@@ -113,11 +113,11 @@ def model_tracks(records: Sequence[tuple[str, PassRecord]], layout: Layout,
 def table7(measured: Sequence[Any], model: Sequence[Any],
            markers: Sequence[int]) -> PaperMetrics:
     """Table 7 of ``measured`` against ``model`` tracks (marker pairing, the paper's top 10)."""
-    from dempath_compare.config import CompareConfig
+    from dempath_compare.config import CompareConfig, Pairing
     from dempath_compare.pipeline import compare_tracks
     from dempath_compare.summary import build_table7, table7_markdown
 
-    config = CompareConfig(top_n=TOP_N, pairing='marker', match_speed=False,
+    config = CompareConfig(top_n=TOP_N, pairing=Pairing.MARKER, match_speed=False,
                            marker_ids=tuple(int(m) for m in markers))
     table = build_table7(compare_tracks(measured, model, config))
     rows = [r for r in table.rows if np.isfinite(r.nrmse)]
