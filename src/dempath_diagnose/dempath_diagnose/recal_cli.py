@@ -47,9 +47,16 @@ def _executor(args: argparse.Namespace, stack: ExitStack) -> Any:
     """Serial, or a Dask executor that tells a lost scheduler from a failed run."""
     if args.serial:
         return serial_executor
+    import logging
+
     from dempath_diagnose.recal_runs import dask_executor
     from dempath_diagnose.sweep import DaskSweep
 
+    # A lost scheduler is reported in one line of ours; the client's own reconnect traceback
+    # would bury it (restored when the command ends).
+    client_log = logging.getLogger('distributed.client')
+    stack.callback(client_log.setLevel, client_log.level)
+    client_log.setLevel(logging.CRITICAL)
     return dask_executor(stack.enter_context(DaskSweep(args.scheduler, args.workers)).client)
 
 
