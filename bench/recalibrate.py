@@ -71,6 +71,11 @@ def run_case(args: argparse.Namespace, scene: Any, case: HiddenCase, duration: f
            'changed': data['changed'], 'before': data['error_before'],
            'after': data['error_after'], 'reduction': data['error_reduction'],
            'simulations': data['simulations'], 'wall_s': data['wall_s']}
+    paper = data.get('paper')
+    if paper:  # Table 7's mean nRMSE [%] before / after and the true model's over seeds
+        row.update(nrmse_before=paper['before']['mean_nrmse_pct'],
+                   nrmse_after=paper['after']['mean_nrmse_pct'],
+                   nrmse_floor=paper['floor']['mean_nrmse_pct'])
     if case.truth:
         hidden = hidden_strength(scene, case)
         s = data['strength']
@@ -106,7 +111,16 @@ def main() -> None:
         'wall_s': round(sum(r['wall_s'] for r in rows), 1),
         'strength_within_uncertainty': sum(r.get('within', False) for r in named),
         'strong_cases': len(named),
-        'control_unchanged': all(not r['changed'] for r in controls)}))
+        'control_unchanged': all(not r['changed'] for r in controls),
+        'mean_nrmse_before': _median(named, 'nrmse_before'),
+        'mean_nrmse_after': _median(named, 'nrmse_after'),
+        'mean_nrmse_floor': _median(named, 'nrmse_floor')}))
+
+
+def _median(rows: list[dict[str, Any]], key: str) -> float | None:
+    """Median of ``key`` over the rows that have it (None if none has)."""
+    values = [r[key] for r in rows if key in r]
+    return round(statistics.median(values), 2) if values else None
 
 
 if __name__ == '__main__':

@@ -1,17 +1,18 @@
 """``dempath recalibrate``: switch on the diagnosed effect, fit its strength, watch the error fall.
 
 ``dempath recalibrate --measured M --scene S [--force F] [--diagnosis DIR/diagnosis.json |
---effect NAME[=START] ...] --out DIR [--budget N] [--scheduler ADDR]`` plus every option of
-``dempath diagnose`` (the library and the allowance). Bad input: one ``error: <input>:
-<problem>`` line and exit code 1; whatever was computed is written first.
+--effect NAME[=START] ...] [--also PARAM ...] --out DIR [--budget N] [--scheduler ADDR]
+[--publish-progress]`` plus every option of ``dempath diagnose`` (the library and the
+allowance). Bad input: one ``error: <input>: <problem>`` line and exit code 1; whatever was
+computed is written first (a lost scheduler or Ctrl-C still write the best scene so far).
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
+from contextlib import ExitStack
 from pathlib import Path
 from typing import Any
 
@@ -19,13 +20,10 @@ from dempath.errors import DempathError
 from dempath_diagnose.cli import _parser as diagnose_parser
 from dempath_diagnose.cli import diagnosis_of
 from dempath_diagnose.errors import DiagnosisError
-from dempath_diagnose.recalibrate import (
-    Recalibration,
-    Step,
-    check_strength,
-    recalibrate,
-    unchanged,
-)
+from dempath_diagnose.library import serial_executor
+from dempath_diagnose.recal_progress import Callback, fan_out, printer
+from dempath_diagnose.recal_targets import also_candidates, budgets, targets
+from dempath_diagnose.recalibrate import Recalibration, check_strength, recalibrate, unchanged
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -35,118 +33,132 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument('--diagnosis', type=Path, help='diagnosis.json of an earlier diagnosis')
     p.add_argument('--effect', action='append', default=[],
                    help='NAME or NAME=START: candidate(s) to fit (tried in turn)')
+    p.add_argument('--also', action='append', default=[],
+                   help='refit this existing parameter beside the effect (CMA-ES; repeatable)')
     p.add_argument('--budget', type=int, default=12, help='at most this many simulations')
     p.add_argument('--seeds-per-eval', type=int, default=2,
                    help='library packing seeds per real evaluation (paired with the baseline)')
-    p.add_argument('--also', action='append', default=[],
-                   help='refit this existing parameter too (not yet supported)')
+    p.add_argument('--publish-progress', action='store_true',
+                   help='publish dempath_msgs/RecalibrationProgress on /diagnosis/recalibration')
     return p
 
 
-def _targets(args: argparse.Namespace, verdict: str, ranking: list[str],
-             remaining: list[str]) -> list[tuple[str, float | None]]:
-    """The candidates to fit, with optional start values."""
-    if args.effect:
-        out: list[tuple[str, float | None]] = []
-        for text in args.effect:
-            name, _, value = text.partition('=')
-            try:
-                out.append((name, float(value) if value else None))
-            except ValueError as err:
-                raise DiagnosisError(f'--effect {text!r}: START must be a number') from err
-        return out
-    if args.diagnosis is not None:
-        try:
-            data = json.loads(args.diagnosis.read_text())
-            verdict, ranking = data['verdict'], [r['effect'] for r in data['ranking']]
-            remaining = data.get('remaining', [])
-        except (OSError, ValueError, KeyError) as err:
-            msg = f'{args.diagnosis}: not a readable diagnosis.json ({err})'
-            raise DiagnosisError(msg) from err
-    if verdict == 'inconclusive':
-        names = ', '.join(remaining or ranking[:3])
-        raise DiagnosisError(f'diagnosis: inconclusive ({names} remain); choose with --effect '
-                             'NAME (repeat it to try several in turn)')
-    if verdict == 'nothing_significant':
-        return []
-    return [(ranking[0], None)]
-
-
-def _executor(args: argparse.Namespace, stack: Any) -> Callable[..., None]:
+def _executor(args: argparse.Namespace, stack: ExitStack) -> Any:
+    """Serial, or a Dask executor that tells a lost scheduler from a failed run."""
     if args.serial:
-        from dempath_diagnose.library import serial_executor
-
         return serial_executor
+    import logging
+
+    from dempath_diagnose.recal_runs import dask_executor
     from dempath_diagnose.sweep import DaskSweep
 
-    return stack.enter_context(DaskSweep(args.scheduler, args.workers)).run  # type: ignore[no-any-return]
+    # A lost scheduler is reported in one line of ours; the client's own reconnect traceback
+    # would bury it (restored when the command ends).
+    client_log = logging.getLogger('distributed.client')
+    stack.callback(client_log.setLevel, client_log.level)
+    client_log.setLevel(logging.CRITICAL)
+    return dask_executor(stack.enter_context(DaskSweep(args.scheduler, args.workers)).client)
 
 
-def _progress(step: Step, eta_s: float) -> None:
-    print(f'iteration {step.iteration}: strength {step.strength:.4g}, error d^2 {step.error:.1f} '
-          f'(emulated {step.emulated:.1f}), {step.simulations} simulations, '
-          f'{step.elapsed_s:.0f} s, ETA <= {eta_s:.0f} s {step.note}', file=sys.stderr)
+def _callback(args: argparse.Namespace, stack: ExitStack) -> Callback:
+    callbacks = [printer()]
+    if args.publish_progress:
+        from dempath_diagnose.nodes.recal_progress import progress_publisher
+
+        callbacks.append(stack.enter_context(progress_publisher(args.out.name)))
+    return fan_out(callbacks)
 
 
 def run(args: argparse.Namespace) -> dict[str, Any]:
     """The whole command; returns recalibration.json's content."""
-    from contextlib import ExitStack
-
     from dempath_diagnose.objective import Objective
-    from dempath_diagnose.recal_outputs import write_all
     from dempath_diagnose.recal_runs import RealEvaluator
     from dempath_diagnose.report import write_outputs
     from dempath_diagnose.simulate import tool_geometry
 
     if args.budget <= 0:
         raise DiagnosisError(f'--budget {args.budget}: must be a positive number of simulations')
-    if args.also:
-        raise DiagnosisError(f'--also {args.also[0]}: refitting existing parameters beside the '
-                             'effect is not supported yet')
+    if args.seeds_per_eval <= 0:
+        raise DiagnosisError(f'--seeds-per-eval {args.seeds_per_eval}: must be positive')
     scene, spec, library, allowance, d = diagnosis_of(args)
     write_outputs(d, args.out, {'scene': scene.name, 'library': str(library.folder),
                                 'allowance': vars(allowance)})
-    dec = d.decision
-    targets = _targets(args, dec.verdict, [f.name for f in dec.ranking], dec.remaining)
-    objective = Objective(d.emulator, d.measured, d.observed, d.cov)
     emus = {c.candidate.name: c for c in d.emulator.candidates}
+    todo = targets(args, d.decision, list(emus))
+    also = also_candidates(args.also, emus, [name for name, _ in todo])
+    for name, start in todo:
+        if start is not None:
+            check_strength(emus[name], start)
+    objective = Objective(d.emulator, d.measured, d.observed, d.cov)
     _, _, cube = tool_geometry(scene)
-    results: list[Recalibration] = []
+    results: list[tuple[Recalibration, Any]] = []
     with ExitStack() as stack:
-        executor = _executor(args, stack)
-        for name, start in targets or [(dec.ranking[0].name, None)]:
-            if name not in emus:
-                raise DiagnosisError(f'--effect {name}: not a candidate of the signature library '
-                                     f'(known: {", ".join(emus)})')
-            if start is not None:
-                check_strength(emus[name], start)
-            evaluate = RealEvaluator(scene, library, spec, d.emulator, d.layout, cube,
-                                     emus[name], args.out, executor, args.seeds_per_eval,
+        executor = _executor(args, stack) if todo else serial_executor
+        progress = _callback(args, stack)
+        for (name, start), budget in zip(todo, budgets(args.budget, args.seeds_per_eval,
+                                                       len(todo)), strict=False):
+            cands = [emus[name], *also]
+            evaluate = RealEvaluator(scene, library, spec, d.emulator, d.layout, cube, cands,
+                                     args.out, executor, args.seeds_per_eval,
                                      args.packing_cache)
-            budget = args.budget if targets else 0
-            results.append(_fit(objective, emus[name], evaluate, budget, args, start))
-            if results[-1].stop in ('interrupted', 'scheduler_lost'):
+            if len(todo) > 1:
+                print(f'inconclusive: trying {name} ({budget} simulations)', file=sys.stderr)
+            results.append((recalibrate(objective, cands, evaluate, budget,
+                                        args.seeds_per_eval, progress, start), evaluate))
+            if results[-1][0].stop in ('interrupted', 'scheduler_lost'):
                 break
-    best = min(results, key=lambda r: r.after)
-    tried = {r.effect: {'error_after': r.after, 'reduction': r.reduction} for r in results}
-    return write_all(best, scene, args.out, {'tried': tried})
+        if not todo:  # nothing significant: the control path, no simulation
+            top = emus[d.decision.ranking[0].name]
+            results.append((unchanged(objective, [top]), None))
+    return _write(results, scene, library, d, cube, args)
 
 
-def _fit(objective: Any, cand: Any, evaluate: Any, budget: int, args: argparse.Namespace,
-         start: float | None) -> Recalibration:
-    if budget == 0:  # nothing significant: the control path, no simulation
-        return unchanged(objective, cand)
-    return recalibrate(objective, cand, evaluate, budget, args.seeds_per_eval, _progress, start)
+def _write(results: list[tuple[Recalibration, Any]], scene: Any, library: Any, d: Any,
+           cube: tuple[float, float, float], args: argparse.Namespace) -> dict[str, Any]:
+    """Write the best result (the scene first), its paper metrics and figures."""
+    from dempath_diagnose.recal_outputs import write_all, write_scene_of
+
+    best, evaluate = min(results, key=lambda re: re[0].after)
+    write_scene_of(best, scene, args.out)
+    tried: dict[str, dict[str, Any]] = {
+        r.effect: {'error_after': r.after, 'reduction': r.reduction, 'stop': r.stop,
+                   'simulations': r.steps[-1].simulations} for r, _ in results}
+    extra: dict[str, Any] = {'tried': tried}
+    if len(results) > 1:
+        down = [k for k, v in tried.items() if v['reduction'] > 0]
+        extra['brings_error_down'] = min(down, key=lambda k: tried[k]['error_after']) \
+            if down else ''
+    figures: tuple[str, ...] = ()
+    if evaluate is not None:
+        from dempath_diagnose.recal_figures import paper_and_trajectories
+
+        paper, figures = paper_and_trajectories(best, evaluate, library, d, cube, args)
+        extra['paper'] = paper
+    return write_all(best, scene, args.out, extra, figures)
 
 
 def recalibrate_main(argv: Sequence[str] | None = None) -> int:
-    """``dempath recalibrate``; 0, or 1 after one ``error: <input>: <problem>`` line."""
+    """``dempath recalibrate``; 0, or 1 after one ``error: <input>: <problem>`` line.
+
+    A lost scheduler gives its error line after the outputs (best scene so far) are written.
+    """
     args = _parser().parse_args(argv)
     try:
         data = run(args)
     except (DempathError, ValueError) as err:
         print(f'error: {err}', file=sys.stderr)
         return 1
+    except KeyboardInterrupt:
+        print(f'error: interrupted (Ctrl-C) before the fit started; {args.out} holds what was '
+              'written', file=sys.stderr)
+        return 130
+    paper = data.get('paper')
+    nrmse = (f'; mean nRMSE {paper["before"]["mean_nrmse_pct"]:.2f} -> '
+             f'{paper["after"]["mean_nrmse_pct"]:.2f} % (floor '
+             f'{paper["floor"]["mean_nrmse_pct"]:.2f} %)') if paper else ''
     print(f'{data["effect"]}: {data["stop_reason"]}; error d^2 {data["error_before"]:.1f} -> '
-          f'{data["error_after"]:.1f} (floor {data["floor"]["k"]})')
-    return 0
+          f'{data["error_after"]:.1f} (floor {data["floor"]["k"]}){nrmse}')
+    if data['stop'] == 'scheduler_lost':
+        print(f'error: {data["note"]}', file=sys.stderr)
+        return 1
+    return 130 if data['stop'] == 'interrupted' else 0

@@ -1,10 +1,16 @@
-"""Real evaluations for the recalibration: the candidate at a strength on the library's seeds.
+"""Real evaluations for the recalibration: the candidate at strengths on the library's seeds.
 
-Each evaluation runs the candidate on the first ``n`` packing seeds of the signature library
-(the same beds the library's baseline ran on; runs stored atomically under ``DIR/runs`` through
-the library's picklable task, so a retried or resumed run is never redone) and returns the
-statistics *paired* with the library's baseline on the same seeds:
-``mu0 + (candidate_s - baseline_s)`` per seed s. Chaos of the packing cancels in the difference.
+Each evaluation runs the candidate (and the parameters refitted beside it) on the first ``n``
+packing seeds of the signature library (the same beds the library's baseline ran on; runs stored
+atomically under ``DIR/runs`` through the library's picklable task, so a retried or resumed run
+is never redone) and returns the statistics *paired* with the library's baseline on the same
+seeds: ``mu0 + (candidate_s - baseline_s)`` per seed s. Chaos of the packing cancels in the
+difference.
+
+:func:`dask_executor` runs the tasks on a Dask client and tells a lost scheduler (futures
+cancelled, the connection closed) from a failed run: the first raises
+:class:`~dempath_diagnose.recalibrate.SweepLostError` (the loop stops, what is stored is kept),
+the second :class:`~dempath_diagnose.errors.ClusterError` (that candidate is scored as failed).
 """
 
 from __future__ import annotations
@@ -17,24 +23,58 @@ from typing import Any
 import numpy as np
 
 from dempath_diagnose.emulator import CandidateEmulator, Emulator
-from dempath_diagnose.errors import DiagnosisError
+from dempath_diagnose.errors import ClusterError, DiagnosisError
 from dempath_diagnose.library import Library, LibrarySpec, LibraryTask, RunSpec
 from dempath_diagnose.recalibrate import SweepLostError
 from dempath_diagnose.records import F64, PassRecord
 from dempath_diagnose.statistics import Layout, model_statistics
 
 Executor = Callable[[Sequence[Callable[[], Any]], Callable[[int], None]], None]
+RETRIES = 2  # attempts after a worker died (a failed run fails the same way again)
+
+
+def dask_executor(client: Any) -> Executor:
+    """An executor on a Dask ``client`` that raises SweepLostError when the scheduler goes."""
+
+    def run(tasks: Sequence[Callable[[], Any]], done: Callable[[int], None]) -> None:
+        from distributed import as_completed
+
+        if not tasks:
+            return
+        try:
+            futures = {client.submit(t, retries=RETRIES, pure=False): k
+                       for k, t in enumerate(tasks)}
+            failed = []
+            for future in as_completed(futures):  # type: ignore[no-untyped-call]
+                if future.status == 'cancelled':
+                    raise SweepLostError(f'Dask scheduler {client.scheduler.address}: lost '
+                                         'mid-sweep; the runs already stored are kept, a '
+                                         'rerun with the same --out resumes')
+                if future.status == 'error':
+                    failed.append(f'{future.exception()}')
+                else:
+                    done(futures[future])
+        except (OSError, TimeoutError) as err:
+            msg = (f'Dask scheduler: lost mid-sweep ({type(err).__name__}: {err}); the runs '
+                   'already stored are kept, a rerun with the same --out resumes')
+            raise SweepLostError(msg) from err
+        if failed:
+            raise ClusterError(f'{len(failed)} of {len(tasks)} runs failed: {failed[0]}')
+
+    return run
 
 
 @dataclass
 class RealEvaluator:
-    """Callable strength -> (n, k) paired statistics (see the module docstring).
+    """Callable strengths (n,) -> (S, k) paired statistics (see the module docstring).
 
     Attributes:
         scene: The user's scene; library: its signature library; spec: the library's design
         (duration, frames); emulator, layout, cube: what turns a run into statistics;
-        cand: the candidate fitted; folder: where runs are stored; executor: Dask or serial;
-        seeds: how many library seeds an evaluation uses; cache_dir: packing cache.
+        cands: the candidate and the parameters refitted beside it; folder: where runs are
+        stored (``folder/runs``); executor: Dask or serial; seeds: how many library seeds an
+        evaluation uses; cache_dir: packing cache.
+        runs: Run files of each evaluation, by strengths (for the paper's metrics after).
     """
 
     scene: Any
@@ -43,31 +83,42 @@ class RealEvaluator:
     emulator: Emulator
     layout: Layout
     cube: tuple[float, float, float]
-    cand: CandidateEmulator
+    cands: list[CandidateEmulator]
     folder: Path
     executor: Executor
     seeds: int = 2
     cache_dir: Path | None = None
-    retried: list[str] = field(default_factory=list)
+    runs: dict[tuple[float, ...], list[Path]] = field(default_factory=dict)
 
-    def __call__(self, x: float) -> F64:
-        c = self.cand.candidate
-        seeds = self.library.seeds()[:self.seeds]
-        runs = [RunSpec(f'recal-{c.name}@{x:.6g}', s, c.name, x, c.overrides(x)) for s in seeds]
+    def run_specs(self, x: F64) -> list[RunSpec]:
+        """The runs of one evaluation at strengths ``x``."""
+        overrides: dict[str, float] = {}
+        for c, v in zip(self.cands, x, strict=True):
+            overrides.update(c.candidate.overrides(float(v)))
+        label = 'recal-' + '+'.join(f'{c.candidate.name}@{v:.6g}'
+                                    for c, v in zip(self.cands, x, strict=True))
+        return [RunSpec(label, s, self.cands[0].candidate.name, float(x[0]), overrides)
+                for s in self.library.seeds()[:self.seeds]]
+
+    def __call__(self, x: F64) -> F64:
+        runs = self.run_specs(x)
         paths = [self.folder / 'runs' / r.filename for r in runs]
         tasks = [LibraryTask(self.scene, r, p, self.spec, self.cache_dir)
                  for r, p in zip(runs, paths, strict=True)]
         todo = [t for t, p in zip(tasks, paths, strict=True) if not p.is_file()]
         (self.folder / 'runs').mkdir(parents=True, exist_ok=True)
-        try:
-            self.executor(todo, lambda _k: None)
-        except DiagnosisError:
-            raise
-        except Exception as err:  # the scheduler or the connection went away
-            raise SweepLostError(f'Dask scheduler: lost mid-sweep ({type(err).__name__}: {err}); '
-                            'the runs already stored are kept') from err
+        self.executor(todo, lambda _k: None)
+        missing = [p.name for p in paths if not p.is_file()]
+        if missing:
+            raise DiagnosisError(f'{missing[0]}: the run was not stored')
+        self.runs[tuple(float(v) for v in x)] = paths
         out = []
         for i, p in enumerate(paths):
             v = model_statistics(PassRecord.load(p), self.layout, self.cube, True).vector
             out.append(self.emulator.mu0 + v - self.emulator.baseline_runs[i])
         return np.array(out)
+
+    def baseline_files(self) -> list[Path]:
+        """The library's baseline runs on the seeds an evaluation uses (paired 'before')."""
+        ((_, files),) = self.library.model_runs('').items()
+        return [self.library.folder / 'runs' / f for f in files[:self.seeds]]

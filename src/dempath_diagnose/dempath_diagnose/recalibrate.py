@@ -1,48 +1,48 @@
 """The recalibration loop: fit the named candidate, confirm with real runs, stop at the floor.
 
-One parameter (the diagnosis' candidate): a bounded scalar search (scipy's ``minimize_scalar``,
-method ``bounded``) of the objective d^2 on the diagnosis' emulator over the candidate's prior
-range, then a confirming real evaluation at the proposed strength. Each real evaluation runs the
-candidate on the library's packing seeds and is *paired* with the library's baseline runs on the
-same seeds (the baseline's mean over all seeds minus its mean over those seeds is added), so the
+The candidate's strength (and, with ``--also``, existing parameters refitted beside it) is
+searched on the diagnosis' emulator (:mod:`dempath_diagnose.recal_search`: a bounded scalar
+search for one strength, CMA-ES for several), then confirmed by a real evaluation at the
+proposed strengths. Each real evaluation runs on the library's packing seeds and is *paired*
+with the library's baseline runs on the same seeds (:mod:`dempath_diagnose.recal_runs`), so the
 chaos of a few packings cancels and does not steer the fit. After each real evaluation the
-emulator is corrected by the observed bias (real minus emulated statistics at that strength,
-Kennedy & O'Hagan's discrepancy idea in its simplest form) and the search runs again.
+emulator is corrected by the observed bias (real minus emulated statistics at those strengths,
+Kennedy & O'Hagan's discrepancy in its simplest, constant form) and the search runs again.
 
-Stops: at the floor (d^2 no longer significantly above chi^2_k, :mod:`objective`), at the budget
-of simulations, when the error stops falling (less than ``MIN_GAIN`` of the error above the
-floor removed by an iteration), or on Ctrl-C (the best strength so far is returned). A candidate
-whose simulation fails (an unstable run) is scored as failed and the next proposal moves half way
-back towards the scene's current value.
+Stops: at the floor (d^2 no longer above the mean of chi^2_k, :mod:`objective`), at the budget of
+simulations, when the error stops falling (an iteration removes less than ``MIN_GAIN`` of the
+error above the floor), on a lost scheduler or on Ctrl-C (the best strengths so far are kept).
+A candidate whose simulation fails (an unstable run) is scored as failed and the next proposal
+moves half way back towards the scene's current values.
 """
 
 from __future__ import annotations
 
+import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import minimize_scalar
 from scipy.stats import chi2
 
 from dempath_diagnose.decision import fit_candidate
 from dempath_diagnose.emulator import CandidateEmulator
 from dempath_diagnose.errors import DiagnosisError
-from dempath_diagnose.library import LOG_SCALE
-from dempath_diagnose.objective import Objective
+from dempath_diagnose.objective import Floor, Objective
+from dempath_diagnose.recal_progress import Callback, Progress, State
+from dempath_diagnose.recal_search import emulated_d2, laplace_sd, propose
 from dempath_diagnose.records import F64
 
-CHANGE_D2 = float(chi2.ppf(0.95, 1))  # a one-parameter fit must lower d^2 this much to count
+SIGNIFICANT_CHANGE = 0.95  # a fit of n strengths must lower d^2 by chi^2_n's quantile to count
 MIN_GAIN = 0.05  # an iteration that removes less of the error above the floor ends the loop
-
 
 
 class SweepLostError(DiagnosisError):
     """The simulations' scheduler went away mid-sweep (the loop stops; the best so far is kept)."""
 
 
-Evaluate = Callable[[float], F64]  # strength -> (S, k) paired-corrected statistics per seed
+Evaluate = Callable[[F64], F64]  # strengths (n,) -> (S, k) paired-corrected statistics per seed
 
 
 @dataclass(frozen=True)
@@ -51,7 +51,7 @@ class Step:
 
     Attributes:
         iteration: 0 for the scene as it is, then 1, 2, ...
-        strength: The candidate's strength (the scene's current value at iteration 0).
+        strengths: The strengths tried (the scene's current values at iteration 0).
         error: d^2 of the real runs (inf for a failed candidate).
         emulated: d^2 the emulator predicted.
         simulations: Simulations used so far.
@@ -60,12 +60,29 @@ class Step:
     """
 
     iteration: int
-    strength: float
+    strengths: tuple[float, ...]
     error: float
     emulated: float
     simulations: int
     elapsed_s: float
     note: str = ''
+
+    @property
+    def strength(self) -> float:
+        """The main candidate's strength."""
+        return self.strengths[0]
+
+
+@dataclass
+class Param:
+    """One fitted strength: ``name.parameter`` [unit], from ``current`` to ``value`` +- ``sd``."""
+
+    name: str
+    parameter: str
+    unit: str
+    current: float
+    value: float
+    sd: float = 0.0
 
 
 @dataclass
@@ -73,25 +90,21 @@ class Recalibration:
     """The loop's result.
 
     Attributes:
-        effect: Candidate name; parameter, unit: its main parameter.
-        before, after: d^2 of the scene as it is and with the fitted strength.
-        floor_k, floor_significant: The floor (mean of chi^2_k) and its significance line.
-        strength, strength_sd: Fitted strength and its uncertainty (posterior sd).
+        params: The fitted strengths, the candidate first, then the ``--also`` parameters.
+        before, after: d^2 of the scene as it is and with the fitted strengths.
+        floor: The floor of the observed statistics.
         steps: Every iteration.
-        stop: ``floor``, ``budget``, ``stalled``, ``interrupted`` or ``nothing_to_fit``.
+        stop: ``floor``, ``budget``, ``stalled``, ``interrupted``, ``scheduler_lost`` or
+            ``nothing_to_fit``.
         changed: Whether the scene changes.
+        failures: Failed (unstable) candidates.
+        note: Details of the stop.
     """
 
-    effect: str
-    parameter: str
-    unit: str
+    params: list[Param]
     before: float
     after: float
-    floor_k: int
-    floor_significant: float
-    strength: float
-    strength_sd: float
-    current: float
+    floor: Floor
     steps: list[Step] = field(default_factory=list)
     stop: str = ''
     changed: bool = False
@@ -99,28 +112,31 @@ class Recalibration:
     note: str = ''
 
     @property
+    def effect(self) -> str:
+        """The candidate fitted."""
+        return self.params[0].name
+
+    @property
+    def strengths(self) -> tuple[float, ...]:
+        """The fitted values."""
+        return tuple(p.value for p in self.params)
+
+    @property
     def reduction(self) -> float:
         """Fraction of the error above the floor removed (1: down to the floor)."""
-        above = max(0.0, self.before - self.floor_k)
+        above = self.floor.above(self.before)
         if above == 0.0:
             return 0.0
         return float(np.clip((self.before - self.after) / above, -np.inf, 1.0))
 
-
-def propose(objective: Objective, cand: CandidateEmulator, bias: F64 | None = None) -> float:
-    """The strength minimising the emulated d^2 (plus a bias correction) in the prior range."""
-    lo, hi = cand.prior
-    log = cand.candidate.name in LOG_SCALE
-
-    def f(u: float) -> float:
-        x = float(np.exp(u)) if log else u
-        diff, var = cand.predict(np.array([x], np.float64))
-        pred = objective.emulator.mu0 + diff[0] + (0.0 if bias is None else bias)
-        return objective.d2(pred, var[0])
-
-    a, b = (np.log(lo), np.log(hi)) if log else (lo, hi)
-    res = minimize_scalar(f, bounds=(a, b), method='bounded', options={'xatol': 1e-3 * (b - a)})
-    return float(np.exp(res.x)) if log else float(res.x)
+    def progress(self, eta_s: float, state: State = State.RUNNING, detail: str = '',
+                 ) -> Progress:
+        """The progress record of the last step."""
+        s = self.steps[-1]
+        return Progress(self.effect, s.iteration, s.error, self.after, self.floor.k,
+                        self.floor.significant,
+                        tuple(f'{p.name}.{p.parameter}' for p in self.params), s.strengths,
+                        s.simulations, eta_s, state, detail)
 
 
 def check_strength(cand: CandidateEmulator, value: float) -> None:
@@ -132,61 +148,104 @@ def check_strength(cand: CandidateEmulator, value: float) -> None:
         raise DiagnosisError(msg)
 
 
-def unchanged(objective: Objective, cand: CandidateEmulator) -> Recalibration:
+def unchanged(objective: Objective, cands: Sequence[CandidateEmulator]) -> Recalibration:
     """The scene as it is (iteration 0 only, stop ``nothing_to_fit``): the control's answer."""
-    floor, c = objective.floor, cand.candidate
     before = objective.baseline()
-    out = Recalibration(c.name, c.parameter, c.unit, before, before, floor.k, floor.significant,
-                        c.current, 0.0, c.current, stop='nothing_to_fit')
-    out.steps.append(Step(0, c.current, before, before, 0, 0.0))
+    params = [Param(c.candidate.name, c.candidate.parameter, c.candidate.unit,
+                    c.candidate.current, c.candidate.current) for c in cands]
+    out = Recalibration(params, before, before, objective.floor, stop='nothing_to_fit')
+    out.steps.append(Step(0, tuple(p.current for p in params), before, before, 0, 0.0))
     return out
 
 
-def recalibrate(objective: Objective, cand: CandidateEmulator, evaluate: Evaluate,
-                budget: int, seeds_per_eval: int,
-                progress: Callable[[Step, float], None] | None = None,
+def recalibrate(objective: Objective, cands: CandidateEmulator | Sequence[CandidateEmulator],
+                evaluate: Evaluate, budget: int, seeds_per_eval: int,
+                progress: Callback | None = None,
                 start: float | None = None) -> Recalibration:
-    """Fit ``cand``'s strength; ``evaluate`` runs the real simulations (see the module docstring).
+    """Fit the strengths of ``cands`` (the candidate first); see the module docstring.
+
+    Args:
+        objective: The diagnosis' likelihood and floor.
+        cands: The candidate, or the candidate and the parameters refitted beside it.
+        evaluate: Runs the real simulations at strengths (n,) -> (S, k) statistics.
+        budget: At most this many simulations.
+        seeds_per_eval: Simulations per real evaluation.
+        progress: Called with a :class:`Progress` after each iteration and at the end.
+        start: The candidate's first strength (the others start at the scene's values).
 
     Raises:
         DiagnosisError: A budget below one evaluation.
     """
+    cands = [cands] if isinstance(cands, CandidateEmulator) else list(cands)
     if budget < seeds_per_eval or budget <= 0:
         raise DiagnosisError(f'--budget {budget}: at least {seeds_per_eval} simulations '
                              '(one evaluation over the packing seeds) are needed')
     t0 = time.monotonic()
-    out = unchanged(objective, cand)
+    out = unchanged(objective, cands)
+    if progress is not None:
+        progress(out.progress(0.0))
     if out.before <= objective.floor.k:
+        _finish(out, progress)
         return out
-    fit = fit_candidate(objective.emulator, cand, objective.y, objective.observed, objective.cov)
-    out.stop, out.strength_sd = '', fit.strength_sd
-    _loop(out, objective, cand, evaluate, (budget, seeds_per_eval), progress, t0, start)
-    out.changed = out.before - out.after > CHANGE_D2
-    if not out.changed:
-        out.strength, out.strength_sd = out.current, 0.0
+    out.stop = ''
+    _loop(out, objective, cands, evaluate, (budget, seeds_per_eval), progress, t0, start)
+    out.changed = out.before - out.after > float(chi2.ppf(SIGNIFICANT_CHANGE, len(cands)))
+    if out.changed:
+        _uncertainty(out, objective, cands)
+    else:
+        for p in out.params:
+            p.value, p.sd = p.current, 0.0
+    _finish(out, progress)
     return out
 
 
-def _loop(out: Recalibration, objective: Objective, cand: CandidateEmulator, evaluate: Evaluate,
-          sizes: tuple[int, int], progress: Callable[[Step, float], None] | None,
+def _uncertainty(out: Recalibration, objective: Objective,
+                 cands: Sequence[CandidateEmulator]) -> None:
+    """The fitted strengths' sd: the diagnosis' posterior sd for one, Laplace for several."""
+    if len(cands) == 1:
+        fit = fit_candidate(objective.emulator, cands[0], objective.y, objective.observed,
+                            objective.cov)
+        out.params[0].sd = fit.strength_sd
+        return
+    sds = laplace_sd(objective, cands, np.array(out.strengths))
+    for p, s in zip(out.params, sds, strict=True):
+        p.sd = float(s)
+
+
+def _finish(out: Recalibration, progress: Callback | None) -> None:
+    if progress is None:
+        return
+    state = {'interrupted': State.INTERRUPTED, 'scheduler_lost': State.FAILED}.get(
+        out.stop, State.FINISHED)
+    progress(out.progress(0.0, state, out.stop))
+
+
+def _next(objective: Objective, cands: Sequence[CandidateEmulator], out: Recalibration,
+          bias: F64 | None, x: F64, last_fail: bool, start: float | None) -> F64:
+    """The strengths of the next real evaluation."""
+    current = np.array([p.current for p in out.params])
+    if start is not None and len(out.steps) == 1:
+        return np.asarray(np.concatenate([[start], current[1:]]), np.float64)
+    if last_fail:
+        return np.asarray((x + current) / 2, np.float64)
+    best = np.array(out.steps[0].strengths) if len(out.steps) == 1 else x
+    return propose(objective, cands, bias, best)
+
+
+def _loop(out: Recalibration, objective: Objective, cands: Sequence[CandidateEmulator],
+          evaluate: Evaluate, sizes: tuple[int, int], progress: Callback | None,
           t0: float, start: float | None) -> None:
     """Propose, evaluate, correct until a stop; fills ``out`` in place."""
     budget, per = sizes
     bias: F64 | None = None
-    used, x, last_fail = 0, 0.0, False
-    floor = objective.floor
+    used, x, last_fail = 0, np.array(out.steps[0].strengths), False
     try:
         while True:
             if used + per > budget:
                 out.stop = 'budget'
                 return
-            if start is not None and len(out.steps) == 1:
-                x = start
-            elif last_fail:
-                x = (x + cand.candidate.current) / 2
-            else:
-                x = propose(objective, cand, bias)
-            emulated = objective.emulated(cand, x)
+            x = _next(objective, cands, out, bias, x, last_fail, start)
+            emulated = emulated_d2(objective, cands, x)
             note, last_fail = '', False
             try:
                 runs = evaluate(x)
@@ -195,26 +254,34 @@ def _loop(out: Recalibration, objective: Objective, cand: CandidateEmulator, eva
                 out.stop, out.note = 'scheduler_lost', str(err)
                 return
             except DiagnosisError as err:
-                error, note, last_fail = float('inf'), f'failed: {err}', True
+                error, note, last_fail = math.inf, f'failed: {err}', True
                 out.failures += 1
             used += per
-            step = Step(len(out.steps), x, error, emulated, used, time.monotonic() - t0, note)
+            step = Step(len(out.steps), tuple(float(v) for v in x), error, emulated, used,
+                        time.monotonic() - t0, note)
             prev_best = out.after
             out.steps.append(step)
+            if not last_fail and error < out.after:
+                out.after = error
+                for p, v in zip(out.params, x, strict=True):
+                    p.value = float(v)
             if progress is not None:
                 per_eval = step.elapsed_s / (used / per)
-                progress(step, per_eval * max(0, (budget - used) // per))
+                progress(out.progress(per_eval * max(0, (budget - used) // per)))
             if last_fail:
                 continue
-            if error < out.after:
-                out.after, out.strength = error, x
-            diff, _ = cand.predict(np.array([x], np.float64))
-            bias = runs.mean(0) - (objective.emulator.mu0 + diff[0])
-            if out.after <= floor.k:
+            bias = runs.mean(0) - (objective.emulator.mu0 + _emulated_diff(cands, x))
+            if out.after <= objective.floor.k:
                 out.stop = 'floor'
                 return
-            if prev_best - out.after < MIN_GAIN * max(floor.above(prev_best), 1e-12):
+            if prev_best - out.after < MIN_GAIN * max(objective.floor.above(prev_best), 1e-12):
                 out.stop = 'stalled'
                 return
     except KeyboardInterrupt:
         out.stop = 'interrupted'
+
+
+def _emulated_diff(cands: Sequence[CandidateEmulator], x: F64) -> F64:
+    """(k,) the emulator's summed paired difference at strengths ``x``."""
+    return np.asarray(np.sum([c.predict(np.array([v], np.float64))[0][0]
+                              for c, v in zip(cands, x, strict=True)], axis=0), np.float64)

@@ -41,10 +41,10 @@ def setup(hidden: float) -> tuple[Objective, CandidateEmulator]:
 def evaluator(seed: int = 11, unstable_above: float = np.inf):
     rng = np.random.default_rng(seed)
 
-    def evaluate(x: float) -> np.ndarray:
-        if x > unstable_above:
-            raise DiagnosisError(f'x = {x:.3f}: overlap blow-up')
-        return true_response(x) + rng.normal(0, SD, (SEEDS, K))
+    def evaluate(x: np.ndarray) -> np.ndarray:
+        if x[0] > unstable_above:
+            raise DiagnosisError(f'x = {x[0]:.3f}: overlap blow-up')
+        return true_response(float(x[0])) + rng.normal(0, SD, (SEEDS, K))
     return evaluate
 
 
@@ -54,7 +54,7 @@ def test_hidden_effect_is_fitted_down_to_the_floor() -> None:
     assert r.before > Floor.of(K).significant
     assert r.reduction >= 0.5
     assert r.changed and r.stop in ('floor', 'stalled')
-    assert abs(r.strength - 0.8) <= max(2 * r.strength_sd, 0.1)
+    assert abs(r.params[0].value - 0.8) <= max(2 * r.params[0].sd, 0.1)
     assert r.steps[-1].simulations <= 18
 
 
@@ -62,7 +62,7 @@ def test_control_changes_nothing_and_says_so() -> None:
     obj, ce = setup(0.0)
     r = recalibrate(obj, ce, evaluator(), budget=18, seeds_per_eval=SEEDS)
     assert r.stop == 'nothing_to_fit' and not r.changed
-    assert r.strength == ce.candidate.current and len(r.steps) == 1
+    assert r.params[0].value == ce.candidate.current and len(r.steps) == 1
 
 
 def test_unstable_candidate_is_scored_failed_and_the_loop_goes_on() -> None:
@@ -85,16 +85,64 @@ def test_interrupt_keeps_the_best_so_far() -> None:
     inner = evaluator()
     calls = []
 
-    def evaluate(x: float) -> np.ndarray:
-        calls.append(x)
+    def evaluate(x: np.ndarray) -> np.ndarray:
+        calls.append(float(x[0]))
         if len(calls) == 2:
             raise KeyboardInterrupt
         return inner(x)
     r = recalibrate(obj, ce, evaluate, budget=30, seeds_per_eval=SEEDS, start=0.3)
-    assert r.stop == 'interrupted' and r.strength == calls[0] and r.after < r.before
+    assert r.stop == 'interrupted' and r.params[0].value == calls[0] and r.after < r.before
 
 
 def test_value_outside_physical_range_is_refused() -> None:
     _, ce = setup(0.8)
     with pytest.raises(DiagnosisError, match='outside the physical range'):
         check_strength(ce, 5.0)
+
+
+SIG2 = np.array([-0.004, 0.002, 0.012, 0.01, 0.0, -0.006])  # friction response per +0.1
+
+
+def setup_two(hidden: tuple[float, float]) -> tuple[Objective, list[CandidateEmulator]]:
+    """A missing effect and an existing parameter (friction 0.5) that is off too."""
+    obj, ce = setup(0.0)
+    fr = Candidate('tool_friction', 'parameter', 'static_friction', '1', 0.0, 2.0, 0.5)
+    cf = CandidateEmulator(fr, np.array([0.4, 0.5, 0.6]), np.array([-SIG2, np.zeros(K), SIG2]),
+                           np.full((3, K), (0.3 * SD) ** 2), (0.3, 0.8))
+    obj.emulator.candidates.append(cf)
+    y = (true_response(hidden[0]) + SIG2 * (hidden[1] - 0.5) / 0.1
+         + np.random.default_rng(5).normal(0, SD, K))
+    return Objective(obj.emulator, y, obj.observed, obj.cov), [ce, cf]
+
+
+def test_also_refits_an_existing_parameter_with_cma_es() -> None:
+    """Two strengths (CMA-ES on the emulator, real runs to confirm): both land near the truth."""
+    obj, cands = setup_two((0.8, 0.65))
+    rng = np.random.default_rng(3)
+
+    def evaluate(x: np.ndarray) -> np.ndarray:
+        mean = true_response(float(x[0])) + SIG2 * (x[1] - 0.5) / 0.1
+        return mean + rng.normal(0, SD, (SEEDS, K))
+
+    r = recalibrate(obj, cands, evaluate, budget=18, seeds_per_eval=SEEDS)
+    assert r.changed and r.reduction >= 0.5, (r.before, r.after)
+    (eff, fric) = r.params
+    assert abs(eff.value - 0.8) <= max(2 * eff.sd, 0.15), eff
+    assert abs(fric.value - 0.65) <= max(2 * fric.sd, 0.05), fric
+    assert np.isfinite(eff.sd) and np.isfinite(fric.sd) and eff.sd > 0 and fric.sd > 0
+    assert all(len(s.strengths) == 2 for s in r.steps)
+
+
+def test_progress_is_reported_each_iteration_and_at_the_end() -> None:
+    """Iteration 0 (the scene as it is), one record per real evaluation, a final FINISHED."""
+    from dempath_diagnose.recal_progress import State, progress_line
+
+    obj, ce = setup(0.8)
+    got = []
+    r = recalibrate(obj, ce, evaluator(), budget=18, seeds_per_eval=SEEDS, progress=got.append)
+    assert [p.iteration for p in got[:-1]] == [s.iteration for s in r.steps]
+    assert got[0].state is State.RUNNING and got[-1].state is State.FINISHED
+    assert got[-1].detail == r.stop and got[-1].best_error == r.after
+    assert got[1].names == ('cohesion.energy_density_j_m3',) and got[1].simulations == SEEDS
+    assert all(p.floor == K for p in got)
+    assert 'iteration 1' in progress_line(got[1]) and 'ETA' in progress_line(got[1])

@@ -1,0 +1,36 @@
+"""The paper's metrics and the before/after trajectories of a finished recalibration.
+
+'Before' is the library's baseline on the seeds the evaluations used, 'after' the
+recalibration's own runs at the fitted strengths on the same seeds (paired: the same beds), and
+the floor uses every baseline seed of the library (:mod:`dempath_diagnose.recal_paper`).
+"""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from dempath_diagnose.recal_paper import before_after
+from dempath_diagnose.recal_report import plot_trajectories
+from dempath_diagnose.recalibrate import Recalibration
+from dempath_diagnose.records import PassRecord
+
+
+def paper_and_trajectories(best: Recalibration, evaluate: Any, library: Any, d: Any,
+                           cube: tuple[float, float, float], args: argparse.Namespace,
+                           ) -> tuple[dict[str, Any], tuple[str, ...]]:
+    """(the ``paper`` entry of recalibration.json, figure file names written into --out)."""
+    from dempath_diagnose.cli import _origin
+    from dempath_diagnose.measure import load_tracks
+
+    meas = load_tracks(args.measured, _origin(args.origin))
+    before = [(p.stem, PassRecord.load(p)) for p in evaluate.baseline_files()]
+    after_files = evaluate.runs.get(best.strengths, []) if best.changed else []
+    after = [(p.stem, PassRecord.load(p)) for p in after_files]
+    ((_, files),) = library.model_runs('').items()
+    floor = [(f, library.records[f]) for f in files]
+    paper = before_after(meas, d.layout, cube, before, after, floor, args.noise)
+    paper['after_is_before'] = not after
+    fig = plot_trajectories(meas, d.layout, cube, [r for _, r in before],
+                            [r for _, r in after], args.out / 'trajectories.png')
+    return paper, (fig,)

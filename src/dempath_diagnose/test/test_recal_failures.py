@@ -1,0 +1,130 @@
+"""`dempath recalibrate` when things go wrong, on the tiny scene: the scheduler disappears
+mid-sweep (a real `dask scheduler` and worker, separate processes), Ctrl-C (a real SIGINT to
+the command), a candidate that drives the simulation unstable. Each gives one clear line, keeps
+what was computed, and writes the best scene so far."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+from dempath_diagnose.library import Library
+from dempath_diagnose.recal_cli import recalibrate_main
+
+from .test_recal_cli import argv_for
+from .test_sweep import _start, wait_workers
+
+
+@pytest.fixture
+def one_worker(tmp_path: Path) -> Iterator[tuple[str, list[subprocess.Popen[bytes]]]]:
+    """A `dask scheduler` and one single-thread `dask worker` (runs one after the other)."""
+    port_file = tmp_path / 'scheduler.json'
+    procs = [_start(['scheduler', '--port', '0', '--no-dashboard', '--scheduler-file',
+                     str(port_file)], tmp_path / 'scheduler.log')]
+    try:
+        deadline = time.monotonic() + 60
+        while not port_file.is_file() and time.monotonic() < deadline:
+            time.sleep(0.1)
+        address = json.loads(port_file.read_text())['address']
+        procs.append(_start(['worker', address, '--nthreads', '1', '--no-dashboard'],
+                            tmp_path / 'worker.log'))
+        yield address, procs
+    finally:
+        for p in reversed(procs):
+            if p.poll() is None:
+                os.killpg(p.pid, signal.SIGTERM)
+                try:
+                    p.wait(10)
+                except subprocess.TimeoutExpired:
+                    os.killpg(p.pid, signal.SIGKILL)
+
+
+def _when_a_run_is_stored(runs: Path, timeout_s: float = 1200.0) -> list[Path]:
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        found = sorted(runs.glob('*.npz')) if runs.is_dir() else []
+        found = [p for p in found if '.tmp' not in p.name]
+        if found:
+            return found
+        time.sleep(0.1)
+    raise AssertionError(f'{runs}: no run stored within {timeout_s:.0f} s')
+
+
+@pytest.mark.timeout(1800)  # a guard, not a timing: the whole command runs twice
+def test_scheduler_lost_mid_sweep_keeps_runs_and_a_rerun_resumes(
+        cache: Path, tiny_library: Library, tmp_path: Path,
+        one_worker: tuple[str, list[subprocess.Popen[bytes]]],
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """The scheduler killed after the first of two runs: one error line, the stored run kept,
+    the best scene so far written; a rerun on the same --out does not redo the stored run."""
+    import threading
+
+    address, procs = one_worker
+    wait_workers(address, 1)
+    out = tmp_path / 'recal'
+    argv = [a for a in argv_for(cache, 'tool_speed', out) if a != '--serial']
+    stored: list[Path] = []
+
+    def kill_scheduler() -> None:
+        stored.extend(_when_a_run_is_stored(out / 'runs'))
+        os.killpg(procs[0].pid, signal.SIGKILL)
+
+    killer = threading.Thread(target=kill_scheduler, daemon=True)
+    killer.start()
+    code = recalibrate_main([*argv, '--scheduler', address, '--budget', '4', '--effect',
+                             'tool_speed'])
+    killer.join(5)
+    text = capsys.readouterr().err
+    err = [line for line in text.splitlines() if line.startswith('error')]
+    assert code == 1 and len(err) == 1 and 'lost mid-sweep' in err[0], err
+    assert 'Traceback' not in text, text
+    data = json.loads((out / 'recalibration.json').read_text())
+    assert data['stop'] == 'scheduler_lost'
+    assert (out / 'tiny.recalibrated.yaml').is_file()
+    kept = {p: p.stat().st_mtime_ns for p in stored}
+    assert all(p.is_file() for p in kept)
+    assert recalibrate_main([*argv, '--serial', '--budget', '4', '--effect', 'tool_speed']) == 0
+    assert {p: p.stat().st_mtime_ns for p in kept} == kept  # resumed, not redone
+    data = json.loads((out / 'recalibration.json').read_text())
+    assert data['stop'] != 'scheduler_lost' and data['simulations'] >= 2
+
+
+@pytest.mark.timeout(1800)  # a guard, not a timing: a fresh process imports and diagnoses
+def test_ctrl_c_writes_the_best_scene_so_far(cache: Path, tiny_library: Library,
+                                             tmp_path: Path) -> None:
+    """SIGINT to a running `dempath recalibrate` after its first iteration: it stops with one
+    line, recalibration.json says interrupted, the scene with the best strength is written."""
+    out = tmp_path / 'recal'
+    argv = [*argv_for(cache, 'cohesion', out), '--budget', '8', '--seeds-per-eval', '1',
+            '--effect', 'cohesion']
+    code = 'import sys; from dempath_diagnose.recal_cli import recalibrate_main as m; ' \
+           'sys.exit(m(sys.argv[1:]))'
+    proc = subprocess.Popen([sys.executable, '-c', code, *argv], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    assert proc.stderr is not None
+    lines = []
+    for line in proc.stderr:
+        lines.append(line)
+        if 'iteration 1:' in line:
+            time.sleep(1.0)  # into the second run
+            proc.send_signal(signal.SIGINT)
+            break
+    stdout, rest = proc.communicate(timeout=1200)
+    assert proc.returncode == 130, (stdout, ''.join(lines) + rest)
+    assert 'interrupted (Ctrl-C)' in stdout and 'Traceback' not in rest, rest
+    data = json.loads((out / 'recalibration.json').read_text())
+    assert data['stop'] == 'interrupted' and data['simulations'] >= 1
+    best = min(s['error'] for s in data['steps'])
+    assert data['error_after'] == pytest.approx(best)
+    scene = (out / 'tiny.recalibrated.yaml').read_text()
+    assert 'Recalibrated by dempath recalibrate' in scene
+    if data['changed']:
+        assert 'cohesion' in scene
