@@ -19,8 +19,8 @@ best strength, converted to the Gaussian sigma of the same tail probability unde
 model with I > THRESHOLD (3) is ruled out.
 
 Verdict:
-- ``nothing_significant``: the baseline is not ruled out and not clearly worse (no candidate is
-  BAYES_CLEAR times more probable);
+- ``nothing_significant``: the baseline is not ruled out and "nothing missing" is the most
+  probable answer;
 - ``effect_missing`` / ``parameter_off``: the top candidate is not ruled out, has probability
   >= CONFIDENT and the baseline is ruled out or clearly worse;
 - ``inconclusive`` otherwise, naming what is not ruled out and what would separate it.
@@ -171,7 +171,7 @@ def decide(emu: Emulator, y: F64, obs: NDArray[np.bool_], cov: F64) -> Decision:
                   key=lambda f: -f.probability)
     top = fits[0]
     clearly_worse = top.probability > BAYES_CLEAR * base.probability
-    if not base.ruled_out and not clearly_worse:
+    if not base.ruled_out and base.probability >= top.probability:
         verdict = 'nothing_significant'
     elif (not top.ruled_out and top.probability >= CONFIDENT
           and (base.ruled_out or clearly_worse)):
