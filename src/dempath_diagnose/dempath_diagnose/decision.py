@@ -12,7 +12,9 @@ of D(x) under C + V(x) at most NULL_SD, a Kullback-Leibler divergence of at most
 the baseline, and their posterior mass counts for "nothing missing"; a candidate's probability is
 the posterior mass of its strengths that the data can tell from the baseline. Without this, the
 probability of "nothing missing" is spread over every candidate near its current value and the
-baseline rarely exceeds 1 / (candidates + 1) even when nothing is missing.
+baseline rarely exceeds 1 / (candidates + 1) even when nothing is missing. (A point mass on the
+null beside a continuous prior is the spike-and-slab prior of Bayesian tests of nested models,
+Mitchell & Beauchamp 1988, JASA 83, 1023; the uniform slab keeps each candidate's Occam factor.)
 
 Implausibility (Vernon, Goldstein & Bower 2010, multivariate form): d^2 = r^T (C+V)^-1 r at the
 best strength, converted to the Gaussian sigma of the same tail probability under chi^2(k); a
