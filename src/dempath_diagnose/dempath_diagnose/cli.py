@@ -15,6 +15,8 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from dempath.errors import DempathError
 from dempath_diagnose.diagnose import CaseGeometry, Diagnosis, diagnose
 from dempath_diagnose.emulator import Allowance
@@ -26,8 +28,10 @@ from dempath_diagnose.library import (
     covering_duration,
     library_dir,
     library_state,
+    recorded_run_s,
 )
 from dempath_diagnose.measure import load_force, load_tracks
+from dempath_diagnose.packed import DEFAULT_MARGIN_M
 from dempath_diagnose.records import Measurement
 from dempath_diagnose.simulate import (
     LIBRARY_CANDIDATES,
@@ -67,16 +71,29 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument('--discrepancy-force', type=float, default=Allowance.discrepancy_force_rel,
                    help='relative model-discrepancy allowance on the draft force')
     p.add_argument('--serial', action='store_true', help='run the library here, without Dask')
+    p.add_argument('--library', type=Path,
+                   help='use this library (a packed file or a library folder); never built')
+    p.add_argument('--export-library', type=Path, metavar='FILE',
+                   help="also pack the library into FILE for the measured markers' region")
+    p.add_argument('--export-margin', type=float, default=DEFAULT_MARGIN_M,
+                   help="packed: particles within this of a marker's cube are kept [m]")
+    p.add_argument('--export-box', help='packed: keep the particles starting in this box, '
+                   'X0,Y0,Z0,X1,Y1,Z1 [m] (scene frame), besides those near the markers')
     return p
 
 
-def _origin(text: str) -> tuple[float, float, float]:
+def _floats(text: str, what: str, n: int) -> list[float]:
     try:
         values = [float(v) for v in text.split(',')]
     except ValueError as err:
-        raise DiagnosisError(f'--origin {text!r}: expected X,Y,Z in metres') from err
-    if len(values) != 3 or not all(math.isfinite(v) for v in values):
-        raise DiagnosisError(f'--origin {text!r}: expected three finite numbers X,Y,Z')
+        raise DiagnosisError(f'{what} {text!r}: expected {n} numbers in metres') from err
+    if len(values) != n or not all(math.isfinite(v) for v in values):
+        raise DiagnosisError(f'{what} {text!r}: expected {n} finite numbers separated by commas')
+    return values
+
+
+def _origin(text: str) -> tuple[float, float, float]:
+    values = _floats(text, '--origin', 3)
     return values[0], values[1], values[2]
 
 
@@ -102,18 +119,46 @@ def library_spec(args: argparse.Namespace, scene: SceneSpec, meas: Measurement) 
 
 
 def ensure_library(args: argparse.Namespace, scene: SceneSpec, spec: LibrarySpec) -> Library:
-    """Load the library, building (or completing) it first when needed, with progress."""
+    """Load the library, building (or completing) it first when needed, saying why and how long
+    it will take, with a progress bar."""
+    if args.library is not None:
+        return Library.load(args.library)
     state, done, total = library_state(scene, spec, args.library_root)
     if state != 'ready':
-        why = {'missing': 'no signature library', 'stale': 'the library is stale (the scene '
-               'changed)', 'partial': f'the library is partial ({done} of {total} runs)'}[state]
-        print(f'{scene.name}: {why}; running {total - done} simulations (the progress bar '
-              'shows the time left)', file=sys.stderr)
-        _build(args, scene, spec, total - done)
+        width = 1 if args.serial else max(1, args.workers or 2)
+        per_run, timed = recorded_run_s(scene, spec, args.library_root)
+        print(library_notice(scene.name, state, done, total, per_run, timed, width),
+              file=sys.stderr)
+        _build(args, scene, spec, total - done, per_run)
     return Library.load(library_dir(scene, spec, args.library_root))
 
 
-def _build(args: argparse.Namespace, scene: SceneSpec, spec: LibrarySpec, todo: int) -> None:
+def library_notice(scene: str, state: str, done: int, total: int, per_run_s: float,
+                   timed: int, width: int) -> str:
+    """The one line said before a library is built: why, how many runs, how long."""
+    why = {'missing': 'no signature library yet',
+           'stale': "the library is stale (the scene's physics changed since it was built)",
+           'partial': f'the library is partial ({done} of {total} runs stored)'}[state]
+    todo = total - done
+    if per_run_s > 0:
+        eta = (f'about {_duration(per_run_s * math.ceil(todo / width))} ({width} at a time, '
+               f'{per_run_s:.0f} s per run as recorded in {timed} earlier runs)')
+    else:
+        eta = 'its time is known after the first run (the progress bar shows the ETA)'
+    verb = 'building it' if state != 'partial' else 'completing it'
+    return f'{scene}: {why}; {verb}: {todo} simulations, {eta}'
+
+
+def _duration(seconds: float) -> str:
+    if seconds < 90:
+        return f'{seconds:.0f} s'
+    if seconds < 5400:
+        return f'{seconds / 60:.0f} min'
+    return f'{seconds / 3600:.1f} h'
+
+
+def _build(args: argparse.Namespace, scene: SceneSpec, spec: LibrarySpec, todo: int,
+           per_run_s: float) -> None:
     from rich.progress import (
         BarColumn,
         MofNCompleteColumn,
@@ -128,11 +173,17 @@ def _build(args: argparse.Namespace, scene: SceneSpec, spec: LibrarySpec, todo: 
     bar = Progress(TextColumn('library'), BarColumn(), MofNCompleteColumn(),
                    TimeElapsedColumn(), TextColumn('ETA'), TimeRemainingColumn(),
                    console=None)
+    t0 = time.monotonic()
     with bar:
         task = bar.add_task('library', total=todo)
 
-        def on_done(n: int, _total: int) -> None:
+        def on_done(n: int, total: int) -> None:
             bar.update(task, completed=n)
+            if n == 1 and per_run_s <= 0 and total > 1:
+                spent = time.monotonic() - t0
+                bar.console.print(f'{scene.name}: first run took {spent:.0f} s; about '
+                                  f'{_duration(spent * (total - 1))} for the other {total - 1} '
+                                  'at this rate')
 
         if args.serial:
             build_library(scene, spec, args.library_root, serial_executor, args.packing_cache,
@@ -152,10 +203,30 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     result.wall_s = time.monotonic() - t0
     from dempath_diagnose.report import print_ranking, write_outputs
 
-    data = write_outputs(result, args.out, {'scene': scene.name, 'library': str(library.folder),
-                                            'allowance': vars(allowance)})
+    extra: dict[str, Any] = {'scene': scene.name, 'library': str(library.folder),
+                             'allowance': vars(allowance)}
+    if args.export_library is not None:
+        extra['exported_library'] = export(args, library, result, tool_geometry(scene)[2])
+    data = write_outputs(result, args.out, extra)
     print_ranking(data)
     return data
+
+
+def export(args: argparse.Namespace, library: Library, result: Diagnosis,
+           cube: tuple[float, float, float]) -> dict[str, Any]:
+    """Pack the library for the measured markers (and ``--export-box``) into the export file."""
+    from dempath_diagnose.packed import export_library
+
+    box = None
+    if args.export_box:
+        values = _floats(args.export_box, '--export-box', 6)
+        box = np.array([values[:3], values[3:]])
+    summary = export_library(library, args.export_library, cube, result.layout.starts,
+                             args.export_margin, box)
+    print(f'packed library: {summary["path"]} ({summary["bytes"] / 1e6:.2f} MB, '
+          f'{summary["runs"]} runs, {summary["particles_min"]}-{summary["particles_max"]} '
+          'particles each)', file=sys.stderr)
+    return summary
 
 
 def diagnosis_of(args: argparse.Namespace,

@@ -3,18 +3,26 @@
 Every candidate and the baseline ("nothing missing") is a model. The likelihood of the measured
 statistics y under a candidate at strength x is Gaussian, N(y; mu0 + D(x), C + V(x)), with C the
 strength-independent covariance (seed + sampling + noise + discrepancy, :mod:`.emulator`) and
-V(x) the emulator's variance. The evidence marginalises x over a uniform prior on the candidate's
-strength range (GRID points; log-uniform for LOG_SCALE effects); the baseline has no free strength
-and so is not penalised for flexibility it does not have. Equal prior probabilities give the
-posterior probabilities.
+V(x) the emulator's variance. The prior is a spike and slabs: the baseline (no free strength) and
+each candidate's strength range (uniform, GRID points; log-uniform for LOG_SCALE effects), equal
+prior mass each. A candidate contains the baseline (its strength at the current value), so the
+answers are made mutually exclusive by what the data can resolve: the strengths at which a
+candidate's prediction lies within one standard deviation of the baseline's (Mahalanobis distance
+of D(x) under C + V(x) at most NULL_SD, a Kullback-Leibler divergence of at most half a nat) are
+the baseline, and their posterior mass counts for "nothing missing"; a candidate's probability is
+the posterior mass of its strengths that the data can tell from the baseline. Without this, the
+probability of "nothing missing" is spread over every candidate near its current value and the
+baseline rarely exceeds 1 / (candidates + 1) even when nothing is missing. (A point mass on the
+null beside a continuous prior is the spike-and-slab prior of Bayesian tests of nested models,
+Mitchell & Beauchamp 1988, JASA 83, 1023; the uniform slab keeps each candidate's Occam factor.)
 
 Implausibility (Vernon, Goldstein & Bower 2010, multivariate form): d^2 = r^T (C+V)^-1 r at the
 best strength, converted to the Gaussian sigma of the same tail probability under chi^2(k); a
 model with I > THRESHOLD (3) is ruled out.
 
 Verdict:
-- ``nothing_significant``: the baseline is not ruled out and not clearly worse (no candidate is
-  BAYES_CLEAR times more probable);
+- ``nothing_significant``: the baseline is not ruled out and "nothing missing" is the most
+  probable answer;
 - ``effect_missing`` / ``parameter_off``: the top candidate is not ruled out, has probability
   >= CONFIDENT and the baseline is ruled out or clearly worse;
 - ``inconclusive`` otherwise, naming what is not ruled out and what would separate it.
@@ -37,6 +45,7 @@ GRID = 121  # strength grid points for the marginalisation
 THRESHOLD = 3.0  # implausibility above which a model is ruled out [sigma]
 CONFIDENT = 0.8  # probability for naming a single candidate
 BAYES_CLEAR = 10.0  # 'clearly worse': a candidate this many times more probable
+NULL_SD = 1.0  # a prediction within this many sd (Mahalanobis) of the baseline's is the baseline
 
 
 @dataclass(frozen=True)
@@ -46,7 +55,10 @@ class ModelFit:
     Attributes:
         name: ``baseline`` or the candidate's effect name.
         kind: ``baseline``, ``effect`` or ``parameter``.
-        log_evidence: log p(y | model).
+        log_evidence: log p(y, strength distinguishable from the baseline | model) (the
+            baseline: log p(y | baseline)).
+        log_null: log p(y, strength indistinguishable from the baseline | model) (-inf for the
+            baseline itself): mass that counts for 'nothing missing'.
         implausibility: Gaussian-sigma implausibility at the best strength.
         strength: Posterior mean strength (NaN for the baseline).
         strength_sd: Posterior sd of the strength.
@@ -70,6 +82,7 @@ class ModelFit:
     unit: str = ''
     parameter: str = ''
     explained_fraction: float = 0.0
+    log_null: float = -np.inf
 
     @property
     def ruled_out(self) -> bool:
@@ -113,16 +126,20 @@ def fit_baseline(emu: Emulator, y: F64, obs: NDArray[np.bool_], cov: F64) -> Mod
 
 def fit_candidate(emu: Emulator, cand: CandidateEmulator, y: F64, obs: NDArray[np.bool_],
                   cov: F64) -> ModelFit:
-    """One candidate's fit, marginalised over its strength prior."""
+    """One candidate's fit, marginalised over its strength prior, split into the strengths the
+    data can tell from the baseline and those it cannot (see the module docstring)."""
     lo, hi = cand.prior
     xs = np.asarray(np.geomspace(lo, hi, GRID) if cand.candidate.name in LOG_SCALE
                     else np.linspace(lo, hi, GRID), np.float64)
     diffs, dvar = cand.predict(xs)
-    logps, d2s = np.empty(GRID), np.empty(GRID)
+    logps, d2s, shift2 = np.empty(GRID), np.empty(GRID), np.empty(GRID)
     sub = cov[np.ix_(obs, obs)]
     for i in range(GRID):
         r = y - (emu.mu0 + diffs[i])[obs]
-        logps[i], d2s[i] = _gauss_logpdf(r, sub + np.diag(dvar[i][obs]))
+        total = sub + np.diag(dvar[i][obs])
+        logps[i], d2s[i] = _gauss_logpdf(r, total)
+        shift2[i] = _gauss_logpdf(diffs[i][obs], total)[1]
+    null = shift2 <= NULL_SD**2
     w = np.exp(logps - logsumexp(logps))
     u = np.log(xs) if cand.candidate.name in LOG_SCALE else xs
     mean_u = float(w @ u)
@@ -133,24 +150,30 @@ def fit_candidate(emu: Emulator, cand: CandidateEmulator, y: F64, obs: NDArray[n
         strength, sd = mean_u, sd_u
     best = int(np.argmax(logps))
     c = cand.candidate
-    return ModelFit(c.name, c.kind, float(logsumexp(logps) - np.log(GRID)),
+    return ModelFit(c.name, c.kind, _log_mass(logps[~null]),
                     sigma_of(float(np.min(d2s)), int(obs.sum())), strength, sd, float(xs[best]),
                     emu.mu0 + diffs[best], np.diag(cov) + dvar[best], float(d2s[best]),
-                    unit=c.unit, parameter=c.parameter)
+                    unit=c.unit, parameter=c.parameter, log_null=_log_mass(logps[null]))
+
+
+def _log_mass(logps: F64) -> float:
+    """log of (sum of exp(logps)) / GRID: prior-weighted likelihood mass of some grid points."""
+    return float(logsumexp(logps) - np.log(GRID)) if len(logps) else -np.inf
 
 
 def decide(emu: Emulator, y: F64, obs: NDArray[np.bool_], cov: F64) -> Decision:
     """Fit every model, give probabilities and the verdict (see the module docstring)."""
     base = fit_baseline(emu, y, obs, cov)
     fits = [fit_candidate(emu, c, y, obs, cov) for c in emu.candidates]
-    logs = np.array([base.log_evidence] + [f.log_evidence for f in fits])
+    nothing = logsumexp([base.log_evidence] + [f.log_null for f in fits])
+    logs = np.array([nothing] + [f.log_evidence for f in fits])
     probs = np.exp(logs - logsumexp(logs))
     base = _with(base, probs[0], y, obs, base)
     fits = sorted((_with(f, p, y, obs, base) for f, p in zip(fits, probs[1:], strict=True)),
                   key=lambda f: -f.probability)
     top = fits[0]
     clearly_worse = top.probability > BAYES_CLEAR * base.probability
-    if not base.ruled_out and not clearly_worse:
+    if not base.ruled_out and base.probability >= top.probability:
         verdict = 'nothing_significant'
     elif (not top.ruled_out and top.probability >= CONFIDENT
           and (base.ruled_out or clearly_worse)):

@@ -11,10 +11,13 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from dempath.errors import DempathError
+from dempath_diagnose.bandtracks import band_table7
 from dempath_diagnose.decision import Decision, decide
 from dempath_diagnose.emulator import Allowance, Emulator, build_emulator
 from dempath_diagnose.errors import MeasurementError
@@ -56,6 +59,9 @@ class Diagnosis:
         marker_error: (m, K, 3) per-marker measured minus baseline mean [m].
         problems: Per-marker faults from loading.
         wall_s: Time taken [s].
+        simulations: Library runs the diagnosis rests on.
+        table7: The paper's Table 7 of the baseline band against the measured markers
+            (:func:`~dempath_diagnose.bandtracks.band_table7`).
     """
 
     decision: Decision
@@ -69,6 +75,7 @@ class Diagnosis:
     problems: dict[int, str] = field(default_factory=dict)
     wall_s: float = 0.0
     simulations: int = 0
+    table7: dict[str, Any] = field(default_factory=dict)
 
     @property
     def floor(self) -> F64:
@@ -94,6 +101,8 @@ def diagnose(meas: Measurement, library: Library, geometry: CaseGeometry,
         msg = (f'measured window: ends at t = {end:.3f} s, the model library covers '
                f'{cover:.3f} s; rebuild it with a longer follow after the tool stops (--follow)')
         raise MeasurementError(msg)
+    if library.region is not None:
+        meas = _inside_region(meas, library)
     stop = float(first.meta.get('tool_stop_s', cover))
     layout = build_layout(meas.markers, meas.start, geometry.tool_x_m,
                           geometry.axis_half_width_m, end, stop, n_windows)
@@ -111,8 +120,47 @@ def diagnose(meas: Measurement, library: Library, geometry: CaseGeometry,
     cov = emu.fixed_cov(allowance, layout)
     decision = decide(emu, y, observed, cov)
     err, z = _marker_map(emu, features, allowance)
+    table7 = baseline_table7(meas, library, geometry.cube_m)
     return Diagnosis(decision, layout, emu, y, observed, cov, z, err, dict(meas.problems),
-                     time.monotonic() - t0)
+                     time.monotonic() - t0, len(library.runs), table7)
+
+
+def _inside_region(meas: Measurement, library: Library) -> Measurement:
+    """``meas`` without the markers that start outside a packed library's region (reported
+    as per-marker faults: their model counterparts are not in the file)."""
+    from dataclasses import replace
+
+    from dempath_diagnose.packed import outside_region
+
+    assert library.region is not None
+    out = outside_region(library.region, meas.start, meas.markers.tolist())
+    if not out:
+        return meas
+    bad = {int(text.split()[1]) for text in out}
+    if len(bad) == len(meas.markers):
+        msg = (f'{library.folder}: every marker starts outside the region the library was '
+               f'packed for (e.g. {out[0]}); use the full library or pack it for these markers')
+        raise MeasurementError(msg)
+    keep = np.array([int(m) not in bad for m in meas.markers])
+    problems = {**meas.problems, **{m: "starts outside the packed library's region"
+                                    for m in bad}}
+    return replace(meas, markers=meas.markers[keep], positions=meas.positions[:, keep],
+                   problems=problems)
+
+
+def baseline_table7(meas: Measurement, library: Library,
+                    cube: tuple[float, float, float]) -> dict[str, Any]:
+    """The paper's Table 7 of the library's baseline runs against the measured markers.
+
+    A fault of the comparison (no scorable trajectory at all) is reported in the result
+    (``error``), not raised: the group statistics do not depend on it.
+    """
+    files = [f for runs in library.model_runs('').values() for f in runs]
+    try:
+        return band_table7(meas, [library.records[f] for f in files], cube,
+                           [f.removesuffix('.npz') for f in files])
+    except (DempathError, ValueError) as err:
+        return {'error': str(err), 'rows': [], 'mean_nrmse_pct': float('nan')}
 
 
 def _marker_map(emu: Emulator, features: F64, allowance: Allowance) -> tuple[F64, F64]:

@@ -19,6 +19,7 @@ import json
 import logging
 import math
 import os
+import statistics
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -161,6 +162,31 @@ def library_state(scene: SceneSpec, spec: LibrarySpec, root: Path | None = None,
     return ('stale' if others else 'missing'), 0, len(runs)
 
 
+MAX_TIMED_RUNS = 20  # runs whose recorded wall time is read for an estimate
+
+
+def recorded_run_s(scene: SceneSpec, spec: LibrarySpec, root: Path | None = None,
+                   ) -> tuple[float, int]:
+    """Median wall time of one run [s] as recorded in the runs' meta (``drive_wall_s``), and
+    how many runs it rests on (0: nothing recorded yet).
+
+    The runs of this library are read first (a partial build), else those of the scene's other
+    libraries (a stale one: the physics changed, a run of it costs about the same).
+    """
+    folder = library_dir(scene, spec, root)
+    folders = [folder]
+    if folder.parent.is_dir():
+        folders += sorted(p for p in folder.parent.glob(f'{scene.name}-*') if p != folder)
+    for f in folders:
+        files = sorted(p for p in (f / 'runs').glob('*.npz') if not p.name.endswith('.tmp.npz'))
+        times = [float(PassRecord.read_meta(p).get('drive_wall_s', 0.0))
+                 for p in files[:MAX_TIMED_RUNS]]
+        times = [t for t in times if t > 0]
+        if times:
+            return float(statistics.median(times)), len(times)
+    return 0.0, 0
+
+
 Executor = Callable[[Sequence[Callable[[], Any]], Callable[[int], None]], None]
 
 
@@ -241,35 +267,51 @@ class LibraryTask:
 
 @dataclass
 class Library:
-    """A built library, read from disk.
+    """A built library, read from its folder or from a packed file (:mod:`.packed`).
 
     Attributes:
-        folder: Its directory.
+        folder: Its directory (or the packed file).
         candidates: The candidates.
         runs: Every run of the design.
         records: Loaded records by file name.
+        region: For a packed library, the marker region it was packed for (None: every
+            particle near the surface is there).
     """
 
     folder: Path
     candidates: list[Candidate]
     runs: list[RunSpec]
     records: dict[str, PassRecord]
+    region: dict[str, Any] | None = None
 
     @classmethod
     def load(cls, folder: Path) -> Library:
-        """Read ``folder``; LibraryError when the design or a run is missing."""
+        """Read a library folder or a packed library file; LibraryError when the design or a run
+        is missing."""
+        folder = Path(folder)
+        if folder.is_file():
+            return cls.load_packed(folder)
         try:
             data = json.loads((folder / 'design.json').read_text())
         except (OSError, ValueError) as err:
             raise LibraryError(f'{folder}: no readable library design ({err})') from err
-        candidates = [Candidate(**{**c, 'linked': tuple(tuple(x) for x in c['linked'])})
-                      for c in data['candidates']]
-        runs = [RunSpec(**r) for r in data['runs']]
+        candidates, runs = _design_of(data)
         missing = [r.filename for r in runs if not (folder / 'runs' / r.filename).is_file()]
         if missing:
             raise LibraryError(f'{folder}: {len(missing)} runs missing (e.g. {missing[0]})')
         records = {r.filename: PassRecord.load(folder / 'runs' / r.filename) for r in runs}
         return cls(folder, candidates, runs, records)
+
+    @classmethod
+    def load_packed(cls, path: Path) -> Library:
+        """Read a library packed by :func:`~dempath_diagnose.packed.export_library`."""
+        from dempath_diagnose.packed import load_packed
+
+        data, records = load_packed(path)
+        candidates, runs = _design_of(data)
+        return cls(Path(path), candidates, runs,
+                   {r.filename: rec for r, rec in zip(runs, records, strict=True)},
+                   region=data['region'])
 
     def seeds(self) -> list[int]:
         """The packing seeds, in design order."""
@@ -282,3 +324,10 @@ class Library:
             if r.candidate == candidate:
                 out.setdefault(r.strength, []).append(r.filename)
         return out
+
+
+def _design_of(data: dict[str, Any]) -> tuple[list[Candidate], list[RunSpec]]:
+    """Candidates and runs of a stored design (design.json or a packed library)."""
+    candidates = [Candidate(**{**c, 'linked': tuple(tuple(x) for x in c['linked'])})
+                  for c in data['candidates']]
+    return candidates, [RunSpec(**r) for r in data['runs']]

@@ -54,6 +54,16 @@ class PassRecord:
                             tool_force=self.tool_force, meta=np.array(json.dumps(self.meta)))
         tmp.replace(path)
 
+    @staticmethod
+    def read_meta(path: Path) -> dict[str, Any]:
+        """Only the meta of a stored record (cheap: the arrays are not read); {} if unreadable."""
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                meta = json.loads(str(data['meta']))
+        except (OSError, KeyError, ValueError):
+            return {}
+        return meta if isinstance(meta, dict) else {}
+
     @classmethod
     def load(cls, path: Path) -> PassRecord:
         """Read a record written by :meth:`save`; LibraryError if unreadable."""

@@ -19,6 +19,17 @@ def _num(x: float) -> float | None:
     return float(x) if math.isfinite(x) else None
 
 
+def _finite(value: Any) -> Any:
+    """``value`` with every non-finite float (nested in dicts and lists) as None (valid JSON)."""
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_finite(v) for v in value]
+    if isinstance(value, float):
+        return _num(value)
+    return value
+
+
 def _fit_json(fit: ModelFit) -> dict[str, Any]:
     return {'effect': fit.name, 'kind': fit.kind, 'probability': round(fit.probability, 4),
             'strength': {'parameter': fit.parameter, 'value': _num(fit.strength),
@@ -51,7 +62,9 @@ def to_json(d: Diagnosis, extra: dict[str, Any] | None = None) -> dict[str, Any]
             'markers': {str(int(m)): {a: float(np.sqrt(np.nanmean(d.marker_error[i, :, k] ** 2)))
                                       for k, a in enumerate(AXES)}
                         for i, m in enumerate(d.layout.markers)},
-            'mean_abs_z_markers': float(np.nanmean(np.abs(d.marker_z)))},
+            'mean_abs_z_markers': float(np.nanmean(np.abs(d.marker_z))),
+            'table7': _finite({k: v for k, v in d.table7.items() if k != 'markdown'}),
+            'mean_nrmse_pct': _num(float(d.table7.get('mean_nrmse_pct', math.nan)))},
         'remaining': dec.remaining if dec.verdict == 'inconclusive' else [],
         'would_separate': dec.separators,
         'groups': {g.name: [int(d.layout.markers[i]) for i in g.members] for g in d.layout.groups},
@@ -98,6 +111,13 @@ def markdown(d: Diagnosis, data: dict[str, Any], plots: list[str]) -> str:
         lines.append(f'| {r["effect"]} | {r["kind"]} | {r["probability"]:.3f} | '
                       f'{s["value"]:.4g} +- {s["uncertainty"]:.2g} {s["unit"]} | '
                       f'{r["explained_fraction"]:.2f} | {r["implausibility"]:.1f} |')
+    t7 = d.table7
+    if t7.get('markdown'):
+        lines += ['', f'## Error before (the paper\'s Table 7: the model\'s {t7["model_runs"]} '
+                  f'baseline runs, the {t7["top_n"]} best Cube candidates per marker)', '',
+                  t7['markdown'].rstrip()]
+    elif t7.get('error'):
+        lines += ['', f'Table 7 could not be computed: {t7["error"]}']
     lines += ['', f'Simulations used: {data["simulations"]}; wall time {data["wall_s"]:.1f} s.',
               '']
     lines += [f'![{p}]({p})' for p in plots]
@@ -125,6 +145,12 @@ def write_xlsx(d: Diagnosis, data: dict[str, Any], path: Path) -> None:
     mk.append(['marker', *[f'rms error {a} [m]' for a in AXES]])
     for m, v in data['error_before']['markers'].items():
         mk.append([int(m), *[v[a] for a in AXES]])
+    t7 = wb.create_sheet('table7')
+    t7.append(['marker', 'N', 'MAE [m]', 'MAE sd [m]', 'RMSE [m]', 'RMSE sd [m]', 'range [m]',
+               'nRMSE [%]'])
+    for r in data['error_before']['table7'].get('rows', []):
+        t7.append([r['marker'], r['n_best'], r['mae_m'], r['mae_sd_m'], r['rmse_m'],
+                   r['rmse_sd_m'], r['range_m'], r['nrmse_pct']])
     wb.save(path)
 
 

@@ -87,3 +87,47 @@ def test_unreachable_scheduler_is_one_clear_error() -> None:
     with pytest.raises(ClusterError, match=r'tcp://127\.0\.0\.1:9'), \
             DaskSweep('tcp://127.0.0.1:9', timeout_s=2.0) as sweep:
         sweep.run([], lambda k: None)
+
+
+def test_cli_force_in_kilonewtons_and_faulty_markers(cache: Path, tiny_library: object,
+                                                     tmp_path: Path,
+                                                     capsys: pytest.CaptureFixture[str]) -> None:
+    """A tiny-scene case with three faulty markers added (NaN rows, two points, no motion): they
+    are warned about, reported in diagnosis.json and the rest is diagnosed; the same case with
+    its force in kN is one error line naming the force file, and the first output is kept."""
+    import json
+
+    from .conftest import SCENE, SPEC
+    from .test_hidden import case_files
+
+    markers, force = case_files(cache, 'tool_speed')
+    bad = tmp_path / 'markers.csv'
+    rows = [(i * 0.02, 90, float('nan'), 0.0, 0.1) for i in range(5)]
+    rows += [(0.0, 91, 0.0, 0.03, 0.1), (0.02, 91, 0.0, 0.03, 0.11)]
+    rows += [(i * 0.02, 92, 0.0, 0.03, 0.12) for i in range(20)]
+    bad.write_text(markers.read_text() + ''.join(f'{t},{m},{x},{y},{z}\n'
+                                                 for t, m, x, y, z in rows))
+    common = ['--scene', SCENE, '--library-root', str(cache / 'library'), '--packing-cache',
+              str(cache / 'packings'), '--seeds', ','.join(map(str, SPEC.seeds)),
+              '--candidates', ','.join(SPEC.candidates), '--strengths', str(SPEC.n_strengths),
+              '--serial']
+    out = tmp_path / 'out'
+    assert diagnose_main(['--measured', str(bad), '--force', str(force), '--out', str(out),
+                          *common]) == 0
+    err = capsys.readouterr().err
+    for m in (90, 91, 92):
+        assert f'marker {m}:' in err, err
+    data = json.loads((out / 'diagnosis.json').read_text())
+    assert set(data['marker_problems']) == {'90', '91', '92'}
+    assert data['verdict'] == 'parameter_off' and data['ranking'][0]['effect'] == 'tool_speed'
+    kilo = tmp_path / 'force_kN.csv'
+    lines = force.read_text().splitlines()
+    kilo.write_text('\n'.join([lines[0]] + [','.join([r.split(',')[0]] + [
+        f'{float(v) / 1000:.6g}' for v in r.split(',')[1:]]) for r in lines[1:]]) + '\n')
+    before = (out / 'diagnosis.json').read_text()
+    assert diagnose_main(['--measured', str(markers), '--force', str(kilo), '--out', str(out),
+                          *common]) == 1
+    err_lines = capsys.readouterr().err.strip().splitlines()
+    assert len(err_lines) == 1 and 'force_kN.csv' in err_lines[0], err_lines
+    assert 'another unit' in err_lines[0]
+    assert (out / 'diagnosis.json').read_text() == before  # nothing already written is lost

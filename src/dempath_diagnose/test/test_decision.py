@@ -85,3 +85,29 @@ def test_sigma_of_matches_the_gaussian_in_one_dimension() -> None:
     """For k = 1 the implausibility is |r| / sd."""
     assert abs(sigma_of(9.0, 1) - 3.0) < 1e-6
     assert abs(sigma_of(1.0, 1) - 1.0) < 1e-6
+
+
+def test_candidates_that_contain_the_baseline_do_not_dilute_it() -> None:
+    """Seven candidates, none able to move the statistics beyond one sd at any strength, and data
+    at the baseline: 'nothing missing' keeps the probability (not 1/8 of it); a strong candidate
+    beside them still loses it when its signature is in the data."""
+    weak = {f'w{i}': [0.0015 * (i % 2), 0.0015 * (1 - i % 2), 0, 0, 0, 0] for i in range(7)}
+    emu = make_emulator(weak)
+    d = decide(emu, np.zeros(6), np.ones(6, bool), np.eye(6) * SD**2)
+    assert d.verdict == 'nothing_significant'
+    assert d.baseline.probability > 0.95, d.baseline.probability
+    assert all(f.probability < 0.01 for f in d.ranking)
+    sig = [0, 0, 0.02, 0.03, 0, 0]
+    emu = make_emulator({**weak, 'strong': sig})
+    d = decide(emu, np.array(sig), np.ones(6, bool), np.eye(6) * SD**2)
+    assert d.verdict == 'effect_missing' and d.ranking[0].name == 'strong'
+    assert d.baseline.probability < 0.01
+
+
+def test_probabilities_of_the_answers_sum_to_one() -> None:
+    """'Nothing missing' plus every candidate's distinguishable part: one distribution."""
+    emu = make_emulator({'a': [0.02, 0.03, 0, 0, 0, 0], 'b': [0, 0, 0.004, 0.006, 0, 0]})
+    d = decide(emu, np.array([0.003, 0.004, 0.001, 0.0, 0.0, 0.0]), np.ones(6, bool),
+               np.eye(6) * SD**2)
+    total = d.baseline.probability + sum(f.probability for f in d.ranking)
+    assert abs(total - 1.0) < 1e-9

@@ -51,12 +51,21 @@ def test_streaming_and_batch_measurements_agree(cache: Path) -> None:
 
 
 def test_node_publishes_a_diagnosis_when_the_pass_ends(ros_harness: Any, cache: Path,
-                                                       tiny_library: Library) -> None:
-    """The tool-speed case played on the topics: a Diagnosis naming tool_speed first."""
+                                                       tiny_library: Library,
+                                                       tmp_path: Path) -> None:
+    """The tool-speed case played on the topics: a Diagnosis naming tool_speed first, with what
+    diagnosis.json holds; the recorder records it to MCAP."""
+    from dempath.bagio import open_bag
+    from dempath.nodes.recorder import RecorderNode
+
     markers, force = case_files(cache, 'tool_speed')
     meas = load_tracks(markers)
     t_force, f = load_force(force)
     node = ros_harness.start(DiagnoserNode, scene=SCENE, library=str(tiny_library.folder))
+    recorder = ros_harness.start(RecorderNode, output=str(tmp_path / 'bag'),
+                                 topics=[topics.DIAGNOSIS])
+    assert ros_harness.spin_until(lambda: topics.DIAGNOSIS in recorder._topic_subs,
+                                  timeout_s=30), 'the recorder never subscribed to /diagnosis'
     got = ros_harness.collect(Diagnosis, topics.DIAGNOSIS)
     pm = ros_harness.publisher(MarkerPoints3D, topics.MARKER_POINTS, 1000)
     pf = ros_harness.publisher(ToolForce, '/markers/tool_force', 1000)
@@ -77,6 +86,37 @@ def test_node_publishes_a_diagnosis_when_the_pass_ends(ros_harness: Any, cache: 
     assert msg.candidates[0].effect == 'tool_speed'
     assert msg.candidates[0].probability >= 0.8
     assert msg.candidates[0].strength_parameter == 'speed_scale'
+    check_fields(msg, len(tiny_library.runs))
+    assert ros_harness.spin_until(
+        lambda: recorder.recorder.stats.get(topics.DIAGNOSIS) is not None
+        and recorder.recorder.stats[topics.DIAGNOSIS].received >= 1, timeout_s=30)
+    recorder.finish()
+    with open_bag(tmp_path / 'bag') as bag:
+        recorded = [bag.deserialize(m) for m in bag.messages([topics.DIAGNOSIS])]
+    assert len(recorded) == 1
+    assert recorded[0].verdict_code == 'parameter_off'
+    assert recorded[0].candidates[0].effect == 'tool_speed'
+    assert list(recorded[0].statistic_names) == list(msg.statistic_names)
+
+
+def check_fields(msg: Diagnosis, runs: int) -> None:
+    """The fields diagnosis.json holds are filled and consistent."""
+    assert msg.verdict_code == 'parameter_off'
+    assert msg.summary and msg.verdict.endswith(msg.summary[0])
+    assert 0.0 <= msg.baseline_probability < 0.2 and msg.baseline_implausibility >= 0.0
+    k = len(msg.statistic_names)
+    assert k > 0 and len(msg.floor) == len(msg.measured) == len(msg.model) == k
+    assert all(v > 0 for v in msg.floor)
+    assert any(n.startswith('force:draft') for n in msg.statistic_names)
+    assert np.all(np.isfinite(msg.measured))  # the force was measured: every statistic is
+    assert np.isfinite(msg.mean_nrmse_pct) and msg.mean_nrmse_pct > 0
+    assert msg.simulations == runs and msg.wall_s > 0
+    assert not msg.remaining  # named, not inconclusive
+    top = msg.candidates[0]
+    assert top.kind == 'parameter' and top.strength_unit == '1'
+    assert top.strength_uncertainty > 0 and not top.ruled_out
+    total = msg.baseline_probability + sum(c.probability for c in msg.candidates)
+    assert abs(total - 1.0) < 1e-6
 
 
 def test_cli_reads_a_bag_of_marker_points(cache: Path, tiny_library: Library,

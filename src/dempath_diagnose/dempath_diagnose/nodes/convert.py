@@ -27,14 +27,40 @@ def force_sample(msg: Any) -> tuple[float, NDArray[np.float64]]:
     return t, np.array([f.x, f.y, f.z], np.float64)
 
 
+def _finite(x: float) -> float:
+    return float(x) if math.isfinite(x) else 0.0
+
+
 def diagnosis_msg(result: Diagnosis, case_id: str, header: Any) -> DiagnosisMsg:
-    """The Diagnosis message: ranked candidates and '<verdict>: <first sentence>'."""
+    """The Diagnosis message: what diagnosis.json holds, candidates ranked most probable first.
+
+    Statistics not measured (the draft without a force) have NaN as measured value.
+    """
+    dec = result.decision
+    summary = sentences(result)
+    measured = np.full(len(result.emulator.names), np.nan)
+    measured[np.flatnonzero(result.observed)] = result.measured
     out = DiagnosisMsg(header=header, case_id=case_id)
-    out.verdict = f'{result.decision.verdict}: {sentences(result)[0]}'
-    for fit in result.decision.ranking:
+    out.verdict = f'{dec.verdict}: {summary[0]}'
+    out.verdict_code = dec.verdict
+    out.summary = summary
+    out.baseline_probability = float(dec.baseline.probability)
+    out.baseline_implausibility = float(dec.baseline.implausibility)
+    out.statistic_names = list(result.emulator.names)
+    out.floor = result.floor.astype(np.float64).tolist()
+    out.measured = measured.tolist()
+    out.model = result.emulator.mu0.astype(np.float64).tolist()
+    out.mean_nrmse_pct = float(result.table7.get('mean_nrmse_pct', math.nan))
+    out.remaining = list(dec.remaining) if dec.verdict == 'inconclusive' else []
+    out.would_separate = list(dec.separators)
+    out.marker_problems = [f'marker {m}: {v}' for m, v in sorted(result.problems.items())]
+    out.simulations = int(result.simulations)
+    out.wall_s = float(result.wall_s)
+    for fit in dec.ranking:
         out.candidates.append(EffectCandidate(
-            effect=fit.name, probability=float(fit.probability),
+            effect=fit.name, kind=fit.kind, probability=float(fit.probability),
             explained_error=float(fit.explained_fraction),
-            fitted_strength=float(fit.strength) if math.isfinite(fit.strength) else 0.0,
-            strength_parameter=fit.parameter, strength_unit=fit.unit))
+            fitted_strength=_finite(fit.strength), strength_uncertainty=_finite(fit.strength_sd),
+            strength_parameter=fit.parameter, strength_unit=fit.unit,
+            implausibility=float(fit.implausibility), ruled_out=bool(fit.ruled_out)))
     return out
