@@ -109,12 +109,27 @@ def scene_candidates(scene: SceneSpec, names: tuple[str, ...] = LIBRARY_CANDIDAT
 
 
 def physics_key(scene: SceneSpec) -> str:
-    """Hash (16 hex) of everything in a scene that changes its passes (not its name or seed)."""
+    """Hash (16 hex) of everything in a scene that changes its passes (not its name or seed).
+
+    Files the scene names (the tool mesh, a packing) count by their content, not their path, so
+    the same scene read from another clone or install keeps its key (and its library).
+    """
     data = scene.to_dict()
     for key in ('name', 'description', 'seed', 'source', 'output'):
         data.pop(key, None)
+    data['tool']['mesh'] = _file_digest(scene.tool.mesh)
+    if scene.fill.packing is not None:
+        data['fill']['packing'] = _file_digest(scene.fill.packing)
     text = json.dumps(data, sort_keys=True, default=str)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def _file_digest(path: Any) -> str:
+    """sha256 of a file's bytes (its name when it cannot be read: the run will say why)."""
+    try:
+        return hashlib.sha256(Path(str(path)).read_bytes()).hexdigest()
+    except OSError:
+        return str(path)
 
 
 def travel_time_s(scene: SceneSpec, speed_scale: float = 1.0) -> float:
