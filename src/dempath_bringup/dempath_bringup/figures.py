@@ -1,0 +1,131 @@
+"""The PNG figures of the demo's report (matplotlib, Agg; OpenCV for the annotated frame).
+
+Each function draws one figure into ``path`` and returns it: the calibration (corner coverage
+and per-frame reprojection error per camera), a frame with the detected markers drawn, and the
+measured against the model's best-matching trajectories in the XZ and YZ planes (the paper's
+Figures 13-16 layout), before and after the recalibration.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+CAMERAS = ('side', 'front')
+
+
+def _pyplot() -> Any:
+    import matplotlib
+
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def plot_calibration(result: Any, checks: list[dict[str, Any]], path: Path) -> Path:
+    """Corner coverage of the image and per-frame reprojection RMSE, per camera."""
+    plt = _pyplot()
+    fig, axes = plt.subplots(1, 3, figsize=(14, 3.8))
+    w, h = result.calibration.side.width, result.calibration.side.height
+    for c, name in enumerate(CAMERAS):
+        ax = axes[c]
+        pts = result.corners[:, c].reshape(-1, 2)
+        ax.plot(pts[:, 0], pts[:, 1], '.', ms=2)
+        ax.set_xlim(0, w)
+        ax.set_ylim(h, 0)
+        ax.set_aspect('equal')
+        ax.set_title(f"{name}: board corners ({result.report['views'][name]} views, RMSE "
+                     f"{result.report['rmse_px'][name]:.3f} px)", fontsize=9)
+    fr = np.asarray(result.stereo.frame_rmse_px)
+    for c, name in enumerate(CAMERAS):
+        axes[2].plot(np.arange(len(fr)), fr[:, c], 'o-', label=name)
+    axes[2].set_xlabel('paired board frame')
+    axes[2].set_ylabel('reprojection RMSE [px]')
+    axes[2].set_title('bundle adjustment, per frame', fontsize=9)
+    axes[2].grid(True, alpha=0.3)
+    axes[2].legend()
+    if checks:
+        text = '; '.join(f"{r['camera']}: f {r['fx_pct']:+.2f}/{r['fy_pct']:+.2f} %, centre "
+                         f"{r['centre_mm']:.1f} mm, {r['angle_deg']:.2f} deg" for r in checks)
+        fig.suptitle(f'against the truth: {text}', fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+    return path
+
+
+def frame_with_detections(field_bag: Path, run_bag: Path, path: Path,
+                          camera: str = 'cam_side') -> Path | None:
+    """The middle field frame of ``camera`` with the markers the detector numbered drawn on it.
+
+    Returns None when the run recorded no detected points of that camera.
+    """
+    import cv2
+
+    from dempath import topics
+    from dempath.bagio import open_bag
+
+    points = {}
+    pp = topics.camera_topic(topics.PIXEL_POINTS, camera)
+    with open_bag(run_bag, [pp]) as reader:
+        for raw in reader.messages([pp]):
+            msg = reader.deserialize(raw)
+            stamp = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
+            points[stamp] = (list(msg.marker_ids), np.column_stack([msg.u, msg.v]))
+    if not points:
+        return None
+    stamp = sorted(points)[len(points) // 2]
+    image_topic = topics.camera_topic(topics.IMAGE_COMPRESSED, camera)
+    with open_bag(field_bag, [image_topic]) as reader:
+        for raw in reader.messages([image_topic]):
+            msg = reader.deserialize(raw)
+            if msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec == stamp:
+                image = cv2.imdecode(np.asarray(msg.data, np.uint8), cv2.IMREAD_COLOR)
+                break
+        else:
+            return None
+    ids, uv = points[stamp]
+    for m, (u, v) in zip(ids, uv, strict=True):
+        centre = (round(float(u) * 4), round(float(v) * 4))  # 2 fractional bits: sub-pixel
+        cv2.circle(image, centre, 14 * 4, (0, 255, 255), 2, cv2.LINE_AA, shift=2)
+        cv2.putText(image, str(int(m)), (int(u) + 16, int(v) - 12), cv2.FONT_HERSHEY_SIMPLEX,
+                    0.8, (0, 255, 255), 2, cv2.LINE_AA)
+    cv2.putText(image, f'{camera}, t = {stamp * 1e-9:.3f} s: {len(ids)} markers numbered',
+                (20, 40), cv2.FONT_HERSHEY_SIMPLEX, 1.0, (255, 255, 255), 2, cv2.LINE_AA)
+    cv2.imwrite(str(path), image)
+    return path
+
+
+def plot_trajectories(results: dict[str, Any], path: Path) -> Path:
+    """Measured (black) and the best model trajectory of every marker, XZ and YZ, per result.
+
+    Args:
+        results: ``{'before': CompareResult, 'after': CompareResult}`` (after optional).
+    """
+    plt = _pyplot()
+    rows = [(k, r) for k, r in results.items() if r is not None]
+    fig, axes = plt.subplots(len(rows), 2, figsize=(12, 4.0 * len(rows)), squeeze=False)
+    for row, (label, res) in enumerate(rows):
+        meas, mod = res.measured, res.model
+        for col, (axis, name) in enumerate(((0, 'X'), (1, 'Y'))):
+            ax = axes[row, col]
+            for e in range(len(meas.labels)):
+                best = res.best(e, 1)
+                p = meas.positions[e, : meas.lengths[e]]
+                ax.plot(p[:, 2], p[:, axis], 'k-', lw=1.6, label='measured' if e == 0 else None)
+                for j in best:
+                    q = mod.positions[j, : mod.lengths[j]]
+                    ax.plot(q[:, 2], q[:, axis], 'C3-', lw=1.0, alpha=0.8,
+                            label='model (best match)' if e == 0 else None)
+            ax.set_xlabel('Z [m] (tool travel)')
+            ax.set_ylabel(f'{name} [m]')
+            ax.set_title(f'{label} the recalibration: {name}Z plane', fontsize=10)
+            ax.grid(True, alpha=0.3)
+        axes[row, 1].legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+    return path
