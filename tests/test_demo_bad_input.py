@@ -9,6 +9,7 @@ in ``test_demo_detect.py``, Ctrl-C in ``test_demo_interrupt.py``.)
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import cv2
 import numpy as np
@@ -30,7 +31,7 @@ def copy_bag(src: Path, dst: Path, keep: object) -> Path:
     store = make_typestore()
     with open_bag(src) as reader, Writer(dst, version=9,
                                          storage_plugin=StoragePlugin.MCAP) as writer:
-        conns: dict[str, object] = {}
+        conns: dict[str, Any] = {}
         for raw in reader.messages(list(reader.topics)):
             msg = reader.deserialize(raw)
             stamp = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec

@@ -50,11 +50,41 @@ def shipped_library(scene: str) -> Path | None:
     return found[0] if found else None
 
 
+def measured_csv(ctx: DemoContext) -> Path:
+    """The recorded MarkerPoints3D as ``measured.csv`` (t,marker,x,y,z; s, m) for the diagnosis.
+
+    The times start at the first 3D frame: the measured pass starts with the recording, as the
+    model's run starts at t = 0 (the bag's stamps are camera clock times).
+    """
+    if 'measured_csv' in ctx.results:
+        return Path(ctx.results['measured_csv'])
+    from dempath import topics
+    from dempath.bagio import open_bag
+
+    rows = []
+    with open_bag(ctx.results['graph'].bag, [topics.MARKER_POINTS]) as reader:
+        for raw in reader.messages([topics.MARKER_POINTS]):
+            msg = reader.deserialize(raw)
+            t_ns = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
+            rows += [(t_ns, int(m), x, y, z)
+                     for m, x, y, z in zip(msg.marker_ids, msg.x, msg.y, msg.z, strict=True)]
+    if not rows:
+        msg_ = f"{ctx.results['graph'].bag}: no MarkerPoints3D to diagnose"
+        raise DempathError(msg_)
+    t0 = min(r[0] for r in rows)
+    path = ctx.out / 'measured.csv'
+    lines = ['t,marker,x,y,z'] + [f'{(t - t0) * 1e-9:.6f},{m},{x:.6f},{y:.6f},{z:.6f}'
+                                  for t, m, x, y, z in sorted(rows)]
+    path.write_text('\n'.join(lines) + '\n')
+    ctx.results['measured_csv'] = path
+    return path
+
+
 def diagnose_argv(ctx: DemoContext, out: Path) -> list[str]:
     """The ``dempath diagnose`` arguments of this demo (library options included)."""
     o = ctx.options
     origin = ','.join(f'{v:.6f}' for v in measured_origin(ctx))
-    argv = ['--measured', str(ctx.results['graph'].bag), '--scene', ctx.scene,
+    argv = ['--measured', str(measured_csv(ctx)), '--scene', ctx.scene,
             '--origin', origin, '--out', str(out)]
     if o.get('library_file'):
         argv += ['--library', str(o['library_file'])]
@@ -78,8 +108,8 @@ def library_status(ctx: DemoContext) -> tuple[bool, str]:
         ok = Path(o['library_file']).exists()
         return ok, '' if ok else f"{o['library_file']}: library file not found"
     scene = load_scene(ctx.scene)
-    meas = load_tracks(ctx.results['graph'].bag, measured_origin(ctx))
-    ns = argparse.Namespace(measured=ctx.results['graph'].bag,
+    meas = load_tracks(measured_csv(ctx), measured_origin(ctx))
+    ns = argparse.Namespace(measured=measured_csv(ctx),
                             seeds=o.get('seeds') or '1001,1002,1003,1004',
                             candidates=o.get('candidates') or ','.join(LIBRARY_CANDIDATES),
                             strengths=int(o.get('strengths') or 2))
@@ -130,12 +160,14 @@ def recalibration_stage(ctx: DemoContext) -> str:
 
     diag = ctx.results.get('diagnosis')
     if diag is None:
-        return 'skipped: no diagnosis (' + ctx.results.get('diagnosis_missing', '') + ')'
+        return f"skipped: no diagnosis ({ctx.results.get('diagnosis_missing', '')})"
     out = ctx.out / 'recalibration'
     argv = [a if a != str(ctx.out / 'diagnosis') else str(out)
             for a in ctx.results['diagnose_argv']]
     argv += ['--budget', str(ctx.options.get('budget', 2))]
-    if diag['verdict'] == 'inconclusive' and diag['ranking']:
+    if ctx.options.get('effect'):
+        argv += ['--effect', str(ctx.options['effect'])]
+    elif diag['verdict'] == 'inconclusive' and diag['ranking']:
         argv += ['--effect', diag['ranking'][0]['effect']]  # the top-ranked candidate
     code, text = _call(recalibrate_main, argv)
     if code != 0:

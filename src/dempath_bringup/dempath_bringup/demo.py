@@ -109,6 +109,8 @@ def _parser() -> argparse.ArgumentParser:
     lib.add_argument('--strengths', type=int, help='strengths per candidate (1 or 2)')
     lib.add_argument('--packing-cache', type=Path, help='packing cache folder')
     lib.add_argument('--budget', type=int, default=2, help='recalibration simulations')
+    lib.add_argument('--effect', help='fit this effect whatever the diagnosis says '
+                     '(dempath recalibrate --effect)')
     return p
 
 
@@ -123,7 +125,7 @@ def context_of(args: argparse.Namespace) -> DemoContext:
     options = {'library_file': args.library, 'library_root': args.library_root,
                'seeds': args.seeds, 'candidates': args.candidates,
                'strengths': args.strengths, 'packing_cache': args.packing_cache,
-               'budget': args.budget}
+               'budget': args.budget, 'effect': args.effect}
     return DemoContext(calib, field_bag, args.scene, args.out, args.rate, args.clicked,
                        options, progress_bar)
 

@@ -79,6 +79,7 @@ def frame_with_detections(field_bag: Path, run_bag: Path, path: Path,
         return None
     stamp = sorted(points)[len(points) // 2]
     image_topic = topics.camera_topic(topics.IMAGE_COMPRESSED, camera)
+    image: Any = None
     with open_bag(field_bag, [image_topic]) as reader:
         for raw in reader.messages([image_topic]):
             msg = reader.deserialize(raw)
@@ -87,6 +88,8 @@ def frame_with_detections(field_bag: Path, run_bag: Path, path: Path,
                 break
         else:
             return None
+    if image is None:
+        return None
     ids, uv = points[stamp]
     for m, (u, v) in zip(ids, uv, strict=True):
         centre = (round(float(u) * 4), round(float(v) * 4))  # 2 fractional bits: sub-pixel

@@ -58,7 +58,7 @@ def _calibration(r: dict[str, Any]) -> str:
                   'squares (the paper: 40.43 mm).</p>')
     checks = r.get('calib_truth') or []
     if checks:
-        html_ += '<p>Against the synthetic recording\'s true cameras:</p>' + _table(
+        html_ += "<p>Against the synthetic recording's true cameras:</p>" + _table(
             ['camera', 'fx [%]', 'fy [%]', 'cx [px]', 'cy [px]', 'centre [mm]', 'angle [deg]'],
             [[c['camera'], f"{c['fx_pct']:+.3f}", f"{c['fy_pct']:+.3f}", f"{c['cx_px']:+.2f}",
               f"{c['cy_px']:+.2f}", f"{c['centre_mm']:.2f}", f"{c['angle_deg']:.3f}"]
@@ -70,7 +70,7 @@ def _diagnosis(r: dict[str, Any], figs: dict[str, str | None]) -> str:
     data = r.get('diagnosis')
     if data is None:
         return (f'<p class="missing">Not run: {_e(r.get("diagnosis_missing", "no diagnosis"))}. '
-                'The diagnosis needs the scene\'s signature library.</p>')
+                "The diagnosis needs the scene's signature library.</p>")
     rows = [[x['effect'], f"{x['probability']:.3f}"] for x in data['ranking']]
     return (f"<p>Verdict: <b>{_e(data['verdict'])}</b>.</p>"
             + _table(['candidate effect', 'probability'], rows)

@@ -4,12 +4,13 @@ Two ways in: camera images (``GraphSpec.detect``: the player plays each camera's
 CompressedImage and CameraInfo from ``start_offset_s`` on, one detector node per camera finds,
 tracks and numbers the markers and publishes PixelPoints ``SOURCE_DETECTED``), or pixel points
 already in the bag (clicked, ``SOURCE_CLICKED``). The recorder records every topic of the run
-(``graph_topics``), the MarkerArrays for Foxglove and ``/diagnostics`` included. All nodes run in one process on a :class:`~dempath.nodes.harness.RosHarness` (no launch);
-:func:`run_graph` is the graph step of ``dempath demo`` and what ``tests/test_demo_pipeline.py``
-runs on the tiny scene. The graph learns what it needs through the nodes' public surface (the
-recorder's ``received_counts``, the reconstructor's fitted ``reconstructor``, the comparer's
-``last_result``) and through topics (the simulator's RunEvent), never through their internals.
-Also the checks of its outputs against the field twin's truth.
+(``graph_topics``), the MarkerArrays for Foxglove and ``/diagnostics`` included. All nodes run
+in one process on a :class:`~dempath.nodes.harness.RosHarness` (no launch); :func:`run_graph` is
+the graph step of ``dempath demo`` and what the tests run on the tiny scene. The graph learns
+what it needs through the nodes' public surface (the recorder's ``received_counts``, the
+reconstructor's fitted ``reconstructor``, the comparer's ``last_result``, each detector's
+``core.report()`` counts) and through topics (the simulator's RunEvent). Also the checks of its
+outputs against the field twin's truth.
 """
 
 from __future__ import annotations
