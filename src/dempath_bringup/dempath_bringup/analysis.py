@@ -148,7 +148,8 @@ def diagnosis_stage(ctx: DemoContext) -> str:
     data = json.loads((out / 'diagnosis.json').read_text())
     ctx.results['diagnosis'] = data
     ctx.results['diagnose_argv'] = argv
-    ranking = ', '.join(f"{r['effect']} {r['probability']:.2f}" for r in data['ranking'][:4])
+    rank = [*data['ranking'][:4], data['baseline']]
+    ranking = ', '.join(f"{r['effect']} {r['probability']:.2f}" for r in rank)
     return (f"verdict: {data['verdict']}; ranking (probability): {ranking}\n"
             'no measured tool force in the recording: markers only\n'
             f'{out / "diagnosis.json"}\n' + text.strip())

@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 CAMERAS = ('side', 'front')
+SHOWN = 4  # markers drawn in the trajectory figure (those that move the most)
 
 
 def _pyplot() -> Any:
@@ -102,8 +103,19 @@ def frame_with_detections(field_bag: Path, run_bag: Path, path: Path,
     return path
 
 
+def moving_markers(res: Any, n: int = SHOWN) -> list[int]:
+    """Indices of the ``n`` measured markers that move the most (largest path extent)."""
+    meas = res.measured
+    extent = [float(np.nanmax(np.ptp(meas.positions[e, : meas.lengths[e]], axis=0)))
+              if meas.lengths[e] > 1 else 0.0 for e in range(len(meas.labels))]
+    return [int(e) for e in np.argsort(extent)[::-1][:n]]
+
+
 def plot_trajectories(results: dict[str, Any], path: Path) -> Path:
-    """Measured (black) and the best model trajectory of every marker, XZ and YZ, per result.
+    """Measured (solid, dots) and best-matching model (dashed) trajectories, XZ and YZ.
+
+    The markers that move the most (the same ones in every row), one colour each; every
+    trajectory shifted to its start, as the comparison scores them.
 
     Args:
         results: ``{'before': CompareResult, 'after': CompareResult}`` (after optional).
@@ -111,23 +123,26 @@ def plot_trajectories(results: dict[str, Any], path: Path) -> Path:
     plt = _pyplot()
     rows = [(k, r) for k, r in results.items() if r is not None]
     fig, axes = plt.subplots(len(rows), 2, figsize=(12, 4.0 * len(rows)), squeeze=False)
+    chosen = moving_markers(rows[0][1])
     for row, (label, res) in enumerate(rows):
         meas, mod = res.measured, res.model
         for col, (axis, name) in enumerate(((0, 'X'), (1, 'Y'))):
             ax = axes[row, col]
-            for e in range(len(meas.labels)):
-                best = res.best(e, 1)
-                p = meas.positions[e, : meas.lengths[e]]
-                ax.plot(p[:, 2], p[:, axis], 'k-', lw=1.6, label='measured' if e == 0 else None)
-                for j in best:
-                    q = mod.positions[j, : mod.lengths[j]]
-                    ax.plot(q[:, 2], q[:, axis], 'C3-', lw=1.0, alpha=0.8,
-                            label='model (best match)' if e == 0 else None)
-            ax.set_xlabel('Z [m] (tool travel)')
-            ax.set_ylabel(f'{name} [m]')
+            for k, e in enumerate(chosen):
+                if e >= len(meas.labels):
+                    continue
+                p = 1e3 * meas.positions[e, : meas.lengths[e]]
+                ax.plot(p[:, 2], p[:, axis], 'o-', color=f'C{k}', lw=1.4, ms=3,
+                        label=f'marker {meas.idents[e]} measured')
+                for j in res.best(e, 1):
+                    q = 1e3 * mod.positions[j, : mod.lengths[j]]
+                    ax.plot(q[:, 2], q[:, axis], '--', color=f'C{k}', lw=1.4,
+                            label=f'marker {meas.idents[e]} model')
+            ax.set_xlabel('Z [mm] (tool travel, from the start)')
+            ax.set_ylabel(f'{name} [mm]')
             ax.set_title(f'{label} the recalibration: {name}Z plane', fontsize=10)
             ax.grid(True, alpha=0.3)
-        axes[row, 1].legend(fontsize=8)
+        axes[row, 1].legend(fontsize=7, ncol=2)
     fig.tight_layout()
     fig.savefig(path, dpi=90)
     plt.close(fig)

@@ -71,10 +71,24 @@ def _diagnosis(r: dict[str, Any], figs: dict[str, str | None]) -> str:
     if data is None:
         return (f'<p class="missing">Not run: {_e(r.get("diagnosis_missing", "no diagnosis"))}. '
                 "The diagnosis needs the scene's signature library.</p>")
-    rows = [[x['effect'], f"{x['probability']:.3f}"] for x in data['ranking']]
-    return (f"<p>Verdict: <b>{_e(data['verdict'])}</b>.</p>"
-            + _table(['candidate effect', 'probability'], rows)
+    rank = list(data['ranking']) + ([data['baseline']] if data.get('baseline') else [])
+    rank.sort(key=lambda x: -x['probability'])
+    rows = [[('nothing missing (the current model)' if x['kind'] == 'baseline' else x['effect']),
+             f"{x['probability']:.3f}", _strength(x), f"{x.get('implausibility', 0):.2f}",
+             'yes' if x.get('ruled_out') else 'no'] for x in rank]
+    summary = data.get('summary') or []
+    text = ' '.join(summary) if isinstance(summary, list) else str(summary)
+    return (f"<p>Verdict: <b>{_e(data['verdict'])}</b>. {_e(text)}</p>"
+            + _table(['candidate', 'probability', 'fitted strength', 'implausibility',
+                      'ruled out'], rows)
             + '<h3>Error map</h3>' + _img(figs.get('error_map'), 'error map'))
+
+
+def _strength(x: dict[str, Any]) -> str:
+    s = x.get('strength') or {}
+    if s.get('value') is None:
+        return '-'
+    return f"{s['parameter']} {s['value']:.4g} +- {s['uncertainty']:.2g} {s['unit']}"
 
 
 def _recalibration(r: dict[str, Any], figs: dict[str, str | None]) -> str:
