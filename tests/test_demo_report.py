@@ -126,6 +126,8 @@ def test_report_in_a_real_browser(demo_out: tuple[Path, int, str], browser: Any,
         assert shown.get(name), f'{name} not shown: {shown}'
     tables = browser.find_elements(By.TAG_NAME, 'table')
     assert len(tables) >= 4  # calibration, Table 7 before and after, ranking
+    height = browser.execute_script('return document.documentElement.scrollHeight;')
+    browser.set_window_size(1280, min(int(height) + 40, 9000))  # the whole page in one image
     browser.save_screenshot(str(tmp_path / 'report.png'))
     if os.environ.get('DEMPATH_SCREENSHOTS') == '1':
         shutil.copy(tmp_path / 'report.png', DOCS / 'demo_report.png')

@@ -174,8 +174,11 @@ def run_steps(ctx: DemoContext, steps: list[Step]) -> int:
                   traj_rms_mm=ctx.results.get('traj_rms_mm'))
     (ctx.out / 'timing.json').write_text(json.dumps(timing))
     if code == 0:
-        print(f'demo finished in {timing["demo_s"]} s; outputs in {ctx.out}; report '
-              f'{ctx.out / "report" / "index.html"}')
+        graph = ctx.results.get('graph')
+        print(f'demo finished in {timing["demo_s"]} s; outputs in {ctx.out}:\n'
+              f'    report   {ctx.out / "report" / "index.html"}\n'
+              f'    MCAP bag {graph.bag if graph is not None else "-"}\n'
+              f'    timing   {ctx.out / "timing.json"}')
     return code
 
 

@@ -15,6 +15,7 @@ import numpy as np
 
 CAMERAS = ('side', 'front')
 SHOWN = 4  # markers drawn in the trajectory figure (those that move the most)
+ZOOM = 3  # magnification of the detections' region in the annotated frame
 
 
 def _pyplot() -> Any:
@@ -92,15 +93,37 @@ def frame_with_detections(field_bag: Path, run_bag: Path, path: Path,
     if image is None:
         return None
     ids, uv = points[stamp]
-    for m, (u, v) in zip(ids, uv, strict=True):
-        centre = (round(float(u) * 4), round(float(v) * 4))  # 2 fractional bits: sub-pixel
-        cv2.circle(image, centre, 14 * 4, (0, 255, 255), 2, cv2.LINE_AA, shift=2)
-        cv2.putText(image, str(int(m)), (int(u) + 16, int(v) - 12), cv2.FONT_HERSHEY_SIMPLEX,
-                    0.8, (0, 255, 255), 2, cv2.LINE_AA)
-    cv2.putText(image, f'{camera}, t = {stamp * 1e-9:.3f} s: {len(ids)} markers numbered',
-                (20, 40), cv2.FONT_HERSHEY_SIMPLEX, 1.0, (255, 255, 255), 2, cv2.LINE_AA)
-    cv2.imwrite(str(path), image)
+    cv2.imwrite(str(path), annotate(image, ids, uv, f'{camera}, t = {stamp * 1e-9:.3f} s'))
     return path
+
+
+def annotate(image: Any, ids: list[int], uv: Any, title: str) -> Any:
+    """The frame at half size with the detections' region boxed, over that region zoomed in
+    ``ZOOM`` times with each detection circled at its sub-pixel centre and numbered."""
+    import cv2
+
+    h, w = image.shape[:2]
+    pad = 60
+    x0, y0 = int(max(np.min(uv[:, 0]) - pad, 0)), int(max(np.min(uv[:, 1]) - pad, 0))
+    x1, y1 = int(min(np.max(uv[:, 0]) + pad, w)), int(min(np.max(uv[:, 1]) + pad, h))
+    crop = cv2.resize(image[y0:y1, x0:x1], None, fx=ZOOM, fy=ZOOM,
+                      interpolation=cv2.INTER_CUBIC)
+    for m, (u, v) in zip(ids, uv, strict=True):
+        cx, cy = (u - x0 + 0.5) * ZOOM - 0.5, (v - y0 + 0.5) * ZOOM - 0.5
+        centre = (round(cx * 4), round(cy * 4))  # 2 fractional bits: sub-pixel drawing
+        cv2.circle(crop, centre, 12 * ZOOM * 4, (0, 255, 255), 2, cv2.LINE_AA, shift=2)
+        cv2.drawMarker(crop, (round(cx), round(cy)), (0, 255, 255), cv2.MARKER_CROSS, 8, 1)
+        cv2.putText(crop, str(int(m)), (round(cx) + 10 * ZOOM, round(cy) - 8 * ZOOM),
+                    cv2.FONT_HERSHEY_SIMPLEX, 0.9, (0, 255, 255), 2, cv2.LINE_AA)
+    full = cv2.resize(image, (w // 2, h // 2), interpolation=cv2.INTER_AREA)
+    cv2.rectangle(full, (x0 // 2, y0 // 2), (x1 // 2, y1 // 2), (0, 255, 255), 2)
+    cv2.putText(full, f'{title}: {len(ids)} markers numbered', (15, 35),
+                cv2.FONT_HERSHEY_SIMPLEX, 0.9, (255, 255, 255), 2, cv2.LINE_AA)
+    width = max(full.shape[1], crop.shape[1])
+    out = np.zeros((full.shape[0] + crop.shape[0], width, 3), np.uint8)
+    out[:full.shape[0], :full.shape[1]] = full
+    out[full.shape[0]:, :crop.shape[1]] = crop
+    return out
 
 
 def moving_markers(res: Any, n: int = SHOWN) -> list[int]:

@@ -173,11 +173,22 @@ def compare_stage(ctx: DemoContext) -> str:
     live = build_table7(graph.live)
     gap = table7_gap(live, build_table7(result))
     ctx.results['table7'] = live
-    return (f'workbook {outputs.workbook}\nreport   {outputs.report}\n'
+    return (f'{table7_text(live)}\nworkbook {outputs.workbook}\nreport   {outputs.report}\n'
             f'table 7  {outputs.table7_md}\nplots    {len(outputs.best_plots)} XZ/YZ + '
             f'{len(outputs.tracked_plots)} 3D in {outputs.report.parent}\n'
             f"the recorded bag's comparison agrees with the comparer node's live scores "
             f'(largest nRMSE difference {gap:.1e} %)')
+
+
+def table7_text(table: Any) -> str:
+    """Table 7 of the scores (mean over the N best model particles) as printable lines."""
+    lines = ['marker  MAE [mm]   RMSE [mm]  range [mm]  nRMSE [%]  (mean over the N best)']
+    for row in table.rows:
+        lines.append(f'{row.marker:>6}  {row.mae_mean * 1e3:8.2f}  {row.rmse_mean * 1e3:9.2f}  '
+                     f'{row.range_m * 1e3:10.1f}  {row.nrmse:9.2f}')
+    means = ', '.join(f'{k}: {v:.2f} %' for k, v in table.mean_nrmse.items())
+    lines.append(f'mean nRMSE {means} (paper: 4.7 % at 1 m/s)')
+    return '\n'.join(lines)
 
 
 def table7_gap(live: Any, recorded: Any) -> float:

@@ -90,6 +90,8 @@ class GraphResult:
     reconstructor: Any = None
     live: Any = None
     detection: dict[str, Any] = field(default_factory=dict)
+    play_s: float = 0.0
+    sim_s: float = 0.0
 
     def text(self) -> str:
         """A few printable lines."""
@@ -101,7 +103,8 @@ class GraphResult:
                 f'MarkerPoints3D; model run {self.run_id}: {self.sim_frames} ParticleStates; '
                 f'comparer: {self.scores} scores for {self.scored_markers} markers\n'
                 f'recorded {sum(self.received.values())} messages on {len(self.received)} '
-                f'topics into {self.bag} ({self.wall_s:.1f} s)')
+                f'topics into {self.bag} ({self.wall_s:.1f} s: playback and detection '
+                f'{self.play_s:.1f} s, model run and scores {self.sim_s:.1f} s)')
 
 
 def _received(recorder: Any, topic: str) -> int:
@@ -261,14 +264,16 @@ def run_graph(spec: GraphSpec, note: Callable[[str], None] = lambda text: None) 
             detection = {c: n.core.report()[c] for c, n in detectors.items()}
         else:
             pixel_frames = _play(harness, recorder, spec, note)
+        play_s = time.monotonic() - start
         sim = _simulate(harness, recorder, spec, note)
+        sim_s = time.monotonic() - start - play_s
         received = recorder.received_counts()
         summary = recorder.finish()
         run_id, frames = sim.run_id, sim.frames
     scores, markers = recorded_scores(spec.output)
     return GraphResult(spec.output, received, pixel_frames, run_id, frames, scores, markers,
                        summary, time.monotonic() - start, recon.reconstructor,
-                       comparer.last_result, detection)
+                       comparer.last_result, detection, play_s, sim_s)
 
 
 def recorded_scores(bag: Path) -> tuple[int, int]:
