@@ -12,11 +12,13 @@ from __future__ import annotations
 import json
 from collections import Counter
 from pathlib import Path
+from typing import Any
 
 import pytest
 from mcap.reader import make_reader
 
 from dempath import topics
+from dempath.bagio import open_bag
 from dempath_bringup.calibstep import (
     CalibrationRun,
     calibrate_recording,
@@ -44,6 +46,27 @@ def calibrated(tmp_path_factory: pytest.TempPathFactory) -> tuple[CalibrationRun
     run = calibrate_recording(RENDER, lambda *_: None)
     out = tmp_path_factory.mktemp('calib')
     return run, save_result(run.result, out, {'inputs': [str(RENDER)]})['stereo.yaml']
+
+
+def copy_bag(src: Path, dst: Path, keep: object) -> Path:
+    """A copy of ``src`` with only the messages ``keep(topic, stamp_ns)`` accepts."""
+    from rosbags.rosbag2 import StoragePlugin, Writer
+
+    from dempath.bagio import make_typestore
+
+    store = make_typestore()
+    with open_bag(src) as reader, Writer(dst, version=9,
+                                         storage_plugin=StoragePlugin.MCAP) as writer:
+        conns: dict[str, Any] = {}
+        for raw in reader.messages(list(reader.topics)):
+            msg = reader.deserialize(raw)
+            stamp = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
+            if not keep(raw.topic, stamp):  # type: ignore[operator]
+                continue
+            if raw.topic not in conns:
+                conns[raw.topic] = writer.add_connection(raw.topic, raw.msgtype, typestore=store)
+            writer.write(conns[raw.topic], raw.log_time_ns, bytes(raw.data))
+    return dst
 
 
 def mcap_topic_counts(bag: Path) -> Counter[str]:
@@ -99,8 +122,6 @@ def test_graph_detects_reconstructs_and_records_everything(
 def test_camera_topic_stopping_mid_pass(calibrated: tuple[CalibrationRun, Path],
                                         tmp_path: Path) -> None:
     """The front camera's images stop halfway: reported in one warning, the run goes on."""
-    from test_demo_bad_input import copy_bag
-
     run, stereo = calibrated
     truth = json.loads(TRUTH.read_text())
     front = sorted(f['stamp_ns'] for f in truth['frames'] if f['camera'] == 'cam_front')
