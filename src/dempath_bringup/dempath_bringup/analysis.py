@@ -238,10 +238,10 @@ def report_stage(ctx: DemoContext) -> str:
              'comparison report': str(r['outputs'].report)}
     if r.get('recalibrated_scene') is not None:
         files['recalibrated scene'] = str(r['recalibrated_scene'])
-    detection = ' '.join(detection_lines(graph.detection)) or 'clicked points (no detection)'
+    detection = '; '.join(detection_lines(graph.detection)) or 'clicked points (no detection)'
     err = r.get('traj_rms_mm')
     if err is not None:
-        detection += f" Reconstructed 3D markers vs the recording's truth: RMS {err:.2f} mm."
+        detection += f". Reconstructed 3D markers vs the recording's truth: RMS {err:.2f} mm."
     meta = {'title': f'{ctx.field_bag.name} against scene {ctx.scene}',
             'what': (f'Field recording {ctx.field_bag}, calibration from {ctx.calib_source}, '
                      f'model scene {ctx.scene}.'),
