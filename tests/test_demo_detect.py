@@ -137,4 +137,4 @@ def test_camera_topic_stopping_mid_pass(calibrated: tuple[CalibrationRun, Path],
     warnings = [ln for ln in detection_lines(result.detection) if ln.startswith('warning:')]
     assert len(warnings) == 1 and 'cam_front' in warnings[0], warnings
     assert 0 < result.received[topics.MARKER_POINTS] <= len(front) // 2 + 1
-    assert result.scored_markers >= 10  # the model is still run and scored
+    assert result.sim_frames > 0 and result.scored_markers > 0  # the model still runs, scored
