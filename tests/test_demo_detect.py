@@ -30,6 +30,8 @@ from dempath_bringup.stages import START_MARGIN_S, detection_lines
 from dempath_bringup.truth import render_truth_error
 from dempath_calib.outputs import save_result
 
+# calibration and three graph runs with the model: long on a loaded machine
+pytestmark = pytest.mark.timeout(1800)
 ROOT = Path(__file__).resolve().parents[1]
 RENDER = ROOT / 'bags' / 'field_render_reduced_1ms'
 TRUTH = RENDER.with_name(RENDER.name + '.truth.json')

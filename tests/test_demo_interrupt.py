@@ -17,10 +17,13 @@ import sys
 import time
 from pathlib import Path
 
+import pytest
 from mcap.reader import make_reader
 
 from dempath.bagio import open_bag
 
+# the demo in its own process up to the graph: long on a loaded machine
+pytestmark = pytest.mark.timeout(1500)
 ROOT = Path(__file__).resolve().parents[1]
 RENDER = ROOT / 'bags' / 'field_render_reduced_1ms'
 WAIT_S = 900.0  # generous: calibration and start-up on a loaded machine

@@ -27,6 +27,8 @@ from dempath.browser import BrowserNotFoundError, headless_chromium
 from dempath_bringup.demo import demo_main
 from dempath_diagnose.cli import diagnose_main
 
+# builds a small library, then runs the demo twice: long on a loaded machine
+pytestmark = pytest.mark.timeout(2400)
 ROOT = Path(__file__).resolve().parents[1]
 BAGS = ROOT / 'bags'
 FIELD = BAGS / 'field_twin_tiny'
