@@ -51,7 +51,7 @@ def test_graph_reconstructs_simulates_and_scores(tmp_path: Path) -> None:
     result = run_graph(spec)
     assert result.pixel_frames == frames
     assert result.received[topics.MARKER_POINTS] == frames
-    mean_mm, max_mm = field_truth_error(result.bag, truth_csv)
+    mean_mm, max_mm, _ = field_truth_error(result.bag, truth_csv)
     assert mean_mm < 5.0, f'mean 3D error {mean_mm:.2f} mm'
     assert max_mm < 15.0, f'max 3D error {max_mm:.2f} mm'
     assert result.scored_markers == 15

@@ -7,7 +7,8 @@ from pathlib import Path
 import pytest
 
 from dempath.errors import DempathError
-from dempath_bringup.demo import demo_main, table7_gap
+from dempath_bringup.demo import demo_main
+from dempath_bringup.stages import table7_gap
 from dempath_compare.summary import Table7, Table7Row
 
 BAGS = Path(__file__).resolve().parents[3] / 'bags'  # the repository's shipped recordings

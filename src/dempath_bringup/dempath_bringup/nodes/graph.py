@@ -1,18 +1,23 @@
-"""The demo's node graph: field bag -> player -> reconstructor; simulator; comparer; recorder.
+"""The demo's node graph: field bag -> player -> (detectors) -> reconstructor; simulator; comparer.
 
-All nodes run in one process on a :class:`~dempath.nodes.harness.RosHarness` (no launch);
-:func:`run_graph` is the graph step of ``dempath demo`` and what ``tests/test_demo_pipeline.py``
-runs on the tiny scene. The graph learns what it needs through the nodes' public surface (the
-recorder's ``received_counts``, the reconstructor's fitted ``reconstructor``, the comparer's
-``last_result``) and through topics (the simulator's RunEvent), never through their internals.
-Also the checks of its outputs against the field twin's truth.
+Two ways in: camera images (``GraphSpec.detect``: the player plays each camera's
+CompressedImage and CameraInfo from ``start_offset_s`` on, one detector node per camera finds,
+tracks and numbers the markers and publishes PixelPoints ``SOURCE_DETECTED``), or pixel points
+already in the bag (clicked, ``SOURCE_CLICKED``). The recorder records every topic of the run
+(``graph_topics``), the MarkerArrays for Foxglove and ``/diagnostics`` included. All nodes run
+in one process on a :class:`~dempath.nodes.harness.RosHarness` (no launch); :func:`run_graph` is
+the graph step of ``dempath demo`` and what the tests run on the tiny scene. The graph learns
+what it needs through the nodes' public surface (the recorder's ``received_counts``, the
+reconstructor's fitted ``reconstructor``, the comparer's ``last_result``, each detector's
+``core.report()`` counts) and through topics (the simulator's RunEvent). Also the checks of its
+outputs against the field twin's truth.
 """
 
 from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -23,8 +28,10 @@ from dempath.errors import DempathError
 METHOD = 'dlt_refined'  # triangulation + Gauss-Newton in pixels: no training, < 1 s to fit
 WARN = 30  # rcutils log level WARN: the nodes stay quiet unless something is wrong
 QUIET_NODES = ('dempath_reconstructor', 'dempath_comparer', 'dempath_recorder', 'dempath_player',
-               'dempath_simulator')
-SCORE_GRACE_S = 10.0  # wait for scores this long after the model run ended [s]
+               'dempath_simulator', 'cam_side.dempath_detector', 'cam_front.dempath_detector')
+SETTLE_S = 1.5  # images all detected and no new 3D frame for this long: the playback is done [s]
+SCORE_GRACE_SPINS = 200  # executor spins (0.05 s each when idle) to wait for scores after
+# the model run ended
 
 
 @dataclass(frozen=True)
@@ -42,6 +49,9 @@ class GraphSpec:
         cache_dir: packing cache of the simulator ('' for the default).
         play_timeout_s: longest wait for the playback and its 3D points [s].
         sim_timeout_s: longest wait for the simulation and its scores [s].
+        detect: detect the markers in the bag's images (else play its pixel points).
+        start_offset_s: skip this much of the bag's start (its calibration segment) [s].
+        viz_every: the simulator's MarkerArray every this many frames.
     """
 
     field_bag: Path
@@ -54,6 +64,9 @@ class GraphSpec:
     cache_dir: str = ''
     play_timeout_s: float = 120.0
     sim_timeout_s: float = 3600.0
+    detect: bool = False
+    start_offset_s: float = 0.0
+    viz_every: int = 1
 
 
 @dataclass
@@ -76,17 +89,22 @@ class GraphResult:
     wall_s: float
     reconstructor: Any = None
     live: Any = None
+    detection: dict[str, Any] = field(default_factory=dict)
+    play_s: float = 0.0
+    sim_s: float = 0.0
 
     def text(self) -> str:
         """A few printable lines."""
         from dempath import topics
 
         got = self.received.get
-        return (f'{self.pixel_frames} clicked frame pairs -> {got(topics.MARKER_POINTS, 0)} '
+        what = 'detected' if self.detection else 'clicked'
+        return (f'{self.pixel_frames} {what} frame pairs -> {got(topics.MARKER_POINTS, 0)} '
                 f'MarkerPoints3D; model run {self.run_id}: {self.sim_frames} ParticleStates; '
                 f'comparer: {self.scores} scores for {self.scored_markers} markers\n'
                 f'recorded {sum(self.received.values())} messages on {len(self.received)} '
-                f'topics into {self.bag} ({self.wall_s:.1f} s)')
+                f'topics into {self.bag} ({self.wall_s:.1f} s: playback and detection '
+                f'{self.play_s:.1f} s, model run and scores {self.sim_s:.1f} s)')
 
 
 def _received(recorder: Any, topic: str) -> int:
@@ -119,6 +137,70 @@ def _play(harness: Any, recorder: Any, spec: GraphSpec, note: Callable[[str], No
     return expected()
 
 
+def graph_topics() -> list[str]:
+    """Every topic the demo's graph publishes (what the recorder records)."""
+    from dempath import topics
+
+    per_camera = (topics.IMAGE_COMPRESSED, topics.CAMERA_INFO, topics.PIXEL_POINTS)
+    names = [topics.camera_topic(t, c) for t in per_camera for c in topics.CAMERAS]
+    names += [topics.MARKER_POINTS, topics.MARKER_VIZ, topics.SIM_STATES, topics.SIM_TOOL_FORCE,
+              topics.SIM_TOOL_POSE, topics.SIM_RUN_EVENTS, topics.SIM_VIZ, topics.COMPARE_SCORES,
+              topics.COMPARE_VIZ, topics.PLAYER_EVENTS, topics.DIAGNOSTICS]
+    return names
+
+
+def _start_detectors(harness: Any, spec: GraphSpec) -> dict[str, Any]:
+    """One detector node per camera (namespaced by the camera: two nodes of one class)."""
+    from rclpy.parameter import Parameter
+
+    from dempath import topics
+    from dempath_recon.nodes.detector import DetectorNode
+
+    nodes = {}
+    for cam in topics.CAMERAS:
+        params = [Parameter('camera', value=cam),
+                  Parameter('calibration_file', value=str(spec.calibration))]
+        nodes[cam] = harness.add(DetectorNode(context=harness.context, namespace=cam,
+                                              parameter_overrides=params))
+    return nodes
+
+
+def _play_images(harness: Any, recorder: Any, spec: GraphSpec, detectors: dict[str, Any],
+                 note: Callable[[str], None]) -> int:
+    """Play the bag's images from the offset; wait until every image is detected and the 3D
+    frames stop coming. Returns the number of 3D frames (detected pairs)."""
+    from dempath import topics
+    from dempath.nodes.player import PlayerNode
+
+    images = {c: topics.camera_topic(topics.IMAGE_COMPRESSED, c) for c in topics.CAMERAS}
+    infos = [topics.camera_topic(topics.CAMERA_INFO, c) for c in topics.CAMERAS]
+    player = harness.start(PlayerNode, bag=str(spec.field_bag), rate=float(spec.rate),
+                           start_offset_s=float(spec.start_offset_s),
+                           topics=list(images.values()) + infos, wait_for_subscribers=1)
+    last = [-1, time.monotonic()]
+
+    def detected(cam: str) -> int:
+        return int(detectors[cam].core.counts[cam].frames)
+
+    def done() -> bool:
+        points = _received(recorder, topics.MARKER_POINTS)
+        note(f'detecting in {spec.field_bag.name}: frames ' + ', '.join(
+            f'{c} {detected(c)}' for c in images) + f'; {points} MarkerPoints3D')
+        if points != last[0]:
+            last[:] = [points, time.monotonic()]
+        if not player.finished.is_set() or player.stats is None:
+            return False
+        published = player.stats.published
+        return all(detected(c) >= published.get(t, 0) for c, t in images.items()) and \
+            time.monotonic() - last[1] > SETTLE_S
+
+    if not harness.spin_until(done, timeout_s=spec.play_timeout_s, step_s=0.02):
+        msg = (f'{spec.field_bag}: detection incomplete after {spec.play_timeout_s} s ('
+               + ', '.join(f'{c} {detected(c)} frames' for c in images) + ')')
+        raise DempathError(msg)
+    return _received(recorder, topics.MARKER_POINTS)
+
+
 def _simulate(harness: Any, recorder: Any, spec: GraphSpec,
               note: Callable[[str], None]) -> Any:
     """Run the simulator node; wait until the comparer's scores are recorded."""
@@ -130,18 +212,20 @@ def _simulate(harness: Any, recorder: Any, spec: GraphSpec,
 
     latched = QoSProfile(depth=10, durability=DurabilityPolicy.TRANSIENT_LOCAL)
     events = harness.collect(RunEvent, topics.SIM_RUN_EVENTS, latched)
-    sim = harness.start(SimulatorNode, scene=spec.scene, cache_dir=spec.cache_dir)
+    sim = harness.start(SimulatorNode, scene=spec.scene, cache_dir=spec.cache_dir,
+                        viz_every=spec.viz_every)
     start = time.monotonic()
-    ended: list[float] = []
+    idle_spins: list[int] = []  # spins since the run ended: counted, not timed, because the
+    # comparer scores inside a callback and a loaded machine can take longer than any grace
 
     def done() -> bool:
         what = f'{sim.frames} frames' if sim.frames else 'fill or cached packing'
         note(f'simulating {spec.scene}: {what}, {time.monotonic() - start:.0f} s')
         if _received(recorder, topics.COMPARE_SCORES) > 0:
             return True
-        if not ended and any(e.event in (RunEvent.FINISHED, RunEvent.ABORTED) for e in events):
-            ended.append(time.monotonic())
-        return bool(ended) and time.monotonic() - ended[0] > SCORE_GRACE_S
+        if any(e.event in (RunEvent.FINISHED, RunEvent.ABORTED) for e in events):
+            idle_spins.append(1)
+        return len(idle_spins) > SCORE_GRACE_SPINS
 
     harness.spin_until(done, timeout_s=spec.sim_timeout_s, step_s=0.05)
     if _received(recorder, topics.COMPARE_SCORES) == 0:
@@ -169,19 +253,27 @@ def run_graph(spec: GraphSpec, note: Callable[[str], None] = lambda text: None) 
         recon = harness.start(ReconstructorNode, method=spec.method,
                               calibration_file=str(spec.calibration))
         comparer = harness.start(ComparerNode, experiment=spec.experiment)
-        recorder = harness.start(RecorderNode, output=str(spec.output))
+        recorder = harness.start(RecorderNode, output=str(spec.output), topics=graph_topics())
         if not recorder.recording:
             msg = f'{spec.output}: the recorder cannot write the bag'
             raise DempathError(msg)
-        pixel_frames = _play(harness, recorder, spec, note)
+        detection: dict[str, Any] = {}
+        if spec.detect:
+            detectors = _start_detectors(harness, spec)
+            pixel_frames = _play_images(harness, recorder, spec, detectors, note)
+            detection = {c: n.core.report()[c] for c, n in detectors.items()}
+        else:
+            pixel_frames = _play(harness, recorder, spec, note)
+        play_s = time.monotonic() - start
         sim = _simulate(harness, recorder, spec, note)
+        sim_s = time.monotonic() - start - play_s
         received = recorder.received_counts()
         summary = recorder.finish()
         run_id, frames = sim.run_id, sim.frames
     scores, markers = recorded_scores(spec.output)
     return GraphResult(spec.output, received, pixel_frames, run_id, frames, scores, markers,
                        summary, time.monotonic() - start, recon.reconstructor,
-                       comparer.last_result)
+                       comparer.last_result, detection, play_s, sim_s)
 
 
 def recorded_scores(bag: Path) -> tuple[int, int]:
@@ -199,8 +291,8 @@ def recorded_scores(bag: Path) -> tuple[int, int]:
     return count, len(markers)
 
 
-def field_truth_error(bag: Path, truth_csv: Path) -> tuple[float, float]:
-    """(mean, max) mm distance of the recorded MarkerPoints3D from the field twin's truth."""
+def field_truth_error(bag: Path, truth_csv: Path) -> tuple[float, float, float]:
+    """(mean, max, RMS) mm distance of the recorded MarkerPoints3D from the field twin's truth."""
     from dempath import topics
     from dempath.bagio import open_bag
     from dempath_twin.field import START_NS, read_marker_csv
@@ -221,4 +313,5 @@ def field_truth_error(bag: Path, truth_csv: Path) -> tuple[float, float]:
         msg = f'{bag}: no MarkerPoints3D at the stamps of {truth_csv}'
         raise DempathError(msg)
     err_mm = 1e3 * np.asarray(errors)
-    return float(np.nanmean(err_mm)), float(np.nanmax(err_mm))
+    return (float(np.nanmean(err_mm)), float(np.nanmax(err_mm)),
+            float(np.sqrt(np.nanmean(err_mm ** 2))))

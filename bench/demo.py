@@ -1,0 +1,43 @@
+"""Benchmark: ``dempath demo`` as ``make demo`` runs it, timed per stage.
+
+Runs the demo in a child process (``.venv/bin/dempath demo``, arguments passed through, output
+shown as it comes) and reads the ``timing.json`` it writes. The last line is one JSON object:
+
+- ``wall_s``: wall time of the whole command, process start-up and imports included [s];
+- ``stages``: seconds per named stage (calibration, graph, ...);
+- ``traj_rms_mm``: RMS distance of the reconstructed 3D markers from the recording's true ones
+  (the rendered recording's truth file) [mm];
+- ``exit_code``, ``load_average`` (1 min, at the end) and ``cpus`` of the machine.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def main(argv: list[str]) -> int:
+    """Run the demo once and print the JSON line."""
+    out = ROOT / 'out' / 'bench_demo'
+    dempath = ROOT / '.venv' / 'bin' / 'dempath'
+    cmd = [str(dempath), 'demo', '--data', str(ROOT / 'bags'), '--out', str(out), *argv]
+    t0 = time.monotonic()
+    code = subprocess.call(cmd, cwd=ROOT)
+    wall = time.monotonic() - t0
+    timing_path = out / 'timing.json'
+    timing = json.loads(timing_path.read_text()) if timing_path.is_file() else {}
+    figures = {'wall_s': round(wall, 1), 'stages': timing.get('stages', {}),
+               'traj_rms_mm': timing.get('traj_rms_mm'), 'exit_code': code,
+               'load_average': round(os.getloadavg()[0], 2), 'cpus': os.cpu_count()}
+    print(json.dumps(figures))
+    return code
+
+
+if __name__ == '__main__':
+    sys.exit(main(sys.argv[1:]))

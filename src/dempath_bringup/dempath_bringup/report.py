@@ -1,0 +1,142 @@
+"""The demo's report: one HTML page with its PNGs beside it (``<out>/report/index.html``).
+
+Written for a colleague: what was measured and how well the cameras were calibrated, what the
+detector saw, how the model's trajectories compare with the measured ones before and after the
+recalibration (figures and the paper's Table 7), where the model fails (the error map), which
+effect the diagnosis names and with what probability, and how the error fell per iteration.
+Stages that did not run (no signature library) say so in their section. Every value is
+escaped; the page loads nothing from the network.
+"""
+
+from __future__ import annotations
+
+import html
+import shutil
+import time
+from pathlib import Path
+from typing import Any
+
+STYLE = """body{font-family:system-ui,sans-serif;max-width:1100px;margin:2em auto;padding:0 1em;
+color:#222}h1{font-size:1.6em}h2{border-bottom:1px solid #ccc;padding-bottom:.2em;margin-top:1.6em}
+table{border-collapse:collapse;margin:.6em 0}td,th{border:1px solid #bbb;padding:.25em .6em;
+text-align:right}th{background:#eee}td:first-child{text-align:left}img{max-width:100%;
+border:1px solid #ddd}.missing{background:#fff3cd;border:1px solid #e0c060;padding:.6em}
+.cols{display:flex;gap:1.5em;flex-wrap:wrap}code{background:#f4f4f4;padding:0 .2em}"""
+
+
+def _e(value: Any) -> str:
+    return html.escape(str(value))
+
+
+def _table(header: list[str], rows: list[list[Any]]) -> str:
+    head = ''.join(f'<th>{_e(h)}</th>' for h in header)
+    body = ''.join('<tr>' + ''.join(f'<td>{_e(c)}</td>' for c in r) + '</tr>' for r in rows)
+    return f'<table><tr>{head}</tr>{body}</table>'
+
+
+def _img(name: str | None, alt: str) -> str:
+    if name is None:
+        return f'<p class="missing">{_e(alt)}: not available in this run.</p>'
+    return f'<p><img src="{_e(name)}" alt="{_e(alt)}"></p>'
+
+
+def _table7(table: Any) -> str:
+    rows = [[r.marker, f'{r.mae_mean * 1e3:.2f}', f'{r.rmse_mean * 1e3:.2f}',
+             f'{r.range_m * 1e3:.1f}', f'{r.nrmse:.2f}'] for r in table.rows]
+    means = ', '.join(f'{k}: {v:.2f} %' for k, v in table.mean_nrmse.items())
+    return (_table(['marker', 'MAE [mm]', 'RMSE [mm]', 'range [mm]', 'nRMSE [%]'], rows)
+            + f'<p>mean nRMSE {_e(means)} (the paper: 4.7 % at 1 m/s)</p>')
+
+
+def _calibration(r: dict[str, Any]) -> str:
+    rep = r['calibration'].report
+    rows = [[c, f"{rep['rmse_px'][c]:.3f}", rep['views'][c]] for c in ('side', 'front')]
+    html_ = _table(['camera', 'reprojection RMSE [px]', 'views'], rows)
+    spacing = rep.get('corner_spacing', {})
+    if spacing:
+        html_ += (f"<p>Neighbouring-corner distance {spacing['mean_mm']:.3f} mm for 40.4 mm "
+                  'squares (the paper: 40.43 mm).</p>')
+    checks = r.get('calib_truth') or []
+    if checks:
+        html_ += "<p>Against the synthetic recording's true cameras:</p>" + _table(
+            ['camera', 'fx [%]', 'fy [%]', 'cx [px]', 'cy [px]', 'centre [mm]', 'angle [deg]'],
+            [[c['camera'], f"{c['fx_pct']:+.3f}", f"{c['fy_pct']:+.3f}", f"{c['cx_px']:+.2f}",
+              f"{c['cy_px']:+.2f}", f"{c['centre_mm']:.2f}", f"{c['angle_deg']:.3f}"]
+             for c in checks])
+    return html_
+
+
+def _diagnosis(r: dict[str, Any], figs: dict[str, str | None]) -> str:
+    data = r.get('diagnosis')
+    if data is None:
+        return (f'<p class="missing">Not run: {_e(r.get("diagnosis_missing", "no diagnosis"))}. '
+                "The diagnosis needs the scene's signature library.</p>")
+    rank = list(data['ranking']) + ([data['baseline']] if data.get('baseline') else [])
+    rank.sort(key=lambda x: -x['probability'])
+    rows = [[('nothing missing (the current model)' if x['kind'] == 'baseline' else x['effect']),
+             f"{x['probability']:.3f}", _strength(x), f"{x.get('implausibility', 0):.2f}",
+             'yes' if x.get('ruled_out') else 'no'] for x in rank]
+    summary = data.get('summary') or []
+    text = ' '.join(summary) if isinstance(summary, list) else str(summary)
+    return (f"<p>Verdict: <b>{_e(data['verdict'])}</b>. {_e(text)}</p>"
+            + _table(['candidate', 'probability', 'fitted strength', 'implausibility',
+                      'ruled out'], rows)
+            + '<h3>Error map</h3>' + _img(figs.get('error_map'), 'error map'))
+
+
+def _strength(x: dict[str, Any]) -> str:
+    s = x.get('strength') or {}
+    if s.get('value') is None:
+        return '-'
+    return f"{s['parameter']} {s['value']:.4g} +- {s['uncertainty']:.2g} {s['unit']}"
+
+
+def _recalibration(r: dict[str, Any], figs: dict[str, str | None]) -> str:
+    data = r.get('recalibration')
+    if data is None:
+        return '<p class="missing">Not run: there is no diagnosis to recalibrate from.</p>'
+    s = data['strength']
+    what = (f"{data['effect']}.{data['parameter']}: {s['before']:.4g} -> {s['value']:.4g} "
+            f"{s['unit']} (+- {s['uncertainty']:.2g})" if data['changed'] else 'nothing changed')
+    return (f"<p>{_e(what)}; error d<sup>2</sup> {data['error_before']:.1f} -> "
+            f"{data['error_after']:.1f} ({_e(data['stop_reason'])}; {data['simulations']} "
+            'simulations).</p>' + _img(figs.get('iterations'), 'error against iteration'))
+
+
+def write_report(r: dict[str, Any], figs: dict[str, str | None], folder: Path,
+                 meta: dict[str, Any]) -> Path:
+    """Write ``folder/index.html`` (the figures are already in ``folder``)."""
+    after = r.get('table7_after')
+    parts = [f'<h1>dempath: {_e(meta["title"])}</h1>',
+             f'<p>{_e(meta["what"])}<br>Made {_e(time.strftime("%Y-%m-%d %H:%M:%S"))}; stages: '
+             + ', '.join(f'{_e(k)} {v:.1f} s' for k, v in meta.get('stages', {}).items())
+             + '.</p>',
+             '<h2>1. Calibration</h2>', _calibration(r),
+             _img(figs.get('calibration'), 'calibration figures'),
+             '<h2>2. Detection</h2>', f"<p>{_e(meta.get('detection', ''))}</p>",
+             _img(figs.get('detections'), 'a frame with the detections drawn'),
+             '<h2>3. Measured against the model</h2>',
+             _img(figs.get('trajectories'), 'measured vs model trajectories (XZ, YZ)'),
+             '<div class="cols"><div><h3>Table 7, before</h3>' + _table7(r['table7'])
+             + '</div><div><h3>Table 7, after the recalibration</h3>'
+             + (_table7(after) if after is not None else
+                '<p class="missing">No recalibrated model in this run.</p>') + '</div></div>',
+             '<h2>4. Diagnosis</h2>', _diagnosis(r, figs),
+             '<h2>5. Recalibration</h2>', _recalibration(r, figs),
+             '<h2>Files</h2><ul>' + ''.join(f'<li><code>{_e(k)}</code>: {_e(v)}</li>'
+                                            for k, v in meta.get('files', {}).items()) + '</ul>']
+    page = (f'<!doctype html><html lang="en"><head><meta charset="utf-8"><title>dempath demo '
+            f'report</title><style>{STYLE}</style></head><body>{"".join(parts)}</body></html>')
+    path = folder / 'index.html'
+    tmp = path.with_suffix('.tmp')
+    tmp.write_text(page)
+    tmp.replace(path)
+    return path
+
+
+def copy_figure(src: Path, folder: Path, name: str) -> str | None:
+    """Copy a PNG another stage wrote into the report folder; its file name, or None."""
+    if not src.is_file():
+        return None
+    shutil.copyfile(src, folder / name)
+    return name

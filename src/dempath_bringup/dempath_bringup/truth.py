@@ -1,0 +1,64 @@
+"""Checks of the demo's outputs against a synthetic recording's truth file (never an input).
+
+A rendered recording keeps its truth beside the bag (``<bag>.truth.json``: per camera frame the
+stamp, each marker's pixel centre, visibility and 3D position in the field frame). The product
+never reads it; the demo and ``bench/demo.py`` use it to say how far the reconstruction is off.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from dempath.errors import DempathError
+
+MATCH_S = 0.005  # a 3D frame belongs to the side camera's truth frame this close [s]
+
+
+def truth_frames(truth_json: Path, camera: str | None = None) -> tuple[list[Any], dict[str, Any]]:
+    """The truth's frames (of one camera, or all) and the whole record."""
+    data = json.loads(truth_json.read_text())
+    frames = [f for f in data['frames'] if camera is None or f['camera'] == camera]
+    return frames, data
+
+
+def render_truth_error(bag: Path, truth_json: Path) -> tuple[float, float, float]:
+    """(mean, max, RMS) mm of the bag's MarkerPoints3D from the true 3D markers.
+
+    Each 3D frame is matched to the side camera's truth frame nearest in stamp (within
+    ``MATCH_S``); markers are matched by number.
+
+    Raises:
+        DempathError: no 3D frame matches a truth frame.
+    """
+    from dempath import topics
+    from dempath.bagio import open_bag
+
+    data = json.loads(truth_json.read_text())
+    side = data['cameras'][0]['name']
+    frames = [f for f in data['frames'] if f['camera'] == side]
+    stamps = np.array([f['stamp_ns'] for f in frames], np.int64)
+    column = {int(m): j for j, m in enumerate(data['marker_ids'])}
+    errors = []
+    with open_bag(bag, [topics.MARKER_POINTS]) as reader:
+        for raw in reader.messages([topics.MARKER_POINTS]):
+            msg = reader.deserialize(raw)
+            t_ns = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
+            if not len(stamps):
+                break
+            k = int(np.argmin(np.abs(stamps - t_ns)))
+            if abs(int(stamps[k]) - t_ns) > MATCH_S * 1e9:
+                continue
+            ref = np.asarray(frames[k]['xyz'], np.float64)
+            for m, x, y, z in zip(msg.marker_ids, msg.x, msg.y, msg.z, strict=True):
+                if int(m) in column and np.isfinite(ref[column[int(m)]]).all():
+                    errors.append(np.linalg.norm(np.array([x, y, z]) - ref[column[int(m)]]))
+    if not errors:
+        msg = f'{bag}: no MarkerPoints3D at the stamps of {truth_json}'
+        raise DempathError(msg)
+    err_mm = 1e3 * np.asarray(errors)
+    return (float(np.nanmean(err_mm)), float(np.nanmax(err_mm)),
+            float(np.sqrt(np.nanmean(err_mm ** 2))))

@@ -1,0 +1,135 @@
+"""The whole demo on the tiny scene, diagnosis and recalibration included, and its HTML report
+checked in a real browser.
+
+The demo scene's signature library is not shipped yet, so the test builds a small one for the
+tiny scene first (two packing seeds, one candidate effect, one strength: ``dempath diagnose``
+builds it) and runs ``dempath demo --clicked`` on the tiny field twin with it: calibration,
+graph, comparison, diagnosis, recalibration (two simulations: one evaluation over both seeds),
+the recalibrated model, report.
+A second run without any library must say that the library is missing and still write the
+report. The report is opened in headless Chromium (installed through apt when missing and
+allowed, else the browser test skips with the reason); ``DEMPATH_SCREENSHOTS=1`` keeps its
+screenshot as docs/demo_report.png.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from dempath.browser import BrowserNotFoundError, headless_chromium
+from dempath_bringup.demo import demo_main
+from dempath_diagnose.cli import diagnose_main
+
+# builds a small library, then runs the demo twice: long on a loaded machine
+pytestmark = pytest.mark.timeout(2400)
+ROOT = Path(__file__).resolve().parents[1]
+BAGS = ROOT / 'bags'
+FIELD = BAGS / 'field_twin_tiny'
+LIBRARY = ['--seeds', '1001,1002', '--candidates', 'tool_speed', '--strengths', '1']
+DOCS = ROOT / 'docs'
+FIGURES = ('calibration.png', 'trajectories.png', 'error_map.png', 'error_vs_iteration.png')
+
+
+@pytest.fixture(scope='module')
+def demo_out(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[Path, int, str]]:
+    """(output folder, exit code, stdout) of the tiny demo with a freshly built library."""
+    tmp = tmp_path_factory.mktemp('demo')
+    truth = json.loads((BAGS / 'field_twin_tiny.truth.json').read_text())
+    origin = ','.join(str(v) for v in truth['field_origin_in_scene_m'])
+    common = ['--library-root', str(tmp / 'library'), '--packing-cache', str(tmp / 'packings'),
+              *LIBRARY]
+    code = diagnose_main(['--measured', str(BAGS / 'field_twin_tiny.truth.csv'), '--scene',
+                          'builtin:tiny', '--origin', origin, '--out', str(tmp / 'build'),
+                          '--serial', *common])
+    assert code == 0, 'building the small tiny library failed'
+    out = tmp / 'out'
+    capture = tmp / 'stdout.txt'
+    import contextlib
+    import io
+
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        code = demo_main(['--clicked', '--field-bag', str(FIELD), '--calib-bag',
+                          str(BAGS / 'calib_twin_small'), '--scene', 'builtin:tiny', '--out',
+                          str(out), '--budget', '2', '--effect', 'tool_speed', *common])
+    capture.write_text(buf.getvalue())
+    yield out, code, buf.getvalue()
+
+
+def test_demo_diagnoses_recalibrates_and_reports(demo_out: tuple[Path, int, str]) -> None:
+    """Every stage ran; the report holds each section and every figure beside it."""
+    out, code, stdout = demo_out
+    assert code == 0, stdout[-3000:]
+    timing = json.loads((out / 'timing.json').read_text())
+    assert list(timing['stages']) == ['calibration', 'graph', 'comparison outputs', 'diagnosis',
+                                      'recalibration', 'model after', 'report']
+    diagnosis = json.loads((out / 'diagnosis' / 'diagnosis.json').read_text())
+    assert {r['effect'] for r in diagnosis['ranking']} >= {'tool_speed'}
+    total = sum(r['probability'] for r in diagnosis['ranking'])
+    assert abs(total + diagnosis['baseline']['probability'] - 1.0) < 1e-3
+    recal = json.loads((out / 'recalibration' / 'recalibration.json').read_text())
+    assert recal['simulations'] >= 1 or not recal['changed']
+    page = (out / 'report' / 'index.html').read_text()
+    for section in ('1. Calibration', '2. Detection', '3. Measured against the model',
+                    '4. Diagnosis', '5. Recalibration', 'Table 7, before'):
+        assert section in page, section
+    assert 'tool_speed' in page
+    for name in FIGURES:
+        assert (out / 'report' / name).is_file(), name
+        assert f'src="{name}"' in page, name
+
+
+def test_demo_without_library_says_so_and_goes_on(tmp_path: Path,
+                                                  capsys: pytest.CaptureFixture[str]) -> None:
+    """No signature library: one MISSING line, diagnosis and recalibration skipped, report made."""
+    out = tmp_path / 'out'
+    code = demo_main(['--clicked', '--field-bag', str(FIELD), '--calib-bag',
+                      str(BAGS / 'calib_twin_small'), '--scene', 'builtin:tiny', '--out', str(out),
+                      '--library-root', str(tmp_path / 'empty'), *LIBRARY])
+    stdout = capsys.readouterr().out
+    assert code == 0, stdout[-3000:]
+    missing = [ln for ln in stdout.splitlines() if 'MISSING' in ln]
+    assert len(missing) == 1 and 'signature library' in missing[0], stdout[-3000:]
+    page = (out / 'report' / 'index.html').read_text()
+    assert 'Not run' in page and 'signature library' in page
+    assert not (out / 'recalibration').exists()
+
+
+@pytest.fixture
+def browser() -> Iterator[Any]:
+    """A headless Chromium (installed through apt when missing and allowed, else skip)."""
+    try:
+        driver = headless_chromium(1280, 2400)
+    except BrowserNotFoundError as err:
+        pytest.skip(str(err))
+    yield driver
+    driver.quit()
+
+
+def test_report_in_a_real_browser(demo_out: tuple[Path, int, str], browser: Any,
+                                  tmp_path: Path) -> None:
+    """Chromium shows every figure (decoded, non-zero size) and both Table 7s."""
+    from selenium.webdriver.common.by import By
+
+    out, code, _ = demo_out
+    assert code == 0
+    browser.get((out / 'report' / 'index.html').as_uri())
+    images = browser.find_elements(By.TAG_NAME, 'img')
+    shown = {Path(img.get_attribute('src')).name: browser.execute_script(
+        'return arguments[0].complete && arguments[0].naturalWidth;', img) for img in images}
+    for name in FIGURES:
+        assert shown.get(name), f'{name} not shown: {shown}'
+    tables = browser.find_elements(By.TAG_NAME, 'table')
+    assert len(tables) >= 4  # calibration, Table 7 before and after, ranking
+    height = browser.execute_script('return document.documentElement.scrollHeight;')
+    browser.set_window_size(1280, min(int(height) + 40, 9000))  # the whole page in one image
+    browser.save_screenshot(str(tmp_path / 'report.png'))
+    if os.environ.get('DEMPATH_SCREENSHOTS') == '1':
+        shutil.copy(tmp_path / 'report.png', DOCS / 'demo_report.png')
