@@ -213,7 +213,7 @@ class Engine:
         ht = np.empty((len(nbr), 3))
         hr = np.empty((len(nbr), 3))
         transfer_history(new_to_old.astype(np.int64), self._start, self._nbr, self._ht, self._hr,
-                         start, nbr, ht, hr)
+                         start, nbr, ht, hr, state.positions, state.radii)
         self._start, self._nbr, self._ht, self._hr = start, nbr, ht, hr
         self._pos_build = state.positions.copy()
         self._cand_idx = None
