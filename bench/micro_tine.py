@@ -55,6 +55,7 @@ class Scene:
     omegas: F64 | None = None
     params_over: dict[str, Any] = field(default_factory=dict)
     variant: str = 'base'
+    write_bed: bool = False  # LIGGGHTS writes bed.data at the end (settling a micro-bed)
 
 
 @dataclass
@@ -152,6 +153,8 @@ def deck_text(sc: Scene) -> str:
                 f'fix pr all print {sc.every} "$(step) ${{fx}} ${{fy}} ${{fz}}" file force.txt '
                 'screen no']
     out += [f'run {sc.steps}']
+    if sc.write_bed:
+        out += ['write_data bed.data']
     return '\n'.join(out) + '\n'
 
 
@@ -295,7 +298,54 @@ def scene_drop(work: Path) -> dict[str, Any]:
     return {'log10_dev_m': divergence(d, g), 'every_s': 50 * DT}
 
 
-SCENES = {'edge': scene_edge, 'wall': scene_wall, 'impact': scene_impact, 'drop': scene_drop}
+def first_parting(d: Trace, g: Trace, tol: float = 1e-7) -> tuple[int, int]:
+    """(output, grain) where the two engines' velocities first differ by more than tol [m/s];
+    (-1, -1) if never."""
+    dv = np.abs(d.velocities - g.velocities).max(axis=2)
+    hit = np.argwhere(dv > tol)
+    return (int(hit[0, 0]), int(hit[0, 1])) if len(hit) else (-1, -1)
+
+
+def scene_bed(work: Path) -> dict[str, Any]:
+    """A bed of 360 grains settled on LIGGGHTS (its data file read by both engines, as the
+    same-bed runs do), then pushed by the tine with both side edges inside the bed: how long
+    the two engines' trajectories agree, where they part first (the grain and its distance to
+    the tine) and the side grains' outward motion."""
+    pos, rad = small_bed(nx=10, ny=6, nz=6)
+    skin = {'skin': LIGGGHTS_SKIN / float(rad.min())}
+    walls = [('y', FLOOR_Y, 1.0), ('x', -0.055, 1.0), ('x', 0.055, -1.0), ('z', 0.165, 1.0),
+             ('z', 0.30, -1.0)]
+    settle = Scene(pos, rad, walls=walls, tip=None, steps=4000, every=4000, write_bed=True)
+    run_liggghts(settle, work / 'bed_settle')
+    from dempath_sim.validation.deck_setup import read_data
+    bed = read_data(work / 'bed_settle' / 'bed.data')
+    top = float((bed['positions'][:, 1] + bed['radii']).max())
+    push = Scene(bed['positions'], bed['radii'], walls=[*walls[:3], walls[4]],
+                 tip=(0.0, FLOOR_Y + 0.012, 0.15), steps=1400, every=10,
+                 velocities=bed['velocities'], omegas=bed['omegas'], params_over=skin)
+    d, g = both(push, work, 'bed_push')
+    f, i = first_parting(d, g)
+    side = np.abs(bed['positions'][:, 0]) > 0.03
+    near_top = bed['positions'][:, 1] > top - 0.012
+    pick = side & near_top
+    out = {'bed_top_mm': round((top - FLOOR_Y) * 1e3, 1), 'n': len(bed['radii']),
+           'log10_dev_m': divergence(d, g)[::10], 'every_s': 10 * DT * 10,
+           'first_parting_s': round(f * 10 * DT, 5) if f >= 0 else None}
+    if f >= 0:
+        p = d.positions[f, i]
+        tip_z = 0.15 + d.times[f]
+        out['first_parting_grain'] = {'x_mm': round(p[0] * 1e3, 2),
+                                      'y_mm': round((p[1] - FLOOR_Y) * 1e3, 2),
+                                      'z_from_tip_mm': round((p[2] - tip_z) * 1e3, 2),
+                                      'r_mm': round(float(bed['radii'][i]) * 1e3, 2)}
+    for name, tr in (('dempath', d), ('liggghts', g)):
+        dx = np.sign(tr.positions[0, pick, 0]) * (tr.positions[-1, pick, 0] - tr.positions[0, pick, 0])
+        out[f'side_outward_mm_{name}'] = round(float(dx.mean()) * 1e3, 2)
+    return out
+
+
+SCENES = {'edge': scene_edge, 'wall': scene_wall, 'impact': scene_impact, 'drop': scene_drop,
+          'bed': scene_bed}
 
 
 def main(argv: list[str] | None = None) -> dict[str, Any]:
