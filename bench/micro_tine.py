@@ -20,7 +20,7 @@ import json
 import math
 import subprocess
 import tempfile
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -29,7 +29,7 @@ from numpy.typing import NDArray
 
 from dempath_sim.engine import Engine, Plane, SimState, ToolPose, TriangleMesh
 from dempath_sim.runs import PARTICLES, TOOL, WALLS, build_params
-from dempath_sim.validation.deck_setup import DECK_DIR, read_dump, scene_for
+from dempath_sim.validation.deck_setup import DECK_DIR, read_data, read_dump, scene_for
 
 F64 = NDArray[np.float64]
 DENSITY = 1734.0  # kg/m^3, the deck's grains
@@ -69,12 +69,18 @@ class Trace:
     force: F64
 
 
+def _empty(times: F64, n: int) -> Trace:
+    """A trace of n grains at the given output times, all zero."""
+    nt = len(times)
+    return Trace(times, np.zeros((nt, n, 3)), np.zeros((nt, n, 3)), np.zeros((nt, n, 3)),
+                 np.zeros((nt, 3)))
+
+
 def run_dempath(sc: Scene) -> Trace:
     """The scene on dempath's engine with the leaning-tine scene's physics."""
     scene = scene_for(sc.variant)
     params = build_params(scene, scene.physics_model())
     if sc.params_over:
-        from dataclasses import replace
         params = replace(params, **sc.params_over)
     planes = []
     for ax, c, s in sc.walls:
@@ -99,8 +105,7 @@ def run_dempath(sc: Scene) -> Trace:
     engine.tool_pose = pose(0.0)
     engine.bind(state)
     nt = sc.steps // sc.every + 1
-    out = Trace(np.arange(nt) * sc.every * DT, *(np.zeros((nt, state.n, 3)) for _ in range(3)),
-                np.zeros((nt, 3)))
+    out = _empty(np.asarray(np.arange(nt) * sc.every * DT, np.float64), state.n)
     for f in range(nt):
         if f:
             state = engine.run(state, sc.every, pose)
@@ -169,8 +174,7 @@ def run_liggghts(sc: Scene, work: Path) -> Trace:
     frames = read_dump(work / 'micro.dump')
     nt = len(frames)
     n = len(sc.radii)
-    tr = Trace(np.array([s for s, _ in frames], float) * DT,
-               *(np.zeros((nt, n, 3)) for _ in range(3)), np.zeros((nt, 3)))
+    tr = _empty(np.array([s for s, _ in frames], np.float64) * DT, n)
     for f, (_, c) in enumerate(frames):
         idx = np.asarray(c['id'], int) - 1
         tr.positions[f, idx] = np.stack([c['x'], c['y'], c['z']], 1)
@@ -179,7 +183,7 @@ def run_liggghts(sc: Scene, work: Path) -> Trace:
     if sc.tip is not None and (work / 'force.txt').exists():
         pr = np.loadtxt(work / 'force.txt', ndmin=2)
         for row in pr:
-            f = int(round(row[0] / sc.every))
+            f = round(row[0] / sc.every)
             if 0 <= f < nt:
                 tr.force[f] = row[1:4]
     return tr
@@ -317,7 +321,6 @@ def scene_bed(work: Path) -> dict[str, Any]:
              ('z', 0.30, -1.0)]
     settle = Scene(pos, rad, walls=walls, tip=None, steps=4000, every=4000, write_bed=True)
     run_liggghts(settle, work / 'bed_settle')
-    from dempath_sim.validation.deck_setup import read_data
     bed = read_data(work / 'bed_settle' / 'bed.data')
     top = float((bed['positions'][:, 1] + bed['radii']).max())
     push = Scene(bed['positions'], bed['radii'], walls=[*walls[:3], walls[4]],
@@ -339,7 +342,8 @@ def scene_bed(work: Path) -> dict[str, Any]:
                                       'z_from_tip_mm': round((p[2] - tip_z) * 1e3, 2),
                                       'r_mm': round(float(bed['radii'][i]) * 1e3, 2)}
     for name, tr in (('dempath', d), ('liggghts', g)):
-        dx = np.sign(tr.positions[0, pick, 0]) * (tr.positions[-1, pick, 0] - tr.positions[0, pick, 0])
+        x0 = tr.positions[0, pick, 0]
+        dx = np.sign(x0) * (tr.positions[-1, pick, 0] - x0)
         out[f'side_outward_mm_{name}'] = round(float(dx.mean()) * 1e3, 2)
     return out
 

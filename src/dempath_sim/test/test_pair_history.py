@@ -7,10 +7,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dempath_sim.engine import Engine
+from dempath_sim.engine import Engine, ToolPose, TriangleMesh
 from dempath_sim.engine.materials import Interaction, Material
 from dempath_sim.engine.params import SimParams
 from dempath_sim.engine.state import SimState
+from dempath_sim.validation.deck_setup import DECK_DIR
 
 R = 2e-3  # m
 DT = 1e-5  # s
@@ -77,3 +78,27 @@ def test_liggghts_pair_touching_again_resumes_its_spring() -> None:
     # the tolerance of that kick.
     np.testing.assert_allclose(engine._ht[0], want, rtol=0.05, atol=1e-12)
     assert abs(np.linalg.norm(engine._ht[0]) - np.linalg.norm(vt * DT)) > 0.5 * np.linalg.norm(old)
+
+
+@pytest.mark.parametrize('forms', ['dempath', 'liggghts'])
+def test_moving_tool_triggers_list_builds(forms: str) -> None:
+    """With LIGGGHTS' forms a list build follows every half skin of tool travel (one step
+    late, as LIGGGHTS 3.8 decides it); with dempath's forms the resting grains need none."""
+    params = SimParams(materials=(Material('sand', 1500.0, 1e6, 0.25),
+                                  Material('steel', 7800.0, 2e11, 0.3)),
+                       interactions={(0, 0): Interaction(0.5, 0.5, 0.5),
+                                     (0, 1): Interaction(0.5, 0.4, 0.4)},
+                       gravity=(0, 0, 0), dt=DT, contact_forms=forms, skin=0.5)
+    tine = TriangleMesh.from_stl(DECK_DIR / 'tine.stl', material=1)
+    state = SimState.from_spheres(np.array([[0.5, 0.0, 0.0]]), np.full(1, R), 0, params)
+    engine = Engine(params, (), tine)
+    v = np.array([0.0, 0.0, 1.0])
+    engine.tool_pose = ToolPose(np.zeros(3), v)
+    engine.bind(state)
+    half_skin = 0.5 * 0.5 * R  # m
+    steps = 200  # 2 mm of travel: 4 half skins of 0.5 mm
+    state = engine.run(state, steps, lambda t: ToolPose(v * t, v))
+    assert half_skin == pytest.approx(50 * DT * v[2])
+    # The bind's build, then (LIGGGHTS' forms) one after 51 steps of travel beyond the last
+    # build, decided on the previous step's pose: steps 52, 104 and 156.
+    assert engine.n_rebuilds == (4 if forms == 'liggghts' else 1)

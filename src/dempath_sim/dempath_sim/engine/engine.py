@@ -330,14 +330,9 @@ class Engine:
         return state
 
     def _tool_moved(self) -> bool:
-        """With LIGGGHTS' forms: whether the tool has moved more than half the skin since the
-        last list build.
-
-        LIGGGHTS 3.8 rebuilds every neighbour list one step after a moving mesh's nodes have
-        moved that far (``fix mesh`` ``decideRebuild``), and a build ends the springs that
-        separated pairs keep with those forms (`pair_forces`): at 1 m/s and a 3 mm skin that is
-        every 30 steps. With dempath's forms a list build changes nothing, so no build is made.
-        """
+        """LIGGGHTS' forms: the tool moved half the skin since the list build (LIGGGHTS 3.8
+        then rebuilds every list, ending the springs separated pairs keep, see `pair_forces`;
+        with dempath's forms a build changes nothing)."""
         if self.tool is None or self.params.contact_forms != 'liggghts':
             return False
         return box_displacement(self._tool_corners, self._tool_build,
