@@ -8,7 +8,7 @@ isolate what the same-bed pass of the leaning-tine bin cannot: a grain meeting t
 face, its side edge or its tip; a grain sliding or rolling along a wall; an oblique impact on
 the tine face; a small bed pushed by the tine.
 
-    .venv/bin/python bench/micro_tine.py [--scenes edge,wall,impact,bed] [--work DIR]
+    .venv/bin/python bench/micro_tine.py [--scenes edge,wall,impact,drop,bed] [--work DIR]
 
 Prints per-scene lines and, last, one JSON line of figures (both engines per scene).
 """
