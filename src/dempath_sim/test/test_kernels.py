@@ -82,7 +82,8 @@ def test_neighbor_list_matches_brute_force() -> None:
 
 
 def test_transfer_history_follows_pairs_through_removal() -> None:
-    """Springs follow their pair when a particle is removed; a pair stored (j, i) flips sign."""
+    """Springs of overlapping pairs follow their pair when a particle is removed; a pair stored
+    (j, i) flips sign; a pair that no longer overlaps starts at zero."""
     rng = np.random.default_rng(5)
     pos = rng.uniform(0.0, 0.01, size=(60, 3))
     rad = np.full(60, 1e-3)
@@ -96,13 +97,20 @@ def test_transfer_history_follows_pairs_through_removal() -> None:
     nstart, nnbr = build_neighbor_list(pos[new_to_old], rad, 5e-4)
     nht = np.empty((len(nnbr), 3))
     nhr = np.empty((len(nnbr), 3))
-    transfer_history(new_to_old, start, nbr, ht, ht, nstart, nnbr, nht, nhr)
+    transfer_history(new_to_old, start, nbr, ht, ht, nstart, nnbr, nht, nhr, pos[new_to_old],
+                     rad)
     old = {(i, int(nbr[k])): ht[k] for i in range(60) for k in range(start[i], start[i + 1])}
+    n_kept = 0
     for i in range(len(new_to_old)):
         for k in range(nstart[i], nstart[i + 1]):
             a, b = new_to_old[i], new_to_old[nnbr[k]]
             want = old[(a, b)] if (a, b) in old else -old[(b, a)]
+            if np.linalg.norm(pos[a] - pos[b]) >= rad[a] + rad[b]:
+                want = np.zeros(3)
+            else:
+                n_kept += 1
             np.testing.assert_array_equal(nht[k], want)
+    assert n_kept > 10
 
 
 def test_pair_forces_match_reference() -> None:

@@ -210,17 +210,23 @@ def build_neighbor_list(pos: NDArray[np.float64], rad: NDArray[np.float64],
 
 @njit(parallel=True, cache=True)
 def transfer_history(new_to_old, old_start, old_nbr, old_ht, old_hr, start, nbr, ht,
-                     hr):  # pragma: no cover - compiled
-    """Copy the springs of pairs present in the old list into the new list (others start at 0).
+                     hr, pos, rad):  # pragma: no cover - compiled
+    """Copy the springs of pairs present in the old list and overlapping now into the new list
+    (others start at 0).
 
-    Only old pairs with a non-zero spring (touching pairs) are looked up, each in the new row of
-    its lower index; pairs with zero springs would copy zeros, so the result is the same as
-    looking up every new pair, for about half the work.
+    Only old pairs with a non-zero spring are looked up, each in the new row of its lower
+    index; pairs with zero springs would copy zeros, so the result is the same as looking up
+    every new pair, for about half the work. A pair that no longer overlaps at the new
+    positions starts at 0: with dempath's forms its spring would be reset at this step's force
+    pass anyway; with LIGGGHTS' forms, whose springs outlive a separation until the next list
+    build (see `pair_forces`), this is LIGGGHTS 3.8's rule at a build (its neighbour build
+    keeps the history of touching pairs only).
 
     Args:
         new_to_old: (n,) index of each new particle in the old arrays (a subset, any order).
         old_start, old_nbr, old_ht, old_hr: The previous list and its (m_old, 3) histories.
         start, nbr: The new list; ht, hr: its (m, 3) histories (written).
+        pos, rad: (n, 3) positions [m] and (n,) radii [m] of the new particles.
     """
     n_old = old_start.shape[0] - 1
     old_to_new = np.full(n_old, -1, np.int64)
@@ -241,6 +247,10 @@ def transfer_history(new_to_old, old_start, old_nbr, old_ht, old_hr, start, nbr,
             nj = old_to_new[old_nbr[q]]
             if nj < 0:
                 continue
+            rs = rad[ni] + rad[nj]
+            if ((pos[ni, 0] - pos[nj, 0]) ** 2 + (pos[ni, 1] - pos[nj, 1]) ** 2
+                    + (pos[ni, 2] - pos[nj, 2]) ** 2) >= rs * rs:
+                continue  # separated: the spring is not carried over
             a, b, sign = (ni, nj, 1.0) if ni < nj else (nj, ni, -1.0)  # (j, i): springs flip
             for k in range(start[a], start[a + 1]):
                 if nbr[k] == b:

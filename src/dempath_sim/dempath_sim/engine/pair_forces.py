@@ -6,6 +6,12 @@ j > i is resolved once by the chunk owning i, which adds +F to i and -F to j in 
 no two threads write the same memory. `reduce_buffers` sums the buffers. Laws: see
 `laws/dispatch.py`.
 Lever arms follow LIGGGHTS: the contact point lies r - delta/2 from each centre.
+A pair that separates has its springs reset to zero, unless the pair's materials use
+LIGGGHTS' forms (``SimParams.contact_forms == 'liggghts'``, TAB_FORMS): LIGGGHTS 3.8 keeps a
+sphere pair's history while the pair stays in its neighbour list (its ``surfacesClose``, which
+would clear it, runs only for pairs within ``contactDistanceFactor`` radii, 1 by default, which
+the touching branch takes first), so a pair that parts and touches again before the next list
+build resumes its old springs; the build drops them (`neighbors.transfer_history`).
 """
 
 from __future__ import annotations
@@ -15,7 +21,7 @@ import math
 from numba import njit, prange
 
 from dempath_sim.engine.laws.cohesion_sjkr import sjkr_area_pair
-from dempath_sim.engine.laws.dispatch import resolve_contact
+from dempath_sim.engine.laws.dispatch import TAB_FORMS, resolve_contact
 
 
 @njit(parallel=True, fastmath=True, cache=True)
@@ -55,8 +61,9 @@ def pair_forces(pos, vel, omg, rad, mass, mat, start, nbr, ht, hr, tab, dt, roll
                 d2 = dx * dx + dy * dy + dz * dz
                 rs = rad[i] + rad[j]
                 if d2 >= rs * rs:
-                    if ht[k, 0] != 0.0 or ht[k, 1] != 0.0 or ht[k, 2] != 0.0 \
-                            or hr[k, 0] != 0.0 or hr[k, 1] != 0.0 or hr[k, 2] != 0.0:
+                    if (ht[k, 0] != 0.0 or ht[k, 1] != 0.0 or ht[k, 2] != 0.0
+                            or hr[k, 0] != 0.0 or hr[k, 1] != 0.0 or hr[k, 2] != 0.0) \
+                            and tab[mat[i], mat[j], TAB_FORMS] == 0.0:
                         for q in range(3):  # just separated: springs reset (written only
                             ht[k, q] = 0.0  # then, so that untouched rows stay clean in
                             hr[k, q] = 0.0  # cache and are not written back)

@@ -126,6 +126,8 @@ def packing_key(scene: SceneSpec, model: PhysicsModel) -> str:
     for option in ('coulomb_limit', 'contact_forms'):  # options added after packings were
         if numerics[option] == getattr(NumericsSpec, option):  # shipped: at their defaults
             del numerics[option]  # the keys of those packings stay valid
+    if numerics.get('contact_forms') == 'liggghts':  # its pair springs now outlive a
+        numerics['pair_springs'] = 'until_list_build'  # separation: packings settled before
     physics = asdict(replace(model, speed_scale=1.0, particle_tool=model.particle_particle,
                              tool_density_kg_m3=0.0, tool_youngs_modulus_pa=0.0,
                              tool_poisson=0.0))

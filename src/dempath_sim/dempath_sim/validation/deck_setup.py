@@ -19,13 +19,13 @@ markers' mean outward motion sign(x0) (x(t) - x0) (what cohesion cuts) and the m
 from __future__ import annotations
 
 import subprocess
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
 
-from dempath_sim.engine import Engine, SimState, ToolPose, TriangleMesh
+from dempath_sim.engine import Engine, SimParams, SimState, ToolPose, TriangleMesh
 from dempath_sim.runs import PARTICLES, TOOL, SimResult, bin_walls, build_params
 from dempath_sim.scene import SceneSpec, ToolPath, load_scene
 
@@ -34,6 +34,7 @@ DECK_DIR = Path(__file__).resolve().parents[1] / 'data' / 'decks' / 'leaning_tin
 SCENE_FILE = DECK_DIR / 'leaning_tine.yaml'
 RESETTLE_S = 0.06  # the deck's re-settle with the tine in place (in.pass)
 DECK_DT = 5e-5  # s, the deck's time step
+DECK_SKIN_M = 0.003  # m, the deck's neighbour skin (header of in.settle / in.pass)
 OUTPUT_STEPS = 200  # the deck's dump and print interval (0.01 s)
 MARKER_Z = (0.200, 0.235, 0.270, 0.305, 0.340)  # m
 SIDE_X = 0.05  # m, the side markers' distance from the tine's axis
@@ -193,12 +194,25 @@ def _in_top_zone(positions: F64) -> NDArray[np.bool_]:
     return keep
 
 
-def same_bed_run(bed: Path, scene: SceneSpec, resettle_s: float = RESETTLE_S) -> Frames:
+def deck_params(scene: SceneSpec, radii: F64) -> SimParams:
+    """The scene's engine parameters with the deck's neighbour skin (``neighbor 0.003 bin``).
+
+    With LIGGGHTS' contact forms a pair's springs outlive a separation until the next
+    neighbour-list build (`engine.pair_forces`), and the builds come when a grain has moved half
+    the skin: the same skin gives the same lifetime of those springs as the deck's.
+    """
+    params = build_params(scene, scene.physics_model())
+    return replace(params, skin=DECK_SKIN_M / float(np.min(radii)))
+
+
+def same_bed_run(bed: Path, scene: SceneSpec, resettle_s: float = RESETTLE_S,
+                 max_frames: int | None = None) -> Frames:
     """dempath's engine from the deck's settled bed (``bed.data``): the tine in place, a re-settle
     of ``resettle_s`` with the scene's physics (contacts start with no history, as the deck's
-    ``read_data``), then the scene's pass, recorded every OUTPUT_STEPS steps."""
+    ``read_data``), then the scene's pass, recorded every OUTPUT_STEPS steps (the first
+    ``max_frames`` outputs after the start only, if given: a shortened pass for quick checks)."""
     bed_data = read_data(bed)
-    params = build_params(scene, scene.physics_model())
+    params = deck_params(scene, bed_data['radii'])
     state = SimState.from_spheres(bed_data['positions'], bed_data['radii'], PARTICLES, params,
                                   velocities=bed_data['velocities'],
                                   ids=bed_data['ids'].astype(np.int64))
@@ -217,6 +231,8 @@ def same_bed_run(bed: Path, scene: SceneSpec, resettle_s: float = RESETTLE_S) ->
     zone = _in_top_zone(state.positions)
     ids = state.ids[zone].copy()
     n_frames = int(np.ceil(path.time_to_travel(tool.travel_m) / (OUTPUT_STEPS * dt) - 1e-9))
+    if max_frames is not None:
+        n_frames = min(n_frames, max_frames)
     pos = np.full((n_frames + 1, len(ids), 3), np.nan)
     force = np.zeros((n_frames + 1, 3))
     for f in range(n_frames + 1):
