@@ -108,7 +108,7 @@ def _parser() -> argparse.ArgumentParser:
     lib.add_argument('--candidates', help='candidate effects (dempath diagnose --candidates)')
     lib.add_argument('--strengths', type=int, help='strengths per candidate (1 or 2)')
     lib.add_argument('--packing-cache', type=Path, help='packing cache folder')
-    lib.add_argument('--budget', type=int, default=2, help='recalibration simulations')
+    lib.add_argument('--budget', type=int, default=1, help='recalibration simulations')
     lib.add_argument('--effect', help='fit this effect whatever the diagnosis says '
                      '(dempath recalibrate --effect)')
     return p
@@ -122,7 +122,12 @@ def context_of(args: argparse.Namespace) -> DemoContext:
     else:
         field_bag = args.field_bag or args.data / RENDER_BAG
         calib = args.calib_bag or field_bag
-    options = {'library_file': args.library, 'library_root': args.library_root,
+    library = args.library
+    if library is None and args.library_root is None:
+        from dempath_bringup.analysis import shipped_library
+
+        library = shipped_library(args.scene)
+    options = {'library_file': library, 'library_root': args.library_root,
                'seeds': args.seeds, 'candidates': args.candidates,
                'strengths': args.strengths, 'packing_cache': args.packing_cache,
                'budget': args.budget, 'effect': args.effect}
