@@ -145,7 +145,8 @@ def _solve(cal: Any, path: Path) -> Any:
         intr = tuple(calibrate_intrinsics(CAMERA_NAMES[c], cal.streams[c].arrays()[1], cfg.board,
                                           cfg.image_size, cfg.distortion, cfg.min_views,
                                           cfg.min_corners) for c in range(2))
-        stamps, corners = pair_frames(*cal.streams, offset_s=0.0, interpolate=False)
+        stamps, corners = pair_frames(cal.streams[0], cal.streams[1], offset_s=0.0,
+                                      interpolate=False)
         result = calibrate_detections(corners, stamps, cfg, intr)
         result.report.update({'offset_s': 0.0, 'progress': cal.progress()._asdict(),
                               'pairing': 'nearest frame, board still per view'})
