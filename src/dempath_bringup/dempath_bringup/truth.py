@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from dempath.errors import DempathError
 
@@ -26,7 +27,14 @@ def truth_frames(truth_json: Path, camera: str | None = None) -> tuple[list[Any]
 
 
 def render_truth_error(bag: Path, truth_json: Path) -> tuple[float, float, float]:
-    """(mean, max, RMS) mm of the bag's MarkerPoints3D from the true 3D markers.
+    """(mean, max, RMS) mm of the bag's MarkerPoints3D from the true 3D markers."""
+    err_mm = render_truth_errors(bag, truth_json)
+    return (float(np.nanmean(err_mm)), float(np.nanmax(err_mm)),
+            float(np.sqrt(np.nanmean(err_mm ** 2))))
+
+
+def render_truth_errors(bag: Path, truth_json: Path) -> NDArray[np.float64]:
+    """Distance [mm] of every 3D marker point of the bag from its true position, (n,).
 
     Each 3D frame is matched to the side camera's truth frame nearest in stamp (within
     ``MATCH_S``); markers are matched by number.
@@ -59,6 +67,4 @@ def render_truth_error(bag: Path, truth_json: Path) -> tuple[float, float, float
     if not errors:
         msg = f'{bag}: no MarkerPoints3D at the stamps of {truth_json}'
         raise DempathError(msg)
-    err_mm = 1e3 * np.asarray(errors)
-    return (float(np.nanmean(err_mm)), float(np.nanmax(err_mm)),
-            float(np.sqrt(np.nanmean(err_mm ** 2))))
+    return 1e3 * np.asarray(errors, np.float64)
