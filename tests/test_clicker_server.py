@@ -21,6 +21,12 @@ import pytest
 
 DEMPATH = str(Path(sys.executable).with_name('dempath'))
 
+def _default_sigint() -> None:
+    """In the child: SIGINT back to its default (a shell running the suite in the background
+    starts it ignored, and a process that inherits that ignores Ctrl-C)."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 
 @pytest.fixture
 def frames(tmp_path: Path) -> Path:
@@ -38,7 +44,8 @@ class Clicker:
 
     def __init__(self, args: list[str], cwd: Path) -> None:
         self.proc = subprocess.Popen([DEMPATH, 'click', *args, '--port', '0'], cwd=cwd,
-                                     stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                                     stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                                     preexec_fn=_default_sigint)
         assert self.proc.stdout is not None
         line = ''
         while 'clicker at' not in line:

@@ -28,6 +28,12 @@ ROOT = Path(__file__).resolve().parents[1]
 RENDER = ROOT / 'bags' / 'field_render_reduced_1ms'
 WAIT_S = 900.0  # generous: calibration and start-up on a loaded machine
 
+def _default_sigint() -> None:
+    """In the child: SIGINT back to its default (a shell running the suite in the background
+    starts it ignored, and a process that inherits that ignores Ctrl-C)."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 
 def wait_for(condition: object, timeout_s: float) -> bool:
     """Poll ``condition()`` every 0.2 s until it holds or ``timeout_s`` passes."""
@@ -45,7 +51,8 @@ def test_ctrl_c_during_the_graph_keeps_a_readable_bag(tmp_path: Path) -> None:
     dempath = Path(sys.executable).with_name('dempath')
     proc = subprocess.Popen([str(dempath), 'demo', '--field-bag', str(RENDER), '--scene', 'tiny',
                              '--rate', '0.1', '--out', str(out)], cwd=ROOT, stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, env={**os.environ})
+                            stderr=subprocess.PIPE, text=True, env={**os.environ},
+                            preexec_fn=_default_sigint)
     bag = out / f'run_{RENDER.name}'
     try:
         recording = wait_for(lambda: proc.poll() is None and any(

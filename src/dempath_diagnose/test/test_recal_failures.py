@@ -23,6 +23,13 @@ from .test_recal_cli import argv_for
 from .test_sweep import _start, wait_workers
 
 
+def _default_sigint() -> None:
+    """In the child: SIGINT back to its default (a shell running the suite in the background
+    starts it ignored, and a process that inherits that ignores Ctrl-C)."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
+
 @pytest.fixture
 def one_worker(tmp_path: Path) -> Iterator[tuple[str, list[subprocess.Popen[bytes]]]]:
     """A `dask scheduler` and one single-thread `dask worker` (runs one after the other)."""
@@ -110,7 +117,8 @@ def test_ctrl_c_writes_the_best_scene_so_far(cache: Path, tiny_library: Library,
     code = 'import sys; from dempath_diagnose.recal_cli import recalibrate_main as m; ' \
            'sys.exit(m(sys.argv[1:]))'
     proc = subprocess.Popen([sys.executable, '-c', code, *argv], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
+                            stderr=subprocess.PIPE, text=True,
+                            preexec_fn=_default_sigint)
     assert proc.stderr is not None
     lines = []
     for line in proc.stderr:
