@@ -25,7 +25,7 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).parent))
 
-from diagnose import bench_parser, cases_for  # bench/diagnose.py: the same cases
+from diagnose import bench_parser, cases_for, library_args  # bench/diagnose.py: the same cases
 
 from dempath_diagnose.cases import HiddenCase, make_case
 from dempath_diagnose.library import covering_duration
@@ -53,7 +53,7 @@ def run_case(args: argparse.Namespace, scene: Any, case: HiddenCase, duration: f
     t0 = time.monotonic()
     if not (out / 'recalibration.json').is_file():
         argv = ['--measured', str(markers), '--force', str(force), '--scene', args.scene,
-                '--out', str(out), '--library-root', str(root / 'library'),
+                '--out', str(out), *library_args(args),
                 '--packing-cache', str(root / 'packings'), '--seeds', args.seeds,
                 '--strengths', str(args.strengths), '--budget', str(args.budget),
                 '--seeds-per-eval', str(args.seeds_per_eval)]
