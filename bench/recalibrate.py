@@ -88,7 +88,6 @@ def run_case(args: argparse.Namespace, scene: Any, case: HiddenCase, duration: f
 def main() -> None:
     """Run the cases and print one JSON line last."""
     p = bench_parser()
-    p.add_argument('--candidates', default='')
     p.add_argument('--budget', type=int, default=6)
     p.add_argument('--seeds-per-eval', type=int, default=2)
     p.add_argument('--cases', default=','.join(STRONG + CONTROLS))
