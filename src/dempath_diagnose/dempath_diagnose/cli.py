@@ -236,6 +236,8 @@ def diagnosis_of(args: argparse.Namespace,
     origin = _origin(args.origin)
     scene = load_scene(args.scene)
     meas = load_tracks(args.measured, origin)
+    if meas.time_origin:
+        print(f'{args.measured}: {meas.time_origin}', file=sys.stderr)
     for marker, problem in sorted(meas.problems.items()):
         print(f'warning: {args.measured}: marker {marker}: {problem} (left out)', file=sys.stderr)
     if args.force is not None:

@@ -3,14 +3,20 @@
 Tracks come through dempath_compare's loaders (CSV ``t,marker,x,y,z`` or a bag with
 ``dempath_msgs/MarkerPoints3D``). Faults of single markers (NaN samples, fewer than 3 points,
 duplicated time stamps, no motion) are recorded per marker and that marker is left out; faults
-of the whole input (no usable marker, values that look like millimetres) raise
-:class:`~dempath_diagnose.errors.MeasurementError` with one line naming the input.
+of the whole input (no usable marker, values that look like millimetres, absolute clock times in
+a CSV) raise :class:`~dempath_diagnose.errors.MeasurementError` with one line naming the input.
+
+A CSV's ``t`` is the pass time (t = 0 when the tool starts to move). A bag's stamps are the
+cameras' clock: t = 0 is the first ``STARTED`` RunEvent on ``/markers/pass_events`` (the pass
+node's) or ``/tool/events`` when the bag has one, else the first marker sample (the recording
+started with the pass); :attr:`Measurement.time_origin` says which.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -18,9 +24,14 @@ from dempath.errors import DempathError
 from dempath_diagnose.errors import MeasurementError
 from dempath_diagnose.records import F64, Measurement
 
+if TYPE_CHECKING:
+    from dempath_compare.records import Track
+
 MIN_POINTS = 3
 MIN_MOTION_M = 1e-4  # a marker that never moves this far is 'no motion' [m]
 MAX_SPAN_M = 5.0  # positions spreading further than this look like millimetres [m]
+MAX_PASS_START_S = 1e5  # a CSV whose first time is later than this holds clock times [s]
+STARTED = 0  # dempath_msgs/RunEvent.STARTED
 COMMON_STEP_S = 0.005  # common time base of the measured markers [s]
 
 
@@ -34,13 +45,21 @@ def load_tracks(path: Path, origin: Sequence[float] = (0.0, 0.0, 0.0)) -> Measur
     Raises:
         MeasurementError: Unreadable, no usable marker, or millimetre-like values.
     """
-    from dempath_compare.loaders import load_source
+    from dempath_compare.loaders import is_bag, load_source
     from dempath_compare.records import MEASURED
 
     try:
         tracks = load_source(path, MEASURED)
+        origin_s, time_origin = (bag_time_origin(path, tracks) if is_bag(path)
+                                 else (0.0, ''))
     except DempathError as err:
         raise MeasurementError(str(err)) from err
+    first = min((float(np.nanmin(t.times)) for t in tracks if len(t.times)), default=0.0)
+    if first - origin_s > MAX_PASS_START_S:
+        msg = (f'{path}: t starts at {first:.0f} s, a clock time; t must be the pass time '
+               '(t = 0 when the tool starts to move)')
+        raise MeasurementError(msg)
+    tracks = [t._replace(times=t.times - origin_s) for t in tracks]
     problems: dict[int, str] = {}
     good = []
     for track in tracks:
@@ -69,7 +88,25 @@ def load_tracks(path: Path, origin: Sequence[float] = (0.0, 0.0, 0.0)) -> Measur
         for a in range(3):
             positions[inside, j, a] = np.interp(times[inside], t, p[:, a])
     markers = np.array([int(t.ident) for t in good], np.int64)
-    return Measurement(markers, times, positions, problems=problems)
+    return Measurement(markers, times, positions, problems=problems, time_origin=time_origin)
+
+
+def bag_time_origin(path: Path, tracks: Sequence[Track]) -> tuple[float, str]:
+    """The stamp [s] that is t = 0 of a bag's pass, and where it came from (one phrase)."""
+    from dempath import topics
+    from dempath.bagio import open_bag
+
+    with open_bag(path) as bag:
+        wanted = [t for t in (topics.PASS_EVENTS, topics.TOOL_EVENTS)
+                  if t in bag.topics and bag.topics[t].msgtype == 'dempath_msgs/msg/RunEvent']
+        for raw in bag.messages(wanted) if wanted else ():
+            event = bag.deserialize(raw)
+            if int(event.event) == STARTED:
+                stamp = event.header.stamp
+                return (float(stamp.sec) + 1e-9 * float(stamp.nanosec),
+                        f't = 0 at the pass start on {raw.topic} ({event.run_id or "no id"})')
+    first = min(float(np.nanmin(t.times)) for t in tracks if len(t.times))
+    return first, 't = 0 at the first marker sample (the bag has no pass-start RunEvent)'
 
 
 def track_problem(times: F64, positions: F64) -> str:

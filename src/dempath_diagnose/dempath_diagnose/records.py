@@ -89,6 +89,7 @@ class Measurement:
         force_times: (nf,) times of the force samples [s] (empty without a force).
         force: (nf, 3) force of the particles on the tool [N] (empty without a force).
         problems: Per-marker faults found on loading, ``{marker: text}`` (those are left out).
+        time_origin: Where t = 0 came from when it was not the input's own (a bag's stamps).
     """
 
     markers: NDArray[np.int64]
@@ -97,6 +98,7 @@ class Measurement:
     force_times: F64 = field(default_factory=lambda: np.zeros(0))
     force: F64 = field(default_factory=lambda: np.zeros((0, 3)))
     problems: dict[int, str] = field(default_factory=dict)
+    time_origin: str = ''
 
     @property
     def start(self) -> F64:
