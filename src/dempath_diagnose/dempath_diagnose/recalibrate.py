@@ -21,7 +21,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.stats import chi2
@@ -99,6 +99,9 @@ class Recalibration:
         changed: Whether the scene changes.
         failures: Failed (unstable) candidates.
         note: Details of the stop.
+        bias, bias_var: (k,) real minus emulated statistics at the best real evaluation, and
+            the variance of that seed mean (None before any real evaluation): the emulator's
+            error there, which the strengths' uncertainty carries.
     """
 
     params: list[Param]
@@ -110,6 +113,8 @@ class Recalibration:
     changed: bool = False
     failures: int = 0
     note: str = ''
+    bias: F64 | None = None
+    bias_var: F64 | None = None
 
     @property
     def effect(self) -> str:
@@ -201,15 +206,35 @@ def recalibrate(objective: Objective, cands: CandidateEmulator | Sequence[Candid
 
 def _uncertainty(out: Recalibration, objective: Objective,
                  cands: Sequence[CandidateEmulator]) -> None:
-    """The fitted strengths' sd: the diagnosis' posterior sd for one, Laplace for several."""
+    """The fitted strengths' sd: the posterior sd for one, Laplace for several, both on the
+    emulator corrected by the real runs' bias, with the bias' own sampling variance added.
+
+    The value reported is the best strength really run, which the search may have stopped at
+    before reaching the corrected posterior's mean (the floor was reached): for one strength the
+    sd also carries that offset, sqrt(sd_post^2 + (value - mean_post)^2). Without the correction
+    the sd is the emulator's alone, which knows nothing of the emulator's error: on the
+    full-size bench a tool speed fitted from the force landed ~3 sd from the truth.
+    """
+    objective = _bias_corrected(objective, out)
     if len(cands) == 1:
         fit = fit_candidate(objective.emulator, cands[0], objective.y, objective.observed,
                             objective.cov)
-        out.params[0].sd = fit.strength_sd
+        offset = out.params[0].value - fit.strength if out.bias is not None else 0.0
+        out.params[0].sd = float(np.hypot(fit.strength_sd, offset))
         return
     sds = laplace_sd(objective, cands, np.array(out.strengths))
     for p, s in zip(out.params, sds, strict=True):
         p.sd = float(s)
+
+
+def _bias_corrected(objective: Objective, out: Recalibration) -> Objective:
+    """The objective whose emulator is shifted by the observed bias (constant in the strength,
+    as the loop's own correction), its covariance widened by the bias' sampling variance."""
+    if out.bias is None or out.bias_var is None or not np.all(np.isfinite(out.bias)):
+        return objective
+    obs = objective.observed
+    return replace(objective, y=np.asarray(objective.y - out.bias[obs], np.float64),
+                   cov=np.asarray(objective.cov + np.diag(out.bias_var), np.float64))
 
 
 def _finish(out: Recalibration, progress: Callback | None) -> None:
@@ -261,16 +286,20 @@ def _loop(out: Recalibration, objective: Objective, cands: Sequence[CandidateEmu
                         time.monotonic() - t0, note)
             prev_best = out.after
             out.steps.append(step)
+            if not last_fail:
+                bias = runs.mean(0) - (objective.emulator.mu0 + _emulated_diff(cands, x))
             if not last_fail and error < out.after:
                 out.after = error
                 for p, v in zip(out.params, x, strict=True):
                     p.value = float(v)
+                out.bias = bias
+                out.bias_var = (runs.var(0, ddof=1) / len(runs) if len(runs) > 1
+                                else np.zeros(runs.shape[1]))
             if progress is not None:
                 per_eval = step.elapsed_s / (used / per)
                 progress(out.progress(per_eval * max(0, (budget - used) // per)))
             if last_fail:
                 continue
-            bias = runs.mean(0) - (objective.emulator.mu0 + _emulated_diff(cands, x))
             if out.after <= objective.floor.k:
                 out.stop = 'floor'
                 return
