@@ -24,7 +24,7 @@ def paper_and_trajectories(best: Recalibration, evaluate: Any, library: Any, d: 
     from dempath_diagnose.measure import load_tracks
 
     meas = load_tracks(args.measured, _origin(args.origin))
-    before = [(p.stem, PassRecord.load(p)) for p in evaluate.baseline_files()]
+    before = evaluate.baseline_records()
     after_files = evaluate.runs.get(best.strengths, []) if best.changed else []
     after = [(p.stem, PassRecord.load(p)) for p in after_files]
     ((_, files),) = library.model_runs('').items()

@@ -118,7 +118,8 @@ class RealEvaluator:
             out.append(self.emulator.mu0 + v - self.emulator.baseline_runs[i])
         return np.array(out)
 
-    def baseline_files(self) -> list[Path]:
-        """The library's baseline runs on the seeds an evaluation uses (paired 'before')."""
+    def baseline_records(self) -> list[tuple[str, PassRecord]]:
+        """(name, record) of the library's baseline runs on the seeds an evaluation uses (the
+        paired 'before'), from the loaded library: a packed library has no run files."""
         ((_, files),) = self.library.model_runs('').items()
-        return [self.library.folder / 'runs' / f for f in files[:self.seeds]]
+        return [(Path(f).stem, self.library.records[f]) for f in files[:self.seeds]]
