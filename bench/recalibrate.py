@@ -6,8 +6,9 @@ scene's signature library, at most ``--budget`` new simulations per case. Cached
 ``--root`` (the same root as bench/diagnose.py: library, packings, cases); a case whose
 recalibration.json exists is not redone, so an interrupted bench resumes. The last line is one
 JSON object: cases, error_reduction (median fraction of the error above the floor removed over
-the named cases), simulations, wall_s, strength_within_uncertainty (fitted strength within 2
-reported sd of the hidden one), control_unchanged.
+the cases whose error was above the floor; cases_above_floor of them; changed_within_floor: the
+others the recalibration still changed), simulations, wall_s, strength_within_uncertainty
+(fitted strength within 2 reported sd of the hidden one), control_unchanged.
 
 Usage: ``.venv/bin/python bench/recalibrate.py [--scene reduced_1ms] [--root DIR] [--serial]``
 (``--scene tiny`` for a quick check; run bench/diagnose.py first or let this build the library).
@@ -32,7 +33,7 @@ from dempath_diagnose.library import covering_duration
 from dempath_diagnose.recal_cli import recalibrate_main
 from dempath_diagnose.simulate import load_scene, pass_travel_s, scene_candidates
 
-STRONG = ('tool_speed_1.5', 'tool_speed_0.7', 'cohesion_strong')
+STRONG = ('tool_speed_1.5', 'tool_speed_0.7', 'cohesion_strong', 'tool_friction_x2')
 CONTROLS = ('control',)
 
 
@@ -70,7 +71,8 @@ def run_case(args: argparse.Namespace, scene: Any, case: HiddenCase, duration: f
     row = {'case': case.name, 'effect': data['effect'], 'stop': data['stop'],
            'changed': data['changed'], 'before': data['error_before'],
            'after': data['error_after'], 'reduction': data['error_reduction'],
-           'simulations': data['simulations'], 'wall_s': data['wall_s']}
+           'simulations': data['simulations'], 'wall_s': data['wall_s'],
+           'floor_k': data['floor']['k']}
     paper = data.get('paper')
     if paper:  # Table 7's mean nRMSE [%] before / after and the true model's over seeds
         row.update(nrmse_before=paper['before']['mean_nrmse_pct'],
@@ -101,11 +103,14 @@ def main() -> None:
             rows.append(row)
             print(json.dumps(row))
     named = [r for r in rows if r['case'] not in CONTROLS]
+    above = [r for r in named if r['before'] > r['floor_k']]  # an error above the floor to remove
     controls = [r for r in rows if r['case'] in CONTROLS]
     print(json.dumps({
         'scene': scene.name, 'cases': len(rows),
-        'error_reduction': round(statistics.median(r['reduction'] for r in named), 3)
-        if named else None,
+        'error_reduction': round(statistics.median(r['reduction'] for r in above), 3)
+        if above else None,
+        'cases_above_floor': len(above),
+        'changed_within_floor': sum(r['changed'] for r in named if r not in above),
         'simulations': sum(r['simulations'] for r in rows),
         'wall_s': round(sum(r['wall_s'] for r in rows), 1),
         'strength_within_uncertainty': sum(r.get('within', False) for r in named),

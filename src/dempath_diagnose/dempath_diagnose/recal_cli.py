@@ -22,7 +22,7 @@ from dempath_diagnose.cli import diagnosis_of
 from dempath_diagnose.errors import DiagnosisError
 from dempath_diagnose.library import serial_executor
 from dempath_diagnose.recal_progress import Callback, fan_out, printer
-from dempath_diagnose.recal_targets import also_candidates, budgets, targets
+from dempath_diagnose.recal_targets import also_candidates, budgets, named, targets
 from dempath_diagnose.recalibrate import Recalibration, check_strength, recalibrate, unchanged
 
 
@@ -92,6 +92,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     objective = Objective(d.emulator, d.measured, d.observed, d.cov)
     _, _, cube = tool_geometry(scene)
     results: list[tuple[Recalibration, Any]] = []
+    is_named = named(args, d.decision)
     with ExitStack() as stack:
         executor = _executor(args, stack) if todo else serial_executor
         progress = _callback(args, stack)
@@ -104,7 +105,8 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
             if len(todo) > 1:
                 print(f'inconclusive: trying {name} ({budget} simulations)', file=sys.stderr)
             results.append((recalibrate(objective, cands, evaluate, budget,
-                                        args.seeds_per_eval, progress, start), evaluate))
+                                        args.seeds_per_eval, progress, start,
+                                        named=is_named), evaluate))
             if results[-1][0].stop in ('interrupted', 'scheduler_lost'):
                 break
         if not todo:  # nothing significant: the control path, no simulation

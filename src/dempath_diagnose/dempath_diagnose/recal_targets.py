@@ -70,6 +70,15 @@ def targets(args: argparse.Namespace, decision: Decision,
     return [(ranking[0], None)]
 
 
+def named(args: argparse.Namespace, decision: Decision) -> bool:
+    """Whether the candidates fitted were asked for (``--effect``) or named by the diagnosis
+    (``effect_missing`` / ``parameter_off``): those are fitted even within the floor."""
+    if args.effect:
+        return True
+    verdict = _from_file(args.diagnosis)[0] if args.diagnosis is not None else decision.verdict
+    return verdict in ('effect_missing', 'parameter_off')
+
+
 def also_candidates(names: Sequence[str], emus: dict[str, CandidateEmulator],
                     fitted: Sequence[str]) -> list[CandidateEmulator]:
     """The ``--also`` parameters: existing parameters of the scene, none of the fitted ones."""

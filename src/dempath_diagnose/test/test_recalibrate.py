@@ -163,3 +163,30 @@ def test_progress_is_reported_each_iteration_and_at_the_end() -> None:
     assert got[1].names == ('cohesion.energy_density_j_m3',) and got[1].simulations == SEEDS
     assert all(p.floor == K for p in got)
     assert 'iteration 1' in progress_line(got[1]) and 'ETA' in progress_line(got[1])
+
+
+def test_a_named_candidate_is_fitted_even_within_the_floor() -> None:
+    """Thirty statistics, the hidden effect moving one of them by 4 seed spreads: the total d^2
+    (16) stays below the floor's mean (30), so an unnamed fit does nothing, but the candidate
+    the diagnosis named is fitted and the scene changes (the chi^2_1 test still guards it)."""
+    k = 30
+    sig = np.zeros(k)
+    sig[0] = 4 * SD
+    cand = Candidate('tool_friction', 'parameter', 'static_friction', '1', 0.0, 3.0, 0.0)
+    ce = CandidateEmulator(cand, np.array([0.0, 1.0]), np.array([np.zeros(k), sig]),
+                           np.full((2, k), (0.1 * SD) ** 2), (0.0, 2.0))
+    emu = Emulator([f's{i}' for i in range(k)], np.zeros(k), np.eye(k) * SD**2,
+                   np.zeros((k, k)), [ce], np.zeros((3, k)), np.zeros((3, 1, 1, 3)),
+                   np.zeros((1, 1, 3)))
+    obj = Objective(emu, sig.copy(), np.ones(k, bool), np.eye(k) * SD**2)
+    rng = np.random.default_rng(3)
+
+    def evaluate(x: np.ndarray) -> np.ndarray:
+        return sig * x[0] + rng.normal(0, SD, (SEEDS, k))
+
+    assert obj.baseline() < Floor.of(k).k
+    skipped = recalibrate(obj, ce, evaluate, budget=6, seeds_per_eval=SEEDS)
+    assert skipped.stop == 'nothing_to_fit' and not skipped.changed
+    fitted = recalibrate(obj, ce, evaluate, budget=6, seeds_per_eval=SEEDS, named=True)
+    assert fitted.changed and fitted.after < fitted.before - 3.84, fitted
+    assert abs(fitted.params[0].value - 1.0) <= 2 * fitted.params[0].sd
