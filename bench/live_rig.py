@@ -34,7 +34,7 @@ from std_msgs.msg import Header
 
 from dempath import topics
 from dempath.nodes.harness import RosHarness
-from dempath_msgs.msg import PixelPoints
+from dempath_msgs.msg import MarkerPoints3D, PixelPoints
 from dempath_recon.nodes.convert import s_to_stamp
 from dempath_recon.nodes.reconstructor import ReconstructorNode
 from dempath_recon.pairing import PixelFrame
@@ -62,8 +62,9 @@ def pair_ms(calib: str, method: str, uv: list[np.ndarray], n: int = 50) -> float
     return 1e3 * (time.perf_counter() - t0) / n
 
 
-def render_frames() -> tuple[Any, dict[str, list[bytes]]]:
-    """The render's rig and its field frames per camera (JPEG bytes, after the board views)."""
+def render_frames() -> tuple[Any, dict[str, list[bytes]], list[dict[int, Any]]]:
+    """The render's rig, its field frames per camera (JPEG bytes, after the board views), and
+    the true marker positions of each frame (``{marker: xyz}``, field frame [m])."""
     from dempath.bagio import open_bag
     from dempath_calib.camera import StereoCalibration
 
@@ -76,7 +77,23 @@ def render_frames() -> tuple[Any, dict[str, list[bytes]]]:
             msg = reader.deserialize(raw)
             if msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec >= start_ns:
                 jpeg[topic_cam[raw.topic]].append(bytes(msg.data))
-    return StereoCalibration.from_dict(truth['calibration_segment']['rig']), jpeg
+    xyz = [dict(zip(truth['marker_ids'], np.asarray(f['xyz']), strict=True))
+           for f in truth['frames'] if f['camera'] == 'cam_side']
+    return StereoCalibration.from_dict(truth['calibration_segment']['rig']), jpeg, xyz
+
+
+def error_figures(points: list[Any], xyz: list[dict[int, Any]], period: int,
+                  fps: float) -> dict[str, Any]:
+    """Distance of the reconstructed markers from their true places at their frames [mm]."""
+    errors = []
+    for p in points:
+        k = round((p.header.stamp.sec + 1e-9 * p.header.stamp.nanosec) * fps)
+        i = k % period if k % period < len(xyz) else period - k % period
+        errors += [np.linalg.norm(np.array([x, y, z]) - xyz[i][m])
+                   for m, x, y, z in zip(p.marker_ids, p.x, p.y, p.z, strict=True)]
+    err = 1e3 * np.asarray(errors) if errors else np.full(1, np.nan)
+    return {'points': len(errors), 'error_mm_p50': round(float(np.median(err)), 2),
+            'within_10mm': round(float(np.mean(err < 10.0)), 3)}
 
 
 def detect_ms(rig: Any, jpeg: list[bytes]) -> float:
@@ -99,7 +116,7 @@ def run_images(args: argparse.Namespace) -> dict[str, Any]:
 
     from dempath_recon.nodes.detector import DetectorNode
 
-    rig, jpeg = render_frames()
+    rig, jpeg, xyz = render_frames()
     period = 2 * len(jpeg['cam_side']) - 2
     load_before = os.getloadavg()
     with tempfile.TemporaryDirectory() as tmp, RosHarness() as ros:
@@ -110,6 +127,7 @@ def run_images(args: argparse.Namespace) -> dict[str, Any]:
         node = ros.start(ReconstructorNode, method=args.method, calibration_file=calib)
         pubs = {c: ros.publisher(CompressedImage, topics.camera_topic(topics.IMAGE_COMPRESSED, c),
                                  qos_profile_sensor_data) for c in topics.CAMERAS}
+        points = ros.collect(MarkerPoints3D, topics.MARKER_POINTS, 1000)
         for pub in pubs.values():
             ros.wait_for_subscribers(pub)
         n = int(args.seconds * args.fps)
@@ -129,8 +147,9 @@ def run_images(args: argparse.Namespace) -> dict[str, Any]:
         cams = {}
         for c, d in dets.items():
             f = d.figures()
-            cams[c] = {k: f[k] for k in ('frames_in', 'processed', 'dropped_behind',
-                                         'most_waiting', 'latency_ms_max', 'latency_ms_mean')}
+            cams[c] = {k: f[k] for k in ('frames_in', 'missing_in', 'processed', 'skipped',
+                                         'dropped_behind', 'most_stride', 'most_waiting',
+                                         'latency_ms_max', 'latency_ms_mean')}
         figures = {'mode': 'images', 'frames_per_camera': n, 'fps': args.fps,
                    'method': args.method, 'work_queue': args.work_queue,
                    'instants': node.counts['instants'],
@@ -138,7 +157,8 @@ def run_images(args: argparse.Namespace) -> dict[str, Any]:
                    'detected_fraction': round(sum(v['processed'] for v in cams.values())
                                               / (2 * n), 4),
                    'recon_dropped_behind': node.work.dropped,
-                   'unpaired': node.stream.sync.unpaired, 'cameras': cams}
+                   'unpaired': node.stream.sync.unpaired, 'cameras': cams,
+                   **error_figures(points, xyz, period, args.fps)}
     figures['detect_ms'] = round(detect_ms(rig, jpeg['cam_side']), 2)
     figures['load_before'] = [round(v, 2) for v in load_before]
     figures['load_after'] = [round(v, 2) for v in os.getloadavg()]

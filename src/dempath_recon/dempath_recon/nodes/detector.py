@@ -13,21 +13,22 @@ the worker falls behind, the callback first detects only every 2nd, 4th, ... fra
 to ``max_stride`` (:class:`FrameStride`: the two cameras' detectors then keep frames of the same
 instants, which the reconstructor needs), counted as ``skipped``; when the worker is still more
 than ``work_queue`` frames behind, the oldest waiting frame is dropped and counted
-(``dropped_behind``): the latency stays bounded at about ``work_queue + 1`` detection times, and
-no frame disappears unseen. With ``lossless:=true`` (playing a bag, as the demo does) the
-subscription is reliable and every frame is detected: no stride, no drop.
+(``dropped_behind``), and a frame that waited longer than ``max_wait_s`` is dropped and counted
+(``dropped_stale``): the latency stays bounded at ``max_wait_s`` plus one detection, and no frame
+disappears unseen. With ``lossless:=true`` (playing a bag, as the demo does) the
+subscription is reliable and every frame is detected: no stride, no drop, no age limit.
 
 Every ``diagnostics_period_s`` the node publishes on ``/diagnostics``:
 ``frames_in`` (arrived), ``missing_in`` (never arrived: gaps in the arriving stamps, frames lost
 by the camera, the network or the middleware's best-effort queue), ``processed`` (through the
 detector, bad ones included), ``skipped``, ``stride``, ``most_stride``, ``dropped_behind``,
-``waiting``, ``most_waiting``, ``latency_ms_max`` / ``latency_ms_mean`` (from arrival to
-publication), ``most_behind`` (frames enqueued while a frame waited for the worker: the
-queueing delay in frames, at most ``work_queue``), ``failed`` (raw images that do not fit their
-header, or a detection error), and the detector's counts (``undecodable``, ``gap_frames``: frames
-missing between the detected frames' stamps, whatever the reason, ``out_of_order``, ``detected``,
-``tracked``, ``lost``, ...). Always ``frames_in = processed + skipped + dropped_behind +
-waiting``.
+``dropped_stale``, ``waiting``, ``most_waiting``, ``latency_ms_max`` / ``latency_ms_mean`` (from
+arrival to publication), ``most_behind`` (frames enqueued while a frame waited for the worker:
+the queueing delay in frames, at most ``work_queue``), ``failed`` (raw images that do not fit
+their header, or a detection error), and the detector's counts (``undecodable``, ``gap_frames``:
+frames missing between the detected frames' stamps, whatever the reason, ``out_of_order``,
+``detected``, ``tracked``, ``lost``, ...). Always ``frames_in = processed + skipped +
+dropped_behind + dropped_stale + waiting``.
 """
 
 from __future__ import annotations
@@ -59,6 +60,8 @@ PARAMETERS: tuple[tuple[str, Any, str], ...] = (
     ('compressed', True, 'subscribe CompressedImage (true) or Image (false)'),
     ('diagnostics_period_s', 1.0, 'period of the diagnostics message [s]'),
     ('work_queue', 10, 'frames waiting for detection before the oldest is dropped and counted'),
+    ('max_wait_s', 0.5, 'a frame that waited longer for the worker is dropped and counted '
+                        '(dropped_stale) [s]; 0: no limit'),
     ('fps', 50.0, "the cameras' nominal frame rate (frame numbers from stamps) [1/s]"),
     ('max_stride', 8, 'when behind, detect only every 2nd, 4th, ... frame by stamp, up to this'),
     ('subscription_depth', 10, 'frames the middleware keeps on the image topic (best effort)'),
@@ -117,7 +120,8 @@ class DetectorNode(Node):
             raise ReconstructionError(msg)
         self.other = self.core.other(self.camera)
         self.silent_s = float(p['silent_s'])
-        self.counts = {'frames_in': 0, 'published': 0, 'failed': 0}
+        self.counts = {'frames_in': 0, 'published': 0, 'failed': 0, 'dropped_stale': 0}
+        self.max_wait_s = 0.0 if bool(p['lossless']) else float(p['max_wait_s'])
         self.latency = Latency()
         self.last_arrival_s: float | None = None
         self.enqueued = 0  # frames handed to the worker
@@ -164,6 +168,9 @@ class DetectorNode(Node):
     def work_on(self, item: _Arrival) -> None:
         """Worker thread: note the other camera's markers, detect, publish; count any failure."""
         behind = self.enqueued - item.index
+        if self.max_wait_s > 0 and time.monotonic() - item.arrived_s > self.max_wait_s:
+            self.counts['dropped_stale'] += 1
+            return
         while self.others:
             self.note_other(self.others.popleft())
         try:
@@ -218,7 +225,8 @@ class DetectorNode(Node):
         """Counts of this camera as one DiagnosticStatus (WARN on any fault or a silent camera)."""
         c = self.figures()
         faults = sum(int(c[k]) for k in ('missing_in', 'undecodable', 'failed', 'skipped',
-                                         'dropped_behind', 'gap_frames', 'out_of_order'))
+                                         'dropped_behind', 'dropped_stale', 'gap_frames',
+                                         'out_of_order'))
         message = (f"{c['frames_in']} frames in, {c['missing_in']} missing, "
                    f"{c['processed']} processed, "
                    f"{c['skipped']} skipped (stride {c['stride']}), "
