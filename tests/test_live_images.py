@@ -36,7 +36,7 @@ from std_msgs.msg import Header
 from dempath import topics
 from dempath.bagio import open_bag
 from dempath_calib.camera import StereoCalibration
-from dempath_msgs.msg import MarkerPoints3D, RunEvent
+from dempath_msgs.msg import MarkerPoints3D, PixelPoints, RunEvent
 from dempath_recon.nodes.convert import s_to_stamp, stamp_to_s
 from dempath_recon.nodes.detector import DetectorNode
 from dempath_recon.nodes.passgate import PassNode
@@ -291,3 +291,36 @@ def test_camera_images_stopping_mid_pass(ros_harness, render: Render, tmp_path: 
     assert r['instants'] > 0 and r['unpaired'] + r['waiting_partner'] > 0, r  # side frames alone
     assert 2 * r['instants'] + r['unpaired'] + r['waiting_partner'] + r['dropped_behind'] \
         == r['frames_side'] + r['frames_front'], r
+
+
+def test_raw_images_that_do_not_fit_are_counted(ros_harness, render: Render, tmp_path: Path,
+                                                capfd: pytest.CaptureFixture[str]) -> None:
+    """sensor_msgs/Image from a driver: a good bgr8 frame is detected; a truncated one and an
+    unsupported encoding each give one error line naming the fault, are counted as failed, and
+    the node goes on."""
+    import cv2
+    from sensor_msgs.msg import Image
+
+    calib = str(render.rig.save(tmp_path / 'calib.yaml'))
+    node = ros_harness.start(DetectorNode, camera='cam_side', calibration_file=calib,
+                             compressed=False, lossless=True)
+    got = ros_harness.collect(PixelPoints, topics.camera_topic(topics.PIXEL_POINTS, 'cam_side'))
+    pub = ros_harness.publisher(Image, topics.camera_topic(topics.IMAGE_RAW, 'cam_side'))
+    assert ros_harness.wait_for_subscribers(pub)
+    bgr = cv2.imdecode(np.frombuffer(render.jpeg['cam_side'][0], np.uint8), cv2.IMREAD_COLOR)
+    h, w = bgr.shape[:2]
+    frames = [('bgr8', bgr.tobytes()), ('bgr8', bgr.tobytes()[:w * 3 * 100]),
+              ('mono16', bgr.tobytes()), ('bgr8', bgr.tobytes())]
+    for k, (encoding, data) in enumerate(frames):
+        pub.publish(Image(header=Header(stamp=s_to_stamp(k / FPS)), height=h, width=w,
+                          encoding=encoding, step=w * 3, data=data))
+        ros_harness.spin_for(0.05)
+    assert ros_harness.spin_until(lambda: len(got) == 2 and node.work.waiting == 0, 30.0)
+    f = node.figures()
+    assert (f['frames_in'], f['processed'], f['failed'], f['published']) == (4, 4, 2, 2), f
+    assert len(got[0].marker_ids) >= 10
+    err = capfd.readouterr().err
+    assert err.count('cam_side frame at 0.020000 s: ValueError: 576000 bytes do not fit '
+                     '1920x1080, step 5760; skipped (counted as failed)') == 1, err
+    assert err.count("cam_side frame at 0.040000 s: ValueError: encoding 'mono16' (bgr8 or rgb8 "
+                     'expected); skipped (counted as failed)') == 1, err
