@@ -218,10 +218,9 @@ def test_live_jpeg_at_50_fps_through_detection_and_reconstruction(
         d = g.counts(DET.format(cam))
         figures[cam] = {k: d[k] for k in ('frames_in', 'missing_in', 'processed', 'skipped',
                                           'dropped_behind', 'dropped_stale', 'most_stride',
-                                          'gap_frames',
-                                          'detected', 'tracked', 'lost', 'most_waiting',
-                                          'most_behind',
-                                          'latency_ms_max', 'latency_ms_mean')}
+                                          'gap_frames', 'detected', 'tracked', 'lost',
+                                          'most_waiting', 'most_behind', 'latency_ms_max',
+                                          'latency_ms_mean')}
         # best effort, as from a camera driver: frames the middleware lost on a loaded machine
         # show as gaps in the arriving stamps (the last frame, detected, closes every gap)
         assert d['frames_in'] + d['missing_in'] == sent[cam], f'{cam}: frames unaccounted: {d}'

@@ -15,8 +15,8 @@ instants, which the reconstructor needs), counted as ``skipped``; when the worke
 than ``work_queue`` frames behind, the oldest waiting frame is dropped and counted
 (``dropped_behind``), and a frame that waited longer than ``max_wait_s`` is dropped and counted
 (``dropped_stale``): the latency stays bounded at ``max_wait_s`` plus one detection, and no frame
-disappears unseen. With ``lossless:=true`` (playing a bag, as the demo does) the
-subscription is reliable and every frame is detected: no stride, no drop, no age limit.
+disappears unseen. With ``lossless:=true`` (playing a bag, as the demo does) the subscription
+is reliable and keeps all, and every frame is detected: no stride, no drop, no age limit.
 
 Every ``diagnostics_period_s`` the node publishes on ``/diagnostics``:
 ``frames_in`` (arrived), ``missing_in`` (never arrived: gaps in the arriving stamps, frames lost
@@ -65,8 +65,8 @@ PARAMETERS: tuple[tuple[str, Any, str], ...] = (
     ('fps', 50.0, "the cameras' nominal frame rate (frame numbers from stamps) [1/s]"),
     ('max_stride', 8, 'when behind, detect only every 2nd, 4th, ... frame by stamp, up to this'),
     ('subscription_depth', 10, 'frames the middleware keeps on the image topic (best effort)'),
-    ('lossless', False, 'bag playback: reliable subscription, every frame detected (no stride, '
-                        'no drop; the player waits)'),
+    ('lossless', False, 'bag playback: reliable keep-all subscription, every frame detected (no '
+                        'stride, no drop, no age limit)'),
     ('silent_s', 1.0, 'no frame for this long after the first: diagnostics say WARN [s]'),
 )
 OTHER_KEPT = 200  # the other camera's frames waiting to be noted by the worker
@@ -134,8 +134,10 @@ class DetectorNode(Node):
             PixelPoints, topics.camera_topic(topics.PIXEL_POINTS, self.camera), 10)
         self.pub_diag = self.create_publisher(DiagnosticArray, topics.DIAGNOSTICS, 10)
         qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=int(p['subscription_depth']),
-                         reliability=ReliabilityPolicy.RELIABLE if lossless
-                         else ReliabilityPolicy.BEST_EFFORT)
+                         reliability=ReliabilityPolicy.BEST_EFFORT)
+        if lossless:  # a player's burst waits in the middleware (flow control), none replaced
+            qos = QoSProfile(history=HistoryPolicy.KEEP_ALL,
+                             reliability=ReliabilityPolicy.RELIABLE)
         if p['compressed']:
             self.create_subscription(
                 CompressedImage, topics.camera_topic(topics.IMAGE_COMPRESSED, self.camera),
