@@ -148,8 +148,8 @@ def run_images(args: argparse.Namespace) -> dict[str, Any]:
         for c, d in dets.items():
             f = d.figures()
             cams[c] = {k: f[k] for k in ('frames_in', 'missing_in', 'processed', 'skipped',
-                                         'dropped_behind', 'most_stride', 'most_waiting',
-                                         'latency_ms_max', 'latency_ms_mean')}
+                                         'dropped_behind', 'dropped_stale', 'most_stride',
+                                         'most_waiting', 'latency_ms_max', 'latency_ms_mean')}
         figures = {'mode': 'images', 'frames_per_camera': n, 'fps': args.fps,
                    'method': args.method, 'work_queue': args.work_queue,
                    'instants': node.counts['instants'],
