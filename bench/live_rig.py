@@ -142,14 +142,16 @@ def run_images(args: argparse.Namespace) -> dict[str, Any]:
                 ros.executor.spin_once(timeout_sec=0.002)
         ros.spin_until(lambda: all(d.work.waiting == 0 for d in dets.values())
                        and node.work.waiting == 0, 60.0)
-        ros.spin_for(0.5)
-        ros.spin_until(lambda: node.work.waiting == 0, 30.0)
+        ros.spin_for(0.5)  # frames the starved executor had not yet taken off the middleware
+        ros.spin_until(lambda: all(d.work.waiting == 0 for d in dets.values())
+                       and node.work.waiting == 0, 30.0)
         cams = {}
         for c, d in dets.items():
             f = d.figures()
             cams[c] = {k: f[k] for k in ('frames_in', 'missing_in', 'processed', 'skipped',
-                                         'dropped_behind', 'dropped_stale', 'most_stride',
-                                         'most_waiting', 'latency_ms_max', 'latency_ms_mean')}
+                                         'dropped_behind', 'dropped_stale', 'failed',
+                                         'waiting', 'most_stride', 'most_waiting',
+                                         'latency_ms_max', 'latency_ms_mean')}
         figures = {'mode': 'images', 'frames_per_camera': n, 'fps': args.fps,
                    'method': args.method, 'work_queue': args.work_queue,
                    'instants': node.counts['instants'],
