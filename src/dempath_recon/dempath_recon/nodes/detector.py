@@ -120,13 +120,13 @@ class DetectorNode(Node):
             raise ReconstructionError(msg)
         self.other = self.core.other(self.camera)
         self.silent_s = float(p['silent_s'])
+        lossless = bool(p['lossless'])
         self.counts = {'frames_in': 0, 'published': 0, 'failed': 0, 'dropped_stale': 0}
-        self.max_wait_s = 0.0 if bool(p['lossless']) else float(p['max_wait_s'])
+        self.max_wait_s = 0.0 if lossless else float(p['max_wait_s'])
         self.latency = Latency()
         self.last_arrival_s: float | None = None
         self.enqueued = 0  # frames handed to the worker
-        self.others: deque[PixelPoints] = deque(maxlen=OTHER_KEPT)
-        lossless = bool(p['lossless'])
+        self.others: deque[PixelPoints] = deque(maxlen=OTHER_KEPT)  # numbering hints only
         bound = LOSSLESS_QUEUE if lossless else int(p['work_queue'])
         self.work: WorkQueue[_Arrival] = WorkQueue(self.work_on, bound, f'detector_{self.camera}')
         self.stride = FrameStride(float(p['fps']), 1 if lossless else int(p['max_stride']), bound)
@@ -181,7 +181,7 @@ class DetectorNode(Node):
             else:
                 frame = self.core.update_image(self.camera, _stamp_s(item.msg),
                                                _bgr(item.msg))
-        except Exception as err:
+        except Exception as err:  # a live node counts a bad frame, says why, and goes on
             self.counts['failed'] += 1
             self.get_logger().error(f'{self.camera} frame at {_stamp_s(item.msg):.6f} s: '
                                     f'{type(err).__name__}: {err}; skipped (counted as failed)')
