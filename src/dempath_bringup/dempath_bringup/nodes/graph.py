@@ -159,7 +159,8 @@ def _start_detectors(harness: Any, spec: GraphSpec) -> dict[str, Any]:
     nodes = {}
     for cam in topics.CAMERAS:
         params = [Parameter('camera', value=cam),
-                  Parameter('calibration_file', value=str(spec.calibration))]
+                  Parameter('calibration_file', value=str(spec.calibration)),
+                  Parameter('lossless', value=True)]  # a bag: every frame, none dropped
         nodes[cam] = harness.add(DetectorNode(context=harness.context, namespace=cam,
                                               parameter_overrides=params))
     return nodes

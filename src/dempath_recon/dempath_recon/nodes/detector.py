@@ -1,29 +1,57 @@
 """Marker detection node, one per camera: images -> numbered dempath_msgs/PixelPoints.
 
 Subscribes ``/<camera>/image_raw/compressed`` (``sensor_msgs/CompressedImage``, or
-``/<camera>/image_raw`` ``sensor_msgs/Image`` bgr8/rgb8 with ``compressed:=false``) and the other
-camera's ``pixel_points`` (for numbering markers by the epipolar line), and publishes
+``/<camera>/image_raw`` ``sensor_msgs/Image`` bgr8/rgb8 with ``compressed:=false``) with
+sensor-data QoS (best effort, so that it matches camera drivers and a reliable player alike), and
+the other camera's ``pixel_points`` (for numbering markers by the epipolar line); publishes
 ``/<camera>/pixel_points`` with ``SOURCE_DETECTED`` and the detector's confidence; only numbered
-markers are published (the reconstructor pairs by number). Counts (frames, detected, tracked,
-lost, re-attached, dropped, undecodable, out of order) go out as ``diagnostic_msgs`` on
-``/diagnostics`` every ``diagnostics_period_s``. Every frame is processed in the callback (no
-queue drops); a bad frame is counted and logged, and the node keeps spinning.
+markers are published (the reconstructor pairs by number).
+
+Live cameras deliver frames faster than a loaded machine may detect them, so the image callback
+only counts and enqueues; a worker thread detects (:class:`dempath.workqueue.WorkQueue`). When
+the worker falls behind, the callback first detects only every 2nd, 4th, ... frame by stamp, up
+to ``max_stride`` (:class:`FrameStride`: the two cameras' detectors then keep frames of the same
+instants, which the reconstructor needs), counted as ``skipped``; when the worker is still more
+than ``work_queue`` frames behind, the oldest waiting frame is dropped and counted
+(``dropped_behind``), and a frame that waited longer than ``max_wait_s`` is dropped and counted
+(``dropped_stale``): the latency stays bounded at ``max_wait_s`` plus one detection, and no frame
+disappears unseen. With ``lossless:=true`` (playing a bag, as the demo does) the subscription
+is reliable and keeps all, and every frame is detected: no stride, no drop, no age limit.
+
+Every ``diagnostics_period_s`` the node publishes on ``/diagnostics``:
+``frames_in`` (arrived), ``missing_in`` (never arrived: gaps in the arriving stamps, frames lost
+by the camera, the network or the middleware's best-effort queue), ``processed`` (through the
+detector, bad ones included), ``skipped``, ``stride``, ``most_stride``, ``dropped_behind``,
+``dropped_stale``, ``waiting``, ``most_waiting``, ``latency_ms_max`` / ``latency_ms_mean`` (from
+arrival to publication), ``most_behind`` (frames enqueued while a frame waited for the worker:
+the queueing delay in frames, at most ``work_queue``), ``failed`` (raw images that do not fit
+their header, or a detection error), and the detector's counts (``undecodable``, ``gap_frames``:
+frames missing between the detected frames' stamps, whatever the reason, ``out_of_order``,
+``detected``, ``tracked``, ``lost``, ...). Always ``frames_in = processed + skipped +
+dropped_behind + dropped_stale + waiting``.
 """
 
 from __future__ import annotations
 
+import time
+from collections import deque
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from numpy.typing import NDArray
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.node import Node
+from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import CompressedImage, Image
 
 from dempath import topics
 from dempath.nodes.spin import run_node
+from dempath.workqueue import WorkQueue
 from dempath_msgs.msg import PixelPoints
 from dempath_recon.errors import ReconstructionError
+from dempath_recon.nodes.detector_stride import FrameStride
 from dempath_recon.stereo_track import PixelFrame, StereoMarkerTracker
 
 PARAMETERS: tuple[tuple[str, Any, str], ...] = (
@@ -31,7 +59,50 @@ PARAMETERS: tuple[tuple[str, Any, str], ...] = (
     ('calibration_file', '', 'stereo calibration YAML (dempath_calib) [path], required'),
     ('compressed', True, 'subscribe CompressedImage (true) or Image (false)'),
     ('diagnostics_period_s', 1.0, 'period of the diagnostics message [s]'),
+    ('work_queue', 10, 'frames waiting for detection before the oldest is dropped and counted'),
+    ('max_wait_s', 0.5, 'a frame that waited longer for the worker is dropped and counted '
+                        '(dropped_stale) [s]; 0: no limit'),
+    ('fps', 50.0, "the cameras' nominal frame rate (frame numbers from stamps) [1/s]"),
+    ('max_stride', 8, 'when behind, detect only every 2nd, 4th, ... frame by stamp, up to this'),
+    ('subscription_depth', 10, 'frames the middleware keeps on the image topic (best effort)'),
+    ('lossless', False, 'bag playback: reliable keep-all subscription, every frame detected (no '
+                        'stride, no drop, no age limit)'),
+    ('silent_s', 1.0, 'no frame for this long after the first: diagnostics say WARN [s]'),
 )
+OTHER_KEPT = 200  # the other camera's frames waiting to be noted by the worker
+LOSSLESS_QUEUE = 1_000_000  # frames that may wait when playing a bag losslessly
+
+
+@dataclass
+class _Arrival:
+    """An image as it came off the subscription."""
+
+    msg: CompressedImage | Image
+    arrived_s: float  # monotonic clock at the callback [s]
+    index: int  # frames enqueued, this one included
+
+
+@dataclass
+class Latency:
+    """Arrival-to-publication delay of the published frames (whole run and current window)."""
+
+    max_s: float = 0.0
+    sum_s: float = 0.0
+    n: int = 0
+    most_behind: int = 0  # frames enqueued while one frame waited for the worker
+
+    def add(self, delay_s: float, behind: int) -> None:
+        """One published frame."""
+        self.max_s = max(self.max_s, delay_s)
+        self.sum_s += delay_s
+        self.n += 1
+        self.most_behind = max(self.most_behind, behind)
+
+    def figures(self) -> dict[str, float | int]:
+        """``latency_ms_max``, ``latency_ms_mean``, ``most_behind``."""
+        mean = self.sum_s / self.n if self.n else 0.0
+        return {'latency_ms_max': round(1e3 * self.max_s, 2),
+                'latency_ms_mean': round(1e3 * mean, 2), 'most_behind': self.most_behind}
 
 
 class DetectorNode(Node):
@@ -48,34 +119,77 @@ class DetectorNode(Node):
             msg = f'camera: {self.camera!r} not in the calibration ({sorted(self.core.cameras)})'
             raise ReconstructionError(msg)
         self.other = self.core.other(self.camera)
+        self.silent_s = float(p['silent_s'])
+        lossless = bool(p['lossless'])
+        self.counts = {'frames_in': 0, 'published': 0, 'failed': 0, 'dropped_stale': 0}
+        self.max_wait_s = 0.0 if lossless else float(p['max_wait_s'])
+        self.latency = Latency()
+        self.last_arrival_s: float | None = None
+        self.enqueued = 0  # frames handed to the worker
+        self.others: deque[PixelPoints] = deque(maxlen=OTHER_KEPT)  # numbering hints only
+        bound = LOSSLESS_QUEUE if lossless else int(p['work_queue'])
+        self.work: WorkQueue[_Arrival] = WorkQueue(self.work_on, bound, f'detector_{self.camera}')
+        self.stride = FrameStride(float(p['fps']), 1 if lossless else int(p['max_stride']), bound)
         self.pub = self.create_publisher(
             PixelPoints, topics.camera_topic(topics.PIXEL_POINTS, self.camera), 10)
-        self.pub_diag = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
+        self.pub_diag = self.create_publisher(DiagnosticArray, topics.DIAGNOSTICS, 10)
+        qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=int(p['subscription_depth']),
+                         reliability=ReliabilityPolicy.BEST_EFFORT)
+        if lossless:  # a player's burst waits in the middleware (flow control), none replaced
+            qos = QoSProfile(history=HistoryPolicy.KEEP_ALL,
+                             reliability=ReliabilityPolicy.RELIABLE)
         if p['compressed']:
             self.create_subscription(
                 CompressedImage, topics.camera_topic(topics.IMAGE_COMPRESSED, self.camera),
-                self.on_compressed, 10)
+                self.enqueue, qos)
         else:
             self.create_subscription(Image, topics.camera_topic(topics.IMAGE_RAW, self.camera),
-                                     self.on_image, 10)
+                                     self.enqueue, qos)
         self.create_subscription(PixelPoints, topics.camera_topic(topics.PIXEL_POINTS, self.other),
                                  self.on_other, 10)
         self.create_timer(float(p['diagnostics_period_s']), self.publish_diagnostics)
 
-    def on_compressed(self, msg: CompressedImage) -> None:
-        """Detect in one JPEG frame and publish its numbered markers."""
-        frame = self.core.update(self.camera, _stamp_s(msg), bytes(msg.data))
-        self.publish(frame, msg.header)
-
-    def on_image(self, msg: Image) -> None:
-        """Detect in one raw frame (bgr8 or rgb8)."""
-        rows = np.frombuffer(bytes(msg.data), np.uint8).reshape(msg.height, msg.step)
-        img = rows[:, :msg.width * 3].reshape(msg.height, msg.width, 3)
-        bgr = img[..., ::-1] if msg.encoding == 'rgb8' else img
-        frame = self.core.update_image(self.camera, _stamp_s(msg), np.ascontiguousarray(bgr))
-        self.publish(frame, msg.header)
+    def enqueue(self, msg: CompressedImage | Image) -> None:
+        """Subscription callback: count the frame and hand it to the worker (nothing slow)."""
+        self.counts['frames_in'] += 1
+        self.last_arrival_s = time.monotonic()
+        stride = self.stride.stride
+        if not self.stride.keep(_stamp_s(msg), self.work.waiting):
+            return
+        if self.stride.stride != stride:
+            self.get_logger().info(
+                f'{self.camera}: detecting every {self.stride.stride} frame(s) by stamp (was '
+                f'{stride}); skipped frames are counted', throttle_duration_sec=5.0)
+        self.enqueued += 1
+        self.work.put(_Arrival(msg, self.last_arrival_s, self.enqueued))
 
     def on_other(self, msg: PixelPoints) -> None:
+        """The other camera's numbered markers: kept for the worker (which owns the tracker)."""
+        self.others.append(msg)
+
+    def work_on(self, item: _Arrival) -> None:
+        """Worker thread: note the other camera's markers, detect, publish; count any failure."""
+        behind = self.enqueued - item.index
+        if self.max_wait_s > 0 and time.monotonic() - item.arrived_s > self.max_wait_s:
+            self.counts['dropped_stale'] += 1
+            return
+        while self.others:
+            self.note_other(self.others.popleft())
+        try:
+            if isinstance(item.msg, CompressedImage):
+                frame = self.core.update(self.camera, _stamp_s(item.msg), bytes(item.msg.data))
+            else:
+                frame = self.core.update_image(self.camera, _stamp_s(item.msg),
+                                               _bgr(item.msg))
+        except Exception as err:  # a live node counts a bad frame, says why, and goes on
+            self.counts['failed'] += 1
+            self.get_logger().error(f'{self.camera} frame at {_stamp_s(item.msg):.6f} s: '
+                                    f'{type(err).__name__}: {err}; skipped (counted as failed)')
+            return
+        self.publish(frame, item.msg.header)
+        self.latency.add(time.monotonic() - item.arrived_s, behind)
+
+    def note_other(self, msg: PixelPoints) -> None:
         """Remember the other camera's numbered markers (for epipolar numbering)."""
         t = _stamp_s(msg)
         for m, u, v in zip(msg.marker_ids, msg.u, msg.v, strict=True):
@@ -94,22 +208,63 @@ class DetectorNode(Node):
         out.confidence = frame.confidence[keep].astype(np.float32).tolist()
         out.source = [PixelPoints.SOURCE_DETECTED] * int(keep.sum())
         self.pub.publish(out)
+        self.counts['published'] += 1
+
+    def figures(self) -> dict[str, int | float]:
+        """Every count of this camera (what ``/diagnostics`` carries)."""
+        core = {k: v for k, v in self.core.report()[self.camera].items() if k != 'gaps_s'}
+        core['gap_frames'] = core.pop('dropped')
+        processed = (core['frames'] + core['undecodable'] + core['out_of_order']
+                     + self.counts['failed'])
+        return {**self.counts, 'missing_in': self.stride.missing,
+                'processed': processed, 'skipped': self.stride.skipped,
+                'stride': self.stride.stride, 'most_stride': self.stride.most_stride,
+                'dropped_behind': self.work.dropped,
+                'waiting': self.work.waiting, 'most_waiting': self.work.most_waiting,
+                'work_queue': self.work.maxsize, **self.latency.figures(), **core}
 
     def publish_diagnostics(self) -> None:
-        """Counts of this camera as one DiagnosticStatus."""
-        counts = self.core.report()[self.camera]
-        faults = counts['undecodable'] + counts['dropped'] + counts['out_of_order']
+        """Counts of this camera as one DiagnosticStatus (WARN on any fault or a silent camera)."""
+        c = self.figures()
+        faults = sum(int(c[k]) for k in ('missing_in', 'undecodable', 'failed', 'skipped',
+                                         'dropped_behind', 'dropped_stale', 'gap_frames',
+                                         'out_of_order'))
+        message = (f"{c['frames_in']} frames in, {c['missing_in']} missing, "
+                   f"{c['processed']} processed, "
+                   f"{c['skipped']} skipped (stride {c['stride']}), "
+                   f"{c['dropped_behind']} dropped behind, {c['detected']} detections, "
+                   f"{c['lost']} lost, {faults} faults")
+        silent = (time.monotonic() - self.last_arrival_s
+                  if self.last_arrival_s is not None else 0.0)
+        if silent > self.silent_s:
+            message = f'no frame for {silent:.1f} s; ' + message
         status = DiagnosticStatus(
-            level=DiagnosticStatus.WARN if faults else DiagnosticStatus.OK,
-            name=f'dempath_detector: {self.camera}', hardware_id=self.camera,
-            message=f"{counts['frames']} frames, {counts['detected']} detected, "
-                    f"{counts['lost']} lost, {faults} faulty",
-            values=[KeyValue(key=k, value=str(v)) for k, v in counts.items() if k != 'gaps_s'])
+            level=DiagnosticStatus.WARN if faults or silent > self.silent_s
+            else DiagnosticStatus.OK,
+            name=f'dempath_detector: {self.camera}', hardware_id=self.camera, message=message,
+            values=[KeyValue(key=k, value=str(v)) for k, v in c.items()])
         self.pub_diag.publish(DiagnosticArray(header=_now_header(self), status=[status]))
+
+    def destroy_node(self) -> None:
+        """Stop the worker (frames still waiting are counted as dropped), then the node."""
+        self.work.stop()
+        super().destroy_node()
 
 
 def _stamp_s(msg: Any) -> float:
     return float(msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9)
+
+
+def _bgr(msg: Image) -> NDArray[np.uint8]:
+    """A bgr8 or rgb8 Image as a contiguous BGR array; ValueError naming the fault."""
+    if msg.encoding not in ('bgr8', 'rgb8'):
+        raise ValueError(f'encoding {msg.encoding!r} (bgr8 or rgb8 expected)')
+    if msg.step < 3 * msg.width or len(msg.data) != msg.step * msg.height:
+        raise ValueError(f'{len(msg.data)} bytes do not fit {msg.width}x{msg.height}, '
+                         f'step {msg.step}')
+    rows = np.frombuffer(bytes(msg.data), np.uint8).reshape(msg.height, msg.step)
+    img = rows[:, :msg.width * 3].reshape(msg.height, msg.width, 3)
+    return np.ascontiguousarray(img[..., ::-1] if msg.encoding == 'rgb8' else img)
 
 
 def _now_header(node: Node) -> Any:
