@@ -41,6 +41,7 @@ from dempath_recon.nodes.convert import s_to_stamp, stamp_to_s
 from dempath_recon.nodes.detector import DetectorNode
 from dempath_recon.nodes.passgate import PassNode
 from dempath_recon.nodes.reconstructor import ReconstructorNode
+from dempath_sim.scene.profiles import PAPER_1_5MS
 
 pytestmark = pytest.mark.timeout(300)
 ROOT = Path(__file__).resolve().parents[1]
@@ -85,18 +86,8 @@ def render() -> Render:
 
 
 def tool_z(t: float) -> float:
-    """The paper's 1.5 m/s pass (sec. 2.3): 1 s still, 1.1 m/s^2 to 1.5 m/s, cruise, stop [m]."""
-    a, v, t0, t_acc = 1.1, 1.5, 1.0, 1.5 / 1.1
-    t_cruise = t0 + t_acc + 4.0
-    if t < t0:
-        return 0.0
-    if t < t0 + t_acc:
-        return 0.5 * a * (t - t0) ** 2
-    z1 = 0.5 * a * t_acc ** 2
-    if t < t_cruise:
-        return z1 + v * (t - t0 - t_acc)
-    tb = min(t - t_cruise, t_acc)
-    return z1 + v * 4.0 + v * tb - 0.5 * a * tb ** 2
+    """The paper's 1.5 m/s pass (profile 2, sec. 2.3) after 1 s standing still [m]."""
+    return float(PAPER_1_5MS.distance(max(t - 1.0, 0.0)))
 
 
 def image(stamp_s: float, data: bytes) -> CompressedImage:
