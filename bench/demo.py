@@ -12,6 +12,9 @@ shown as it comes) and reads the ``timing.json`` it writes. The last line is one
   floor removed (null for stages that did not run); ``mean_nrmse_pct``: the recording's mean
   nRMSE against the model before and after, per tool speed (timing.json);
 - ``exit_code``, ``load_average`` (1 min, at the end) and ``cpus`` of the machine.
+
+``DEMPATH_SCREENSHOTS=1`` also opens the report in headless Chromium, checks that every figure
+is decoded and shown, and keeps the whole page as docs/demo_report.png.
 """
 
 from __future__ import annotations
@@ -48,6 +51,26 @@ def model_figures(out: Path) -> dict[str, Any]:
     return figures
 
 
+def screenshot_report(page: Path, path: Path) -> list[str]:
+    """Save Chromium's screenshot of the whole report; the figures it did not show."""
+    from selenium.webdriver.common.by import By
+
+    from dempath.browser import headless_chromium
+
+    browser = headless_chromium(1280, 2400)
+    try:
+        browser.get(page.as_uri())
+        missing = [str(img.get_attribute('src')) for img in
+                   browser.find_elements(By.TAG_NAME, 'img') if not browser.execute_script(
+                       'return arguments[0].complete && arguments[0].naturalWidth;', img)]
+        height = browser.execute_script('return document.documentElement.scrollHeight;')
+        browser.set_window_size(1280, min(int(height) + 40, 12000))
+        browser.save_screenshot(str(path))
+    finally:
+        browser.quit()
+    return missing
+
+
 def main(argv: list[str]) -> int:
     """Run the demo once and print the JSON line."""
     out = ROOT / 'out' / 'bench_demo'
@@ -63,6 +86,10 @@ def main(argv: list[str]) -> int:
                'mean_nrmse_pct': timing.get('mean_nrmse_pct'), **model_figures(out),
                'exit_code': code,
                'load_average': round(os.getloadavg()[0], 2), 'cpus': os.cpu_count()}
+    page = out / 'report' / 'index.html'
+    if os.environ.get('DEMPATH_SCREENSHOTS') == '1' and page.is_file():
+        figures['report_figures_not_shown'] = screenshot_report(
+            page, ROOT / 'docs' / 'demo_report.png')
     print(json.dumps(figures))
     return code
 

@@ -34,7 +34,8 @@ BAGS = ROOT / 'bags'
 FIELD = BAGS / 'field_twin_tiny'
 LIBRARY = ['--seeds', '1001,1002', '--candidates', 'tool_speed', '--strengths', '1']
 DOCS = ROOT / 'docs'
-FIGURES = ('calibration.png', 'trajectories.png', 'error_map.png', 'error_vs_iteration.png')
+FIGURES = ('calibration.png', 'trajectories.png', 'error_map.png', 'error_vs_iteration.png',
+           'recalibration_trajectories.png')
 
 
 @pytest.fixture(scope='module')
@@ -81,6 +82,11 @@ def test_demo_diagnoses_recalibrates_and_reports(demo_out: tuple[Path, int, str]
                     '4. Diagnosis', '5. Recalibration', 'Table 7, before'):
         assert section in page, section
     assert 'tool_speed' in page
+    # each error before and after beside the true model's floor (d^2's k, the paper's nRMSE)
+    assert 'floor (the true model)' in page
+    assert f"{recal['floor']['k']:g} (95 % band" in page
+    if recal.get('paper'):
+        assert f"{recal['paper']['floor']['mean_nrmse_pct']:.2f} +- " in page
     for name in FIGURES:
         assert (out / 'report' / name).is_file(), name
         assert f'src="{name}"' in page, name

@@ -8,6 +8,7 @@ the floor uses every baseline seed of the library (:mod:`dempath_diagnose.recal_
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 from typing import Any
 
 from dempath_diagnose.recal_paper import before_after
@@ -24,10 +25,11 @@ def paper_and_trajectories(best: Recalibration, evaluate: Any, library: Any, d: 
     from dempath_diagnose.measure import load_tracks
 
     meas = load_tracks(args.measured, _origin(args.origin))
-    before = [(p.stem, PassRecord.load(p)) for p in evaluate.baseline_files()]
+    ((_, files),) = library.model_runs('').items()
+    # the library's own records, not its run files: a packed library (the demo's) has none
+    before = [(Path(f).stem, library.records[f]) for f in files[:evaluate.seeds]]
     after_files = evaluate.runs.get(best.strengths, []) if best.changed else []
     after = [(p.stem, PassRecord.load(p)) for p in after_files]
-    ((_, files),) = library.model_runs('').items()
     floor = [(f, library.records[f]) for f in files]
     paper = before_after(meas, d.layout, cube, before, after, floor, args.noise)
     paper['after_is_before'] = not after

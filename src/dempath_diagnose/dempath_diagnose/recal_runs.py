@@ -118,7 +118,3 @@ class RealEvaluator:
             out.append(self.emulator.mu0 + v - self.emulator.baseline_runs[i])
         return np.array(out)
 
-    def baseline_files(self) -> list[Path]:
-        """The library's baseline runs on the seeds an evaluation uses (paired 'before')."""
-        ((_, files),) = self.library.model_runs('').items()
-        return [self.library.folder / 'runs' / f for f in files[:self.seeds]]
