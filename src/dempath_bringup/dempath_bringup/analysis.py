@@ -210,7 +210,14 @@ def recalibration_lines(data: dict[str, Any]) -> list[str]:
 
 
 def after_stage(ctx: DemoContext) -> str:
-    """Run the recalibrated scene once and compare it with the same measured markers."""
+    """Run the recalibrated model once and compare it with the same measured markers.
+
+    The model is the demo's scene with the recalibration's fitted values set on it (``dempath
+    simulate SCENE --effect EFFECT.PARAM=VALUE``), which is the recalibrated scene file's model
+    on the bed the "before" run used: the scene file written by the recalibration names the
+    effect among its own, so ``dempath simulate`` of that file would pour a new bed with it
+    (minutes) and the before/after comparison would no longer be on the same packing.
+    """
     from dempath_compare.pipeline import compare_paths
     from dempath_compare.summary import build_table7
     from dempath_sim.cli import simulate_main
@@ -220,11 +227,13 @@ def after_stage(ctx: DemoContext) -> str:
     if scene is None or data is None or not data['changed']:
         return 'skipped: no recalibrated model'
     out = ctx.out / 'model_after'
-    argv = [str(scene), '--out', str(out), '--quiet']
+    argv = [ctx.scene, '--out', str(out), '--quiet']
+    for p in data['parameters']:
+        argv += ['--effect', f"{p['name']}.{p['parameter']}={p['value']!r}"]
     if ctx.options.get('packing_cache') is not None:
         argv += ['--cache-dir', str(ctx.options['packing_cache'])]
     if simulate_main(argv) != 0:
-        msg = f'{scene}: the run of the recalibrated scene failed'
+        msg = f'{scene}: the recalibrated model failed (dempath simulate {" ".join(argv)})'
         raise DempathError(msg)
     result = compare_paths(ctx.results['graph'].bag, out)
     table = build_table7(result)
