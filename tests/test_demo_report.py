@@ -1,22 +1,21 @@
 """The whole demo on the tiny scene, diagnosis and recalibration included, and its HTML report
 checked in a real browser.
 
-The demo scene's signature library is not shipped yet, so the test builds a small one for the
-tiny scene first (two packing seeds, one candidate effect, one strength: ``dempath diagnose``
-builds it) and runs ``dempath demo --clicked`` on the tiny field twin with it: calibration,
+The test builds a small signature library for the tiny scene first (two packing seeds, one
+candidate effect, one strength: ``dempath diagnose`` builds it), packs it into one file as the
+demo's shipped ``reduced_1ms`` library is, and runs ``dempath demo --clicked --library FILE`` on
+the tiny field twin with it: calibration,
 graph, comparison, diagnosis, recalibration (two simulations: one evaluation over both seeds),
 the recalibrated model, report.
 A second run without any library must say that the library is missing and still write the
 report. The report is opened in headless Chromium (installed through apt when missing and
-allowed, else the browser test skips with the reason); ``DEMPATH_SCREENSHOTS=1`` keeps its
-screenshot as docs/demo_report.png.
+allowed, else the browser test skips with the reason). docs/demo_report.png is the real demo's
+report (``DEMPATH_SCREENSHOTS=1 python bench/demo.py``), not this tiny one.
 """
 
 from __future__ import annotations
 
 import json
-import os
-import shutil
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -33,8 +32,8 @@ ROOT = Path(__file__).resolve().parents[1]
 BAGS = ROOT / 'bags'
 FIELD = BAGS / 'field_twin_tiny'
 LIBRARY = ['--seeds', '1001,1002', '--candidates', 'tool_speed', '--strengths', '1']
-DOCS = ROOT / 'docs'
-FIGURES = ('calibration.png', 'trajectories.png', 'error_map.png', 'error_vs_iteration.png')
+FIGURES = ('calibration.png', 'trajectories.png', 'error_map.png', 'error_vs_iteration.png',
+           'recalibration_trajectories.png')
 
 
 @pytest.fixture(scope='module')
@@ -45,9 +44,10 @@ def demo_out(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[Path, i
     origin = ','.join(str(v) for v in truth['field_origin_in_scene_m'])
     common = ['--library-root', str(tmp / 'library'), '--packing-cache', str(tmp / 'packings'),
               *LIBRARY]
+    packed = tmp / 'tiny_library.npz'  # packed, as the demo's shipped library is
     code = diagnose_main(['--measured', str(BAGS / 'field_twin_tiny.truth.csv'), '--scene',
                           'builtin:tiny', '--origin', origin, '--out', str(tmp / 'build'),
-                          '--serial', *common])
+                          '--serial', '--export-library', str(packed), *common])
     assert code == 0, 'building the small tiny library failed'
     out = tmp / 'out'
     capture = tmp / 'stdout.txt'
@@ -58,7 +58,8 @@ def demo_out(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[Path, i
     with contextlib.redirect_stdout(buf):
         code = demo_main(['--clicked', '--field-bag', str(FIELD), '--calib-bag',
                           str(BAGS / 'calib_twin_small'), '--scene', 'builtin:tiny', '--out',
-                          str(out), '--budget', '2', '--effect', 'tool_speed', *common])
+                          str(out), '--budget', '2', '--effect', 'tool_speed', '--library',
+                          str(packed), '--packing-cache', str(tmp / 'packings')])
     capture.write_text(buf.getvalue())
     yield out, code, buf.getvalue()
 
@@ -81,6 +82,11 @@ def test_demo_diagnoses_recalibrates_and_reports(demo_out: tuple[Path, int, str]
                     '4. Diagnosis', '5. Recalibration', 'Table 7, before'):
         assert section in page, section
     assert 'tool_speed' in page
+    # each error before and after beside the true model's floor (d^2's k, the paper's nRMSE)
+    assert 'floor (the true model)' in page
+    assert f"{recal['floor']['k']:g} (95 % band" in page
+    if recal.get('paper'):
+        assert f"{recal['paper']['floor']['mean_nrmse_pct']:.2f} +- " in page
     for name in FIGURES:
         assert (out / 'report' / name).is_file(), name
         assert f'src="{name}"' in page, name
@@ -131,5 +137,4 @@ def test_report_in_a_real_browser(demo_out: tuple[Path, int, str], browser: Any,
     height = browser.execute_script('return document.documentElement.scrollHeight;')
     browser.set_window_size(1280, min(int(height) + 40, 9000))  # the whole page in one image
     browser.save_screenshot(str(tmp_path / 'report.png'))
-    if os.environ.get('DEMPATH_SCREENSHOTS') == '1':
-        shutil.copy(tmp_path / 'report.png', DOCS / 'demo_report.png')
+    assert (tmp_path / 'report.png').stat().st_size > 0

@@ -108,7 +108,8 @@ def _parser() -> argparse.ArgumentParser:
     lib.add_argument('--candidates', help='candidate effects (dempath diagnose --candidates)')
     lib.add_argument('--strengths', type=int, help='strengths per candidate (1 or 2)')
     lib.add_argument('--packing-cache', type=Path, help='packing cache folder')
-    lib.add_argument('--budget', type=int, default=1, help='recalibration simulations')
+    lib.add_argument('--budget', type=int, default=analysis.DEMO_BUDGET,
+                     help='recalibration simulations (2: one evaluation on two paired seeds)')
     lib.add_argument('--effect', help='fit this effect whatever the diagnosis says '
                      '(dempath recalibrate --effect)')
     return p
@@ -176,7 +177,10 @@ def run_steps(ctx: DemoContext, steps: list[Step]) -> int:
         timing['stages'][step.name] = round(seconds, 2)
         print('    ' + text.replace('\n', '\n    ') + f'\n    ({seconds:.1f} s)', flush=True)
     timing.update(demo_s=round(time.monotonic() - start, 1), exit_code=code,
-                  traj_rms_mm=ctx.results.get('traj_rms_mm'))
+                  traj_rms_mm=ctx.results.get('traj_rms_mm'),
+                  mean_nrmse_pct={name: table.mean_nrmse for name, key in
+                                  (('before', 'table7'), ('after', 'table7_after'))
+                                  if (table := ctx.results.get(key)) is not None})
     (ctx.out / 'timing.json').write_text(json.dumps(timing))
     if code == 0:
         graph = ctx.results.get('graph')

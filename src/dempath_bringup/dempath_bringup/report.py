@@ -98,9 +98,40 @@ def _recalibration(r: dict[str, Any], figs: dict[str, str | None]) -> str:
     s = data['strength']
     what = (f"{data['effect']}.{data['parameter']}: {s['before']:.4g} -> {s['value']:.4g} "
             f"{s['unit']} (+- {s['uncertainty']:.2g})" if data['changed'] else 'nothing changed')
-    return (f"<p>{_e(what)}; error d<sup>2</sup> {data['error_before']:.1f} -> "
-            f"{data['error_after']:.1f} ({_e(data['stop_reason'])}; {data['simulations']} "
-            'simulations).</p>' + _img(figs.get('iterations'), 'error against iteration'))
+    return (f"<p>{_e(what)}; stopped: {_e(data['stop_reason'])} ({data['simulations']} "
+            'simulations).</p>' + _errors_table(r, data)
+            + '<p>The floor is what the true model itself gives over packing seeds: a fall is '
+            'judged against it, not against zero (docs/recalibration.md).</p>'
+            + _img(figs.get('iterations'), 'error against iteration')
+            + _img(figs.get('recal_trajectories'),
+                   "the model's band before and after on the library's seeds"))
+
+
+def _errors_table(r: dict[str, Any], data: dict[str, Any]) -> str:
+    """Each error before and after the recalibration, beside its floor."""
+    f = data['floor']
+    band = f"{f['k']:g} (95 % band {f['low']:.1f}-{f['high']:.1f})"
+    rows = [["d<sup>2</sup> of the diagnosis' group statistics", f"{data['error_before']:.1f}",
+             f"{data['error_after']:.1f}", band]]
+    paper = data.get('paper')
+    floor = '-'
+    if paper:
+        fl, pb, pa = paper['floor'], paper['before'], paper['after']
+        floor = f"{fl['mean_nrmse_pct']:.2f} +- {fl['mean_nrmse_sd_pct']:.2f}"
+        rows.append(["mean nRMSE [%], the library's seeds", f"{pb['mean_nrmse_pct']:.2f}",
+                     f"{pa['mean_nrmse_pct']:.2f}", floor])
+    after = r.get('table7_after')
+    for speed, value in r['table7'].mean_nrmse.items():
+        new = after.mean_nrmse.get(speed) if after is not None else None
+        rows.append([f'mean nRMSE [%], this recording ({speed})', f'{value:.2f}',
+                     '-' if new is None else f'{new:.2f}', floor])
+    head = ''.join(f'<th>{h}</th>' for h in ('error', 'before', 'after',
+                                             'floor (the true model)'))
+    body = ''.join('<tr>' + ''.join(f'<td>{c if i == 0 else _e(c)}</td>'
+                                    for i, c in enumerate(row)) + '</tr>' for row in rows)
+    reduction = 100 * (data.get('error_reduction') or 0.0)
+    return (f'<table><tr>{head}</tr>{body}</table><p>{reduction:.0f} % of the error above the '
+            'floor removed.</p>')
 
 
 def write_report(r: dict[str, Any], figs: dict[str, str | None], folder: Path,

@@ -103,10 +103,15 @@ def run_for_recording(scene: Any, out: Path, fps: float = 50.0,
 
 
 def _packing_radii(scene: Any, cache_dir: Path | None) -> tuple[NDArray[np.int64], FloatArray]:
-    """Ids and radii of the run's settled packing (read from the packing cache)."""
+    """Ids and radii of the run's settled packing (read from the packing cache).
+
+    The bed is looked up with the physics it was poured with (``scene.bed_model()``, as the
+    run does), not the run's: with a hidden effect switched on (cohesion) the run's physics
+    names another packing key, which would pour a second, different bed.
+    """
     from dempath_sim.runs import build_params, fill_bed
 
-    model = scene.physics_model()
+    model = scene.bed_model()
     state, _ = fill_bed(scene, model, build_params(scene, model), cache_dir)
     return state.ids.astype(np.int64), state.radii.astype(np.float64)
 
