@@ -23,9 +23,10 @@ from numpy.typing import NDArray
 
 from dempath_recon.associate import (
     MarkerGrid,
-    epipolar_distance,
-    number_by_epipolar,
+    MarkerPositions,
     number_by_grid,
+    on_epipolar_line,
+    triangulate_pairs,
 )
 from dempath_recon.detect import (
     Detections,
@@ -50,7 +51,14 @@ class StereoTrackConfig:
         tracker: linker settings.
         grid: the initial marker grid.
         fps: nominal frame rate [1/s] (dropped frames are gaps above 1.5 periods).
-        epipolar_px: largest distance to the epipolar line of a numbered pair [px].
+        epipolar_px: largest distance to the epipolar line for numbering a new track [px]; a
+            numbered pair farther than 3 times this from it is withheld.
+        min_grid_markers: detections that must fit the projected grid before a camera's
+            markers are numbered by it (frames with fewer wait for a later frame).
+        position_gate_m: 3D allowance of a numbered pair around the marker's last accepted
+            position, for noise, the cameras' exposure offset and the marker's size [m].
+        max_speed_m_s: fastest a marker can move [m/s] (the tool's speed, 1 m/s in the
+            paper, with a margin: sand ahead of the tool does not outrun it by much).
     """
 
     detector: DetectorConfig = field(default_factory=DetectorConfig)
@@ -58,6 +66,18 @@ class StereoTrackConfig:
     grid: MarkerGrid = field(default_factory=MarkerGrid)
     fps: float = 50.0
     epipolar_px: float = 4.0
+    min_grid_markers: int = 3
+    position_gate_m: float = 0.01
+    max_speed_m_s: float = 2.0
+
+    def __post_init__(self) -> None:
+        for name in ('fps', 'epipolar_px', 'position_gate_m', 'max_speed_m_s'):
+            if not getattr(self, name) > 0:
+                msg = f'{name}: must be > 0, got {getattr(self, name)!r}'
+                raise ValueError(msg)
+        if self.min_grid_markers < 1:
+            msg = f'min_grid_markers: must be >= 1, got {self.min_grid_markers!r}'
+            raise ValueError(msg)
 
 
 class PixelFrame(NamedTuple):
@@ -87,6 +107,9 @@ class CameraCounts:
     numbered_by_epipolar: int = 0
     unnumbered: int = 0
     epipolar_conflicts: int = 0
+    position_conflicts: int = 0
+    withheld: int = 0
+    revoked: int = 0
     gaps_s: list[tuple[float, float]] = field(default_factory=list)
 
 
@@ -108,7 +131,11 @@ class StereoMarkerTracker:
         self.trackers = {n: MarkerTracker(self.config.tracker) for n in cameras}
         self.counts = {n: CameraCounts() for n in cameras}
         self.latest: dict[str, dict[int, tuple[float, FloatArray]]] = {n: {} for n in cameras}
+        self.positions = MarkerPositions(self.config.position_gate_m, self.config.max_speed_m_s)
         self._last: dict[str, float | None] = dict.fromkeys(cameras)
+        self._grid_done = dict.fromkeys(cameras, False)
+        self._by_epipolar: dict[str, set[int]] = {n: set() for n in cameras}  # track ids
+        self._refused: dict[str, set[tuple[int, int]]] = {n: set() for n in cameras}
 
     def other(self, camera: str) -> str:
         """The other camera's name."""
@@ -132,7 +159,12 @@ class StereoMarkerTracker:
         return self.update_detections(camera, stamp_s, self.detector.detect(image))
 
     def update_detections(self, camera: str, stamp_s: float, det: Detections) -> PixelFrame:
-        """One frame's detections of ``camera``: link, number, count."""
+        """One frame's detections of ``camera``: link, number, check against the other camera.
+
+        The returned frame's markers are -1 where a detection is not identified, or where its
+        number disagrees with the other camera (off the epipolar line, or a 3D point the
+        marker cannot have reached): such a point is withheld, never given out as the marker.
+        """
         counts, tracker = self.counts[camera], self.trackers[camera]
         last = self._last[camera]
         if last is not None and stamp_s <= last:
@@ -142,13 +174,7 @@ class StereoMarkerTracker:
             return PixelFrame(camera, stamp_s, np.zeros(0, np.int32), np.zeros((0, 2)),
                               np.zeros(0), (msg,))
         events: list[str] = []
-        if last is None:
-            numbers, _ = number_by_grid(self.cameras[camera], det.uv, self.config.grid)
-            ok = numbers >= 0
-            tracker.seed(det.uv[ok], numbers[ok], stamp_s - 1e-6)
-            events.append(f'{camera}: {int(ok.sum())} of {len(det.uv)} detections numbered '
-                          'by the grid')
-        elif stamp_s - last > 1.5 / self.config.fps:
+        if last is not None and stamp_s - last > 1.5 / self.config.fps:
             missed = round((stamp_s - last) * self.config.fps) - 1
             counts.dropped += max(missed, 1)
             counts.gaps_s.append((last, stamp_s))
@@ -159,62 +185,144 @@ class StereoMarkerTracker:
         before = (tracker.counts.lost, tracker.counts.reattached)
         tf = tracker.update(stamp_s, det)
         counts.detected += len(det.uv)
-        counts.tracked += int((tf.markers >= 0).sum())
         counts.lost += tracker.counts.lost - before[0]
         counts.reattached += tracker.counts.reattached - before[1]
-        markers = self._number_new(camera, tf.track_ids, tf.markers, tf.uv, stamp_s, events)
-        self._check_epipolar(camera, markers, tf.uv, stamp_s)
+        markers = tf.markers
+        if not self._grid_done[camera]:
+            markers = self._number_by_grid(camera, tf.track_ids, tf.uv, events)
+        markers = self._number_new(camera, tf.track_ids, markers, tf.uv, stamp_s, events)
+        markers = self._verify(camera, tf.track_ids, markers, tf.uv, stamp_s, events)
+        counts.tracked += int((markers >= 0).sum())
         for m, p in zip(markers, tf.uv, strict=True):
             if m >= 0:
                 self.latest[camera][int(m)] = (stamp_s, p)
         return PixelFrame(camera, stamp_s, markers, tf.uv, tf.confidence,
                           tuple(events) + tf.events)
 
+    def _number_by_grid(self, camera: str, track_ids: NDArray[np.int64], uv: FloatArray,
+                        events: list[str]) -> NDArray[np.int32]:
+        """Number this camera's tracks by the projected grid, once enough detections fit it."""
+        numbers, _ = number_by_grid(self.cameras[camera], uv, self.config.grid)
+        need = min(self.config.min_grid_markers, len(self.config.grid.points()[0]))
+        found = int((numbers >= 0).sum())
+        if found < need:
+            events.append(f'{camera}: {found} of {len(uv)} detections fit the marker grid; '
+                          f'numbering waits for {need}')
+            return np.full(len(uv), UNNUMBERED, np.int32)
+        for tid, m in zip(track_ids, numbers, strict=True):
+            if m >= 0:
+                self.trackers[camera].number(int(tid), int(m))
+        self._grid_done[camera] = True
+        events.append(f'{camera}: {found} of {len(uv)} detections numbered by the grid')
+        return numbers
+
     def _number_new(self, camera: str, track_ids: NDArray[np.int64], markers: NDArray[np.int32],
                     uv: FloatArray, stamp_s: float, events: list[str]) -> NDArray[np.int32]:
-        """Number unnumbered tracks from the other camera's recent markers (epipolar lines)."""
+        """Number unnumbered tracks from the other camera's recent markers (epipolar lines).
+
+        A candidate marker must not have been seen by this camera since the track started (a
+        track that ran beside marker m's own track is not m), must lie on the track's epipolar
+        line, and the pair's 3D point must be one the marker can have reached; the track is
+        numbered only when exactly one candidate passes.
+        """
         markers = markers.copy()
         other = self.other(camera)
         seen = {int(m) for m in markers if m >= 0}
+        starts = {t.track_id: t.history[0][0] for t in self.trackers[camera].tracks}
         for k in np.flatnonzero(markers == UNNUMBERED):
+            tid = int(track_ids[k])
             cands = {m: p for m, (t, p) in self.latest[other].items()
-                     if m not in seen and abs(t - stamp_s) <= RECENT_S}
-            number = number_by_epipolar(self.cameras[camera], self.cameras[other], uv[k], cands,
-                                        self.config.epipolar_px)
+                     if m not in seen and abs(t - stamp_s) <= RECENT_S
+                     and (tid, m) not in self._refused[camera]
+                     and self.latest[camera].get(m, (-np.inf, None))[0] < starts.get(tid, 0.0)}
+            number = self._pick(camera, tid, uv[k], cands, stamp_s, events)
             if number < 0:
                 self.counts[camera].unnumbered += 1
                 continue
             self._retire(camera, number)
-            self.trackers[camera].number(int(track_ids[k]), number)
+            self.trackers[camera].number(tid, number)
+            self._by_epipolar[camera].add(tid)
             markers[k] = number
             seen.add(number)
             self.counts[camera].numbered_by_epipolar += 1
-            events.append(f'{camera}: track {int(track_ids[k])} numbered marker {number} by '
-                          'the epipolar line')
+            events.append(f'{camera}: track {tid} numbered marker {number} by the epipolar line')
         return markers
+
+    def _pick(self, camera: str, track_id: int, uv: FloatArray,
+              candidates: dict[int, FloatArray], stamp_s: float, events: list[str]) -> int:
+        """The one candidate on the track's epipolar line at a depth the marker can be at.
+
+        A candidate on the line whose 3D point the marker cannot have reached is refused for
+        this track for good: a later, looser gate (the marker unseen for longer) must not
+        overrule the tightest evidence, which is the first.
+        """
+        other = self.other(camera)
+        close = on_epipolar_line(self.cameras[camera], self.cameras[other], uv, candidates,
+                                 self.config.epipolar_px)
+        if not close:
+            return UNNUMBERED
+        xyz, _ = triangulate_pairs(self.cameras[camera], self.cameras[other],
+                                   np.repeat(uv[None], len(close), 0),
+                                   np.array([candidates[m] for m in close]))
+        fits = []
+        for m, x in zip(close, xyz, strict=True):
+            dist, allowed = self.positions.distance(m, stamp_s, x)
+            if dist <= allowed:
+                fits.append(m)
+                continue
+            self._refused[camera].add((track_id, m))
+            events.append(f'{camera}: track {track_id} is not marker {m}: on its epipolar line '
+                          f'but {1e3 * dist:.0f} mm from its last position (at most '
+                          f'{1e3 * allowed:.0f} mm)')
+        return fits[0] if len(fits) == 1 else UNNUMBERED
 
     def _retire(self, camera: str, number: int) -> None:
         """Drop the lost track that held ``number`` (its marker came back as a new track)."""
         tracker = self.trackers[camera]
         tracker.tracks = [t for t in tracker.tracks if not (t.lost and t.marker == number)]
 
-    def _check_epipolar(self, camera: str, markers: NDArray[np.int32], uv: FloatArray,
-                        stamp_s: float) -> None:
-        other = self.other(camera)
+    def _verify(self, camera: str, track_ids: NDArray[np.int64], markers: NDArray[np.int32],
+                uv: FloatArray, stamp_s: float, events: list[str]) -> NDArray[np.int32]:
+        """Check every numbered point against the other camera's point of the same number.
+
+        A pair farther than ``3 * epipolar_px`` from the epipolar line, or whose 3D point the
+        marker cannot have reached since its last accepted position, is withheld (-1) in this
+        frame; a track numbered by the epipolar line loses that number for good. Pairs that
+        pass update the marker's 3D position.
+        """
+        other, markers = self.other(camera), markers.copy()
         seen = self.latest[other]
-        pairs = [(int(m), p, seen[int(m)][1]) for m, p in zip(markers, uv, strict=True)
-                 if m >= 0 and int(m) in seen
-                 and abs(seen[int(m)][0] - stamp_s) <= 1.0 / self.config.fps]
-        if not pairs:
-            return
-        d = np.diag(epipolar_distance(self.cameras[camera], self.cameras[other],
-                                      np.array([p[1] for p in pairs]),
-                                      np.array([p[2] for p in pairs])))
-        for (m, _, _), dist in zip(pairs, d, strict=True):
-            if dist > 3 * self.config.epipolar_px:
-                self.counts[camera].epipolar_conflicts += 1
-                LOG.warning('%s marker %d at %.3f s is %.1f px off the epipolar line', camera, m,
-                            stamp_s, dist)
+        idx = [k for k, m in enumerate(markers) if m >= 0 and int(m) in seen
+               and abs(seen[int(m)][0] - stamp_s) <= 1.0 / self.config.fps]
+        xyz, epi = triangulate_pairs(self.cameras[camera], self.cameras[other],
+                                     uv[idx], np.array([seen[int(markers[k])][1] for k in idx]))
+        for k, x, d in zip(idx, xyz, epi, strict=True):
+            m = int(markers[k])
+            dist, allowed = self.positions.distance(m, stamp_s, x)
+            if d <= 3 * self.config.epipolar_px and dist <= allowed:
+                self.positions.accept(m, stamp_s, x)
+                continue
+            counts = self.counts[camera]
+            counts.withheld += 1
+            if d > 3 * self.config.epipolar_px:
+                counts.epipolar_conflicts += 1
+                why = f'{d:.1f} px off the epipolar line'
+            else:
+                counts.position_conflicts += 1
+                why = f'3D point {1e3 * dist:.0f} mm from its last position (at most ' \
+                      f'{1e3 * allowed:.0f} mm)'
+            markers[k] = UNNUMBERED
+            tid = int(track_ids[k])
+            if tid in self._by_epipolar[camera]:
+                self._by_epipolar[camera].discard(tid)
+                self._refused[camera].add((tid, m))
+                self.trackers[camera].number(tid, UNNUMBERED)
+                counts.revoked += 1
+                why += '; its number taken back'
+            msg = f'{camera}: marker {m} withheld at {stamp_s:.3f} s: {why}'
+            events.append(msg)
+            LOG.warning(msg)
+        return markers
 
     def report(self) -> dict[str, Any]:
         """Counts per camera, and the stamp gaps where frames were missing."""
