@@ -1,14 +1,17 @@
-"""Markers from two cameras' images: detect, track, number, and triangulate (stream and batch).
+"""Markers from two cameras' images: detect, track, number, check, triangulate (stream, batch).
 
 :class:`StereoMarkerTracker` takes the frames of both cameras one at a time in arrival order
 (``update(camera, stamp, jpeg)``): it decodes and detects (``detect``), links to the camera's
-tracks (``track``), numbers the first frame by the marker grid and later new tracks by the
-other camera's epipolar lines (``associate``), and counts every fault: undecodable images,
-dropped frames (a stamp gap of more than 1.5 frame periods), frames out of stamp order, frames
-without any marker, lost and re-attached markers, and pairs that disagree with the epipolar
-geometry. :func:`track_bag` is the batch form over a bag, and :func:`triangulate_tracks` turns
-the numbered pixel tracks into 3D trajectories, interpolating the front camera's track to each
-side frame's stamp because unsynchronised cameras expose at different instants.
+tracks (``track``), numbers a camera's tracks by the marker grid once a frame fits it, and
+later new tracks by the other camera's epipolar lines or, for a marker that camera never saw,
+by its grid point (``associate``). Every numbered point is checked against the other camera's
+point of the same number (epipolar line, and a 3D point the marker can have reached since its
+last accepted position); a pair that fails is withheld, never given out as the marker. Every
+fault is counted: undecodable images, dropped frames (a stamp gap of more than 1.5 frame
+periods), frames out of stamp order, frames without any marker, lost and re-attached markers,
+withheld pairs. :func:`track_bag` is the batch form over a bag, and
+:func:`~dempath_recon.trajectories.triangulate_tracks` (re-exported here) turns the numbered
+pixel tracks into 3D trajectories.
 """
 
 from __future__ import annotations
@@ -35,8 +38,11 @@ from dempath_recon.detect import (
     MarkerDetector,
 )
 from dempath_recon.track import UNNUMBERED, MarkerTracker, TrackerConfig
-from dempath_recon.triangulate import Camera, triangulate_points
+from dempath_recon.trajectories import marker_histories, triangulate_tracks
+from dempath_recon.triangulate import Camera
 
+__all__ = ['CameraCounts', 'PixelFrame', 'StereoMarkerTracker', 'StereoTrackConfig',
+           'marker_histories', 'track_bag', 'triangulate_tracks']
 LOG = logging.getLogger(__name__)
 FloatArray = NDArray[np.float64]
 RECENT_S = 0.05  # the other camera's position of a marker counts for numbering this long [s]
@@ -55,6 +61,9 @@ class StereoTrackConfig:
             numbered pair farther than 3 times this from it is withheld.
         min_grid_markers: detections that must fit the projected grid before a camera's
             markers are numbered by it (frames with fewer wait for a later frame).
+        grid_gate_px: largest distance of a detection from its fitted grid point [px]; a
+            marker this camera has never seen that appears alone within it later (covered at
+            the start) takes that grid point's number.
         position_gate_m: 3D allowance of a numbered pair around the marker's last accepted
             position, for noise, the cameras' exposure offset and the marker's size [m].
         max_speed_m_s: fastest a marker can move [m/s] (the tool's speed, 1 m/s in the
@@ -67,11 +76,13 @@ class StereoTrackConfig:
     fps: float = 50.0
     epipolar_px: float = 4.0
     min_grid_markers: int = 3
+    grid_gate_px: float = 12.0
     position_gate_m: float = 0.01
     max_speed_m_s: float = 2.0
 
     def __post_init__(self) -> None:
-        for name in ('fps', 'epipolar_px', 'position_gate_m', 'max_speed_m_s'):
+        for name in ('fps', 'epipolar_px', 'grid_gate_px', 'position_gate_m',
+                     'max_speed_m_s'):
             if not getattr(self, name) > 0:
                 msg = f'{name}: must be > 0, got {getattr(self, name)!r}'
                 raise ValueError(msg)
@@ -105,6 +116,7 @@ class CameraCounts:
     lost: int = 0
     reattached: int = 0
     numbered_by_epipolar: int = 0
+    numbered_by_grid_late: int = 0
     unnumbered: int = 0
     epipolar_conflicts: int = 0
     position_conflicts: int = 0
@@ -133,8 +145,8 @@ class StereoMarkerTracker:
         self.latest: dict[str, dict[int, tuple[float, FloatArray]]] = {n: {} for n in cameras}
         self.positions = MarkerPositions(self.config.position_gate_m, self.config.max_speed_m_s)
         self._last: dict[str, float | None] = dict.fromkeys(cameras)
-        self._grid_done = dict.fromkeys(cameras, False)
-        self._by_epipolar: dict[str, set[int]] = {n: set() for n in cameras}  # track ids
+        self._grid_uv: dict[str, dict[int, FloatArray]] = {}  # the fitted grid, per camera
+        self._late_numbered: dict[str, set[int]] = {n: set() for n in cameras}  # track ids
         self._refused: dict[str, set[tuple[int, int]]] = {n: set() for n in cameras}
 
     def other(self, camera: str) -> str:
@@ -188,7 +200,7 @@ class StereoMarkerTracker:
         counts.lost += tracker.counts.lost - before[0]
         counts.reattached += tracker.counts.reattached - before[1]
         markers = tf.markers
-        if not self._grid_done[camera]:
+        if camera not in self._grid_uv:
             markers = self._number_by_grid(camera, tf.track_ids, tf.uv, events)
         markers = self._number_new(camera, tf.track_ids, markers, tf.uv, stamp_s, events)
         markers = self._verify(camera, tf.track_ids, markers, tf.uv, stamp_s, events)
@@ -202,7 +214,8 @@ class StereoMarkerTracker:
     def _number_by_grid(self, camera: str, track_ids: NDArray[np.int64], uv: FloatArray,
                         events: list[str]) -> NDArray[np.int32]:
         """Number this camera's tracks by the projected grid, once enough detections fit it."""
-        numbers, _ = number_by_grid(self.cameras[camera], uv, self.config.grid)
+        numbers, grid_uv = number_by_grid(self.cameras[camera], uv, self.config.grid,
+                                          self.config.grid_gate_px)
         need = min(self.config.min_grid_markers, len(self.config.grid.points()[0]))
         found = int((numbers >= 0).sum())
         if found < need:
@@ -212,18 +225,21 @@ class StereoMarkerTracker:
         for tid, m in zip(track_ids, numbers, strict=True):
             if m >= 0:
                 self.trackers[camera].number(int(tid), int(m))
-        self._grid_done[camera] = True
+        self._grid_uv[camera] = dict(zip(self.config.grid.points()[0].tolist(), grid_uv,
+                                         strict=True))
         events.append(f'{camera}: {found} of {len(uv)} detections numbered by the grid')
         return numbers
 
     def _number_new(self, camera: str, track_ids: NDArray[np.int64], markers: NDArray[np.int32],
                     uv: FloatArray, stamp_s: float, events: list[str]) -> NDArray[np.int32]:
-        """Number unnumbered tracks from the other camera's recent markers (epipolar lines).
+        """Number unnumbered tracks from the other camera's recent markers, else by the grid.
 
         A candidate marker must not have been seen by this camera since the track started (a
         track that ran beside marker m's own track is not m), must lie on the track's epipolar
         line, and the pair's 3D point must be one the marker can have reached; the track is
-        numbered only when exactly one candidate passes.
+        numbered only when exactly one candidate passes. Failing that, a marker this camera
+        has never seen that appears alone at its fitted grid point takes that number. Numbers
+        given here are taken back if a later pair contradicts them (``_verify``).
         """
         markers = markers.copy()
         other = self.other(camera)
@@ -237,16 +253,34 @@ class StereoMarkerTracker:
                      and self.latest[camera].get(m, (-np.inf, None))[0] < starts.get(tid, 0.0)}
             number = self._pick(camera, tid, uv[k], cands, stamp_s, events)
             if number < 0:
+                number = self._late_grid(camera, uv, k, seen)
+                if number >= 0:
+                    self.counts[camera].numbered_by_grid_late += 1
+                    events.append(f'{camera}: track {tid} numbered marker {number}: it appeared '
+                                  'at its grid point, not seen by this camera before')
+            if number < 0:
                 self.counts[camera].unnumbered += 1
                 continue
             self._retire(camera, number)
             self.trackers[camera].number(tid, number)
-            self._by_epipolar[camera].add(tid)
+            self._late_numbered[camera].add(tid)
             markers[k] = number
             seen.add(number)
-            self.counts[camera].numbered_by_epipolar += 1
-            events.append(f'{camera}: track {tid} numbered marker {number} by the epipolar line')
         return markers
+
+    def _late_grid(self, camera: str, uv: FloatArray, k: int, seen: set[int]) -> int:
+        """A marker this camera never saw, appearing alone at its fitted grid point (it was
+        covered at the start): its number, else -1."""
+        grid = self._grid_uv.get(camera, {})
+        gate = self.config.grid_gate_px
+        free = [m for m in grid if m not in seen and m not in self.latest[camera]]
+        near = [m for m in free if np.linalg.norm(uv[k] - grid[m]) < gate]
+        if len(near) != 1:
+            return UNNUMBERED
+        others = np.delete(uv, k, axis=0)
+        if len(others) and (np.linalg.norm(others - grid[near[0]], axis=1) < gate).any():
+            return UNNUMBERED  # two spots at one grid point: say nothing
+        return near[0]
 
     def _pick(self, camera: str, track_id: int, uv: FloatArray,
               candidates: dict[int, FloatArray], stamp_s: float, events: list[str]) -> int:
@@ -274,7 +308,12 @@ class StereoMarkerTracker:
             events.append(f'{camera}: track {track_id} is not marker {m}: on its epipolar line '
                           f'but {1e3 * dist:.0f} mm from its last position (at most '
                           f'{1e3 * allowed:.0f} mm)')
-        return fits[0] if len(fits) == 1 else UNNUMBERED
+        if len(fits) != 1:
+            return UNNUMBERED
+        self.counts[camera].numbered_by_epipolar += 1
+        events.append(f'{camera}: track {track_id} numbered marker {fits[0]} by the epipolar '
+                      'line')
+        return fits[0]
 
     def _retire(self, camera: str, number: int) -> None:
         """Drop the lost track that held ``number`` (its marker came back as a new track)."""
@@ -287,8 +326,8 @@ class StereoMarkerTracker:
 
         A pair farther than ``3 * epipolar_px`` from the epipolar line, or whose 3D point the
         marker cannot have reached since its last accepted position, is withheld (-1) in this
-        frame; a track numbered by the epipolar line loses that number for good. Pairs that
-        pass update the marker's 3D position.
+        frame; a track numbered after the start (epipolar line, late grid) loses that number for
+        good. Pairs that pass update the marker's 3D position.
         """
         other, markers = self.other(camera), markers.copy()
         seen = self.latest[other]
@@ -313,8 +352,8 @@ class StereoMarkerTracker:
                       f'{1e3 * allowed:.0f} mm)'
             markers[k] = UNNUMBERED
             tid = int(track_ids[k])
-            if tid in self._by_epipolar[camera]:
-                self._by_epipolar[camera].discard(tid)
+            if tid in self._late_numbered[camera]:
+                self._late_numbered[camera].discard(tid)
                 self._refused[camera].add((tid, m))
                 self.trackers[camera].number(tid, UNNUMBERED)
                 counts.revoked += 1
@@ -352,59 +391,3 @@ def track_bag(bag: Path, cameras: dict[str, Camera], config: StereoTrackConfig |
                 continue
             frames.append(tracker.update(topic_cam[raw.topic], stamp * 1e-9, bytes(msg.data)))
     return frames, tracker.report()
-
-
-def marker_histories(frames: list[PixelFrame], camera: str,
-                     ) -> dict[int, tuple[FloatArray, FloatArray]]:
-    """``{marker: (times (k,) s, uv (k, 2) px)}`` of one camera's numbered points."""
-    out: dict[int, list[tuple[float, float, float]]] = {}
-    for f in frames:
-        if f.camera != camera:
-            continue
-        for m, p in zip(f.markers, f.uv, strict=True):
-            if m >= 0:
-                out.setdefault(int(m), []).append((f.stamp_s, float(p[0]), float(p[1])))
-    return {m: (np.array([r[0] for r in rows]), np.array([r[1:] for r in rows]))
-            for m, rows in out.items()}
-
-
-def _interpolate(hist: tuple[FloatArray, FloatArray], t: FloatArray, max_gap_s: float,
-                 ) -> FloatArray:
-    """(len(t), 2) px of a track at times t, NaN where no samples within ``max_gap_s`` bracket."""
-    times, uv = hist
-    out = np.full((len(t), 2), np.nan)
-    if len(times) < 2:
-        return out
-    k = np.searchsorted(times, t)
-    ok = (k > 0) & (k < len(times))
-    kk = np.clip(k, 1, len(times) - 1)
-    ok &= (times[kk] - times[kk - 1]) <= max_gap_s
-    for i in range(2):
-        out[ok, i] = np.interp(t[ok], times, uv[:, i])
-    return out
-
-
-def triangulate_tracks(frames: list[PixelFrame], cameras: dict[str, Camera], side: str,
-                       fps: float = 50.0) -> tuple[FloatArray, NDArray[np.int32], FloatArray]:
-    """3D trajectories at the ``side`` camera's stamps.
-
-    Returns:
-        ``(times (nt,) s, markers (m,), xyz (nt, m, 3) m)``, NaN where a marker is missing in
-        either camera (the other camera's track is interpolated to the side stamps over gaps
-        of at most 1.5 frame periods).
-    """
-    front = next(n for n in cameras if n != side)
-    hs, hf = marker_histories(frames, side), marker_histories(frames, front)
-    times = np.array(sorted({f.stamp_s for f in frames if f.camera == side}))
-    markers = np.array(sorted(set(hs) & set(hf)), np.int32)
-    xyz = np.full((len(times), len(markers), 3), np.nan)
-    for j, m in enumerate(markers):
-        us = np.full((len(times), 2), np.nan)
-        idx = np.searchsorted(times, hs[int(m)][0])
-        us[idx] = hs[int(m)][1]
-        uf = _interpolate(hf[int(m)], times, 1.5 / fps)
-        ok = np.isfinite(us).all(1) & np.isfinite(uf).all(1)
-        if ok.any():
-            views = np.stack([us[ok], uf[ok]])
-            xyz[ok, j] = triangulate_points([cameras[side], cameras[front]], views).xyz
-    return times, markers, xyz

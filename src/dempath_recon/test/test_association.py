@@ -156,3 +156,19 @@ def test_marker_positions_gate_grows_with_time() -> None:
     assert pos.allows(7, 1.1, np.array([0.0, 0.0, 0.2]))
     with pytest.raises(ValueError, match='max_speed_m_s'):
         StereoTrackConfig(max_speed_m_s=0.0)
+
+
+def test_marker_covered_at_the_start_takes_its_grid_number(rig) -> None:
+    """Marker 3 hidden from both cameras at the start, then seen by the front alone at its grid
+    point: numbered 3 (the other camera cannot number it); a spot far from it stays -1."""
+    p1, p2, p3 = (np.array(g) for g in GRID)
+    far = p3 + np.array([0.06, 0.0, 0.0])
+    scene = [([p1, p2], [p1, p2])] * 2 + [([p1, p2], [p1, p2, p3])] * 2
+    scene += [([p1, p2], [p1, p2]), ([p1, p2], [p1, p2, far])]
+    out, tracker = run(rig, scene, StereoTrackConfig(grid=MarkerGrid(layout_m=GRID),
+                                                     min_grid_markers=2))
+    fronts = [f for f in out if f.camera == 'cam_front']
+    front = rig.cameras[1]
+    assert [numbers_at(f, front, p3) for f in fronts[2:4]] == [3, 3]
+    assert numbers_at(fronts[5], front, far) == -1
+    assert tracker.report()['cam_front']['numbered_by_grid_late'] == 1
