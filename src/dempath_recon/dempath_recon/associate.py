@@ -151,9 +151,11 @@ def triangulate_pairs(cam_a: Camera, cam_b: Camera, uv_a: FloatArray, uv_b: Floa
         return np.zeros((0, 3)), np.zeros(0)
     xyz = triangulate_points([cam_a, cam_b], np.stack([uv_a, uv_b]), refine=False,
                              with_errors=False).xyz
-    epi = np.array([epipolar_distance(cam_a, cam_b, a[None], b[None])[0, 0]
-                    for a, b in zip(uv_a, uv_b, strict=True)])
-    return np.asarray(xyz, np.float64), epi
+    xa, xb = undistort_normalized(cam_a, uv_a), undistort_normalized(cam_b, uv_b)
+    lines = np.column_stack([xa, np.ones(len(xa))]) @ essential(cam_a, cam_b).T  # (k, 3)
+    num = np.abs((lines * np.column_stack([xb, np.ones(len(xb))])).sum(axis=1))
+    epi = num / np.maximum(np.hypot(lines[:, 0], lines[:, 1]), 1e-12) * cam_b.K[0, 0]
+    return np.asarray(xyz, np.float64), np.asarray(epi, np.float64)
 
 
 class MarkerPositions:
