@@ -63,7 +63,16 @@ class MarkerGrid:
 
 def number_by_grid(camera: Camera, uv: FloatArray, grid: MarkerGrid, gate_px: float = 12.0,
                    ) -> tuple[NDArray[np.int32], FloatArray]:
-    """Marker number of each detection (n, 2) px in the first frame (-1 = no grid point).
+    """Marker number of each detection (n, 2) px by the projected grid (-1 = none, or unsure).
+
+    The projected grid is shifted by the image translation on which the grid points fit the
+    detections best (each grid point scores ``1 - (d / gate_px)^2`` for its nearest detection
+    within the gate, so the exact fit beats a fit shifted by one pitch where a camera sees the
+    rows only a few pixels apart), then refined by the mean residual and matched one to one. A
+    match is kept only when it is unambiguous: the detection's next-nearest grid point and the
+    grid point's next-nearest detection are both at least ``gate_px / 2`` farther than the
+    match. An unsure detection stays unnumbered (the other camera can number it later): a
+    wrong number is worse than none.
 
     Returns:
         ``(numbers (n,), grid_uv (m, 2))``: the numbers and the shifted projected grid [px].
@@ -74,10 +83,10 @@ def number_by_grid(camera: Camera, uv: FloatArray, grid: MarkerGrid, gate_px: fl
     if len(uv) == 0:
         return out, proj
     offsets = (uv[:, None, :] - proj[None, :, :]).reshape(-1, 2)
-    best, shift = -1, np.zeros(2, np.float64)
+    best, shift = -1.0, np.zeros(2, np.float64)
     for off in offsets:
-        d = np.linalg.norm(proj[:, None, :] + off - uv[None, :, :], axis=2)
-        score = int((d.min(axis=1) < gate_px).sum())
+        d = np.linalg.norm(proj[:, None, :] + off - uv[None, :, :], axis=2).min(axis=1)
+        score = float(np.clip(1.0 - (d / gate_px) ** 2, 0.0, None).sum())
         if score > best:
             best, shift = score, np.asarray(off, np.float64).reshape(2)
     near = np.linalg.norm(proj[:, None, :] + shift - uv[None, :, :], axis=2)
@@ -87,8 +96,13 @@ def number_by_grid(camera: Camera, uv: FloatArray, grid: MarkerGrid, gate_px: fl
                                                                            < gate_px], axis=0)
     cost = np.linalg.norm(proj[:, None, :] + shift - uv[None, :, :], axis=2)
     rows, cols = linear_sum_assignment(np.where(cost < gate_px, cost, 1e9))
+    margin = gate_px / 2
     for r, c in zip(rows, cols, strict=True):
-        if cost[r, c] < gate_px:
+        if cost[r, c] >= gate_px:
+            continue
+        others_g = np.delete(cost[:, c], r)  # other grid points from this detection
+        others_d = np.delete(cost[r, :], c)  # other detections from this grid point
+        if (others_g >= cost[r, c] + margin).all() and (others_d >= cost[r, c] + margin).all():
             out[c] = numbers[r]
     return out, proj + shift
 

@@ -17,6 +17,7 @@ pixel tracks into 3D trajectories.
 from __future__ import annotations
 
 import logging
+from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -237,22 +238,29 @@ class StereoMarkerTracker:
         A candidate marker must not have been seen by this camera since the track started (a
         track that ran beside marker m's own track is not m), must lie on the track's epipolar
         line, and the pair's 3D point must be one the marker can have reached; the track is
-        numbered only when exactly one candidate passes. Failing that, a marker this camera
-        has never seen that appears alone at its fitted grid point takes that number. Numbers
-        given here are taken back if a later pair contradicts them (``_verify``).
+        numbered only when exactly one candidate passes, and a candidate whose epipolar line
+        passes more than one unnumbered detection of this frame is no candidate. Failing that,
+        a marker this camera has never seen that appears alone at its fitted grid point takes
+        that number. Numbers given here are taken back if a later pair contradicts them
+        (``_verify``).
         """
         markers = markers.copy()
         other = self.other(camera)
         seen = {int(m) for m in markers if m >= 0}
         starts = {t.track_id: t.history[0][0] for t in self.trackers[camera].tracks}
-        for k in np.flatnonzero(markers == UNNUMBERED):
+        todo = np.flatnonzero(markers == UNNUMBERED)
+        recent = {m: p for m, (t, p) in self.latest[other].items()
+                  if m not in seen and abs(t - stamp_s) <= RECENT_S}
+        lines = Counter(m for k in todo for m in on_epipolar_line(
+            self.cameras[camera], self.cameras[other], uv[k], recent, self.config.epipolar_px))
+        for k in todo:
             tid = int(track_ids[k])
-            cands = {m: p for m, (t, p) in self.latest[other].items()
-                     if m not in seen and abs(t - stamp_s) <= RECENT_S
+            cands = {m: p for m, p in recent.items()
+                     if m not in seen and lines[m] == 1
                      and (tid, m) not in self._refused[camera]
                      and self.latest[camera].get(m, (-np.inf, None))[0] < starts.get(tid, 0.0)}
             number = self._pick(camera, tid, uv[k], cands, stamp_s, events)
-            if number < 0:
+            if number < 0 and starts.get(tid) == stamp_s:  # only a track's first frame
                 number = self._late_grid(camera, uv, k, seen)
                 if number >= 0:
                     self.counts[camera].numbered_by_grid_late += 1
@@ -269,14 +277,17 @@ class StereoMarkerTracker:
         return markers
 
     def _late_grid(self, camera: str, uv: FloatArray, k: int, seen: set[int]) -> int:
-        """A marker this camera never saw, appearing alone at its fitted grid point (it was
-        covered at the start): its number, else -1."""
+        """A marker this camera never saw, appearing as a new track alone and unambiguously at
+        its fitted grid point (it was covered at the start): its number, else -1."""
         grid = self._grid_uv.get(camera, {})
         gate = self.config.grid_gate_px
         free = [m for m in grid if m not in seen and m not in self.latest[camera]]
         near = [m for m in free if np.linalg.norm(uv[k] - grid[m]) < gate]
         if len(near) != 1:
             return UNNUMBERED
+        d = np.linalg.norm(uv[k] - grid[near[0]])
+        if any(np.linalg.norm(uv[k] - grid[m]) < d + gate / 2 for m in grid if m != near[0]):
+            return UNNUMBERED  # another grid point almost as near: unsure
         others = np.delete(uv, k, axis=0)
         if len(others) and (np.linalg.norm(others - grid[near[0]], axis=1) < gate).any():
             return UNNUMBERED  # two spots at one grid point: say nothing
