@@ -47,6 +47,8 @@ __all__ = ['CameraCounts', 'PixelFrame', 'StereoMarkerTracker', 'StereoTrackConf
 LOG = logging.getLogger(__name__)
 FloatArray = NDArray[np.float64]
 RECENT_S = 0.05  # the other camera's position of a marker counts for numbering this long [s]
+MAX_DEPTH_AGE_S = 0.06  # a 3D point older than this (three frames) no longer bounds the depth
+# along an epipolar line usefully (the gate has grown to 0.13 m, several marker pitches)
 
 
 @dataclass(frozen=True)
@@ -67,6 +69,9 @@ class StereoTrackConfig:
             the start) takes that grid point's number.
         position_gate_m: 3D allowance of a numbered pair around the marker's last accepted
             position, for noise, the cameras' exposure offset and the marker's size [m].
+        doubt_link_px: a track that fails a check against the other camera loses its number
+            when one of its links since its last passed check missed the prediction by more
+            than this [px] (markers moving smoothly miss by a pixel or two).
         max_speed_m_s: fastest a marker can move [m/s] (the tool's speed, 1 m/s in the
             paper, with a margin: sand ahead of the tool does not outrun it by much).
     """
@@ -79,6 +84,7 @@ class StereoTrackConfig:
     min_grid_markers: int = 3
     grid_gate_px: float = 12.0
     position_gate_m: float = 0.01
+    doubt_link_px: float = 5.0
     max_speed_m_s: float = 2.0
 
     def __post_init__(self) -> None:
@@ -297,9 +303,11 @@ class StereoMarkerTracker:
               candidates: dict[int, FloatArray], stamp_s: float, events: list[str]) -> int:
         """The one candidate on the track's epipolar line at a depth the marker can be at.
 
-        A candidate on the line whose 3D point the marker cannot have reached is refused for
-        this track for good: a later, looser gate (the marker unseen for longer) must not
-        overrule the tightest evidence, which is the first.
+        Only markers with an accepted 3D position at most ``MAX_DEPTH_AGE_S`` old are
+        candidates (a line alone is ambiguous along its depth). A candidate on the line whose
+        3D point the marker cannot have reached is refused for this track for good: a later,
+        looser gate (the marker unseen for longer) must not overrule the tightest evidence,
+        which is the first.
         """
         other = self.other(camera)
         close = on_epipolar_line(self.cameras[camera], self.cameras[other], uv, candidates,
@@ -311,6 +319,8 @@ class StereoMarkerTracker:
                                    np.array([candidates[m] for m in close]))
         fits = []
         for m, x in zip(close, xyz, strict=True):
+            if stamp_s - self.positions.known.get(m, (-np.inf, None))[0] > MAX_DEPTH_AGE_S:
+                continue  # no recent 3D point: nothing to check the depth along the line
             dist, allowed = self.positions.distance(m, stamp_s, x)
             if dist <= allowed:
                 fits.append(m)
@@ -337,11 +347,15 @@ class StereoMarkerTracker:
 
         A pair farther than ``3 * epipolar_px`` from the epipolar line, or whose 3D point the
         marker cannot have reached since its last accepted position, is withheld (-1) in this
-        frame; a track numbered after the start (epipolar line, late grid) loses that number for
-        good. Pairs that pass update the marker's 3D position.
+        frame. The track loses that number for good if it was numbered after the start
+        (epipolar line, late grid) or if one of its links since its last passed check landed
+        more than ``doubt_link_px`` from the prediction (the 2D linker likely took a neighbour
+        for the covered marker); otherwise the other camera is the likelier culprit and the
+        point is only withheld. Pairs that pass update the marker's 3D position.
         """
         other, markers = self.other(camera), markers.copy()
         seen = self.latest[other]
+        tracks = {t.track_id: t for t in self.trackers[camera].tracks}
         idx = [k for k, m in enumerate(markers) if m >= 0 and int(m) in seen
                and abs(seen[int(m)][0] - stamp_s) <= 1.0 / self.config.fps]
         xyz, epi = triangulate_pairs(self.cameras[camera], self.cameras[other],
@@ -351,6 +365,8 @@ class StereoMarkerTracker:
             dist, allowed = self.positions.distance(m, stamp_s, x)
             if d <= 3 * self.config.epipolar_px and dist <= allowed:
                 self.positions.accept(m, stamp_s, x)
+                if int(track_ids[k]) in tracks:
+                    tracks[int(track_ids[k])].link_px = 0.0
                 continue
             counts = self.counts[camera]
             counts.withheld += 1
@@ -363,7 +379,8 @@ class StereoMarkerTracker:
                       f'{1e3 * allowed:.0f} mm)'
             markers[k] = UNNUMBERED
             tid = int(track_ids[k])
-            if tid in self._late_numbered[camera]:
+            jump = tracks[tid].link_px if tid in tracks else 0.0
+            if tid in self._late_numbered[camera] or jump > self.config.doubt_link_px:
                 self._late_numbered[camera].discard(tid)
                 self._refused[camera].add((tid, m))
                 self.trackers[camera].number(tid, UNNUMBERED)
