@@ -120,6 +120,8 @@ def mlp_figures(m: Any, row: Any, te: tuple[np.ndarray, np.ndarray],
     out = {'recipe': args.mlp_recipe, 'mean_mm': row.mean_mm, 'sd_mm': row.sd_mm,
            'max_mm': row.max_mm, 'r2': row.r2, 'train_s': m.fit_time_s_,
            'train_cpu_s': m.fit_cpu_s_, 'epochs': m.n_iter_, 'epoch_s': m.epoch_time_s_,
+           'epoch_cpu_s': m.epoch_cpu_s_, 'load_avg_at_epoch_ends': m.epoch_load_,
+           'load_avg_mean': float(np.mean(m.epoch_load_)),
            'points_per_s': row.points_per_s, 'torch_threads': torch.get_num_threads()}
     if args.seed == 0 and args.noise_px == 0.2:  # the shipped file's data and split
         from dempath_recon.report import error_metrics

@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import linear_sum_assignment
 
-from dempath_recon.triangulate import Camera, undistort_normalized
+from dempath_recon.triangulate import Camera, triangulate_points, undistort_normalized
 
 LOG = logging.getLogger(__name__)
 FloatArray = NDArray[np.float64]
@@ -63,7 +63,16 @@ class MarkerGrid:
 
 def number_by_grid(camera: Camera, uv: FloatArray, grid: MarkerGrid, gate_px: float = 12.0,
                    ) -> tuple[NDArray[np.int32], FloatArray]:
-    """Marker number of each detection (n, 2) px in the first frame (-1 = no grid point).
+    """Marker number of each detection (n, 2) px by the projected grid (-1 = none, or unsure).
+
+    The projected grid is shifted by the image translation on which the grid points fit the
+    detections best (each grid point scores ``1 - (d / gate_px)^2`` for its nearest detection
+    within the gate, so the exact fit beats a fit shifted by one pitch where a camera sees the
+    rows only a few pixels apart), then refined by the mean residual and matched one to one. A
+    match is kept only when it is unambiguous: the detection's next-nearest grid point and the
+    grid point's next-nearest detection are both at least ``gate_px / 2`` farther than the
+    match. An unsure detection stays unnumbered (the other camera can number it later): a
+    wrong number is worse than none.
 
     Returns:
         ``(numbers (n,), grid_uv (m, 2))``: the numbers and the shifted projected grid [px].
@@ -74,10 +83,10 @@ def number_by_grid(camera: Camera, uv: FloatArray, grid: MarkerGrid, gate_px: fl
     if len(uv) == 0:
         return out, proj
     offsets = (uv[:, None, :] - proj[None, :, :]).reshape(-1, 2)
-    best, shift = -1, np.zeros(2, np.float64)
+    best, shift = -1.0, np.zeros(2, np.float64)
     for off in offsets:
-        d = np.linalg.norm(proj[:, None, :] + off - uv[None, :, :], axis=2)
-        score = int((d.min(axis=1) < gate_px).sum())
+        d = np.linalg.norm(proj[:, None, :] + off - uv[None, :, :], axis=2).min(axis=1)
+        score = float(np.clip(1.0 - (d / gate_px) ** 2, 0.0, None).sum())
         if score > best:
             best, shift = score, np.asarray(off, np.float64).reshape(2)
     near = np.linalg.norm(proj[:, None, :] + shift - uv[None, :, :], axis=2)
@@ -87,8 +96,13 @@ def number_by_grid(camera: Camera, uv: FloatArray, grid: MarkerGrid, gate_px: fl
                                                                            < gate_px], axis=0)
     cost = np.linalg.norm(proj[:, None, :] + shift - uv[None, :, :], axis=2)
     rows, cols = linear_sum_assignment(np.where(cost < gate_px, cost, 1e9))
+    margin = gate_px / 2
     for r, c in zip(rows, cols, strict=True):
-        if cost[r, c] < gate_px:
+        if cost[r, c] >= gate_px:
+            continue
+        others_g = np.delete(cost[:, c], r)  # other grid points from this detection
+        others_d = np.delete(cost[r, :], c)  # other detections from this grid point
+        if (others_g >= cost[r, c] + margin).all() and (others_d >= cost[r, c] + margin).all():
             out[c] = numbers[r]
     return out, proj + shift
 
@@ -113,15 +127,85 @@ def epipolar_distance(cam_a: Camera, cam_b: Camera, uv_a: FloatArray,
     return np.asarray(num / np.maximum(den, 1e-12) * cam_b.K[0, 0], np.float64)
 
 
+def on_epipolar_line(cam_a: Camera, cam_b: Camera, uv_a: FloatArray,
+                     candidates: dict[int, FloatArray], epipolar_px: float = 4.0) -> list[int]:
+    """The markers of ``candidates`` (number -> (2,) px in b) on ``uv_a``'s epipolar line."""
+    if not candidates:
+        return []
+    nums = list(candidates)
+    d = epipolar_distance(cam_a, cam_b, uv_a[None], np.array([candidates[n] for n in nums]))[0]
+    return [int(nums[i]) for i in np.flatnonzero(d < epipolar_px)]
+
+
 def number_by_epipolar(cam_a: Camera, cam_b: Camera, uv_a: FloatArray,
                        candidates: dict[int, FloatArray], epipolar_px: float = 4.0) -> int:
     """The one marker of ``candidates`` (number -> (2,) px in b) on ``uv_a``'s epipolar line.
 
     Returns -1 when none or more than one candidate lies within ``epipolar_px``.
     """
-    if not candidates:
-        return -1
-    nums = list(candidates)
-    d = epipolar_distance(cam_a, cam_b, uv_a[None], np.array([candidates[n] for n in nums]))[0]
-    close = np.flatnonzero(d < epipolar_px)
-    return int(nums[close[0]]) if len(close) == 1 else -1
+    close = on_epipolar_line(cam_a, cam_b, uv_a, candidates, epipolar_px)
+    return close[0] if len(close) == 1 else -1
+
+
+def triangulate_pairs(cam_a: Camera, cam_b: Camera, uv_a: FloatArray, uv_b: FloatArray,
+                      ) -> tuple[FloatArray, FloatArray]:
+    """3D points and epipolar distances of paired pixels.
+
+    Args:
+        cam_a, cam_b: the two cameras.
+        uv_a, uv_b: (k, 2) px, row i of both the same marker (by its numbers).
+
+    Returns:
+        ``(xyz (k, 3) m, epipolar (k,) px)``: the linear triangulation (world frame) and the
+        distance of each point in b from the epipolar line of its partner in a [px of b].
+    """
+    uv_a = np.asarray(uv_a, np.float64).reshape(-1, 2)
+    uv_b = np.asarray(uv_b, np.float64).reshape(-1, 2)
+    if len(uv_a) == 0:
+        return np.zeros((0, 3)), np.zeros(0)
+    xyz = triangulate_points([cam_a, cam_b], np.stack([uv_a, uv_b]), refine=False,
+                             with_errors=False).xyz
+    xa, xb = undistort_normalized(cam_a, uv_a), undistort_normalized(cam_b, uv_b)
+    lines = np.column_stack([xa, np.ones(len(xa))]) @ essential(cam_a, cam_b).T  # (k, 3)
+    num = np.abs((lines * np.column_stack([xb, np.ones(len(xb))])).sum(axis=1))
+    epi = num / np.maximum(np.hypot(lines[:, 0], lines[:, 1]), 1e-12) * cam_b.K[0, 0]
+    return np.asarray(xyz, np.float64), np.asarray(epi, np.float64)
+
+
+class MarkerPositions:
+    """Each marker's last accepted 3D position, and how far it can have moved since.
+
+    A marker cannot move faster than ``max_speed_m_s`` (the markers ride on sand pushed by the
+    tool); a pair of pixels whose triangulated point lies farther from the marker's last
+    accepted position than ``gate_m + max_speed_m_s * dt`` cannot be that marker in both
+    cameras: one of the two numbers is wrong. Markers never triangulated yet have no position
+    and are not gated.
+
+    Args:
+        gate_m: allowance for triangulation noise, the cameras' exposure offset and the
+            marker's size [m].
+        max_speed_m_s: fastest a marker moves [m/s].
+    """
+
+    def __init__(self, gate_m: float, max_speed_m_s: float) -> None:
+        self.gate_m = gate_m
+        self.max_speed_m_s = max_speed_m_s
+        self.known: dict[int, tuple[float, FloatArray]] = {}
+
+    def distance(self, marker: int, stamp_s: float, xyz: FloatArray) -> tuple[float, float]:
+        """``(distance, allowed)`` [m] of ``xyz`` (3,) from the marker's last position."""
+        if marker not in self.known:
+            return 0.0, np.inf
+        t, ref = self.known[marker]
+        allowed = self.gate_m + self.max_speed_m_s * abs(stamp_s - t)
+        return float(np.linalg.norm(np.asarray(xyz) - ref)), allowed
+
+    def allows(self, marker: int, stamp_s: float, xyz: FloatArray) -> bool:
+        """Whether ``xyz`` (3,) m can be ``marker`` at ``stamp_s`` (always, if never seen)."""
+        dist, allowed = self.distance(marker, stamp_s, xyz)
+        return bool(np.isfinite(dist) and dist <= allowed)
+
+    def accept(self, marker: int, stamp_s: float, xyz: FloatArray) -> None:
+        """Record ``xyz`` (3,) m as the marker's position at ``stamp_s``."""
+        if np.isfinite(xyz).all():
+            self.known[marker] = (stamp_s, np.asarray(xyz, np.float64).copy())

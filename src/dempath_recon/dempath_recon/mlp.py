@@ -162,6 +162,8 @@ class MLPReconstructor(ParamsMixin):
         self.loss_curve_ = log.loss_curve
         self.validation_curve_ = log.validation_curve
         self.epoch_time_s_ = log.epoch_s
+        self.epoch_cpu_s_ = log.epoch_cpu_s
+        self.epoch_load_ = log.epoch_load
         self.best_epoch_ = log.best_epoch
         self.n_iter_ = len(log.loss_curve)
         self.n_features_in_ = 4

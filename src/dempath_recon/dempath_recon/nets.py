@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import copy
 import logging
+import os
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -199,12 +200,19 @@ class TrainSettings:
 
 @dataclass
 class TrainLog:
-    """What :func:`train_network` measured: per-epoch losses (scaled MSE), epochs, best, time."""
+    """What :func:`train_network` measured: per-epoch losses (scaled MSE), epochs, best, time.
+
+    ``epoch_s`` is wall time, ``epoch_cpu_s`` the process's CPU time (all threads), and
+    ``epoch_load`` the machine's 1-minute load average at each epoch's end: on a shared machine
+    the wall time measures the other jobs as much as the training.
+    """
 
     loss_curve: list[float] = field(default_factory=list)
     validation_curve: list[float] = field(default_factory=list)
     best_epoch: int = 0
     epoch_s: list[float] = field(default_factory=list)
+    epoch_cpu_s: list[float] = field(default_factory=list)
+    epoch_load: list[float] = field(default_factory=list)
 
 
 def _mse(model: nn.Module, X: torch.Tensor, y: torch.Tensor, batch: int) -> float:
@@ -314,12 +322,14 @@ def _train(model: nn.Module, X: FloatArray, y: FloatArray, settings: TrainSettin
     opt, sched = _optimizer(model, settings, len(X) - n_val)
     log, best = TrainLog(), _BestWeights(model, settings.patience) if n_val else None
     for epoch in range(1, settings.epochs + 1):
-        start = time.perf_counter()
+        start, cpu_start = time.perf_counter(), time.process_time()
         log.loss_curve.append(_epoch(model, opt, (Xt[n_val:], yt[n_val:]), settings.batch_size,
                                      gen, sched))
         if n_val:
             log.validation_curve.append(_mse(model, Xt[:n_val], yt[:n_val], settings.batch_size))
         log.epoch_s.append(time.perf_counter() - start)
+        log.epoch_cpu_s.append(time.process_time() - cpu_start)
+        log.epoch_load.append(os.getloadavg()[0])
         logger.info('epoch %d: loss %.3g, validation %s, %.1f s', epoch, log.loss_curve[-1],
                     f'{log.validation_curve[-1]:.3g}' if n_val else 'none', log.epoch_s[-1])
         log.best_epoch = epoch  # without validation rows every epoch counts, the last is kept

@@ -1,19 +1,23 @@
-"""Markers from two cameras' images: detect, track, number, and triangulate (stream and batch).
+"""Markers from two cameras' images: detect, track, number, check, triangulate (stream, batch).
 
 :class:`StereoMarkerTracker` takes the frames of both cameras one at a time in arrival order
 (``update(camera, stamp, jpeg)``): it decodes and detects (``detect``), links to the camera's
-tracks (``track``), numbers the first frame by the marker grid and later new tracks by the
-other camera's epipolar lines (``associate``), and counts every fault: undecodable images,
-dropped frames (a stamp gap of more than 1.5 frame periods), frames out of stamp order, frames
-without any marker, lost and re-attached markers, and pairs that disagree with the epipolar
-geometry. :func:`track_bag` is the batch form over a bag, and :func:`triangulate_tracks` turns
-the numbered pixel tracks into 3D trajectories, interpolating the front camera's track to each
-side frame's stamp because unsynchronised cameras expose at different instants.
+tracks (``track``), numbers a camera's tracks by the marker grid once a frame fits it, and
+later new tracks by the other camera's epipolar lines or, for a marker that camera never saw,
+by its grid point (``associate``). Every numbered point is checked against the other camera's
+point of the same number (epipolar line, and a 3D point the marker can have reached since its
+last accepted position); a pair that fails is withheld, never given out as the marker. Every
+fault is counted: undecodable images, dropped frames (a stamp gap of more than 1.5 frame
+periods), frames out of stamp order, frames without any marker, lost and re-attached markers,
+withheld pairs. :func:`track_bag` is the batch form over a bag, and
+:func:`~dempath_recon.trajectories.triangulate_tracks` (re-exported here) turns the numbered
+pixel tracks into 3D trajectories.
 """
 
 from __future__ import annotations
 
 import logging
+from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -23,9 +27,10 @@ from numpy.typing import NDArray
 
 from dempath_recon.associate import (
     MarkerGrid,
-    epipolar_distance,
-    number_by_epipolar,
+    MarkerPositions,
     number_by_grid,
+    on_epipolar_line,
+    triangulate_pairs,
 )
 from dempath_recon.detect import (
     Detections,
@@ -34,11 +39,16 @@ from dempath_recon.detect import (
     MarkerDetector,
 )
 from dempath_recon.track import UNNUMBERED, MarkerTracker, TrackerConfig
-from dempath_recon.triangulate import Camera, triangulate_points
+from dempath_recon.trajectories import marker_histories, triangulate_tracks
+from dempath_recon.triangulate import Camera
 
+__all__ = ['CameraCounts', 'PixelFrame', 'StereoMarkerTracker', 'StereoTrackConfig',
+           'marker_histories', 'track_bag', 'triangulate_tracks']
 LOG = logging.getLogger(__name__)
 FloatArray = NDArray[np.float64]
 RECENT_S = 0.05  # the other camera's position of a marker counts for numbering this long [s]
+MAX_DEPTH_AGE_S = 0.06  # a 3D point older than this (three frames) no longer bounds the depth
+# along an epipolar line usefully (the gate has grown to 0.13 m, several marker pitches)
 
 
 @dataclass(frozen=True)
@@ -50,7 +60,20 @@ class StereoTrackConfig:
         tracker: linker settings.
         grid: the initial marker grid.
         fps: nominal frame rate [1/s] (dropped frames are gaps above 1.5 periods).
-        epipolar_px: largest distance to the epipolar line of a numbered pair [px].
+        epipolar_px: largest distance to the epipolar line for numbering a new track [px]; a
+            numbered pair farther than 3 times this from it is withheld.
+        min_grid_markers: detections that must fit the projected grid before a camera's
+            markers are numbered by it (frames with fewer wait for a later frame).
+        grid_gate_px: largest distance of a detection from its fitted grid point [px]; a
+            marker this camera has never seen that appears alone within it later (covered at
+            the start) takes that grid point's number.
+        position_gate_m: 3D allowance of a numbered pair around the marker's last accepted
+            position, for noise, the cameras' exposure offset and the marker's size [m].
+        doubt_link_px: a track that fails a check against the other camera loses its number
+            when one of its links since its last passed check missed the prediction by more
+            than this [px] (markers moving smoothly miss by a pixel or two).
+        max_speed_m_s: fastest a marker can move [m/s] (the tool's speed, 1 m/s in the
+            paper, with a margin: sand ahead of the tool does not outrun it by much).
     """
 
     detector: DetectorConfig = field(default_factory=DetectorConfig)
@@ -58,6 +81,21 @@ class StereoTrackConfig:
     grid: MarkerGrid = field(default_factory=MarkerGrid)
     fps: float = 50.0
     epipolar_px: float = 4.0
+    min_grid_markers: int = 3
+    grid_gate_px: float = 12.0
+    position_gate_m: float = 0.01
+    doubt_link_px: float = 5.0
+    max_speed_m_s: float = 2.0
+
+    def __post_init__(self) -> None:
+        for name in ('fps', 'epipolar_px', 'grid_gate_px', 'position_gate_m',
+                     'max_speed_m_s'):
+            if not getattr(self, name) > 0:
+                msg = f'{name}: must be > 0, got {getattr(self, name)!r}'
+                raise ValueError(msg)
+        if self.min_grid_markers < 1:
+            msg = f'min_grid_markers: must be >= 1, got {self.min_grid_markers!r}'
+            raise ValueError(msg)
 
 
 class PixelFrame(NamedTuple):
@@ -85,8 +123,12 @@ class CameraCounts:
     lost: int = 0
     reattached: int = 0
     numbered_by_epipolar: int = 0
+    numbered_by_grid_late: int = 0
     unnumbered: int = 0
     epipolar_conflicts: int = 0
+    position_conflicts: int = 0
+    withheld: int = 0
+    revoked: int = 0
     gaps_s: list[tuple[float, float]] = field(default_factory=list)
 
 
@@ -108,7 +150,11 @@ class StereoMarkerTracker:
         self.trackers = {n: MarkerTracker(self.config.tracker) for n in cameras}
         self.counts = {n: CameraCounts() for n in cameras}
         self.latest: dict[str, dict[int, tuple[float, FloatArray]]] = {n: {} for n in cameras}
+        self.positions = MarkerPositions(self.config.position_gate_m, self.config.max_speed_m_s)
         self._last: dict[str, float | None] = dict.fromkeys(cameras)
+        self._grid_uv: dict[str, dict[int, FloatArray]] = {}  # the fitted grid, per camera
+        self._late_numbered: dict[str, set[int]] = {n: set() for n in cameras}  # track ids
+        self._refused: dict[str, set[tuple[int, int]]] = {n: set() for n in cameras}
 
     def other(self, camera: str) -> str:
         """The other camera's name."""
@@ -132,7 +178,12 @@ class StereoMarkerTracker:
         return self.update_detections(camera, stamp_s, self.detector.detect(image))
 
     def update_detections(self, camera: str, stamp_s: float, det: Detections) -> PixelFrame:
-        """One frame's detections of ``camera``: link, number, count."""
+        """One frame's detections of ``camera``: link, number, check against the other camera.
+
+        The returned frame's markers are -1 where a detection is not identified, or where its
+        number disagrees with the other camera (off the epipolar line, or a 3D point the
+        marker cannot have reached): such a point is withheld, never given out as the marker.
+        """
         counts, tracker = self.counts[camera], self.trackers[camera]
         last = self._last[camera]
         if last is not None and stamp_s <= last:
@@ -142,13 +193,7 @@ class StereoMarkerTracker:
             return PixelFrame(camera, stamp_s, np.zeros(0, np.int32), np.zeros((0, 2)),
                               np.zeros(0), (msg,))
         events: list[str] = []
-        if last is None:
-            numbers, _ = number_by_grid(self.cameras[camera], det.uv, self.config.grid)
-            ok = numbers >= 0
-            tracker.seed(det.uv[ok], numbers[ok], stamp_s - 1e-6)
-            events.append(f'{camera}: {int(ok.sum())} of {len(det.uv)} detections numbered '
-                          'by the grid')
-        elif stamp_s - last > 1.5 / self.config.fps:
+        if last is not None and stamp_s - last > 1.5 / self.config.fps:
             missed = round((stamp_s - last) * self.config.fps) - 1
             counts.dropped += max(missed, 1)
             counts.gaps_s.append((last, stamp_s))
@@ -159,62 +204,192 @@ class StereoMarkerTracker:
         before = (tracker.counts.lost, tracker.counts.reattached)
         tf = tracker.update(stamp_s, det)
         counts.detected += len(det.uv)
-        counts.tracked += int((tf.markers >= 0).sum())
         counts.lost += tracker.counts.lost - before[0]
         counts.reattached += tracker.counts.reattached - before[1]
-        markers = self._number_new(camera, tf.track_ids, tf.markers, tf.uv, stamp_s, events)
-        self._check_epipolar(camera, markers, tf.uv, stamp_s)
+        markers = tf.markers
+        if camera not in self._grid_uv:
+            markers = self._number_by_grid(camera, tf.track_ids, tf.uv, events)
+        markers = self._number_new(camera, tf.track_ids, markers, tf.uv, stamp_s, events)
+        markers = self._verify(camera, tf.track_ids, markers, tf.uv, stamp_s, events)
+        counts.tracked += int((markers >= 0).sum())
         for m, p in zip(markers, tf.uv, strict=True):
             if m >= 0:
                 self.latest[camera][int(m)] = (stamp_s, p)
         return PixelFrame(camera, stamp_s, markers, tf.uv, tf.confidence,
                           tuple(events) + tf.events)
 
+    def _number_by_grid(self, camera: str, track_ids: NDArray[np.int64], uv: FloatArray,
+                        events: list[str]) -> NDArray[np.int32]:
+        """Number this camera's tracks by the projected grid, once enough detections fit it."""
+        numbers, grid_uv = number_by_grid(self.cameras[camera], uv, self.config.grid,
+                                          self.config.grid_gate_px)
+        need = min(self.config.min_grid_markers, len(self.config.grid.points()[0]))
+        found = int((numbers >= 0).sum())
+        if found < need:
+            events.append(f'{camera}: {found} of {len(uv)} detections fit the marker grid; '
+                          f'numbering waits for {need}')
+            return np.full(len(uv), UNNUMBERED, np.int32)
+        for tid, m in zip(track_ids, numbers, strict=True):
+            if m >= 0:
+                self.trackers[camera].number(int(tid), int(m))
+        self._grid_uv[camera] = dict(zip(self.config.grid.points()[0].tolist(), grid_uv,
+                                         strict=True))
+        events.append(f'{camera}: {found} of {len(uv)} detections numbered by the grid')
+        return numbers
+
     def _number_new(self, camera: str, track_ids: NDArray[np.int64], markers: NDArray[np.int32],
                     uv: FloatArray, stamp_s: float, events: list[str]) -> NDArray[np.int32]:
-        """Number unnumbered tracks from the other camera's recent markers (epipolar lines)."""
+        """Number unnumbered tracks from the other camera's recent markers, else by the grid.
+
+        A candidate marker must not have been seen by this camera since the track started (a
+        track that ran beside marker m's own track is not m), must lie on the track's epipolar
+        line, and the pair's 3D point must be one the marker can have reached; the track is
+        numbered only when exactly one candidate passes, and a candidate whose epipolar line
+        passes more than one unnumbered detection of this frame is no candidate. Failing that,
+        a marker this camera has never seen that appears alone at its fitted grid point takes
+        that number. Numbers given here are taken back if a later pair contradicts them
+        (``_verify``).
+        """
         markers = markers.copy()
         other = self.other(camera)
         seen = {int(m) for m in markers if m >= 0}
-        for k in np.flatnonzero(markers == UNNUMBERED):
-            cands = {m: p for m, (t, p) in self.latest[other].items()
-                     if m not in seen and abs(t - stamp_s) <= RECENT_S}
-            number = number_by_epipolar(self.cameras[camera], self.cameras[other], uv[k], cands,
-                                        self.config.epipolar_px)
+        starts = {t.track_id: t.history[0][0] for t in self.trackers[camera].tracks}
+        todo = np.flatnonzero(markers == UNNUMBERED)
+        recent = {m: p for m, (t, p) in self.latest[other].items()
+                  if m not in seen and abs(t - stamp_s) <= RECENT_S}
+        lines = Counter(m for k in todo for m in on_epipolar_line(
+            self.cameras[camera], self.cameras[other], uv[k], recent, self.config.epipolar_px))
+        for k in todo:
+            tid = int(track_ids[k])
+            cands = {m: p for m, p in recent.items()
+                     if m not in seen and lines[m] == 1
+                     and (tid, m) not in self._refused[camera]
+                     and self.latest[camera].get(m, (-np.inf, None))[0] < starts.get(tid, 0.0)}
+            number = self._pick(camera, tid, uv[k], cands, stamp_s, events)
+            if number < 0 and starts.get(tid) == stamp_s:  # only a track's first frame
+                number = self._late_grid(camera, uv, k, seen)
+                if number >= 0:
+                    self.counts[camera].numbered_by_grid_late += 1
+                    events.append(f'{camera}: track {tid} numbered marker {number}: it appeared '
+                                  'at its grid point, not seen by this camera before')
             if number < 0:
                 self.counts[camera].unnumbered += 1
                 continue
             self._retire(camera, number)
-            self.trackers[camera].number(int(track_ids[k]), number)
+            self.trackers[camera].number(tid, number)
+            self._late_numbered[camera].add(tid)
             markers[k] = number
             seen.add(number)
-            self.counts[camera].numbered_by_epipolar += 1
-            events.append(f'{camera}: track {int(track_ids[k])} numbered marker {number} by '
-                          'the epipolar line')
         return markers
+
+    def _late_grid(self, camera: str, uv: FloatArray, k: int, seen: set[int]) -> int:
+        """A marker this camera never saw, appearing as a new track alone and unambiguously at
+        its fitted grid point (it was covered at the start): its number, else -1."""
+        grid = self._grid_uv.get(camera, {})
+        gate = self.config.grid_gate_px
+        free = [m for m in grid if m not in seen and m not in self.latest[camera]]
+        near = [m for m in free if np.linalg.norm(uv[k] - grid[m]) < gate]
+        if len(near) != 1:
+            return UNNUMBERED
+        d = np.linalg.norm(uv[k] - grid[near[0]])
+        if any(np.linalg.norm(uv[k] - grid[m]) < d + gate / 2 for m in grid if m != near[0]):
+            return UNNUMBERED  # another grid point almost as near: unsure
+        others = np.delete(uv, k, axis=0)
+        if len(others) and (np.linalg.norm(others - grid[near[0]], axis=1) < gate).any():
+            return UNNUMBERED  # two spots at one grid point: say nothing
+        return near[0]
+
+    def _pick(self, camera: str, track_id: int, uv: FloatArray,
+              candidates: dict[int, FloatArray], stamp_s: float, events: list[str]) -> int:
+        """The one candidate on the track's epipolar line at a depth the marker can be at.
+
+        Only markers with an accepted 3D position at most ``MAX_DEPTH_AGE_S`` old are
+        candidates (a line alone is ambiguous along its depth). A candidate on the line whose
+        3D point the marker cannot have reached is refused for this track for good: a later,
+        looser gate (the marker unseen for longer) must not overrule the tightest evidence,
+        which is the first.
+        """
+        other = self.other(camera)
+        close = on_epipolar_line(self.cameras[camera], self.cameras[other], uv, candidates,
+                                 self.config.epipolar_px)
+        if not close:
+            return UNNUMBERED
+        xyz, _ = triangulate_pairs(self.cameras[camera], self.cameras[other],
+                                   np.repeat(uv[None], len(close), 0),
+                                   np.array([candidates[m] for m in close]))
+        fits = []
+        for m, x in zip(close, xyz, strict=True):
+            if stamp_s - self.positions.known.get(m, (-np.inf, None))[0] > MAX_DEPTH_AGE_S:
+                continue  # no recent 3D point: nothing to check the depth along the line
+            dist, allowed = self.positions.distance(m, stamp_s, x)
+            if dist <= allowed:
+                fits.append(m)
+                continue
+            self._refused[camera].add((track_id, m))
+            events.append(f'{camera}: track {track_id} is not marker {m}: on its epipolar line '
+                          f'but {1e3 * dist:.0f} mm from its last position (at most '
+                          f'{1e3 * allowed:.0f} mm)')
+        if len(fits) != 1:
+            return UNNUMBERED
+        self.counts[camera].numbered_by_epipolar += 1
+        events.append(f'{camera}: track {track_id} numbered marker {fits[0]} by the epipolar '
+                      'line')
+        return fits[0]
 
     def _retire(self, camera: str, number: int) -> None:
         """Drop the lost track that held ``number`` (its marker came back as a new track)."""
         tracker = self.trackers[camera]
         tracker.tracks = [t for t in tracker.tracks if not (t.lost and t.marker == number)]
 
-    def _check_epipolar(self, camera: str, markers: NDArray[np.int32], uv: FloatArray,
-                        stamp_s: float) -> None:
-        other = self.other(camera)
+    def _verify(self, camera: str, track_ids: NDArray[np.int64], markers: NDArray[np.int32],
+                uv: FloatArray, stamp_s: float, events: list[str]) -> NDArray[np.int32]:
+        """Check every numbered point against the other camera's point of the same number.
+
+        A pair farther than ``3 * epipolar_px`` from the epipolar line, or whose 3D point the
+        marker cannot have reached since its last accepted position, is withheld (-1) in this
+        frame. The track loses that number for good if it was numbered after the start
+        (epipolar line, late grid) or if one of its links since its last passed check landed
+        more than ``doubt_link_px`` from the prediction (the 2D linker likely took a neighbour
+        for the covered marker); otherwise the other camera is the likelier culprit and the
+        point is only withheld. Pairs that pass update the marker's 3D position.
+        """
+        other, markers = self.other(camera), markers.copy()
         seen = self.latest[other]
-        pairs = [(int(m), p, seen[int(m)][1]) for m, p in zip(markers, uv, strict=True)
-                 if m >= 0 and int(m) in seen
-                 and abs(seen[int(m)][0] - stamp_s) <= 1.0 / self.config.fps]
-        if not pairs:
-            return
-        d = np.diag(epipolar_distance(self.cameras[camera], self.cameras[other],
-                                      np.array([p[1] for p in pairs]),
-                                      np.array([p[2] for p in pairs])))
-        for (m, _, _), dist in zip(pairs, d, strict=True):
-            if dist > 3 * self.config.epipolar_px:
-                self.counts[camera].epipolar_conflicts += 1
-                LOG.warning('%s marker %d at %.3f s is %.1f px off the epipolar line', camera, m,
-                            stamp_s, dist)
+        tracks = {t.track_id: t for t in self.trackers[camera].tracks}
+        idx = [k for k, m in enumerate(markers) if m >= 0 and int(m) in seen
+               and abs(seen[int(m)][0] - stamp_s) <= 1.0 / self.config.fps]
+        xyz, epi = triangulate_pairs(self.cameras[camera], self.cameras[other],
+                                     uv[idx], np.array([seen[int(markers[k])][1] for k in idx]))
+        for k, x, d in zip(idx, xyz, epi, strict=True):
+            m = int(markers[k])
+            dist, allowed = self.positions.distance(m, stamp_s, x)
+            if d <= 3 * self.config.epipolar_px and dist <= allowed:
+                self.positions.accept(m, stamp_s, x)
+                if int(track_ids[k]) in tracks:
+                    tracks[int(track_ids[k])].link_px = 0.0
+                continue
+            counts = self.counts[camera]
+            counts.withheld += 1
+            if d > 3 * self.config.epipolar_px:
+                counts.epipolar_conflicts += 1
+                why = f'{d:.1f} px off the epipolar line'
+            else:
+                counts.position_conflicts += 1
+                why = f'3D point {1e3 * dist:.0f} mm from its last position (at most ' \
+                      f'{1e3 * allowed:.0f} mm)'
+            markers[k] = UNNUMBERED
+            tid = int(track_ids[k])
+            jump = tracks[tid].link_px if tid in tracks else 0.0
+            if tid in self._late_numbered[camera] or jump > self.config.doubt_link_px:
+                self._late_numbered[camera].discard(tid)
+                self._refused[camera].add((tid, m))
+                self.trackers[camera].number(tid, UNNUMBERED)
+                counts.revoked += 1
+                why += '; its number taken back'
+            msg = f'{camera}: marker {m} withheld at {stamp_s:.3f} s: {why}'
+            events.append(msg)
+            LOG.warning(msg)
+        return markers
 
     def report(self) -> dict[str, Any]:
         """Counts per camera, and the stamp gaps where frames were missing."""
@@ -244,59 +419,3 @@ def track_bag(bag: Path, cameras: dict[str, Camera], config: StereoTrackConfig |
                 continue
             frames.append(tracker.update(topic_cam[raw.topic], stamp * 1e-9, bytes(msg.data)))
     return frames, tracker.report()
-
-
-def marker_histories(frames: list[PixelFrame], camera: str,
-                     ) -> dict[int, tuple[FloatArray, FloatArray]]:
-    """``{marker: (times (k,) s, uv (k, 2) px)}`` of one camera's numbered points."""
-    out: dict[int, list[tuple[float, float, float]]] = {}
-    for f in frames:
-        if f.camera != camera:
-            continue
-        for m, p in zip(f.markers, f.uv, strict=True):
-            if m >= 0:
-                out.setdefault(int(m), []).append((f.stamp_s, float(p[0]), float(p[1])))
-    return {m: (np.array([r[0] for r in rows]), np.array([r[1:] for r in rows]))
-            for m, rows in out.items()}
-
-
-def _interpolate(hist: tuple[FloatArray, FloatArray], t: FloatArray, max_gap_s: float,
-                 ) -> FloatArray:
-    """(len(t), 2) px of a track at times t, NaN where no samples within ``max_gap_s`` bracket."""
-    times, uv = hist
-    out = np.full((len(t), 2), np.nan)
-    if len(times) < 2:
-        return out
-    k = np.searchsorted(times, t)
-    ok = (k > 0) & (k < len(times))
-    kk = np.clip(k, 1, len(times) - 1)
-    ok &= (times[kk] - times[kk - 1]) <= max_gap_s
-    for i in range(2):
-        out[ok, i] = np.interp(t[ok], times, uv[:, i])
-    return out
-
-
-def triangulate_tracks(frames: list[PixelFrame], cameras: dict[str, Camera], side: str,
-                       fps: float = 50.0) -> tuple[FloatArray, NDArray[np.int32], FloatArray]:
-    """3D trajectories at the ``side`` camera's stamps.
-
-    Returns:
-        ``(times (nt,) s, markers (m,), xyz (nt, m, 3) m)``, NaN where a marker is missing in
-        either camera (the other camera's track is interpolated to the side stamps over gaps
-        of at most 1.5 frame periods).
-    """
-    front = next(n for n in cameras if n != side)
-    hs, hf = marker_histories(frames, side), marker_histories(frames, front)
-    times = np.array(sorted({f.stamp_s for f in frames if f.camera == side}))
-    markers = np.array(sorted(set(hs) & set(hf)), np.int32)
-    xyz = np.full((len(times), len(markers), 3), np.nan)
-    for j, m in enumerate(markers):
-        us = np.full((len(times), 2), np.nan)
-        idx = np.searchsorted(times, hs[int(m)][0])
-        us[idx] = hs[int(m)][1]
-        uf = _interpolate(hf[int(m)], times, 1.5 / fps)
-        ok = np.isfinite(us).all(1) & np.isfinite(uf).all(1)
-        if ok.any():
-            views = np.stack([us[ok], uf[ok]])
-            xyz[ok, j] = triangulate_points([cameras[side], cameras[front]], views).xyz
-    return times, markers, xyz

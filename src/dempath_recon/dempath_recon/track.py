@@ -74,6 +74,8 @@ class Track:
     last_stamp_s: float
     lost: bool = False
     history: list[tuple[float, float, float]] = field(default_factory=list)  # (t, u, v)
+    link_px: float = 0.0  # largest distance of a linked detection from the prediction since
+    # the caller last reset it (a check against the other camera passed) [px]
 
     def predict(self, stamp_s: float, decay: float) -> FloatArray:
         """(2,) expected position at ``stamp_s`` [px]."""
@@ -212,6 +214,8 @@ class MarkerTracker:
 
     def _advance(self, track: Track, uv: FloatArray, stamp_s: float, events: list[str]) -> None:
         dt = stamp_s - track.last_stamp_s
+        miss = float(np.linalg.norm(uv - track.predict(stamp_s, self.config.velocity_decay)))
+        track.link_px = max(track.link_px, miss)
         if track.lost:
             self.counts.reattached += 1
             events.append(f're-attached track {track.track_id} (marker {track.marker}) after '
