@@ -20,8 +20,13 @@ over time; ``validation.cross_engine.compare``). Each run is cached under ``--wo
 outputs, one ``.npz`` of figures per run), so an interrupted bench resumes. Last line: one JSON
 object.
 
-    .venv/bin/python bench/cross_engine_setup.py [--seeds 4] [--variants base,rolling,cohesion]
-        [--setups same_bed,dempath] [--np 2] [--work DIR] [--json-out FILE]
+    .venv/bin/python bench/cross_engine_setup.py [--seeds 4 | --seed-list 2,3]
+        [--variants base,rolling,cohesion] [--setups same_bed,dempath] [--np 2] [--work DIR]
+        [--json-out FILE]
+
+``--seed-list`` runs the given seeds only (several processes can fill one cache in parallel,
+each with its own seeds); with fewer than two seeds the JSON gives the runs' figures without
+D / S.
 """
 
 from __future__ import annotations
@@ -106,7 +111,9 @@ def _one_run(setup: str, variant: str, seed: int, work: Path, nprocs: int) -> De
 def _summary(runs: list[DeckStats]) -> dict[str, Any]:
     out = np.array([s.outward[-1] for s in runs])
     draft = np.array([s.draft for s in runs])
-    return {'outward_end_mm': [round(1e3 * x, 2) for x in out],
+    return {'axis_end_mm': [round(1e3 * float(s.axis[-1]), 2) for s in runs],
+            'lateral_end_mm': [round(1e3 * float(s.lateral[-1]), 2) for s in runs],
+            'outward_end_mm': [round(1e3 * x, 2) for x in out],
             'outward_end_mean_mm': round(1e3 * float(out.mean()), 2),
             'draft_n': [round(x, 3) for x in draft],
             'draft_mean_n': round(float(draft.mean()), 3)}
@@ -122,7 +129,8 @@ def _against(runs: list[DeckStats], deck: list[DeckStats], seeds: list[int]) -> 
 def main() -> None:
     """Run (or read from the cache) every set-up, variant and seed; print one JSON line."""
     ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
-    ap.add_argument('--seeds', type=int, default=4)
+    ap.add_argument('--seeds', type=int, default=4, help='seeds 1..N')
+    ap.add_argument('--seed-list', help='comma-separated seeds (instead of --seeds)')
     ap.add_argument('--variants', default='base')
     ap.add_argument('--setups', default='same_bed,dempath')
     ap.add_argument('--np', type=int, default=2, dest='nprocs')
@@ -133,7 +141,8 @@ def main() -> None:
     logging.basicConfig(level=logging.INFO, format='%(message)s')
     ensure_liggghts()
     t0 = time.monotonic()
-    seeds = list(range(1, args.seeds + 1))
+    seeds = ([int(s) for s in args.seed_list.split(',')] if args.seed_list
+             else list(range(1, args.seeds + 1)))
     figures: dict[str, Any] = {'bench': 'cross_engine_setup', 'scene': 'leaning_tine',
                                'seeds': seeds, 'variants': {}}
     for variant in args.variants.split(','):
@@ -141,7 +150,9 @@ def main() -> None:
         entry: dict[str, Any] = {'liggghts': _summary(deck)}
         for setup in args.setups.split(','):
             runs = [_one_run(setup, variant, s, args.work, args.nprocs) for s in seeds]
-            entry[setup] = {**_summary(runs), **_against(runs, deck, seeds)}
+            entry[setup] = _summary(runs)
+            if len(seeds) > 1:
+                entry[setup].update(_against(runs, deck, seeds))
         figures['variants'][variant] = entry
     figures['wall_s'] = round(time.monotonic() - t0, 1)
     text = json.dumps(figures)
