@@ -125,7 +125,11 @@ def test_graph_detects_reconstructs_and_records_everything(
         assert counts[topic] > 0, f'{topic} not recorded: {dict(counts)}'
     assert counts['/cam_side/image_raw/compressed'] == per_camera['cam_side']
     assert counts[topics.SIM_VIZ] == result.sim_frames  # the particles and tool every frame
-    assert result.scored_markers >= 10
+    # every marker both cameras see (at least half of it) through a third of the pass is scored
+    side, front = ([np.asarray(f['visible']) > 0.5 for f in truth['frames'] if f['camera'] == c]
+                   for c in ('cam_side', 'cam_front'))
+    seen = (np.array(side) & np.array(front)).sum(0)
+    assert result.scored_markers >= int(np.sum(seen >= len(side) / 3)), seen
 
 
 def test_camera_topic_stopping_mid_pass(calibrated: tuple[CalibrationRun, Path],

@@ -57,6 +57,9 @@ def run_node(make_node: Callable[[], N], args: list[str] | None = None,
             executor.spin_once(timeout_sec=0.1)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
+    except RuntimeError:  # rclpy's RCLError: the signal's shutdown raced the executor's wait
+        if rclpy.ok():  # the context is still valid: a real fault
+            raise
     finally:
         if on_exit is not None:
             on_exit(node)
