@@ -252,7 +252,8 @@ def test_live_jpeg_at_50_fps_through_detection_and_reconstruction(
     # later ones depend on tracking across the frames this machine could not detect in time,
     # whose figures are bench/live_rig.py --images's
     seen = render.both_visible[render.index(min(errors))]
-    assert len(first) >= seen and first.max() < 3.0, (first, seen)
+    # (a marker half covered by grains is found off its true centre: a few mm, not tens)
+    assert len(first) >= seen and np.median(first) < 2.0 and first.max() < 5.0, (first, seen)
     assert [(e.run_id, e.event) for e in g.events] == [('pass_1', RunEvent.STARTED),
                                                        ('pass_1', RunEvent.FINISHED)]
 
