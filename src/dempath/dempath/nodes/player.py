@@ -86,9 +86,10 @@ class PlayerNode(Node):
     def _wait_for_subscribers(self) -> None:
         need = self.config.wait_for_subscribers
         deadline = time.monotonic() + self.config.wait_timeout_s
-        while need and time.monotonic() < deadline and any(
+        stop = self._playback.stop if self._playback is not None else None
+        while need and time.monotonic() < deadline and not (stop and stop.is_set()) and any(
                 p.get_subscription_count() < need for p in self._topic_pubs.values()):
-            time.sleep(0.02)
+            time.sleep(0.02)  # a stop (Ctrl-C) ends the wait: the node is destroyed next
 
     def _publish(self, message: RawMessage) -> None:
         now = time.monotonic()
