@@ -53,7 +53,8 @@ class SimulatorNode(Node):
         self.pub_force = self.create_publisher(ToolForce, topics.SIM_TOOL_FORCE, 50)
         self.pub_pose = self.create_publisher(PoseStamped, topics.SIM_TOOL_POSE, 50)
         self.pub_events = self.create_publisher(RunEvent, topics.SIM_RUN_EVENTS, latched)
-        self.pub_viz = self.create_publisher(MarkerArray, topics.SIM_VIZ, 50)  # as the states: a slow recorder must not lose frames
+        # keep 50 as the other topics: with 5 a recorder behind under load lost frames
+        self.pub_viz = self.create_publisher(MarkerArray, topics.SIM_VIZ, 50)
         self.stop = threading.Event()
         self.run_id = self.config.scene
         self.frames = 0
