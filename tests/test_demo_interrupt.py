@@ -58,11 +58,12 @@ def test_ctrl_c_during_the_graph_keeps_a_readable_bag(tmp_path: Path) -> None:
         recording = wait_for(lambda: proc.poll() is None and any(
             p.stat().st_size > 0 for p in bag.glob('*.mcap')), WAIT_S)
         assert recording, f'the graph never started recording (exit {proc.poll()})'
-        # let some messages in: the file grows past its header once the writer flushes a chunk
-        # (every second; playback at a tenth lasts ~6 s)
+        # let some messages in: a flushed chunk with a camera image (hundreds of kB) grows the
+        # file well past its header, schemas and channels (tens of kB); playback at a tenth
         (mcap,) = bag.glob('*.mcap')
         header = mcap.stat().st_size
-        assert wait_for(lambda: proc.poll() is None and mcap.stat().st_size > header, WAIT_S), \
+        assert wait_for(lambda: proc.poll() is None
+                        and mcap.stat().st_size > header + 100_000, WAIT_S), \
             f'nothing recorded past the header (exit {proc.poll()})'
         proc.send_signal(signal.SIGINT)
         stdout, stderr = proc.communicate(timeout=300)
