@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from dempath_recon.nodes.detector_stride import FrameStride
+from dempath_recon.stride import FrameStride
 
 FPS = 50.0
 

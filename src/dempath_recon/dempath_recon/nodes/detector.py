@@ -51,7 +51,7 @@ from dempath.nodes.spin import run_node
 from dempath.workqueue import WorkQueue
 from dempath_msgs.msg import PixelPoints
 from dempath_recon.errors import ReconstructionError
-from dempath_recon.nodes.detector_stride import FrameStride
+from dempath_recon.stride import FrameStride
 from dempath_recon.stereo_track import PixelFrame, StereoMarkerTracker
 
 PARAMETERS: tuple[tuple[str, Any, str], ...] = (
