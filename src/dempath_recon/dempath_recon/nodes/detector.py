@@ -51,8 +51,8 @@ from dempath.nodes.spin import run_node
 from dempath.workqueue import WorkQueue
 from dempath_msgs.msg import PixelPoints
 from dempath_recon.errors import ReconstructionError
-from dempath_recon.stride import FrameStride
 from dempath_recon.stereo_track import PixelFrame, StereoMarkerTracker
+from dempath_recon.stride import FrameStride
 
 PARAMETERS: tuple[tuple[str, Any, str], ...] = (
     ('camera', 'cam_side', 'camera whose images this node detects in (cam_side, cam_front)'),
