@@ -8,7 +8,7 @@ the Brier score and a reliability table of the top probability. Everything is ca
 ``--root``: an interrupted bench resumes. The last line is one JSON object.
 
 Usage: ``.venv/bin/python bench/diagnose.py [--scene reduced_1ms] [--root DIR] [--serial]``
-(``--scene tiny`` for a quick check).
+(``--scene tiny`` for a quick check; ``--library-only`` times the library build alone).
 """
 
 from __future__ import annotations
@@ -133,6 +133,8 @@ def main() -> None:
     p.add_argument('--own-pour', action='store_true',
                    help="case beds poured with the case's own physics (default: the scene "
                         "file's physics on the case's seed, re-settled with the case's)")
+    p.add_argument('--library-only', action='store_true',
+                   help='build (or resume) the library, print its figures and stop')
     args = p.parse_args()
     scene = load_scene(args.scene)
     duration = covering_duration(pass_travel_s(scene, {}), 0.0)
@@ -157,6 +159,10 @@ def main() -> None:
         spent['library_s'] += time.monotonic() - t0
         args.root.mkdir(parents=True, exist_ok=True)
         timing.write_text(json.dumps(spent))
+    if args.library_only:
+        print(json.dumps({'scene': scene.name, 'simulations': total,
+                          'library_s': round(spent['library_s'], 1), 'library': str(lib_root)}))
+        return
     rows = []
     for case in cases_for(scene.name):
         folder = args.root / 'cases' / case.name
