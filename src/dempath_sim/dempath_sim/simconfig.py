@@ -22,6 +22,9 @@ class SimulatorConfig:
         cache_dir: Packing cache directory; '' for the default.
         candidates: Whether candidates are published with the markers.
         viz_every: Publish the MarkerArray every this many frames.
+        wait_for_subscribers: Subscribers each data topic needs before the first frame (a
+            recorder that discovers topics periodically would otherwise miss the first ones).
+        wait_timeout_s: Longest wait for them [s]; the run starts anyway after it.
     """
 
     scene: str = 'tiny'
@@ -31,6 +34,8 @@ class SimulatorConfig:
     cache_dir: str = ''
     candidates: bool = True
     viz_every: int = 5
+    wait_for_subscribers: int = 0
+    wait_timeout_s: float = 10.0
 
     def __post_init__(self) -> None:
         if not self.scene:
@@ -39,6 +44,10 @@ class SimulatorConfig:
             raise ValueError(f'SimulatorConfig.seed: {self.seed!r} must be >= -1')
         if self.viz_every < 1:
             raise ValueError(f'SimulatorConfig.viz_every: {self.viz_every!r} must be >= 1')
+        if self.wait_for_subscribers < 0 or not self.wait_timeout_s >= 0:
+            raise ValueError('SimulatorConfig.wait_for_subscribers / wait_timeout_s: '
+                             f'{self.wait_for_subscribers!r} / {self.wait_timeout_s!r} must be '
+                             '>= 0')
 
     @classmethod
     def from_params(cls, values: Mapping[str, Any]) -> SimulatorConfig:
@@ -50,7 +59,9 @@ class SimulatorConfig:
                    effects=strings('effects'), off=strings('off'),
                    cache_dir=str(values.get('cache_dir', '')),
                    candidates=bool(values.get('candidates', True)),
-                   viz_every=int(values.get('viz_every', 5)))
+                   viz_every=int(values.get('viz_every', 5)),
+                   wait_for_subscribers=int(values.get('wait_for_subscribers', 0)),
+                   wait_timeout_s=float(values.get('wait_timeout_s', 10.0)))
 
     def load_scene(self) -> SceneSpec:
         """The scene with this config's overrides applied.

@@ -214,7 +214,7 @@ def _simulate(harness: Any, recorder: Any, spec: GraphSpec,
     latched = QoSProfile(depth=10, durability=DurabilityPolicy.TRANSIENT_LOCAL)
     events = harness.collect(RunEvent, topics.SIM_RUN_EVENTS, latched)
     sim = harness.start(SimulatorNode, scene=spec.scene, cache_dir=spec.cache_dir,
-                        viz_every=spec.viz_every)
+                        viz_every=spec.viz_every, wait_for_subscribers=1)  # the recorder
     start = time.monotonic()
     idle_spins: list[int] = []  # spins since the run ended: counted, not timed, because the
     # comparer scores inside a callback and a loaded machine can take longer than any grace

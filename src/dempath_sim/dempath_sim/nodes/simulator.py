@@ -44,8 +44,13 @@ class SimulatorNode(Node):
             ('cache_dir', d.cache_dir, ParameterDescriptor(description='packing cache dir')),
             ('candidates', d.candidates, ParameterDescriptor(description='publish candidates')),
             ('viz_every', d.viz_every, ParameterDescriptor(description='frames per MarkerArray')),
+            ('wait_for_subscribers', d.wait_for_subscribers, ParameterDescriptor(
+                description='subscribers each data topic needs before the first frame')),
+            ('wait_timeout_s', d.wait_timeout_s, ParameterDescriptor(
+                description='longest wait for those subscribers [s]')),
         ])
-        names = ('scene', 'seed', 'effects', 'off', 'cache_dir', 'candidates', 'viz_every')
+        names = ('scene', 'seed', 'effects', 'off', 'cache_dir', 'candidates', 'viz_every',
+                 'wait_for_subscribers', 'wait_timeout_s')
         self.config = SimulatorConfig.from_params(
             {n: self.get_parameter(n).value for n in names})
         latched = QoSProfile(depth=10, durability=DurabilityPolicy.TRANSIENT_LOCAL)
@@ -72,6 +77,7 @@ class SimulatorNode(Node):
             self.tool_triangles = TriangleMesh.from_stl(scene.tool.mesh,
                                                         scale=scene.tool.scale).triangles
             self._event(RunEvent.STARTED, f'scene {scene.name} seed {scene.seed}')
+            self._wait_for_subscribers()
             result = run_scene(scene, RunOptions(self.config.cache_path, self._progress,
                                                  self._publish, self.stop))
         except DempathError as err:
@@ -82,6 +88,15 @@ class SimulatorNode(Node):
         self._event(RunEvent.FINISHED, f"{len(result.times)} frames, {result.meta['n_particles']}"
                                        f" particles, bulk density {fill['bulk_density_kg_m3']:.0f}"
                                        ' kg/m^3')
+
+    def _wait_for_subscribers(self) -> None:
+        """Hold the first frame until every data topic has its subscribers (or the timeout)."""
+        need = self.config.wait_for_subscribers
+        deadline = time.monotonic() + self.config.wait_timeout_s
+        pubs = (self.pub_states, self.pub_force, self.pub_pose, self.pub_viz)
+        while need and time.monotonic() < deadline and not self.stop.is_set() and any(
+                p.get_subscription_count() < need for p in pubs):
+            time.sleep(0.02)
 
     def _event(self, event: int, detail: str, rid: str | None = None) -> None:
         stamp = self.get_clock().now().to_msg()
