@@ -7,6 +7,7 @@ import numpy as np
 from dempath_diagnose.records import Measurement, PassRecord
 from dempath_diagnose.statistics import (
     build_layout,
+    local_field,
     measured_statistics,
     model_statistics,
     window_means,
@@ -76,3 +77,23 @@ def test_measured_and_model_statistics_agree_on_the_same_motion() -> None:
     assert abs(lateral['axis:forward:w0'] - 0.2 * 0.1) < 1e-6
     assert np.all(model.members == 5)
     assert np.allclose(model.sampling_cov, 0.0, atol=1e-12)  # every particle moves alike
+
+
+def test_the_model_reads_the_field_at_the_marker_start_not_the_cube_centroid() -> None:
+    """A surface marker: its cube's particles all lie below it, where the bed moves less. The
+    plane through them read at the start recovers the marker's motion; the cube mean does not."""
+    rng = np.random.default_rng(3)
+    offsets = np.column_stack([rng.uniform(-0.02, 0.02, 40), rng.uniform(-0.03, 0.0, 40),
+                               rng.uniform(-0.015, 0.015, 40)])  # the half cube below the start
+    at_start = np.array([0.030, 0.010, 0.050])  # (lateral out, vertical, forward) [m]
+    gradient = np.array([[0.2, 0.0, 0.0], [0.0, 0.3, 0.0], [0.0, 2.0, 0.5]])  # d feature / d offset
+    scatter = 0.002
+    f = (at_start + offsets @ gradient.T)[:, None, :] + rng.normal(0, scatter, (40, 1, 3))
+    value, var, centred = local_field(f, offsets)
+    assert np.allclose(value[0], at_start, atol=1.5e-3)
+    assert np.abs(f.mean(0)[0] - at_start).max() > 0.02  # the cube mean is 30 mm off forward
+    assert np.allclose(np.sqrt(var[0]), scatter, rtol=0.35)  # one particle's scatter
+    assert np.allclose(centred.std(0, ddof=1), scatter, rtol=0.35)
+    few = f[:5]
+    value5, _, _ = local_field(few, offsets[:5])  # too few particles for a plane: the mean
+    assert np.allclose(value5, few.mean(0))
