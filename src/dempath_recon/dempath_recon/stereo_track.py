@@ -72,6 +72,8 @@ class StereoMarkerTracker:
         self._grid_uv: dict[str, dict[int, FloatArray]] = {}  # the fitted grid, per camera
         self._late_numbered: dict[str, set[int]] = {n: set() for n in cameras}  # track ids
         self._refused: dict[str, set[tuple[int, int]]] = {n: set() for n in cameras}
+        # withheld points of unconfirmed re-attachments: marker -> (stamp s, (2,) px)
+        self._pending: dict[str, dict[int, tuple[float, FloatArray]]] = {n: {} for n in cameras}
 
     def other(self, camera: str) -> str:
         """The other camera's name."""
@@ -264,26 +266,44 @@ class StereoMarkerTracker:
 
         A pair farther than ``3 * epipolar_px`` from the epipolar line, or whose 3D point the
         marker cannot have reached since its last accepted position, is withheld (-1) in this
-        frame. The track loses that number for good if it was numbered after the start
-        (epipolar line, late grid) or if one of its links since its last passed check landed
-        more than ``doubt_link_px`` from the prediction (the 2D linker likely took a neighbour
-        for the covered marker); otherwise the other camera is the likelier culprit and the
-        point is only withheld. Pairs that pass update the marker's 3D position.
+        frame. If the track was numbered after the start (epipolar line, late grid), it loses
+        that number for good. If instead one of its links since its last passed check landed
+        more than ``doubt_link_px`` from the prediction, the 2D linker likely took a neighbour
+        for the covered marker: that link is undone (the track is lost again where it was, and
+        keeps its number; the spot starts a new, unnumbered track that the epipolar numbering
+        can name). Otherwise the other camera is the likelier culprit and the point is only
+        withheld. Pairs that pass update the marker's 3D position.
+
+        A track re-attached since its last passed check more than ``doubt_link_px`` from where
+        it was expected is not given out with its number until the other camera confirms it
+        (withheld, counted as ``unconfirmed``): a marker that reappears some way off may be a
+        neighbour, and with no view of it in the other camera nothing else can tell.
         """
         other, markers = self.other(camera), markers.copy()
-        seen = self.latest[other]
         tracks = {t.track_id: t for t in self.trackers[camera].tracks}
-        idx = [k for k, m in enumerate(markers) if m >= 0 and int(m) in seen
-               and abs(seen[int(m)][0] - stamp_s) <= 1.0 / self.config.fps]
+        unsure = {k for k in np.flatnonzero(markers >= 0).tolist()
+                  if int(track_ids[k]) in tracks
+                  and tracks[int(track_ids[k])].reattach_px > self.config.doubt_link_px}
+        partner = self._partners(other, markers, unsure, stamp_s)
+        idx = sorted(partner)
+        for k in sorted(unsure - set(idx)):
+            self.counts[camera].unconfirmed += 1
+            self._pending[camera][int(markers[k])] = (stamp_s, uv[k])
+            events.append(f'{camera}: marker {markers[k]} withheld at {stamp_s:.3f} s: '
+                          f're-attached {tracks[int(track_ids[k])].reattach_px:.1f} px from '
+                          'its prediction, not yet confirmed by the other camera')
+            markers[k] = UNNUMBERED
         xyz, epi = triangulate_pairs(self.cameras[camera], self.cameras[other],
-                                     uv[idx], np.array([seen[int(markers[k])][1] for k in idx]))
+                                     uv[idx], np.array([partner[k] for k in idx]))
         for k, x, d in zip(idx, xyz, epi, strict=True):
             m = int(markers[k])
             dist, allowed = self.positions.distance(m, stamp_s, x)
             if d <= 3 * self.config.epipolar_px and dist <= allowed:
                 self.positions.accept(m, stamp_s, x)
+                self._pending[camera].pop(m, None)
                 if int(track_ids[k]) in tracks:
                     tracks[int(track_ids[k])].link_px = 0.0
+                    tracks[int(track_ids[k])].reattach_px = 0.0
                 continue
             counts = self.counts[camera]
             counts.withheld += 1
@@ -297,16 +317,38 @@ class StereoMarkerTracker:
             markers[k] = UNNUMBERED
             tid = int(track_ids[k])
             jump = tracks[tid].link_px if tid in tracks else 0.0
-            if tid in self._late_numbered[camera] or jump > self.config.doubt_link_px:
+            if tid in self._late_numbered[camera]:
                 self._late_numbered[camera].discard(tid)
                 self._refused[camera].add((tid, m))
                 self.trackers[camera].number(tid, UNNUMBERED)
                 counts.revoked += 1
                 why += '; its number taken back'
+            elif jump > self.config.doubt_link_px:
+                new = self.trackers[camera].split(tid)
+                counts.revoked += 1
+                why += f'; the link ({jump:.1f} px off the prediction) undone, new track {new}'
             msg = f'{camera}: marker {m} withheld at {stamp_s:.3f} s: {why}'
             events.append(msg)
             LOG.warning(msg)
         return markers
+
+    def _partners(self, other: str, markers: NDArray[np.int32], unsure: set[int],
+                  stamp_s: float) -> dict[int, FloatArray]:
+        """The other camera's point (2,) px of each numbered detection's marker, seen within a
+        frame period: its given-out point, or for an unsure re-attachment (index in ``unsure``)
+        also its withheld, unconfirmed one (two cameras that both lost a marker re-attach it
+        with no given-out point to check against; the pair can confirm both)."""
+        out: dict[int, FloatArray] = {}
+        for k in np.flatnonzero(markers >= 0).tolist():
+            m = int(markers[k])
+            sources = (self.latest[other], self._pending[other]) if k in unsure \
+                else (self.latest[other],)
+            for source in sources:
+                hit = source.get(m)
+                if hit is not None and abs(hit[0] - stamp_s) <= 1.0 / self.config.fps:
+                    out[k] = hit[1]
+                    break
+        return out
 
     def report(self) -> dict[str, Any]:
         """Counts per camera, and the stamp gaps where frames were missing."""

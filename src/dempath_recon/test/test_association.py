@@ -136,6 +136,26 @@ def test_tracker_mislink_is_withheld_not_given_out(rig) -> None:
     assert tracker.report()['cam_side']['revoked'] == 0
 
 
+def test_far_reattachment_waits_for_the_other_camera(rig) -> None:
+    """Marker 3 covered in both cameras, back 20 mm aside: the front re-attaches its lost track
+    to it about 20 px off, and gives no number while the side cannot see it; once both see
+    it, the pair confirms it and it is numbered 3 in both."""
+    p1, p2, p3 = (np.array(g) for g in GRID)
+    moved = p3 + np.array([0.02, 0.0, 0.0])
+    front = rig.cameras[1]
+    jump = np.linalg.norm(front.project(moved[None]) - front.project(p3[None]))
+    assert 5 < jump < 40, f'precondition: the front sees a {jump:.0f} px jump'
+    scene = [([p1, p2, p3], [p1, p2, p3])] * 3 + [([p1, p2], [p1, p2])] * 2
+    scene += [([p1, p2], [p1, p2, moved])] * 2 + [([p1, p2, moved], [p1, p2, moved])] * 2
+    out, tracker = run(rig, scene)
+    fronts = [f for f in out if f.camera == 'cam_front']
+    sides = [f for f in out if f.camera == 'cam_side']
+    assert [numbers_at(f, front, moved) for f in fronts[5:7]] == [-1, -1]
+    assert numbers_at(fronts[8], front, moved) == 3
+    assert numbers_at(sides[8], rig.cameras[0], moved) == 3
+    assert tracker.report()['cam_front']['unconfirmed'] >= 2
+
+
 def test_grid_numbering_waits_for_a_frame_with_markers(rig) -> None:
     """Two frames without markers and one with a single stray spot, then the grid: numbered."""
     p1, p2, p3 = (np.array(g) for g in GRID)
