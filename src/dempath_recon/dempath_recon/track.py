@@ -230,26 +230,6 @@ class MarkerTracker:
         track.last_stamp_s = stamp_s
         track.history.append((stamp_s, float(uv[0]), float(uv[1])))
 
-    def split(self, track_id: int) -> int:
-        """Undo a track's last link: the track is lost again where it was before it, and the
-        detection it took starts a new, unnumbered track (whose id is returned).
-
-        For a link that a check against the other camera showed wrong: the marker the track
-        followed keeps its number and can re-attach where it really reappears, and the spot
-        it took is numbered afresh as a new track. Returns -1 for an unknown or single-point
-        track.
-        """
-        track = next((t for t in self.tracks if t.track_id == track_id), None)
-        if track is None or len(track.history) < 2 or track.lost:
-            return -1
-        t, u, v = track.history.pop()
-        prev = track.history[-1]
-        track.uv, track.last_stamp_s = np.array(prev[1:], np.float64), prev[0]
-        track.velocity, track.lost, track.link_px, track.reattach_px = np.zeros(2), True, 0.0, 0.0
-        self.counts.lost += 1
-        self.counts.new_tracks += 1
-        return self._new(np.array([u, v]), UNNUMBERED, t).track_id
-
     def number(self, track_id: int, marker: int) -> None:
         """Give a track its marker number (from the grid or the other camera)."""
         for track in self.tracks:

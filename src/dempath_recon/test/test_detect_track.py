@@ -119,22 +119,6 @@ def test_tracker_never_joins_a_far_detection_to_a_lost_track() -> None:
     assert any('new track' in e for e in frame.events)
 
 
-def test_split_undoes_the_last_link() -> None:
-    """A link undone: the track is lost again at its previous point, keeps its number, and the
-    spot it took is a new, unnumbered track that the next frame continues."""
-    tracker = MarkerTracker()
-    tracker.seed(np.array([[100.0, 100.0]]), np.array([4], np.int32), 0.0)
-    tracker.update(0.02, dets(np.array([[101.0, 100.0]])))
-    frame = tracker.update(0.04, dets(np.array([[112.0, 100.0]])))
-    tid = int(frame.track_ids[0])
-    new = tracker.split(tid)
-    old = next(t for t in tracker.tracks if t.track_id == tid)
-    assert old.lost and old.marker == 4 and np.allclose(old.uv, [101.0, 100.0])
-    nxt = tracker.update(0.06, dets(np.array([[113.0, 100.0]])))
-    assert list(nxt.track_ids) == [new] and list(nxt.markers) == [-1]
-    assert tracker.split(12345) == -1
-
-
 def test_streaming_and_batch_agree() -> None:
     """track_sequence gives exactly the frames of update() called one at a time."""
     uv = moving(10, np.random.default_rng(4))
