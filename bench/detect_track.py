@@ -5,11 +5,15 @@ Reads a bag written by ``dempath twin render`` (default: the bundled one) and it
 detection, tracking, numbering) over the run's frames, and compares with the truth:
 
 - ``fps``: frames processed per second of wall time, decode included (JPEGs read from the bag
-  into memory first, so bag I/O is not counted); ``--threads 2`` runs the two cameras' decode and
-  detection on two threads (OpenCV releases the GIL), as two detector nodes would;
-  ``cpu_ms_per_frame`` is the process CPU time per frame and ``fps_two_free_cores`` the rate two
-  otherwise idle cores would give (2 / CPU time per frame): on a shared machine the wall-clock
-  figure measures the other jobs as much as this code;
+  into memory first, so bag I/O is not counted), with ``--threads`` threads (default 2: the two
+  cameras' decode and detection on two threads, OpenCV releases the GIL, as two detector nodes
+  would; tracking follows on the main thread); ``fps_one_thread`` the same on one thread;
+  ``cpu_ms_per_frame`` is the process CPU time per frame of the threaded run and
+  ``fps_two_free_cores`` the rate two otherwise idle cores would give (2 / CPU time per frame);
+  ``stage_ms`` splits one thread's CPU time per frame into ``decode``, ``detect`` (chroma,
+  filter, centroids) and ``track`` (linking, numbering, checks). On a shared machine the
+  wall-clock figures measure the other jobs as much as this code: ``load_average`` (1, 5 and
+  15 min, before the timed runs) and ``load_average_end`` say how busy the machine was;
 - ``rms_px``: localisation error of detected markers whose disc is at least 90 % visible;
 - ``recall``: share of markers at least half visible (truth) that were detected and numbered;
 - ``id_switches``: numbered detections given a number other than the marker's own;
@@ -40,7 +44,7 @@ import numpy as np
 from dempath.bagio import open_bag
 from dempath_calib.camera import CameraModel
 from dempath_recon.associate import MarkerGrid
-from dempath_recon.detect import MarkerDetector
+from dempath_recon.detect import MarkerDetector, decode_jpeg
 from dempath_recon.stereo_track import StereoMarkerTracker, StereoTrackConfig, triangulate_tracks
 
 HERE = Path(__file__).resolve().parent
@@ -73,6 +77,26 @@ def run(frames: list[tuple[str, int, bytes]], cams: dict[str, CameraModel],
            for (c, s, _), d in zip(frames, dets, strict=True)]
     run.cpu_s = time.process_time() - c0  # type: ignore[attr-defined]
     return out, time.perf_counter() - t0, tracker.report()
+
+
+def stage_times(frames: list[tuple[str, int, bytes]], cams: dict[str, CameraModel],
+                config: StereoTrackConfig) -> dict[str, float]:
+    """One thread's CPU time per frame [ms] of decode, detection and tracking."""
+    detector = MarkerDetector(config.detector)
+    tracker = StereoMarkerTracker(cams, config)
+    spent = dict.fromkeys(('decode', 'detect', 'track'), 0.0)
+    for cam, stamp, data in frames:
+        t0 = time.thread_time()
+        image = decode_jpeg(data, config.detector.downscale)
+        t1 = time.thread_time()
+        det = detector.detect(image, prescaled=True)
+        t2 = time.thread_time()
+        tracker.update_detections(cam, stamp * 1e-9, det)
+        t3 = time.thread_time()
+        spent['decode'] += t1 - t0
+        spent['detect'] += t2 - t1
+        spent['track'] += t3 - t2
+    return {k: round(1e3 * v / len(frames), 3) for k, v in spent.items()}
 
 
 def score(out: list, truth: dict, cams: dict[str, CameraModel]) -> dict[str, float]:
@@ -183,17 +207,24 @@ def main(argv: list[str]) -> int:
     # the experiment's marker layout (the scene's grid points), as an experimenter knows it
     grid = MarkerGrid(layout_m=tuple(tuple(p) for p in truth['marker_grid_m']))
     config = StereoTrackConfig(grid=grid)
-    best, cpu = None, None
+    load = [round(x, 2) for x in os.getloadavg()]
+    best, cpu, one = None, None, None
     for _ in range(args.repeat):
         out, wall, report = run(frames, cams, args.threads, config)
         best = wall if best is None else min(best, wall)
         cpu = run.cpu_s if cpu is None else min(cpu, run.cpu_s)  # type: ignore[attr-defined]
+        _, wall1, _ = run(frames, cams, 1, config)
+        one = wall1 if one is None else min(one, wall1)
+    stages = min((stage_times(frames, cams, config) for _ in range(args.repeat)),
+                 key=lambda st: sum(st.values()))
     h, w = next(iter(cams.values())).height, next(iter(cams.values())).width
-    figures = {'fps': len(frames) / best, 'frames': len(frames), 'image': f'{w}x{h}',
+    figures = {'fps': len(frames) / best, 'fps_one_thread': len(frames) / one,
+               'frames': len(frames), 'image': f'{w}x{h}',
                'cpu_ms_per_frame': 1e3 * cpu / len(frames),
-               'fps_two_free_cores': 2 * len(frames) / cpu,
+               'fps_two_free_cores': 2 * len(frames) / cpu, 'stage_ms': stages,
                'threads': args.threads, **score(out, truth, cams),
-               'load_average': os.getloadavg()[0], 'cpus': os.cpu_count(),
+               'load_average': load, 'load_average_end': [round(x, 2) for x in os.getloadavg()],
+               'cpus': os.cpu_count(),
                'lost': sum(r['lost'] for r in report.values()),
                'reattached': sum(r['reattached'] for r in report.values())}
     if not args.no_node_path:

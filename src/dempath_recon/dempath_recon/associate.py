@@ -49,6 +49,38 @@ class MarkerGrid:
     side: int = 1
     layout_m: tuple[tuple[float, float, float], ...] = ()
 
+    def __post_init__(self) -> None:
+        checks = {'rows': self.rows >= 1, 'columns': self.columns >= 1,
+                  'spacing_x_m': 0 < self.spacing_x_m < 10,
+                  'spacing_z_m': 0 < self.spacing_z_m < 10, 'side': self.side in (1, -1)}
+        for name, ok in checks.items():
+            if not ok:
+                msg = f'{name}: out of range, got {getattr(self, name)!r}'
+                raise ValueError(msg)
+
+    @classmethod
+    def from_scene(cls, scene: str) -> MarkerGrid:
+        """The grid of a scene's ``markers:`` block (a scene file, or a shipped scene's name).
+
+        The scene places row r at ``X = x_m + r * side * spacing_x_m`` and column c at
+        ``Z = first_z_m + c * spacing_z_m``; the field frame's origin is the grid's centre, so
+        only the size, the pitches and the side carry over.
+
+        Raises:
+            ReconstructionError: the scene cannot be read (the message names it and the fault).
+        """
+        from dempath_recon.errors import ReconstructionError
+        from dempath_sim.errors import SceneError
+        from dempath_sim.scene.loader import resolve_scene
+
+        try:
+            spec = resolve_scene(scene).markers
+        except SceneError as err:
+            msg = f'scene {scene!r}: {err}'
+            raise ReconstructionError(msg) from err
+        return cls(rows=spec.rows, columns=spec.columns, spacing_x_m=spec.spacing_x_m,
+                   spacing_z_m=spec.spacing_z_m, side=spec.side)
+
     def points(self) -> tuple[NDArray[np.int32], FloatArray]:
         """Marker numbers (m,) and grid points (m, 3) m, numbered row by row from 1."""
         if self.layout_m:

@@ -72,6 +72,8 @@ class StereoMarkerTracker:
         self._grid_uv: dict[str, dict[int, FloatArray]] = {}  # the fitted grid, per camera
         self._late_numbered: dict[str, set[int]] = {n: set() for n in cameras}  # track ids
         self._refused: dict[str, set[tuple[int, int]]] = {n: set() for n in cameras}
+        # withheld points of unconfirmed re-attachments: marker -> (stamp s, (2,) px)
+        self._pending: dict[str, dict[int, tuple[float, FloatArray]]] = {n: {} for n in cameras}
 
     def other(self, camera: str) -> str:
         """The other camera's name."""
@@ -268,22 +270,42 @@ class StereoMarkerTracker:
         (epipolar line, late grid) or if one of its links since its last passed check landed
         more than ``doubt_link_px`` from the prediction (the 2D linker likely took a neighbour
         for the covered marker); otherwise the other camera is the likelier culprit and the
-        point is only withheld. Pairs that pass update the marker's 3D position.
+        point is only withheld. Pairs that pass update the marker's 3D position. (Undoing just
+        the bad link instead, the track lost again with its number, was tried: on the bundled
+        render it let that number re-attach to a neighbour later, 6 switches.)
+
+        A track re-attached since its last passed check more than ``doubt_link_px`` from where
+        it was expected is not given out with its number until the other camera confirms it
+        (withheld, counted as ``unconfirmed``): a marker that reappears some way off may be a
+        neighbour, and a wrong number is worse than none. (Withholding it only when another
+        marker was last seen near the spot was tried: on the bundled render the switch it
+        should stop, a side-camera re-attachment 25 px off after 0.2 s, stayed.)
         """
         other, markers = self.other(camera), markers.copy()
-        seen = self.latest[other]
         tracks = {t.track_id: t for t in self.trackers[camera].tracks}
-        idx = [k for k, m in enumerate(markers) if m >= 0 and int(m) in seen
-               and abs(seen[int(m)][0] - stamp_s) <= 1.0 / self.config.fps]
+        unsure = {k for k in np.flatnonzero(markers >= 0).tolist()
+                  if int(track_ids[k]) in tracks
+                  and tracks[int(track_ids[k])].reattach_px > self.config.doubt_link_px}
+        partner = self._partners(other, markers, unsure, stamp_s)
+        idx = sorted(partner)
+        for k in sorted(unsure - set(idx)):
+            self.counts[camera].unconfirmed += 1
+            self._pending[camera][int(markers[k])] = (stamp_s, uv[k])
+            events.append(f'{camera}: marker {markers[k]} withheld at {stamp_s:.3f} s: '
+                          f're-attached {tracks[int(track_ids[k])].reattach_px:.1f} px from '
+                          'its prediction, not yet confirmed by the other camera')
+            markers[k] = UNNUMBERED
         xyz, epi = triangulate_pairs(self.cameras[camera], self.cameras[other],
-                                     uv[idx], np.array([seen[int(markers[k])][1] for k in idx]))
+                                     uv[idx], np.array([partner[k] for k in idx]))
         for k, x, d in zip(idx, xyz, epi, strict=True):
             m = int(markers[k])
             dist, allowed = self.positions.distance(m, stamp_s, x)
             if d <= 3 * self.config.epipolar_px and dist <= allowed:
                 self.positions.accept(m, stamp_s, x)
+                self._pending[camera].pop(m, None)
                 if int(track_ids[k]) in tracks:
                     tracks[int(track_ids[k])].link_px = 0.0
+                    tracks[int(track_ids[k])].reattach_px = 0.0
                 continue
             counts = self.counts[camera]
             counts.withheld += 1
@@ -307,6 +329,24 @@ class StereoMarkerTracker:
             events.append(msg)
             LOG.warning(msg)
         return markers
+
+    def _partners(self, other: str, markers: NDArray[np.int32], unsure: set[int],
+                  stamp_s: float) -> dict[int, FloatArray]:
+        """The other camera's point (2,) px of each numbered detection's marker, seen within a
+        frame period: its given-out point, or for an unsure re-attachment (index in ``unsure``)
+        also its withheld, unconfirmed one (two cameras that both lost a marker re-attach it
+        with no given-out point to check against; the pair can confirm both)."""
+        out: dict[int, FloatArray] = {}
+        for k in np.flatnonzero(markers >= 0).tolist():
+            m = int(markers[k])
+            sources = (self.latest[other], self._pending[other]) if k in unsure \
+                else (self.latest[other],)
+            for source in sources:
+                hit = source.get(m)
+                if hit is not None and abs(hit[0] - stamp_s) <= 1.0 / self.config.fps:
+                    out[k] = hit[1]
+                    break
+        return out
 
     def report(self) -> dict[str, Any]:
         """Counts per camera, and the stamp gaps where frames were missing."""

@@ -76,6 +76,7 @@ class Track:
     history: list[tuple[float, float, float]] = field(default_factory=list)  # (t, u, v)
     link_px: float = 0.0  # largest distance of a linked detection from the prediction since
     # the caller last reset it (a check against the other camera passed) [px]
+    reattach_px: float = 0.0  # the same, of re-attachments only (a lost track taking a spot)
 
     def predict(self, stamp_s: float, decay: float) -> FloatArray:
         """(2,) expected position at ``stamp_s`` [px]."""
@@ -218,6 +219,7 @@ class MarkerTracker:
         track.link_px = max(track.link_px, miss)
         if track.lost:
             self.counts.reattached += 1
+            track.reattach_px = max(track.reattach_px, miss)
             events.append(f're-attached track {track.track_id} (marker {track.marker}) after '
                           f'{dt:.3f} s unseen, {np.linalg.norm(uv - track.uv):.1f} px away')
             track.lost = False

@@ -136,6 +136,30 @@ def test_tracker_mislink_is_withheld_not_given_out(rig) -> None:
     assert tracker.report()['cam_side']['revoked'] == 0
 
 
+def test_far_reattachment_waits_for_the_other_camera(rig) -> None:
+    """Markers 2 and 3 covered in both cameras; 3 back 20 mm aside, seen by the front first:
+    re-attached there about 20 px off (lost marker 2 in the linker's gate too), it gets no
+    number while the side cannot see it. The side then re-attaches it too, the two withheld
+    points confirm each other, and both cameras number it 3."""
+    p1, p2, p3 = (np.array(g) for g in GRID)
+    moved = p3 + np.array([0.02, 0.0, 0.0])
+    front = rig.cameras[1]
+    jump = np.linalg.norm(front.project(moved[None]) - front.project(p3[None]))
+    rival = np.linalg.norm(front.project(moved[None]) - front.project(p2[None]))
+    assert 5 < jump < rival < 80, f'precondition: jump {jump:.0f} px, marker 2 {rival:.0f} px'
+    scene = [([p1, p2, p3], [p1, p2, p3])] * 3 + [([p1], [p1])] * 2
+    scene += [([p1], [p1, moved])] * 2 + [([p1, moved], [p1, moved])] * 2
+    config = StereoTrackConfig(grid=MarkerGrid(layout_m=GRID),
+                               tracker=TrackerConfig(reattach_px=80.0))
+    out, tracker = run(rig, scene, config)
+    fronts = [f for f in out if f.camera == 'cam_front']
+    sides = [f for f in out if f.camera == 'cam_side']
+    assert [numbers_at(f, front, moved) for f in fronts[5:7]] == [-1, -1]
+    assert [numbers_at(f, rig.cameras[0], moved) for f in sides[7:9]] == [3, 3]
+    assert [numbers_at(f, front, moved) for f in fronts[7:9]] == [3, 3]
+    assert tracker.report()['cam_front']['unconfirmed'] == 2
+
+
 def test_grid_numbering_waits_for_a_frame_with_markers(rig) -> None:
     """Two frames without markers and one with a single stray spot, then the grid: numbered."""
     p1, p2, p3 = (np.array(g) for g in GRID)

@@ -7,6 +7,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
+import pytest
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray
 from sensor_msgs.msg import CompressedImage
@@ -18,6 +19,7 @@ from dempath import topics
 from dempath_calib.camera import StereoCalibration
 from dempath_msgs.msg import PixelPoints
 from dempath_recon.associate import MarkerGrid
+from dempath_recon.errors import ReconstructionError
 from dempath_recon.nodes.detector import DetectorNode
 
 
@@ -69,3 +71,39 @@ def test_detector_node_publishes_numbered_points_and_counts(ros_harness, rig, tm
         assert np.abs(uv - truth[k]).max() < 0.6
     assert len(got[1].marker_ids) == 0
     assert node.core.report()['cam_side']['undecodable'] == 1
+
+
+def test_detector_node_numbers_the_grid_of_its_scene(ros_harness, rig, tmp_path) -> None:
+    """``scene:=tiny`` (3 x 5 markers 25 mm apart, half the paper's pitch): the front camera's
+    node numbers all 15 markers, each with its own number."""
+    calib = StereoCalibration(rig.side, rig.front, {})
+    node = ros_harness.start(DetectorNode, camera='cam_front', scene='tiny',
+                             calibration_file=str(calib.save(tmp_path / 'calib.yaml')))
+    assert node.core.config.grid == MarkerGrid(spacing_x_m=0.025, spacing_z_m=0.025)
+    got = ros_harness.collect(PixelPoints, topics.camera_topic(topics.PIXEL_POINTS, 'cam_front'))
+    pub = ros_harness.publisher(CompressedImage,
+                                topics.camera_topic(topics.IMAGE_COMPRESSED, 'cam_front'))
+    assert ros_harness.wait_for_subscribers(pub)
+    numbers, xyz = node.core.config.grid.points()
+    uv = rig.front.project(xyz)
+    data = spot_image((rig.front.height, rig.front.width), uv, 3.0, np.random.default_rng(1),
+                      quality=92)
+    for k in range(2):
+        pub.publish(jpeg_msg(data, 1_000_000_000 + 20_000_000 * k))
+        ros_harness.spin_until(lambda: False, timeout_s=0.05)
+    assert ros_harness.spin_until(lambda: len(got) == 2, timeout_s=20), len(got)
+    for msg in got:
+        assert sorted(msg.marker_ids) == list(numbers), msg.marker_ids
+        for m, u, v in zip(msg.marker_ids, msg.u, msg.v, strict=True):
+            assert np.hypot(u - uv[m - 1, 0], v - uv[m - 1, 1]) < 1.0, (m, u, v)
+
+
+def test_detector_node_grid_parameters(ros_harness, rig, tmp_path) -> None:
+    """The marker_* parameters give the grid; a scene that does not exist is refused by name."""
+    calib = str(StereoCalibration(rig.side, rig.front, {}).save(tmp_path / 'calib.yaml'))
+    node = ros_harness.start(DetectorNode, camera='cam_side', calibration_file=calib,
+                             marker_rows=2, marker_columns=4, marker_spacing_x_m=0.03,
+                             marker_spacing_z_m=0.04, marker_side=-1)
+    assert node.core.config.grid == MarkerGrid(2, 4, 0.03, 0.04, -1)
+    with pytest.raises(ReconstructionError, match='no_such_scene'):
+        MarkerGrid.from_scene('no_such_scene')

@@ -3,7 +3,10 @@
 Subscribes ``/<camera>/image_raw/compressed`` (``sensor_msgs/CompressedImage``, or
 ``/<camera>/image_raw`` ``sensor_msgs/Image`` bgr8/rgb8 with ``compressed:=false``) with
 sensor-data QoS (best effort, so that it matches camera drivers and a reliable player alike), and
-the other camera's ``pixel_points`` (for numbering markers by the epipolar line); publishes
+the other camera's ``pixel_points`` (for numbering markers by the epipolar line); numbers the
+markers first by the marker grid (``scene``, or ``marker_rows`` / ``marker_columns`` /
+``marker_spacing_x_m`` / ``marker_spacing_z_m`` / ``marker_side``; the paper's 3 x 5 at 50 mm by
+default) projected through the calibration; publishes
 ``/<camera>/pixel_points`` with ``SOURCE_DETECTED`` and the detector's confidence; only numbered
 markers are published (the reconstructor pairs by number).
 
@@ -50,8 +53,9 @@ from dempath import topics
 from dempath.nodes.spin import run_node
 from dempath.workqueue import WorkQueue
 from dempath_msgs.msg import PixelPoints
+from dempath_recon.associate import MarkerGrid
 from dempath_recon.errors import ReconstructionError
-from dempath_recon.stereo_track import PixelFrame, StereoMarkerTracker
+from dempath_recon.stereo_track import PixelFrame, StereoMarkerTracker, StereoTrackConfig
 from dempath_recon.stride import FrameStride
 
 PARAMETERS: tuple[tuple[str, Any, str], ...] = (
@@ -68,6 +72,13 @@ PARAMETERS: tuple[tuple[str, Any, str], ...] = (
     ('lossless', False, 'bag playback: reliable keep-all subscription, every frame detected (no '
                         'stride, no drop, no age limit)'),
     ('silent_s', 1.0, 'no frame for this long after the first: diagnostics say WARN [s]'),
+    ('scene', '', "scene file or shipped scene name whose markers: block gives the marker grid "
+                  "(overrides the marker_* parameters); '': the marker_* parameters"),
+    ('marker_rows', 3, 'rows of the marker grid (row 0 on the tool axis; the paper: 3)'),
+    ('marker_columns', 5, 'markers per row, in travel order (the paper: 5)'),
+    ('marker_spacing_x_m', 0.05, 'grid pitch across the travel, X [m]'),
+    ('marker_spacing_z_m', 0.05, 'grid pitch along the travel, Z [m]'),
+    ('marker_side', 1, 'side of the tool axis the further rows lie on (+1: +X, -1: -X)'),
 )
 OTHER_KEPT = 200  # the other camera's frames waiting to be noted by the worker
 LOSSLESS_QUEUE = 1_000_000  # frames that may wait when playing a bag losslessly
@@ -114,7 +125,8 @@ class DetectorNode(Node):
                                      for name, default, text in PARAMETERS])
         p = {name: self.get_parameter(name).value for name, _, _ in PARAMETERS}
         self.camera = str(p['camera'])
-        self.core = StereoMarkerTracker(_load_cameras(str(p['calibration_file'])))
+        self.core = StereoMarkerTracker(_load_cameras(str(p['calibration_file'])),
+                                        StereoTrackConfig(grid=_grid(p)))
         if self.camera not in self.core.cameras:
             msg = f'camera: {self.camera!r} not in the calibration ({sorted(self.core.cameras)})'
             raise ReconstructionError(msg)
@@ -271,6 +283,18 @@ def _now_header(node: Node) -> Any:
     from std_msgs.msg import Header
 
     return Header(stamp=node.get_clock().now().to_msg())
+
+
+def _grid(p: dict[str, Any]) -> MarkerGrid:
+    """The marker grid of the ``scene`` parameter, else of the ``marker_*`` parameters."""
+    if p['scene']:
+        return MarkerGrid.from_scene(str(p['scene']))
+    try:
+        return MarkerGrid(rows=int(p['marker_rows']), columns=int(p['marker_columns']),
+                          spacing_x_m=float(p['marker_spacing_x_m']),
+                          spacing_z_m=float(p['marker_spacing_z_m']), side=int(p['marker_side']))
+    except ValueError as err:
+        raise ReconstructionError(f'marker grid parameters: {err}') from err
 
 
 def _load_cameras(path: str) -> dict[str, Any]:
