@@ -11,7 +11,11 @@ with it, packing seed by packing seed:
 - ``same_bed_cold``: the same without the re-settle: the pass starts from the bed as read,
   every contact without history (how much the contact history at the start matters).
 - ``dempath``: dempath's own set-up of the same bin, the scene file ``leaning_tine.yaml``
-  through ``run_scene`` (its fill, markers, tool placement): what a user gets.
+  through ``run_scene`` (its fill, markers, tool placement): what a user gets from the deck's
+  input numbers.
+- ``dempath_measured``: the same with ``leaning_tine_measured.yaml``, the bin as the deck's
+  settled beds measure (95 mm deep, 1018 kg/m^3 inside, the tip 65 mm below the surface;
+  ``fill.count: surface``): what a user gets from the deck's measured bed.
 
 Every run is reduced by the same rules (``deck_setup.deck_stats``): axis and side markers' mean
 displacement over time, the side markers' outward motion, the mean draft. For each set-up and
@@ -45,6 +49,7 @@ from dempath_sim.liggghts.install import ensure_liggghts
 from dempath_sim.runs import RunOptions, run_scene
 from dempath_sim.validation.cross_engine import compare, same_physics
 from dempath_sim.validation.deck_setup import (
+    MEASURED_SCENE_FILE,
     RESETTLE_S,
     DeckStats,
     deck_frames,
@@ -96,6 +101,8 @@ def _one_run(setup: str, variant: str, seed: int, work: Path, nprocs: int) -> De
                               RESETTLE_S if setup == 'same_bed' else 0.0)
         stats = deck_stats(frames, MEAN_R)
     else:
+        if setup == 'dempath_measured':
+            scene = same_physics(scene_for(variant, seed, MEASURED_SCENE_FILE))
         scene = replace(scene, output=replace(scene.output, snapshot_interval_s=0.01))
         result = run_scene(scene, RunOptions(cache_dir=work / 'packings'))
         stats = deck_stats(result_frames(result), MEAN_R)

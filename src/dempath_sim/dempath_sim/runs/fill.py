@@ -10,6 +10,9 @@ rolling resistance scaled down (a bisection on the scale, each trial from the la
 still too loose) until the bulk density is within the tolerance, then settled with the full
 physics; a target the pour cannot reach (denser than the frictionless bed, or looser than the
 full-friction pour) stops with one SceneError naming the value and what was reached. The
+number of grains is the target solid fraction times the layers' nominal volume
+(``fill.count: volume``), or, with ``fill.count: surface``, scaled by re-pouring until the
+settled surface lies at the nominal surface Y = 0 (within ``fill.tolerance`` x thickness). The
 bed is poured with the scene file's physics (``fill.physics: scene``) so that runs which only
 change effects share it; ``fill.packing`` reads a bed made elsewhere instead. The report gives
 the achieved bulk density (mass below the surface over the bin area times the bed height),
@@ -44,7 +47,7 @@ from dempath_sim.errors import SceneError
 from dempath_sim.runs.packing_io import load_packing
 from dempath_sim.runs.physics import PARTICLES, bin_walls, scaled_friction
 from dempath_sim.runs.pour import pour, target_solid_fraction
-from dempath_sim.scene.spec import NumericsSpec, SceneSpec
+from dempath_sim.scene.spec import FillSpec, NumericsSpec, SceneSpec
 
 logger = logging.getLogger(__name__)
 
@@ -55,6 +58,7 @@ COMPACTION_TRIALS = 7  # friction-scale bisection steps before a target counts a
 COMPACTION_SETTLE_S = 0.4  # longest settle of one compaction trial [s]
 SETTLE_CHECK_S = 0.02  # sim time between settling checks [s]
 MIN_SETTLE_S = 0.1  # never stop before this much sim time [s]
+SURFACE_TRIALS = 4  # pours of fill.count: surface before the surface counts as unreachable
 # Bump when an engine change alters the physics of settling (invalidates packings). Changes that
 # only reorder floating-point sums (cell-order sorting of particles, per-patch mesh history: the
 # fill has no tool) leave a cached bed an equally valid sample of the same physics, so they keep
@@ -81,6 +85,7 @@ class FillReport:
         target_solid_fraction: Target bulk density / particle density, or None.
         compaction_friction_scale: Friction scale of the compaction settle (1: none).
         source: ``pour`` or the packing file's path.
+        count_scale: Grains poured / the volume count (``fill.count: surface``; 1 otherwise).
     """
 
     n_particles: int
@@ -97,6 +102,7 @@ class FillReport:
     target_solid_fraction: float | None = None
     compaction_friction_scale: float = 1.0
     source: str = 'pour'
+    count_scale: float = 1.0
 
 
 def default_cache_dir() -> Path:
@@ -126,6 +132,9 @@ def packing_key(scene: SceneSpec, model: PhysicsModel) -> str:
     for option in ('coulomb_limit', 'contact_forms'):  # options added after packings were
         if numerics[option] == getattr(NumericsSpec, option):  # shipped: at their defaults
             del numerics[option]  # the keys of those packings stay valid
+    fill = asdict(replace(scene.fill, cache=True))
+    if fill['count'] == FillSpec.count:  # added after packings were shipped, likewise
+        del fill['count']
     if numerics.get('contact_forms') == 'liggghts':  # its pair springs now outlive a
         numerics['pair_springs'] = 'until_list_build'  # separation: packings settled before
     physics = asdict(replace(model, speed_scale=1.0, particle_tool=model.particle_particle,
@@ -133,7 +142,7 @@ def packing_key(scene: SceneSpec, model: PhysicsModel) -> str:
                              tool_poisson=0.0))
     payload = {'version': FILL_VERSION, 'engine': ENGINE_VERSION,
                'bin': asdict(scene.bin), 'layers': [asdict(x) for x in scene.layers],
-               'physics': physics, 'fill': asdict(replace(scene.fill, cache=True)),
+               'physics': physics, 'fill': fill,
                'sim': numerics,
                'seed': scene.seed}
     text = json.dumps(payload, sort_keys=True, default=str)
@@ -259,7 +268,7 @@ def compact(scene: SceneSpec, model: PhysicsModel, params: SimParams, state: Sim
 
 
 def _report(scene: SceneSpec, model: PhysicsModel, state: SimState, key: str, settled: bool,
-            scale: float = 1.0, source: str = 'pour') -> FillReport:
+            scale: float = 1.0, source: str = 'pour', count_scale: float = 1.0) -> FillReport:
     found: dict[str, Any] = measure(scene, model, state)
     target = scene.fill.bulk_density_target_kg_m3
     within = target is None or abs(found['bulk_density_kg_m3'] - target) <= (
@@ -269,12 +278,18 @@ def _report(scene: SceneSpec, model: PhysicsModel, state: SimState, key: str, se
                       key=key, floor_y_m=-scene.bed_thickness_m,
                       target_solid_fraction=None if target is None else target_solid_fraction(
                           scene, model),
-                      compaction_friction_scale=scale, source=source, **found)
+                      compaction_friction_scale=scale, source=source,
+                      count_scale=count_scale, **found)
 
 
 def pour_to_target(scene: SceneSpec, model: PhysicsModel, params: SimParams, key: str,
                    progress: Progress | None = None) -> tuple[SimState, FillReport]:
-    """Pour, settle and (with a target) compact the bed; SceneError if it cannot be reached."""
+    """Pour, settle and (with a target) compact the bed; SceneError if it cannot be reached.
+
+    With ``fill.count: surface`` the whole pour is repeated with the number of grains scaled by
+    thickness / (thickness + surface height) (the bed's height is proportional to its grains)
+    until the settled surface lies within ``fill.tolerance`` x thickness of Y = 0.
+    """
     target = scene.fill.bulk_density_target_kg_m3
     rho = model.particle_density_kg_m3
     if target is not None and target / rho > MAX_SOLID_FRACTION:
@@ -282,8 +297,28 @@ def pour_to_target(scene: SceneSpec, model: PhysicsModel, params: SimParams, key
             f'{scene.source}: fill.bulk_density_target_kg_m3: {target:g} kg/m^3 needs a solid '
             f'fraction {target / rho:.3f}; random sphere packings reach at most about '
             f'{MAX_SOLID_FRACTION} ({MAX_SOLID_FRACTION * rho:.0f} kg/m^3 with these particles)')
-    state, settled = pour_and_settle(scene, pour(scene, model, params), params, progress)
-    report = _report(scene, model, state, key, settled)
+    scale, thickness = 1.0, scene.bed_thickness_m
+    for _ in range(SURFACE_TRIALS):
+        state, report = _pour_once(scene, model, params, key, progress, scale)
+        height = report.surface_height_m
+        if scene.fill.count != 'surface' or abs(height) <= scene.fill.tolerance * thickness:
+            return state, report
+        logger.info('fill: surface %.1f mm from Y = 0 with %d grains; pouring again',
+                    1e3 * height, state.n)
+        scale *= thickness / (thickness + height)
+    raise SceneError(
+        f'{scene.source}: fill.count: surface: the settled surface stays {1e3 * height:.1f} mm '
+        f'from Y = 0 after {SURFACE_TRIALS} pours (tolerance '
+        f'{1e3 * scene.fill.tolerance * thickness:.1f} mm); raise fill.tolerance')
+
+
+def _pour_once(scene: SceneSpec, model: PhysicsModel, params: SimParams, key: str,
+               progress: Progress | None, count_scale: float) -> tuple[SimState, FillReport]:
+    """One pour of ``count_scale`` x the volume count, settled and compacted to the target."""
+    target = scene.fill.bulk_density_target_kg_m3
+    state, settled = pour_and_settle(scene, pour(scene, model, params, count_scale), params,
+                                     progress)
+    report = _report(scene, model, state, key, settled, count_scale=count_scale)
     if target is None or report.within_tolerance:
         return state, report
     if report.bulk_density_kg_m3 > target:
@@ -291,7 +326,7 @@ def pour_to_target(scene: SceneSpec, model: PhysicsModel, params: SimParams, key
     state, scale = compact(scene, model, params, state, progress)
     state, settled = settle(Engine(params, bin_walls(scene)), state, scene,
                             state.time + COMPACTION_SETTLE_S, progress)
-    return state, _report(scene, model, state, key, settled, scale)
+    return state, _report(scene, model, state, key, settled, scale, count_scale=count_scale)
 
 
 def packing_from_file(scene: SceneSpec, model: PhysicsModel, params: SimParams,

@@ -150,11 +150,13 @@ def _state(layers: list[tuple[F64, F64]], params: SimParams) -> SimState:
 Placer = Callable[[F64, float, np.random.Generator], tuple[F64, float]]
 
 
-def _stack(scene: SceneSpec, model: PhysicsModel, params: SimParams, place: Placer) -> SimState:
-    """Every layer's spheres (target solid fraction x layer volume), placed by ``place``
-    (diameters, bottom y, rng -> centres, top y) one on top of the other from the floor."""
+def _stack(scene: SceneSpec, model: PhysicsModel, params: SimParams, place: Placer,
+           count_scale: float = 1.0) -> SimState:
+    """Every layer's spheres (target solid fraction x layer volume x ``count_scale``), placed by
+    ``place`` (diameters, bottom y, rng -> centres, top y) one on top of the other from the
+    floor."""
     rng = np.random.default_rng(scene.seed)
-    phi = target_solid_fraction(scene, model)
+    phi = target_solid_fraction(scene, model) * count_scale
     area = scene.bin.width_x_m * scene.bin.length_z_m
     y, layers = -scene.bed_thickness_m, []
     for layer in scene.layers:
@@ -165,15 +167,17 @@ def _stack(scene: SceneSpec, model: PhysicsModel, params: SimParams, place: Plac
     return _state(layers, params)
 
 
-def pour(scene: SceneSpec, model: PhysicsModel, params: SimParams) -> SimState:
+def pour(scene: SceneSpec, model: PhysicsModel, params: SimParams,
+         count_scale: float = 1.0) -> SimState:
     """The loose random pour of all layers, seeded by ``scene.seed``; ``extra['layer']``.
 
-    Each layer holds target solid fraction x layer volume of spheres, inserted at random into
-    its own slab (``fill.pour_solid_fraction``) on top of the one below.
+    Each layer holds target solid fraction x layer volume x ``count_scale`` of spheres
+    (``fill.count: surface`` scales the number to bring the settled surface to Y = 0), inserted
+    at random into its own slab (``fill.pour_solid_fraction``) on top of the one below.
     """
     fraction = scene.fill.pour_solid_fraction
     return _stack(scene, model, params,
-                  lambda d, y, rng: layer_slab(scene, d, y, rng, fraction))
+                  lambda d, y, rng: layer_slab(scene, d, y, rng, fraction), count_scale)
 
 
 def lattice(scene: SceneSpec, diameters: F64, y_start: float, rng: np.random.Generator,

@@ -230,7 +230,7 @@ def _read_fill(f: Reader, base_dir: Path | None) -> records.FillSpec:
         f.flag('cache', True), f.number('friction_scale', 0.0, 1.0, 1.0),
         f.number('pour_solid_fraction', 0.05, 0.45, 0.35),
         f.text('physics', 'scene', ('scene', 'run')),
-        _read_packing_path(f, base_dir))
+        _read_packing_path(f, base_dir), f.text('count', 'volume', records.FILL_COUNTS))
 
 
 def _read_sections(r: Reader, source: str, base_dir: Path | None) -> dict[str, Any]:

@@ -137,6 +137,12 @@ class FillSpec:
     ``scene`` pours the bed with the scene file's own effects (runs that change effects reuse
     that bed and re-settle it with their own physics), ``run`` with the run's. ``packing``: a
     bed made elsewhere (LIGGGHTS data file, CSV x,y,z,d or npz) used instead of the pour.
+    ``count``: how many grains are poured. ``volume`` (the default): the target solid fraction
+    times the layers' nominal volume; as the wall layers and the rough top are looser than the
+    interior the density is measured in, such a bed stands a few millimetres above the nominal
+    surface. ``surface``: the number is scaled and the bed poured again until its settled
+    surface lies at the nominal surface (Y = 0) within ``tolerance`` x the bed's thickness, as a
+    lab fills its bin to a depth; the target density is then the interior's.
     """
 
     bulk_density_target_kg_m3: float | None = None
@@ -148,6 +154,10 @@ class FillSpec:
     pour_solid_fraction: float = 0.35
     physics: str = 'scene'
     packing: Path | None = None
+    count: str = 'volume'
+
+
+FILL_COUNTS = ('volume', 'surface')  # FillSpec.count
 
 
 @dataclass(frozen=True)

@@ -32,6 +32,7 @@ from dempath_sim.scene import SceneSpec, ToolPath, load_scene
 F64 = NDArray[np.float64]
 DECK_DIR = Path(__file__).resolve().parents[1] / 'data' / 'decks' / 'leaning_tine'
 SCENE_FILE = DECK_DIR / 'leaning_tine.yaml'
+MEASURED_SCENE_FILE = DECK_DIR / 'leaning_tine_measured.yaml'  # the deck's bed as measured
 RESETTLE_S = 0.06  # the deck's re-settle with the tine in place (in.pass)
 DECK_DT = 5e-5  # s, the deck's time step
 DECK_SKIN_M = 0.003  # m, the deck's neighbour skin (header of in.settle / in.pass)
@@ -79,10 +80,11 @@ class DeckStats:
     markers: dict[str, list[int]]
 
 
-def scene_for(variant: str, seed: int = 1) -> SceneSpec:
-    """The deck's bin as a dempath scene with the variant's physics and the given seed."""
+def scene_for(variant: str, seed: int = 1, scene_file: Path = SCENE_FILE) -> SceneSpec:
+    """The deck's bin as a dempath scene (``leaning_tine.yaml``, or ``scene_file``) with the
+    variant's physics and the given seed."""
     values, on = VARIANTS[variant]
-    return load_scene(SCENE_FILE).with_overrides(values, on=on, seed=seed)
+    return load_scene(scene_file).with_overrides(values, on=on, seed=seed)
 
 
 def run_deck(seed: int, variant: str, workdir: Path, nprocs: int = 2) -> Path:
