@@ -84,9 +84,9 @@ def test_the_model_reads_the_field_at_the_marker_start_not_the_cube_centroid() -
     plane through them read at the start recovers the marker's motion; the cube mean does not."""
     rng = np.random.default_rng(3)
     offsets = np.column_stack([rng.uniform(-0.02, 0.02, 40), rng.uniform(-0.03, 0.0, 40),
-                               rng.uniform(-0.015, 0.015, 40)])  # the half cube below the start
+                               rng.uniform(-0.015, 0.015, 40)])  # the half cube below
     at_start = np.array([0.030, 0.010, 0.050])  # (lateral out, vertical, forward) [m]
-    gradient = np.array([[0.2, 0.0, 0.0], [0.0, 0.3, 0.0], [0.0, 2.0, 0.5]])  # d feature / d offset
+    gradient = np.array([[0.2, 0.0, 0.0], [0.0, 0.3, 0.0], [0.0, 2.0, 0.5]])  # d feature/d offset
     scatter = 0.002
     f = (at_start + offsets @ gradient.T)[:, None, :] + rng.normal(0, scatter, (40, 1, 3))
     value, var, centred = local_field(f, offsets)
