@@ -47,6 +47,15 @@ def run_node(make_node: Callable[[], N], args: list[str] | None = None,
         print(f'error: {err}', file=sys.stderr)
         rclpy.try_shutdown()
         return 1
+    except RuntimeError:
+        # rclpy's RCLError: a signal reached a thread started before the mask (a library's pool)
+        # and shut the context down while the node was built: a clean stop, unless the context
+        # is still valid (then it is a real fault)
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, HELD_SIGNALS)
+        if rclpy.ok():
+            raise
+        rclpy.try_shutdown()
+        return 0
     executor = SingleThreadedExecutor()
     executor.add_node(node)
     try:
