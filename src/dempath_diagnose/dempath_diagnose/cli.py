@@ -57,7 +57,7 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument('--workers', type=int, default=0, help='local Dask workers (0: by cores)')
     p.add_argument('--library-root', type=Path, help='signature library cache folder')
     p.add_argument('--packing-cache', type=Path, help='packing cache folder')
-    p.add_argument('--seeds', default='1001,1002,1003,1004', help='library packing seeds')
+    p.add_argument('--seeds', default='1001,1002,1003', help='library packing seeds')
     p.add_argument('--candidates', default=','.join(LIBRARY_CANDIDATES),
                    help='candidate effects, comma-separated')
     p.add_argument('--strengths', type=int, default=2, help='strengths per candidate (1 or 2)')

@@ -25,6 +25,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
+from dempath.errors import DempathError
 from dempath_diagnose.errors import LibraryError
 from dempath_diagnose.records import PassRecord
 from dempath_diagnose.simulate import (
@@ -80,7 +81,7 @@ class LibrarySpec:
         n_strengths: Strengths per effect that is off (1 or 2); parameters get two.
     """
 
-    seeds: tuple[int, ...] = (1001, 1002, 1003, 1004)
+    seeds: tuple[int, ...] = (1001, 1002, 1003)
     candidates: tuple[str, ...] = LIBRARY_CANDIDATES
     duration_s: float = 0.0
     follow_s: float = 0.2
@@ -221,6 +222,7 @@ def build_library(scene: SceneSpec, spec: LibrarySpec, root: Path | None = None,
     pours = [LibraryPour(scene, s, cache_dir) for s in sorted({r.seed for r in todo})]
     executor(pours, lambda _: None)  # one bed per seed first: no two workers pour the same
     tasks = [LibraryTask(scene, r, folder / 'runs' / r.filename, spec, cache_dir) for r in todo]
+    tasks.sort(key=LibraryTask.cost, reverse=True)  # longest first: none left alone at the end
     finished = [0]
 
     def done(_: int) -> None:
@@ -254,10 +256,26 @@ class LibraryTask:
     spec: LibrarySpec
     cache_dir: Path | None
 
+    def until_s(self) -> float:
+        """The simulated time the run covers [s]."""
+        return self.spec.duration_s or (pass_travel_s(self.scene, {}) + self.spec.follow_s)
+
+    def cost(self) -> float:
+        """Relative cost of the run: its simulated time (at least its own tool travel) over
+        its time step, which scales as sqrt(density / Young's modulus) of the particles (the
+        Rayleigh step); 0 when the overrides cannot be read (the run itself then says why)."""
+        try:
+            model = self.scene.with_overrides(self.run.overrides).physics_model()
+            simulated = max(self.until_s(), pass_travel_s(self.scene, self.run.overrides))
+        except (DempathError, ValueError):
+            return 0.0
+        return simulated * math.sqrt(
+            model.particle_youngs_modulus_pa / model.particle_density_kg_m3)
+
     def __call__(self) -> str:
         if self.path.is_file():  # a retried task whose first attempt finished
             return str(self.path)
-        until = self.spec.duration_s or (pass_travel_s(self.scene, {}) + self.spec.follow_s)
+        until = self.until_s()
         record = run_pass(self.scene, self.run.seed, self.run.overrides,
                           until_s=until, frame_s=self.spec.frame_s,
                           keep_depth_m=self.spec.keep_depth_m, cache_dir=self.cache_dir)

@@ -23,6 +23,24 @@ CONNECT_TIMEOUT_S = 10.0  # waiting for a scheduler given by address [s]
 MAX_LOCAL_WORKERS = 2  # more processes than this only add memory on small machines
 
 
+PRE_SPAWN = 'distributed.nanny.pre-spawn-environ'
+
+
+def worker_environ(threads: int) -> dict[str, Any]:
+    """Dask's pre-spawn environment of a local worker, for the engine.
+
+    Dask's default sets ``OMP_NUM_THREADS=1`` (the engine's OpenMP threads would then be one,
+    whatever ``NUMBA_NUM_THREADS``) and ``MALLOC_TRIM_THRESHOLD_=65536`` (glibc then maps and
+    unmaps every array above 128 KiB: 15x the page faults; ``dempath_sim.engine.allocator``
+    also undoes it from inside the process). None unsets a variable.
+    """
+    import dask
+
+    environ = dict(dask.config.get(PRE_SPAWN, {}))
+    environ.update({'OMP_NUM_THREADS': str(threads), 'MALLOC_TRIM_THRESHOLD_': None})
+    return environ
+
+
 def local_layout(cores: int | None = None, workers: int = 0) -> tuple[int, int]:
     """(workers, numba threads per worker) with workers x threads = cores."""
     cores = cores or os.cpu_count() or 1
@@ -61,9 +79,10 @@ class DaskSweep:
                 raise ClusterError(msg) from err
             return self
         n, threads = local_layout(workers=self.workers)
-        self.cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                                    dashboard_address=None,
-                                    env={'NUMBA_NUM_THREADS': str(threads)})
+        with dask.config.set({PRE_SPAWN: worker_environ(threads)}):
+            self.cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                                        dashboard_address=None,
+                                        env={'NUMBA_NUM_THREADS': str(threads)})
         self.client = Client(self.cluster)
         logger.info('local Dask cluster: %d workers x %d numba threads', n, threads)
         return self
@@ -76,7 +95,8 @@ class DaskSweep:
             self.cluster.close()
 
     def run(self, tasks: Sequence[Callable[[], Any]], done: Callable[[int], None]) -> None:
-        """Run every task (retried on failure); ``done(k)`` as each finishes.
+        """Run every task (retried on failure), started in the order given; ``done(k)`` as each
+        finishes.
 
         Raises:
             ClusterError: A task failed on every attempt (its message names the run).
@@ -85,7 +105,8 @@ class DaskSweep:
 
         if not tasks:
             return
-        futures = {self.client.submit(task, retries=RETRIES, pure=False): k
+        futures = {self.client.submit(task, retries=RETRIES, pure=False,
+                                      priority=len(tasks) - k): k  # in the order given
                    for k, task in enumerate(tasks)}
         failed: list[str] = []
         for future in as_completed(futures):

@@ -131,3 +131,38 @@ def test_local_layout_fills_the_cores_without_oversubscribing() -> None:
     assert local_layout(cores=8) == (2, 4)
     assert local_layout(cores=1) == (1, 1)
     assert local_layout(cores=8, workers=4) == (4, 2)
+
+
+
+@dataclass(frozen=True)
+class EnvTask:
+    """Writes when it started and its worker's allocator / OpenMP settings to ``path``."""
+
+    path: Path
+    seconds: float
+
+    def __call__(self) -> None:
+        started = time.time()
+        time.sleep(self.seconds)
+        env = [os.environ.get(k, '-') for k in ('MALLOC_TRIM_THRESHOLD_', 'OMP_NUM_THREADS')]
+        self.path.write_text(f'{started!r} {env[0]} {env[1]}')
+
+
+def test_local_cluster_starts_tasks_in_the_order_given_with_the_engine_environment(
+        tmp_path: Path) -> None:
+    """One local worker runs the tasks in the order given (the library puts its longest runs
+    first), without Dask's default MALLOC_TRIM_THRESHOLD_ (glibc would map and unmap every
+    large array) and with OMP_NUM_THREADS = its numba threads."""
+    import cloudpickle
+
+    cloudpickle.register_pickle_by_value(sys.modules[EnvTask.__module__])
+    tasks = [EnvTask(tmp_path / f'task{k}.txt', 0.05 * (k % 3)) for k in range(8)]
+    finished: list[int] = []
+    with DaskSweep(workers=1) as sweep:
+        sweep.run([lambda t=t: t() for t in tasks], finished.append)
+    assert sorted(finished) == list(range(len(tasks)))
+    reports = [t.path.read_text().split() for t in tasks]
+    starts = [float(r[0]) for r in reports]
+    assert starts == sorted(starts)
+    threads = local_layout(workers=1)[1]
+    assert {(r[1], r[2]) for r in reports} == {('-', str(threads))}

@@ -29,6 +29,7 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from dempath_sim.engine.allocator import keep_freed_memory
 from dempath_sim.engine.boundary import MAX_CANDIDATES, N_SLOTS, boundary_forces
 from dempath_sim.engine.integrate import first_half, second_half
 from dempath_sim.engine.kernel_cache import refresh_own_kernel_cache
@@ -65,6 +66,7 @@ F64 = NDArray[np.float64]
 
 refresh_own_kernel_cache()
 prefer_openmp_layer()
+keep_freed_memory()
 
 
 class Engine:
