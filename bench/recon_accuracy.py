@@ -15,6 +15,7 @@ Targets: mean <= 0.5 mm and max <= 3 mm for the best method; the fastest method 
 trains in < 120 s; throughput >= 100,000 point pairs/s. The last line printed is one JSON object.
 
 Usage: ``python bench/recon_accuracy.py [--mlp-recipe dempath|paper] [--mlp-epochs N]
+[--mlp-batch B] [--mlp-lr LR]
 [--torch-threads T] [--out DIR]`` (2 threads by default; on a machine loaded by other
 processes thread hand-offs stall, so the JSON gives the load, CPU time and time per epoch too).
 """
@@ -98,6 +99,10 @@ def score_methods(args: argparse.Namespace, tr: tuple[np.ndarray, np.ndarray],
                   'random_state': args.seed, 'device': 'cpu'}
     if args.mlp_epochs:
         mlp_params['epochs'] = args.mlp_epochs
+    if args.mlp_batch:
+        mlp_params['batch_size'] = args.mlp_batch
+    if args.mlp_lr:
+        mlp_params['learning_rate'] = args.mlp_lr
     plan = [('dlt', {}, 'cameras resected from the training rows; linear, depth re-weighted'),
             ('dlt_refined', {}, 'as dlt + 2 Gauss-Newton steps on the pixel reprojection error'),
             ('dlt_residual', {'random_state': args.seed, 'device': 'cpu'},
@@ -178,6 +183,9 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument('--mlp-recipe', choices=('dempath', 'paper'), default='dempath')
     parser.add_argument('--mlp-epochs', type=int, default=0, help="MLP epochs (0: the recipe's)")
+    parser.add_argument('--mlp-batch', type=int, default=0, help="MLP batch (0: the recipe's)")
+    parser.add_argument('--mlp-lr', type=float, default=0.0,
+                        help="MLP (peak) learning rate (0: the recipe's)")
     parser.add_argument('--noise-px', type=float, default=0.2, help='corner noise [px]')
     parser.add_argument('--seed', type=int, default=0)
     parser.add_argument('--skip', default='', help='comma-separated methods to leave out')
