@@ -6,7 +6,7 @@ A paper-size calibration point set (94,939 board-corner samples, 0.2 px corner n
 access to the true cameras (the triangulation methods resect them from the training rows), then
 scored on the held-out rows: mean / SD / max 3D error [mm], R2 per axis, training wall time and
 throughput. The paper's network is trained with dempath's recipe (standardised, AdamW, one-cycle,
-12 epochs; ``--mlp-recipe paper`` for the published one, ``--mlp-epochs`` to change the epochs);
+10 epochs; ``--mlp-recipe paper`` for the published one, ``--mlp-epochs`` to change the epochs);
 its figures (and those of the shipped float16 file as loaded) are in ``mlp`` of the JSON line.
 Clicking noise of 2.36 / 2.75 px (the paper's) is then propagated and the coverage of the
 published 1-sigma is checked.

@@ -19,22 +19,15 @@ the emulator is built from one seed fewer than a diagnosis uses. No simulation r
 from __future__ import annotations
 
 from collections import defaultdict
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from dempath_diagnose.decision import fit_candidate
 from dempath_diagnose.emulator import Allowance, build_emulator
 from dempath_diagnose.library import LOG_SCALE, Library
-from dempath_diagnose.records import F64, PassRecord
-from dempath_diagnose.statistics import (
-    Layout,
-    build_layout,
-    force_features,
-    group_vector,
-    oriented,
-    window_means,
-)
+from dempath_diagnose.records import F64, Measurement, PassRecord
+from dempath_diagnose.statistics import Layout, build_layout, measured_statistics
 
 
 @dataclass(frozen=True)
@@ -66,14 +59,13 @@ class StrengthCheck:
 
 def measured_like(rec: PassRecord, starts: F64, layout: Layout, noise_m: float,
                   rng: np.random.Generator) -> F64:
-    """The statistic vector (with the force) a camera pair would give of run ``rec``."""
+    """The statistic vector (with the force) a camera pair would give of run ``rec``: the
+    particle nearest each marker start, with ``noise_m`` per axis, read as a measurement."""
     nearest = [int(np.argmin(np.linalg.norm(rec.start - p, axis=1))) for p in starts]
     pos = rec.positions[:, nearest].astype(np.float64)
-    pos = pos + rng.normal(0.0, noise_m, pos.shape)
-    disp = window_means(rec.times, pos - rec.start[nearest][None], layout.windows)
-    features = oriented(disp, layout.sides).transpose(1, 0, 2)
-    return np.concatenate([group_vector(features, layout),
-                           force_features(rec.force_times, rec.tool_force, layout)])
+    meas = Measurement(layout.markers, rec.times, pos + rng.normal(0.0, noise_m, pos.shape),
+                       rec.force_times, rec.tool_force)
+    return measured_statistics(meas, replace(layout, starts=rec.start[nearest]))[0]
 
 
 def strength_checks(library: Library, markers: F64, starts: F64, tool_x_m: float,

@@ -64,7 +64,7 @@ def _common(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--device', default='cpu', help='torch device: cpu, cuda, auto')
     parser.add_argument('--mlp-recipe', choices=('dempath', 'paper'), default='dempath',
                         help="training of the MLP: dempath's (standardised, AdamW, one-cycle, "
-                             "12 epochs) or the paper's (min-max, dropout, Adam, 60 epochs)")
+                             "10 epochs) or the paper's (min-max, dropout, Adam, 60 epochs)")
     parser.add_argument('--mlp-epochs', type=int, default=None,
                         help="epochs of the MLP (default: the recipe's, 12 or 60)")
     parser.add_argument('--mlp-hidden', default='2048,1024,512', help='hidden layer sizes')

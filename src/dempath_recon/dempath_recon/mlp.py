@@ -5,7 +5,7 @@ Architecture as published: inputs (xs, ys, xf, yf), dense 2048-1024-512 with ReL
 outputs (X, Y, Z). Two training recipes:
 
 - the default (dempath's): inputs and targets standardised, no dropout, AdamW with a one-cycle
-  learning rate over 12 epochs, batch 512, every training row used (no validation split); it
+  learning rate over 10 epochs, batch 512, every training row used (no validation split); it
   reaches a fraction of a millimetre within a few minutes on two CPU cores
   (docs/reconstruction.md);
 - ``PAPER_RECIPE`` (``MLPReconstructor.paper_recipe()``), as published: min-max scaling to 0..1,
@@ -110,7 +110,7 @@ class MLPReconstructor(ParamsMixin):
     name = 'mlp'
 
     def __init__(self, hidden_sizes: tuple[int, ...] = (2048, 1024, 512), dropout: float = 0.0,
-                 epochs: int = 12, batch_size: int = 512, validation_fraction: float = 0.0,
+                 epochs: int = 10, batch_size: int = 512, validation_fraction: float = 0.0,
                  patience: int = 10, learning_rate: float = 2e-3, weight_decay: float = 1e-4,
                  optimizer: str = 'adamw', schedule: str = 'onecycle',
                  scaling: str = 'standard', random_state: int | None = None,

@@ -36,7 +36,7 @@ def test_default_architecture_is_the_papers_with_dempaths_recipe() -> None:
     default = MLPReconstructor()
     assert (default.batch_size, default.epochs, default.validation_fraction, default.dropout,
             default.optimizer, default.schedule, default.scaling, default.hidden_sizes) == \
-        (512, 12, 0.0, 0.0, 'adamw', 'onecycle', 'standard', (2048, 1024, 512))
+        (512, 10, 0.0, 0.0, 'adamw', 'onecycle', 'standard', (2048, 1024, 512))
 
 
 def test_paper_recipe_is_reachable() -> None:

@@ -23,6 +23,7 @@ from dempath.bagio import RawMessage, open_bag
 from dempath.errors import DempathError
 from dempath.nodes.msgtypes import import_message_class, reliable_qos
 from dempath.nodes.spin import run_node
+from dempath.nodes.subscribers import wait_for_subscribers
 from dempath.playback import Playback, PlaybackStats, PlayerConfig
 from dempath_msgs.msg import RunEvent
 
@@ -83,14 +84,6 @@ class PlayerNode(Node):
         msg.header.stamp = self.get_clock().now().to_msg()
         self._event_pub.publish(msg)
 
-    def _wait_for_subscribers(self) -> None:
-        need = self.config.wait_for_subscribers
-        deadline = time.monotonic() + self.config.wait_timeout_s
-        stop = self._playback.stop if self._playback is not None else None
-        while need and time.monotonic() < deadline and not (stop and stop.is_set()) and any(
-                p.get_subscription_count() < need for p in self._topic_pubs.values()):
-            time.sleep(0.02)  # a stop (Ctrl-C) ends the wait: the node is destroyed next
-
     def _publish(self, message: RawMessage) -> None:
         now = time.monotonic()
         if now - self._last_clock >= 1.0 / self.config.clock_hz:
@@ -101,7 +94,8 @@ class PlayerNode(Node):
 
     def _run(self) -> None:
         assert self._playback is not None
-        self._wait_for_subscribers()
+        wait_for_subscribers(self._topic_pubs.values(), self.config.wait_for_subscribers,
+                             self.config.wait_timeout_s, self._playback.stop)
         self._event(RunEvent.STARTED, f'playing {len(self._topic_pubs)} topics')
         self.stats = self._playback.run(self._publish)
         self._bag.close()

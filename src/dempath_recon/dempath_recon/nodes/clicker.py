@@ -18,6 +18,7 @@ from std_msgs.msg import Header
 from dempath import topics
 from dempath.nodes.msgtypes import reliable_qos
 from dempath.nodes.spin import run_node
+from dempath.nodes.subscribers import subscribed
 from dempath_msgs.msg import PixelPoints, RunEvent
 from dempath_recon.clickplay import ClickerConfig, ClickFrame, load_click_frames
 from dempath_recon.nodes.convert import s_to_stamp
@@ -77,9 +78,8 @@ class ClickerNode(Node):
     def ready(self) -> bool:
         """Whether the wanted subscribers are there (or the wait has timed out)."""
         waited = self.get_clock().now().nanoseconds * 1e-9 - self.started_s
-        need = self.config.wait_for_subscribers
-        return waited > self.config.wait_timeout_s or all(
-            p.get_subscription_count() >= need for p in self.pubs.values())
+        return waited > self.config.wait_timeout_s or subscribed(
+            self.pubs.values(), self.config.wait_for_subscribers)
 
     def tick(self) -> None:
         """Publish the next frame index's messages (all cameras); announce start and end."""

@@ -21,6 +21,7 @@ from visualization_msgs.msg import MarkerArray
 from dempath import topics
 from dempath.errors import DempathError
 from dempath.nodes.spin import run_node
+from dempath.nodes.subscribers import wait_for_subscribers
 from dempath_msgs.msg import ParticleStates, RunEvent, ToolForce
 from dempath_sim.engine.mesh import TriangleMesh
 from dempath_sim.nodes import convert
@@ -77,7 +78,9 @@ class SimulatorNode(Node):
             self.tool_triangles = TriangleMesh.from_stl(scene.tool.mesh,
                                                         scale=scene.tool.scale).triangles
             self._event(RunEvent.STARTED, f'scene {scene.name} seed {scene.seed}')
-            self._wait_for_subscribers()
+            wait_for_subscribers((self.pub_states, self.pub_force, self.pub_pose, self.pub_viz),
+                                 self.config.wait_for_subscribers, self.config.wait_timeout_s,
+                                 self.stop)
             result = run_scene(scene, RunOptions(self.config.cache_path, self._progress,
                                                  self._publish, self.stop))
         except DempathError as err:
@@ -88,15 +91,6 @@ class SimulatorNode(Node):
         self._event(RunEvent.FINISHED, f"{len(result.times)} frames, {result.meta['n_particles']}"
                                        f" particles, bulk density {fill['bulk_density_kg_m3']:.0f}"
                                        ' kg/m^3')
-
-    def _wait_for_subscribers(self) -> None:
-        """Hold the first frame until every data topic has its subscribers (or the timeout)."""
-        need = self.config.wait_for_subscribers
-        deadline = time.monotonic() + self.config.wait_timeout_s
-        pubs = (self.pub_states, self.pub_force, self.pub_pose, self.pub_viz)
-        while need and time.monotonic() < deadline and not self.stop.is_set() and any(
-                p.get_subscription_count() < need for p in pubs):
-            time.sleep(0.02)
 
     def _event(self, event: int, detail: str, rid: str | None = None) -> None:
         stamp = self.get_clock().now().to_msg()
