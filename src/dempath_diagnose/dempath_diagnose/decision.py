@@ -66,6 +66,11 @@ class ModelFit:
         prediction: (k,) predicted statistics at the best strength (all statistics).
         pred_var: (k,) their total variance.
         chi2: d^2 at the best strength.
+        strength_range: (low, high) of the strengths searched (the library's span plus a
+            quarter): the prior.
+        at_range_edge: The likelihood peaks at an end of that range away from the scene's own
+            value: the data ask for more than the library spans, the true strength may lie
+            beyond and ``strength_sd`` understates the uncertainty.
     """
 
     name: str
@@ -83,6 +88,8 @@ class ModelFit:
     parameter: str = ''
     explained_fraction: float = 0.0
     log_null: float = -np.inf
+    strength_range: tuple[float, float] = (np.nan, np.nan)
+    at_range_edge: bool = False
 
     @property
     def ruled_out(self) -> bool:
@@ -150,10 +157,12 @@ def fit_candidate(emu: Emulator, cand: CandidateEmulator, y: F64, obs: NDArray[n
         strength, sd = mean_u, sd_u
     best = int(np.argmax(logps))
     c = cand.candidate
+    edge = best in (0, GRID - 1) and not np.isclose(xs[best], c.current, rtol=1e-9, atol=0.0)
     return ModelFit(c.name, c.kind, _log_mass(logps[~null]),
                     sigma_of(float(np.min(d2s)), int(obs.sum())), strength, sd, float(xs[best]),
                     emu.mu0 + diffs[best], np.diag(cov) + dvar[best], float(d2s[best]),
-                    unit=c.unit, parameter=c.parameter, log_null=_log_mass(logps[null]))
+                    unit=c.unit, parameter=c.parameter, log_null=_log_mass(logps[null]),
+                    strength_range=(float(lo), float(hi)), at_range_edge=bool(edge))
 
 
 def _log_mass(logps: F64) -> float:

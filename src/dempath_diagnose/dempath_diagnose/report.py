@@ -14,6 +14,8 @@ from dempath_diagnose.decision import ModelFit
 from dempath_diagnose.diagnose import Diagnosis, sentences
 from dempath_diagnose.statistics import AXES
 
+EDGE_NOTE_P = 0.05  # fits this probable get a note when they sit at the range edge
+
 
 def _num(x: float) -> float | None:
     return float(x) if math.isfinite(x) else None
@@ -34,7 +36,9 @@ def _fit_json(fit: ModelFit) -> dict[str, Any]:
     return {'effect': fit.name, 'kind': fit.kind, 'probability': round(fit.probability, 4),
             'strength': {'parameter': fit.parameter, 'value': _num(fit.strength),
                          'uncertainty': _num(fit.strength_sd), 'best': _num(fit.best),
-                         'unit': fit.unit},
+                         'unit': fit.unit,
+                         'range': [_num(fit.strength_range[0]), _num(fit.strength_range[1])],
+                         'at_range_edge': fit.at_range_edge},
             'explained_fraction': round(fit.explained_fraction, 4),
             'implausibility': round(fit.implausibility, 3), 'ruled_out': fit.ruled_out}
 
@@ -106,11 +110,20 @@ def markdown(d: Diagnosis, data: dict[str, Any], plots: list[str]) -> str:
     b = data['baseline']
     lines.append(f'| nothing missing | baseline | {b["probability"]:.3f} | - | - | '
                  f'{b["implausibility"]:.1f} |')
+    edges = []
     for r in data['ranking']:
         s = r['strength']
+        mark = ' (at the range edge)' if s.get('at_range_edge') else ''
         lines.append(f'| {r["effect"]} | {r["kind"]} | {r["probability"]:.3f} | '
-                      f'{s["value"]:.4g} +- {s["uncertainty"]:.2g} {s["unit"]} | '
+                      f'{s["value"]:.4g} +- {s["uncertainty"]:.2g} {s["unit"]}{mark} | '
                       f'{r["explained_fraction"]:.2f} | {r["implausibility"]:.1f} |')
+        if mark and r['probability'] >= EDGE_NOTE_P:
+            edges.append(f'- {r["effect"]}: the fit lies at the edge of the strengths searched '
+                         f'({s["range"][0]:.4g}-{s["range"][1]:.4g} {s["unit"]}, the library\'s '
+                         'span plus a quarter): the true strength may lie beyond, and its '
+                         'uncertainty is larger than shown. A library run at a stronger '
+                         'setting (`--strengths`) or a recalibration settles it.')
+    lines += ['', *edges] if edges else []
     t7 = d.table7
     if t7.get('markdown'):
         lines += ['', f'## Error before (the paper\'s Table 7: the model\'s {t7["model_runs"]} '
@@ -167,8 +180,9 @@ def print_ranking(data: dict[str, Any]) -> None:
                   f'{b["implausibility"]:.1f}')
     for r in data['ranking']:
         s = r['strength']
+        edge = ' (range edge)' if s.get('at_range_edge') else ''
         table.add_row(r['effect'], r['kind'], f'{r["probability"]:.3f}',
-                      f'{s["value"]:.4g} +- {s["uncertainty"]:.2g} {s["unit"]}',
+                      f'{s["value"]:.4g} +- {s["uncertainty"]:.2g} {s["unit"]}{edge}',
                       f'{r["explained_fraction"]:.2f}', f'{r["implausibility"]:.1f}')
     console = Console()
     console.print(table)

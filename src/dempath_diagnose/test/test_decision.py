@@ -111,3 +111,15 @@ def test_probabilities_of_the_answers_sum_to_one() -> None:
                np.eye(6) * SD**2)
     total = d.baseline.probability + sum(f.probability for f in d.ranking)
     assert abs(total - 1.0) < 1e-9
+
+
+def test_a_strength_beyond_the_range_is_flagged_at_its_edge() -> None:
+    """Data on a's signature at strength 2 (the range ends at 1.25): the fit sits at the edge
+    and says so; a strength inside the range does not."""
+    sig = np.array([0.02, 0.03, 0, 0, 0, 0])
+    emu = make_emulator({'a': list(sig), 'b': [0, 0, 0.02, 0.03, 0, 0]})
+    beyond = decide(emu, 2.0 * sig, np.ones(6, bool), np.eye(6) * SD**2).ranking[0]
+    inside = decide(emu, 0.6 * sig, np.ones(6, bool), np.eye(6) * SD**2).ranking[0]
+    assert beyond.name == 'a' and beyond.at_range_edge
+    assert beyond.strength_range == (0.0, 1.25) and beyond.best == 1.25
+    assert inside.name == 'a' and not inside.at_range_edge
