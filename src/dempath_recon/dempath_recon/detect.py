@@ -10,7 +10,7 @@ the light) is high:
    (libjpeg-turbo; about 40 % less time than OpenCV's ``imdecode`` for the same half-size
    image, which goes through OpenCV's general codec layer), OpenCV for other formats;
 2. find the window that can hold markers (pixels bluer than the chroma threshold allows at
-   the least, by two byte subtractions) and compute the chroma image only there (the
+   the least, by a byte subtraction) and compute the chroma image only there (the
    full-frame chroma was the largest cost of the detection, and the markers cover a small
    part of the view); the detections are those of the whole frame;
 3. a Gaussian matched to the marker's image (Crocker & Grier 1996, sec. 2: band-pass then local
@@ -200,17 +200,17 @@ class MarkerDetector:
         """The chroma of the part of ``image`` that can hold markers: ``(x0, y0, chroma)``.
 
         A pixel's chroma exceeds the threshold only where ``B - R > threshold * MIN_SUM_DN``
-        (the chroma's denominator is at least ``MIN_SUM_DN``), which two saturating byte
-        subtractions find at a fraction of the chroma's cost. The window is the bounding box
-        of those pixels grown by the reach of the filter, the local-maximum search and the
-        centroid window (``_pad``): it holds every pixel above the threshold and all that is
-        read around them, so the detections equal those of the whole frame (tested). A frame
-        whose blue pixels spread over most of the view is done whole.
+        (the chroma's denominator is at least ``MIN_SUM_DN``), which a saturating byte
+        subtraction and a threshold find at a fraction of the chroma's cost. The window is the
+        bounding box of those pixels grown by the reach of the filter, the local-maximum search
+        and the centroid window (``_pad``): it holds every pixel above the threshold and all
+        that is read around them, so the detections equal those of the whole frame (tested).
+        A frame whose blue pixels spread over most of the view is done whole.
         """
         h, w = image.shape[:2]
         floor = max(int(np.floor(self.config.threshold * MIN_SUM_DN)) - 1, 0)
         blue = cv2.subtract(cv2.extractChannel(image, 0), cv2.extractChannel(image, 2))
-        x, y, bw, bh = cv2.boundingRect(cv2.subtract(blue, floor) if floor else blue)
+        x, y, bw, bh = cv2.boundingRect(cv2.threshold(blue, floor, 255, cv2.THRESH_TOZERO)[1])
         if bw == 0 or bh == 0:
             return 0, 0, np.zeros((0, 0), np.float32)
         pad = self._pad
