@@ -203,6 +203,18 @@ def triangulate_pairs(cam_a: Camera, cam_b: Camera, uv_a: FloatArray, uv_b: Floa
     return np.asarray(xyz, np.float64), np.asarray(epi, np.float64)
 
 
+def depth(cam: Camera, xyz: FloatArray) -> float:
+    """Depth [m] of a world point (3,) along the camera's optical axis."""
+    return float((np.asarray(cam.R) @ np.asarray(xyz, np.float64) + np.asarray(cam.t))[2])
+
+
+def back_project(cam: Camera, uv: FloatArray, at_depth: float) -> FloatArray:
+    """The world point (3,) m on the line of sight through ``uv`` (2,) px at a depth [m]."""
+    xn = undistort_normalized(cam, np.asarray(uv, np.float64).reshape(1, 2))[0]
+    local = at_depth * np.array([xn[0], xn[1], 1.0])
+    return np.asarray(np.asarray(cam.R).T @ (local - np.asarray(cam.t)), np.float64)
+
+
 def _two_view_linear(cam_a: Camera, cam_b: Camera, xa: FloatArray, xb: FloatArray,
                      reweight: int = 1) -> FloatArray:
     """(k, 3) m: the depth-reweighted linear triangulation of ``triangulate_points`` (no

@@ -26,6 +26,8 @@ from numpy.typing import NDArray
 
 from dempath_recon.associate import (
     MarkerPositions,
+    back_project,
+    depth,
     number_by_grid,
     on_epipolar_line,
     triangulate_pairs,
@@ -72,6 +74,7 @@ class StereoMarkerTracker:
         self._grid_uv: dict[str, dict[int, FloatArray]] = {}  # the fitted grid, per camera
         self._late_numbered: dict[str, set[int]] = {n: set() for n in cameras}  # track ids
         self._refused: dict[str, set[tuple[int, int]]] = {n: set() for n in cameras}
+        self._grid_time: dict[str, float] = {}  # stamp of the frame each camera's grid fit
         # withheld points of unconfirmed re-attachments: marker -> (stamp s, (2,) px)
         self._pending: dict[str, dict[int, tuple[float, FloatArray]]] = {n: {} for n in cameras}
 
@@ -153,6 +156,7 @@ class StereoMarkerTracker:
                 self.trackers[camera].number(int(tid), int(m))
         self._grid_uv[camera] = dict(zip(self.config.grid.points()[0].tolist(), grid_uv,
                                          strict=True))
+        self._grid_time[camera] = self._last[camera] or 0.0
         events.append(f'{camera}: {found} of {len(uv)} detections numbered by the grid')
         return numbers
 
@@ -238,9 +242,16 @@ class StereoMarkerTracker:
                                    np.array([candidates[m] for m in close]))
         fits = []
         for m, x in zip(close, xyz, strict=True):
-            if stamp_s - self.positions.known.get(m, (-np.inf, None))[0] > MAX_DEPTH_AGE_S:
-                continue  # no recent 3D point: nothing to check the depth along the line
-            dist, allowed = self.positions.distance(m, stamp_s, x)
+            if m in self.positions.known:
+                if stamp_s - self.positions.known[m][0] > MAX_DEPTH_AGE_S:
+                    continue  # no recent 3D point: nothing to check the depth along the line
+                dist, allowed = self.positions.distance(m, stamp_s, x)
+            else:  # never triangulated: its grid point, while that is recent and unseen here
+                anchor = self._grid_anchor(camera, m, stamp_s)
+                if anchor is None:
+                    continue
+                dist = float(np.linalg.norm(x - anchor[0]))
+                allowed = anchor[1]
             if dist <= allowed:
                 fits.append(m)
                 continue
@@ -254,6 +265,30 @@ class StereoMarkerTracker:
         events.append(f'{camera}: track {track_id} numbered marker {fits[0]} by the epipolar '
                       'line')
         return fits[0]
+
+    def _grid_anchor(self, camera: str, marker: int, stamp_s: float,
+                     ) -> tuple[FloatArray, float] | None:
+        """Where a marker never triangulated can be: ``(point (3,) m, allowed distance m)``.
+
+        Its fitted grid point in ``camera`` (the projected grid shifted onto the detections)
+        placed at the grid point's depth, with the grid gate at that depth as extra allowance
+        besides the usual ``position_gate_m + max_speed_m_s * dt``; only within
+        ``MAX_DEPTH_AGE_S`` of the frame the grid was fitted on, and only for a marker this
+        camera has not seen (its own sightings would be the better anchor, but they carry no
+        depth). None otherwise.
+        """
+        grid_uv = self._grid_uv.get(camera, {})
+        t0 = self._grid_time.get(camera)
+        if marker not in grid_uv or t0 is None or stamp_s - t0 > MAX_DEPTH_AGE_S \
+                or marker in self.latest[camera]:
+            return None
+        numbers, xyz = self.config.grid.points()
+        cam = self.cameras[camera]
+        z = depth(cam, xyz[list(numbers).index(marker)])
+        point = back_project(cam, grid_uv[marker], z)
+        allowed = (self.config.position_gate_m + self.config.grid_gate_px * z / float(cam.K[0, 0])
+                   + self.config.max_speed_m_s * (stamp_s - t0))
+        return point, allowed
 
     def _retire(self, camera: str, number: int) -> None:
         """Drop the lost track that held ``number`` (its marker came back as a new track)."""
@@ -300,7 +335,9 @@ class StereoMarkerTracker:
         for k, x, d in zip(idx, xyz, epi, strict=True):
             m = int(markers[k])
             dist, allowed = self.positions.distance(m, stamp_s, x)
-            if d <= 3 * self.config.epipolar_px and dist <= allowed:
+            # a doubtful re-attachment is confirmed only by the test that numbers a new track
+            epi_ok = self.config.epipolar_px if k in unsure else 3 * self.config.epipolar_px
+            if d <= epi_ok and dist <= allowed:
                 self.positions.accept(m, stamp_s, x)
                 self._pending[camera].pop(m, None)
                 if int(track_ids[k]) in tracks:
@@ -309,7 +346,7 @@ class StereoMarkerTracker:
                 continue
             counts = self.counts[camera]
             counts.withheld += 1
-            if d > 3 * self.config.epipolar_px:
+            if d > epi_ok:
                 counts.epipolar_conflicts += 1
                 why = f'{d:.1f} px off the epipolar line'
             else:
