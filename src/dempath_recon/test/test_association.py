@@ -253,3 +253,20 @@ def test_doubtful_reattachment_needs_the_numbering_epipolar_tolerance(rig,
         if k > 3:
             given.append(int(f.markers[np.argmin(np.linalg.norm(f.uv - spot, axis=1))]))
     assert given == ([1, 1] if true_move else [-1, -1])
+
+
+def test_far_reattachment_kept_when_no_other_marker_can_be_there(rig) -> None:
+    """As above, but marker 2 stays in view: marker 3 back 20 mm aside in the front alone is
+    no other marker's (1 and 2 are seen elsewhere), so it keeps its number at once; with
+    marker 2 covered too (the test above) it waits for the other camera."""
+    p1, p2, p3 = (np.array(g) for g in GRID)
+    moved = p3 + np.array([0.02, 0.0, 0.0])
+    scene = [([p1, p2, p3], [p1, p2, p3])] * 3 + [([p1, p2], [p1, p2])] * 2
+    scene += [([p1, p2], [p1, p2, moved])] * 2
+    config = StereoTrackConfig(grid=MarkerGrid(layout_m=GRID),
+                               tracker=TrackerConfig(reattach_px=80.0))
+    out, tracker = run(rig, scene, config)
+    fronts = [f for f in out if f.camera == 'cam_front']
+    assert [numbers_at(f, rig.cameras[1], moved) for f in fronts[5:7]] == [3, 3]
+    rep = tracker.report()['cam_front']
+    assert rep['confirmed_alone'] == 1 and rep['unconfirmed'] == 0
