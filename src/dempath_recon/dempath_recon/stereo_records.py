@@ -98,5 +98,6 @@ class CameraCounts:
     position_conflicts: int = 0
     withheld: int = 0
     unconfirmed: int = 0
+    confirmed_alone: int = 0
     revoked: int = 0
     gaps_s: list[tuple[float, float]] = field(default_factory=list)

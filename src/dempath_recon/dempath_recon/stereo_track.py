@@ -26,6 +26,9 @@ from numpy.typing import NDArray
 
 from dempath_recon.associate import (
     MarkerPositions,
+    back_project,
+    depth,
+    epipolar_distance,
     number_by_grid,
     on_epipolar_line,
     triangulate_pairs,
@@ -45,6 +48,9 @@ __all__ = ['CameraCounts', 'PixelFrame', 'StereoMarkerTracker', 'StereoTrackConf
 LOG = logging.getLogger(__name__)
 FloatArray = NDArray[np.float64]
 RECENT_S = 0.05  # the other camera's position of a marker counts for numbering this long [s]
+ALONE_RATIO = 3.0  # a re-found spot is kept on one camera's evidence when every other marker
+# this camera does not see now would have had to move at least this many times faster to be there
+MIN_SPEED_PX_S = 50.0  # speed floor of that comparison: a pixel a frame at 50 FPS [px/s]
 MAX_DEPTH_AGE_S = 0.06  # a 3D point older than this (three frames) no longer bounds the depth
 # along an epipolar line usefully (the gate has grown to 0.13 m, several marker pitches)
 
@@ -72,6 +78,7 @@ class StereoMarkerTracker:
         self._grid_uv: dict[str, dict[int, FloatArray]] = {}  # the fitted grid, per camera
         self._late_numbered: dict[str, set[int]] = {n: set() for n in cameras}  # track ids
         self._refused: dict[str, set[tuple[int, int]]] = {n: set() for n in cameras}
+        self._grid_time: dict[str, float] = {}  # stamp of the frame each camera's grid fit
         # withheld points of unconfirmed re-attachments: marker -> (stamp s, (2,) px)
         self._pending: dict[str, dict[int, tuple[float, FloatArray]]] = {n: {} for n in cameras}
 
@@ -153,6 +160,7 @@ class StereoMarkerTracker:
                 self.trackers[camera].number(int(tid), int(m))
         self._grid_uv[camera] = dict(zip(self.config.grid.points()[0].tolist(), grid_uv,
                                          strict=True))
+        self._grid_time[camera] = self._last[camera] or 0.0
         events.append(f'{camera}: {found} of {len(uv)} detections numbered by the grid')
         return numbers
 
@@ -238,9 +246,16 @@ class StereoMarkerTracker:
                                    np.array([candidates[m] for m in close]))
         fits = []
         for m, x in zip(close, xyz, strict=True):
-            if stamp_s - self.positions.known.get(m, (-np.inf, None))[0] > MAX_DEPTH_AGE_S:
-                continue  # no recent 3D point: nothing to check the depth along the line
-            dist, allowed = self.positions.distance(m, stamp_s, x)
+            if m in self.positions.known:
+                if stamp_s - self.positions.known[m][0] > MAX_DEPTH_AGE_S:
+                    continue  # no recent 3D point: nothing to check the depth along the line
+                dist, allowed = self.positions.distance(m, stamp_s, x)
+            else:  # never triangulated: its grid point, while that is recent and unseen here
+                anchor = self._grid_anchor(camera, m, stamp_s)
+                if anchor is None:
+                    continue
+                dist = float(np.linalg.norm(x - anchor[0]))
+                allowed = anchor[1]
             if dist <= allowed:
                 fits.append(m)
                 continue
@@ -254,6 +269,74 @@ class StereoMarkerTracker:
         events.append(f'{camera}: track {track_id} numbered marker {fits[0]} by the epipolar '
                       'line')
         return fits[0]
+
+    def _grid_anchor(self, camera: str, marker: int, stamp_s: float,
+                     ) -> tuple[FloatArray, float] | None:
+        """Where a marker never triangulated can be: ``(point (3,) m, allowed distance m)``.
+
+        Its fitted grid point in ``camera`` (the projected grid shifted onto the detections)
+        placed at the grid point's depth, with the grid gate at that depth as extra allowance
+        besides the usual ``position_gate_m + max_speed_m_s * dt``; only within
+        ``MAX_DEPTH_AGE_S`` of the frame the grid was fitted on, and only for a marker this
+        camera has not seen (its own sightings would be the better anchor, but they carry no
+        depth). None otherwise.
+        """
+        grid_uv = self._grid_uv.get(camera, {})
+        t0 = self._grid_time.get(camera)
+        if marker not in grid_uv or t0 is None or stamp_s - t0 > MAX_DEPTH_AGE_S \
+                or marker in self.latest[camera]:
+            return None
+        numbers, xyz = self.config.grid.points()
+        cam = self.cameras[camera]
+        z = depth(cam, xyz[list(numbers).index(marker)])
+        point = back_project(cam, grid_uv[marker], z)
+        allowed = (self.config.position_gate_m + self.config.grid_gate_px * z / float(cam.K[0, 0])
+                   + self.config.max_speed_m_s * (stamp_s - t0))
+        return point, allowed
+
+    def _alone(self, camera: str, track_id: int, marker: int, uv: FloatArray,
+               markers: NDArray[np.int32], stamp_s: float) -> bool:
+        """Whether no other marker can plausibly be at a re-attached spot (one camera's check).
+
+        The track's own marker needs the speed (in this camera) from its last sighting before
+        its latest re-attachment to the spot over the time since; every other marker not
+        numbered on another spot of this frame (a rival) would need the speed from its own
+        last sighting in this camera (never seen here: its fitted grid point when the grid was
+        fitted) over its own time since. The spot is the track's marker when each rival would
+        need at least ``ALONE_RATIO`` times the own speed (at least ``MIN_SPEED_PX_S``), or
+        when the other camera sees the rival now off this spot's epipolar line (more than
+        ``3 * epipolar_px``). A marker this camera has no position for at all is a rival
+        anywhere (the spot stays withheld).
+        Speeds rather than distances: a rival unseen for longer may have moved farther.
+        """
+        track = next(t for t in self.trackers[camera].tracks if t.track_id == track_id)
+        gaps = [i for i in range(len(track.history) - 1)
+                if track.history[i + 1][0] - track.history[i][0] > 1.5 / self.config.fps]
+        if not gaps:
+            return False
+        own = track.history[gaps[-1]]  # its last sighting before the latest re-attachment
+        own_speed = float(np.hypot(uv[0] - own[1], uv[1] - own[2])) / max(stamp_s - own[0],
+                                                                          1e-3)
+        taken = {int(m) for m in markers if m >= 0}
+        other = self.other(camera)
+        for m in self.config.grid.points()[0].tolist():
+            if m == marker or m in taken:
+                continue
+            seen = self.latest[camera].get(m)
+            if seen is None and m in self._grid_uv.get(camera, {}):
+                seen = (self._grid_time[camera], self._grid_uv[camera][m])
+            if seen is None:
+                return False  # a marker with nothing to place it: could be anywhere
+            speed = float(np.linalg.norm(uv - seen[1])) / max(stamp_s - seen[0], 1e-3)
+            if speed > ALONE_RATIO * max(own_speed, MIN_SPEED_PX_S):
+                continue
+            now = self.latest[other].get(m)
+            if now is not None and abs(now[0] - stamp_s) <= RECENT_S and epipolar_distance(
+                    self.cameras[camera], self.cameras[other], uv[None], now[1][None]
+                    )[0, 0] > 3 * self.config.epipolar_px:
+                continue
+            return False
+        return True
 
     def _retire(self, camera: str, number: int) -> None:
         """Drop the lost track that held ``number`` (its marker came back as a new track)."""
@@ -277,9 +360,11 @@ class StereoMarkerTracker:
         A track re-attached since its last passed check more than ``doubt_link_px`` from where
         it was expected is not given out with its number until the other camera confirms it
         (withheld, counted as ``unconfirmed``): a marker that reappears some way off may be a
-        neighbour, and a wrong number is worse than none. (Withholding it only when another
-        marker was last seen near the spot was tried: on the bundled render the switch it
-        should stop, a side-camera re-attachment 25 px off after 0.2 s, stayed.)
+        neighbour, and a wrong number is worse than none, unless no other marker this camera
+        does not see now could be there at a plausible speed (``_alone``, counted as
+        ``confirmed_alone``). (Withholding it only when another marker was last seen near the
+        spot, at any time, was tried: on the bundled render the switch it should stop, a
+        side-camera re-attachment 25 px off after 0.2 s, stayed.)
         """
         other, markers = self.other(camera), markers.copy()
         tracks = {t.track_id: t for t in self.trackers[camera].tracks}
@@ -289,6 +374,13 @@ class StereoMarkerTracker:
         partner = self._partners(other, markers, unsure, stamp_s)
         idx = sorted(partner)
         for k in sorted(unsure - set(idx)):
+            tid = int(track_ids[k])
+            if self._alone(camera, tid, int(markers[k]), uv[k], markers, stamp_s):
+                tracks[tid].reattach_px = 0.0
+                self.counts[camera].confirmed_alone += 1
+                events.append(f'{camera}: marker {markers[k]} re-attached off its prediction '
+                              f'kept at {stamp_s:.3f} s: no other marker can be that near')
+                continue
             self.counts[camera].unconfirmed += 1
             self._pending[camera][int(markers[k])] = (stamp_s, uv[k])
             events.append(f'{camera}: marker {markers[k]} withheld at {stamp_s:.3f} s: '
@@ -300,7 +392,9 @@ class StereoMarkerTracker:
         for k, x, d in zip(idx, xyz, epi, strict=True):
             m = int(markers[k])
             dist, allowed = self.positions.distance(m, stamp_s, x)
-            if d <= 3 * self.config.epipolar_px and dist <= allowed:
+            # a doubtful re-attachment is confirmed only by the test that numbers a new track
+            epi_ok = self.config.epipolar_px if k in unsure else 3 * self.config.epipolar_px
+            if d <= epi_ok and dist <= allowed:
                 self.positions.accept(m, stamp_s, x)
                 self._pending[camera].pop(m, None)
                 if int(track_ids[k]) in tracks:
@@ -309,7 +403,7 @@ class StereoMarkerTracker:
                 continue
             counts = self.counts[camera]
             counts.withheld += 1
-            if d > 3 * self.config.epipolar_px:
+            if d > epi_ok:
                 counts.epipolar_conflicts += 1
                 why = f'{d:.1f} px off the epipolar line'
             else:

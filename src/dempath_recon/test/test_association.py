@@ -198,3 +198,75 @@ def test_marker_covered_at_the_start_takes_its_grid_number(rig) -> None:
     assert [numbers_at(f, front, p3) for f in fronts[2:4]] == [3, 3]
     assert numbers_at(fronts[5], front, far) == -1
     assert tracker.report()['cam_front']['numbered_by_grid_late'] == 1
+
+
+def test_marker_never_triangulated_is_numbered_against_its_grid_point(rig) -> None:
+    """Marker 3 is hidden from the front at the start (never triangulated); 40 ms later the
+    front sees it 15 mm from its grid point (too far for the late grid rule): the side's
+    epipolar line and the grid point as its depth number it 3. A spot on the same line 150 mm
+    nearer, which marker 3 cannot have reached, stays unnumbered."""
+    p1, p2, p3 = (np.array(g) for g in GRID)
+    moved = p3 + np.array([0.015, 0.0, 0.0])
+    front = rig.cameras[1]
+    assert np.linalg.norm(front.project(moved[None]) - front.project(p3[None])) > 12
+    config = StereoTrackConfig(grid=MarkerGrid(layout_m=GRID), min_grid_markers=2)
+    scene = [([p1, p2, p3], [p1, p2]), ([p1, p2, moved], [p1, p2])]
+    out, tracker = run(rig, scene + [([p1, p2, moved], [p1, p2, moved])] * 2, config)
+    fronts = [f for f in out if f.camera == 'cam_front']
+    assert [numbers_at(f, front, moved) for f in fronts[2:]] == [3, 3]
+    assert tracker.report()['cam_front']['numbered_by_epipolar'] == 1
+    near = intruder(rig, moved, 0.15)
+    out, tracker = run(rig, scene + [([p1, p2, moved], [p1, p2, near])] * 2, config)
+    fronts = [f for f in out if f.camera == 'cam_front']
+    assert [numbers_at(f, front, near) for f in fronts[2:]] == [-1, -1]
+
+
+@pytest.mark.parametrize('true_move', [True, False])
+def test_doubtful_reattachment_needs_the_numbering_epipolar_tolerance(rig,
+                                                                      true_move: bool) -> None:
+    """Marker 1 covered in the front for a frame, then a spot 8 px from where it was: if the
+    marker moved there (the side sees it move), the pair lies on the epipolar line and the
+    number stays; if the spot is 8 px across the epipolar line (a neighbour the linker took),
+    the pair is within the 12 px allowed for established tracks but not within the 4 px that
+    number a new track: withheld, not given out as marker 1."""
+    p1 = np.array(GRID[0])
+    front = rig.cameras[1]
+    uv1 = front.project(p1[None])[0]
+    along = front.project(intruder(rig, p1, 0.05)[None])[0] - uv1  # the epipolar line
+    across = np.array([-along[1], along[0]]) / np.linalg.norm(along)
+    moved = p1 + np.array([0.009, 0.0, 0.0])
+    spot = front.project(moved[None])[0] if true_move else uv1 + 8 * across
+    assert 5 < np.linalg.norm(spot - uv1) < 12
+    cams = {c.name: c for c in rig.cameras}
+    tracker = StereoMarkerTracker(cams, StereoTrackConfig(grid=MarkerGrid(layout_m=GRID)))
+    given = []
+    for k in range(6):
+        side_pts = np.array([moved if true_move and k >= 3 else p1, *GRID[1:]])
+        tracker.update_detections('cam_side', k * DT, dets(cams['cam_side'], side_pts))
+        uv = front.project(np.array(GRID))
+        if k == 3:
+            uv = uv[1:]  # marker 1 covered in the front
+        elif k > 3:
+            uv[0] = spot
+        f = tracker.update_detections('cam_front', k * DT + OFFSET,
+                                      Detections(uv, np.ones(len(uv)), np.full(len(uv), 4.0)))
+        if k > 3:
+            given.append(int(f.markers[np.argmin(np.linalg.norm(f.uv - spot, axis=1))]))
+    assert given == ([1, 1] if true_move else [-1, -1])
+
+
+def test_far_reattachment_kept_when_no_other_marker_can_be_there(rig) -> None:
+    """As above, but marker 2 stays in view: marker 3 back 20 mm aside in the front alone is
+    no other marker's (1 and 2 are seen elsewhere), so it keeps its number at once; with
+    marker 2 covered too (the test above) it waits for the other camera."""
+    p1, p2, p3 = (np.array(g) for g in GRID)
+    moved = p3 + np.array([0.02, 0.0, 0.0])
+    scene = [([p1, p2, p3], [p1, p2, p3])] * 3 + [([p1, p2], [p1, p2])] * 2
+    scene += [([p1, p2], [p1, p2, moved])] * 2
+    config = StereoTrackConfig(grid=MarkerGrid(layout_m=GRID),
+                               tracker=TrackerConfig(reattach_px=80.0))
+    out, tracker = run(rig, scene, config)
+    fronts = [f for f in out if f.camera == 'cam_front']
+    assert [numbers_at(f, rig.cameras[1], moved) for f in fronts[5:7]] == [3, 3]
+    rep = tracker.report()['cam_front']
+    assert rep['confirmed_alone'] == 1 and rep['unconfirmed'] == 0

@@ -76,6 +76,49 @@ def test_corrupt_jpeg_raises_decode_error() -> None:
     assert decode_jpeg(good).shape == (*SHAPE, 3)
 
 
+def test_truncated_jpeg_is_an_error_and_half_size_matches_opencv() -> None:
+    """A JPEG cut short is refused (not decoded to a half-grey frame); the half-size decode is
+    OpenCV's reduced decode pixel for pixel (the same DCT scaling: half-size pixel i is
+    full-size 2i + 0.5, which the detector's centres rely on)."""
+    import cv2
+
+    good = spot_image(SHAPE, grid_centres(np.random.default_rng(3)), 4.0,
+                      np.random.default_rng(3))
+    with pytest.raises(ImageDecodeError):
+        decode_jpeg(good[:len(good) // 2], 2)
+    half = decode_jpeg(good, 2)
+    ref = cv2.imdecode(np.frombuffer(good, np.uint8), cv2.IMREAD_REDUCED_COLOR_2)
+    assert half.shape == (SHAPE[0] // 2, SHAPE[1] // 2, 3)
+    assert np.array_equal(half, ref)
+
+
+class WholeFrameDetector(MarkerDetector):
+    """The detector with its chroma computed over the whole frame (the reference)."""
+
+    def _window(self, image: np.ndarray) -> tuple[int, int, np.ndarray]:
+        from dempath_recon.detect import chroma
+
+        return 0, 0, chroma(image)
+
+
+@pytest.mark.parametrize('corner', [(600, 400), (8, 6), (1890, 1070)])
+def test_window_around_candidates_gives_the_whole_frame_result(corner: tuple[int, int]) -> None:
+    """Markers in a small part of a 1920x1080 frame (mid-frame, and against two corners, where
+    the window is clipped): the detections equal those of the chroma of the whole frame."""
+    rng = np.random.default_rng(4)
+    offsets = np.array([[0, 0], [25, 3], [-30, 12], [12, -28], [60, 40], [-55, -40]], float)
+    centres = np.clip(np.asarray(corner, float) + offsets + rng.uniform(-0.5, 0.5, (6, 2)),
+                      [4, 4], [1915, 1075])
+    jpeg = spot_image((1080, 1920), centres, 4.5, rng, quality=90)
+    for downscale in (1, 2):
+        config = DetectorConfig(downscale=downscale)
+        found = MarkerDetector(config).detect_jpeg(jpeg)
+        ref = WholeFrameDetector(config).detect_jpeg(jpeg)
+        assert len(ref.uv) >= 4  # the markers the frame shows (some are cut by the border)
+        assert np.allclose(found.uv, ref.uv, atol=1e-9)
+        assert np.allclose(found.confidence, ref.confidence)
+
+
 def moving(n_frames: int, rng: np.random.Generator) -> np.ndarray:
     """(n_frames, 6, 2) px: six markers moving with different constant velocities."""
     start = rng.uniform([40, 40], [280, 200], (6, 2))
