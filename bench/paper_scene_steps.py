@@ -26,7 +26,7 @@ import numpy as np
 
 from dempath_sim.engine import Engine, ToolPose
 from dempath_sim.engine.mesh import TriangleMesh
-from dempath_sim.runs.fill import surface_height
+from dempath_sim.runs.bed_measure import surface_height
 from dempath_sim.runs.physics import TOOL, bin_walls, build_params
 from dempath_sim.runs.placement import carve_tool_slot
 from dempath_sim.runs.pour import lattice_pour

@@ -30,7 +30,8 @@ from dempath_sim.liggghts.dumps import frames_by_id, read_dump, read_print
 from dempath_sim.liggghts.errors import DeckError
 from dempath_sim.liggghts.runner import RunOutput, run_deck
 from dempath_sim.runs.backend import RunOptions
-from dempath_sim.runs.fill import fill_bed, measure
+from dempath_sim.runs.bed_measure import measure
+from dempath_sim.runs.fill import fill_bed
 from dempath_sim.runs.markers import select_markers
 from dempath_sim.runs.physics import PARTICLES, build_params
 from dempath_sim.runs.placement import removal_mask
