@@ -93,6 +93,7 @@ class CameraCounts:
     reattached: int = 0
     numbered_by_epipolar: int = 0
     numbered_by_grid_late: int = 0
+    numbered_by_pair: int = 0
     unnumbered: int = 0
     epipolar_conflicts: int = 0
     position_conflicts: int = 0
