@@ -17,7 +17,7 @@ pixel tracks into 3D trajectories.
 from __future__ import annotations
 
 import logging
-from collections import Counter
+from collections import Counter, deque
 from pathlib import Path
 from typing import Any
 
@@ -86,6 +86,10 @@ class StereoMarkerTracker:
         # each camera's last frame's unnumbered tracks: (stamp s, track ids (k,), px (k, 2))
         self._free: dict[str, tuple[float, NDArray[np.int64], FloatArray] | None] = \
             dict.fromkeys(cameras)
+        # frames not yet released: (camera, its frame count, frame, track ids, free mask)
+        self._held: deque[tuple[str, int, PixelFrame, NDArray[np.int64], NDArray[np.bool_]]] \
+            = deque()
+        self._arrived: dict[str, int] = dict.fromkeys(cameras, 0)
 
     def other(self, camera: str) -> str:
         """The other camera's name."""
@@ -143,14 +147,62 @@ class StereoMarkerTracker:
         markers = self._number_new(camera, tf.track_ids, markers, tf.uv, stamp_s, events)
         markers = self._number_pairs(camera, tf.track_ids, markers, tf.uv, stamp_s, events)
         markers = self._verify(camera, tf.track_ids, markers, tf.uv, stamp_s, events)
-        free = np.flatnonzero(self._unnumbered_tracks(camera, tf.track_ids, markers))
+        free_mask = self._unnumbered_tracks(camera, tf.track_ids, markers)
+        free = np.flatnonzero(free_mask)
         self._free[camera] = (stamp_s, tf.track_ids[free], tf.uv[free])
         counts.tracked += int((markers >= 0).sum())
         for m, p in zip(markers, tf.uv, strict=True):
             if m >= 0:
                 self.latest[camera][int(m)] = (stamp_s, p)
-        return PixelFrame(camera, stamp_s, markers, tf.uv, tf.confidence,
-                          tuple(events) + tf.events)
+        frame = PixelFrame(camera, stamp_s, markers, tf.uv, tf.confidence,
+                           tuple(events) + tf.events)
+        self._arrived[camera] += 1
+        self._held.append((camera, self._arrived[camera], frame, tf.track_ids.copy(),
+                           free_mask))
+        delay = self.config.number_delay_frames  # frames ``release`` would have given out
+        self._held = deque(h for h in self._held if self._arrived[h[0]] - h[1] <= delay)
+        return frame
+
+    def release(self) -> list[PixelFrame]:
+        """The frames now ``number_delay_frames`` frames old in their camera, in arrival
+        order (with a delay of 0: the frame ``update`` just returned). Call it after every
+        ``update``: frames older than the delay are dropped at the next ``update`` (a caller
+        that only uses ``update``'s frames, like the detector node, holds nothing).
+
+        A point that was unnumbered on arrival because its track had no number goes out with
+        the number the track has now, if the track was given one since and kept its 2D links
+        in the meantime (no re-attachment after that frame, which could be another marker)
+        and no other point of the frame has that number. Held frames keep their stamps: the
+        delay only postpones them.
+        """
+        delay, out = self.config.number_delay_frames, []
+        while self._held and self._arrived[self._held[0][0]] - self._held[0][1] >= delay:
+            out.append(self._amend(*self._held.popleft()))
+        return out
+
+    def flush(self) -> list[PixelFrame]:
+        """All frames still held (end of a recording), with the numbers known now."""
+        out = [self._amend(*h) for h in self._held]
+        self._held.clear()
+        return out
+
+    def _amend(self, camera: str, _: int, frame: PixelFrame, track_ids: NDArray[np.int64],
+               free: NDArray[np.bool_]) -> PixelFrame:
+        """``frame`` with its unnumbered tracks' points numbered as their tracks are now."""
+        if not free.any():
+            return frame
+        tracks = {t.track_id: t for t in self.trackers[camera].tracks}
+        markers, gap = frame.markers.copy(), 1.5 / self.config.fps
+        for k in np.flatnonzero(free).tolist():
+            track = tracks.get(int(track_ids[k]))
+            if track is None or track.marker < 0 or track.marker in markers:
+                continue
+            stamps = [h[0] for h in track.history if h[0] >= frame.stamp_s]
+            if not stamps or stamps[0] != frame.stamp_s or np.any(np.diff(stamps) > gap):
+                continue  # re-attached (or lost) since: the number may be another marker's
+            markers[k] = track.marker
+            self.counts[camera].numbered_late += 1
+        return frame._replace(markers=markers)
 
     def _number_by_grid(self, camera: str, track_ids: NDArray[np.int64], uv: FloatArray,
                         events: list[str]) -> NDArray[np.int32]:
@@ -578,7 +630,7 @@ def track_bag(bag: Path, cameras: dict[str, Camera], config: StereoTrackConfig |
     from dempath.bagio import open_bag
 
     tracker = StereoMarkerTracker(cameras, config)
-    frames = []
+    frames: list[PixelFrame] = []
     topic_cam = {f'/{n}/image_raw/compressed': n for n in cameras}
     with open_bag(bag, list(topic_cam)) as reader:
         for raw in reader.messages(list(topic_cam)):
@@ -586,5 +638,6 @@ def track_bag(bag: Path, cameras: dict[str, Camera], config: StereoTrackConfig |
             stamp = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
             if stamp < start_ns:
                 continue
-            frames.append(tracker.update(topic_cam[raw.topic], stamp * 1e-9, bytes(msg.data)))
-    return frames, tracker.report()
+            tracker.update(topic_cam[raw.topic], stamp * 1e-9, bytes(msg.data))
+            frames += tracker.release()
+    return frames + tracker.flush(), tracker.report()

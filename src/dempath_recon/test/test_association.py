@@ -331,3 +331,40 @@ def test_marker_positions_carry_a_covered_marker_with_its_neighbours() -> None:
         pos.accept(n, 0.2, np.array([x, 0.0, 0.04]))
     pos.accept(4, 0.2, np.array([0.5, 0.0, -0.3]))
     assert np.allclose(pos.carried(1, 0.2, 0.03, 0.06, neighbours=2), [0.0, 0.0, 0.04])
+
+
+def test_held_frames_go_out_with_the_number_found_within_the_delay(rig) -> None:
+    """The scene above: the side's frame 12 (marker 2 back, unnumbered on arrival, numbered
+    with the front's frame 12) goes out numbered 2 when frames are held 2 frames, and is
+    given out unnumbered with no delay, where ``release`` gives exactly ``update``'s
+    frames. ``update`` itself is not delayed either way."""
+    scene, spot = _carried_scene(0.0)
+    cams = {c.name: c for c in rig.cameras}
+    side = cams['cam_side']
+    for delay, want in ((0, -1), (2, 2)):
+        config = StereoTrackConfig(grid=MarkerGrid(layout_m=GRID6), number_delay_frames=delay,
+                                   tracker=TrackerConfig(max_lost_s=0.1))
+        tracker = StereoMarkerTracker(cams, config)
+        now, released = [], []
+        for k, (side_pts, front_pts) in enumerate(scene):
+            now.append(tracker.update_detections('cam_side', k * DT,
+                                                 dets(side, np.array(side_pts))))
+            released += tracker.release()
+            now.append(tracker.update_detections('cam_front', k * DT + OFFSET,
+                                                 dets(cams['cam_front'], np.array(front_pts))))
+            released += tracker.release()
+            assert len(released) == max(len(now) - 2 * delay, 0)
+        released += tracker.flush()
+        assert [(f.camera, f.stamp_s) for f in released] == [(f.camera, f.stamp_s) for f in now]
+        assert numbers_at(now[24], side, spot) == -1
+        assert numbers_at(released[24], side, spot) == want
+        changed = [k for k, (a, b) in enumerate(zip(now, released, strict=True))
+                   if not np.array_equal(a.markers, b.markers)]
+        assert changed == ([] if delay == 0 else [24])
+        assert tracker.report()['cam_side']['numbered_late'] == (delay > 0)
+
+
+def test_negative_number_delay_is_refused() -> None:
+    """A negative publication delay is a configuration error naming the field."""
+    with pytest.raises(ValueError, match='number_delay_frames'):
+        StereoTrackConfig(number_delay_frames=-1)
