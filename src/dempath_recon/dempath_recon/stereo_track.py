@@ -4,12 +4,15 @@
 (``update(camera, stamp, jpeg)``): it decodes and detects (``detect``), links to the camera's
 tracks (``track``), numbers a camera's tracks by the marker grid once a frame fits it, and
 later new tracks by the other camera's epipolar lines or, for a marker that camera never saw,
-by its grid point (``associate``). Every numbered point is checked against the other camera's
+by its grid point (``associate``), or, for a marker back in both cameras while neither has it
+numbered, as a pair placed by the motion of its neighbours. Every numbered point is checked against the other camera's
 point of the same number (epipolar line, and a 3D point the marker can have reached since its
 last accepted position); a pair that fails is withheld, never given out as the marker. Every
 fault is counted: undecodable images, dropped frames (a stamp gap of more than 1.5 frame
 periods), frames out of stamp order, frames without any marker, lost and re-attached markers,
-withheld pairs. :func:`track_bag` is the batch form over a bag, and
+withheld pairs. ``update`` returns each frame as numbered on arrival; ``release`` gives the
+frames out ``number_delay_frames`` later, with the numbers their new tracks got meanwhile.
+:func:`track_bag` is the batch form over a bag (``update``, ``release``, ``flush``), and
 :func:`~dempath_recon.trajectories.triangulate_tracks` (re-exported here) turns the numbered
 pixel tracks into 3D trajectories.
 """
