@@ -5,16 +5,16 @@
 tracks (``track``), numbers a camera's tracks by the marker grid once a frame fits it, and
 later new tracks by the other camera's epipolar lines or, for a marker that camera never saw,
 by its grid point (``associate``), or, for a marker back in both cameras while neither has it
-numbered, as a pair placed by the motion of its neighbours. Every numbered point is checked against the other camera's
-point of the same number (epipolar line, and a 3D point the marker can have reached since its
-last accepted position); a pair that fails is withheld, never given out as the marker. Every
-fault is counted: undecodable images, dropped frames (a stamp gap of more than 1.5 frame
-periods), frames out of stamp order, frames without any marker, lost and re-attached markers,
-withheld pairs. ``update`` returns each frame as numbered on arrival; ``release`` gives the
-frames out ``number_delay_frames`` later, with the numbers their new tracks got meanwhile.
-:func:`track_bag` is the batch form over a bag (``update``, ``release``, ``flush``), and
-:func:`~dempath_recon.trajectories.triangulate_tracks` (re-exported here) turns the numbered
-pixel tracks into 3D trajectories.
+numbered, as a pair placed by the motion of its neighbours. Every numbered point is checked
+against the other camera's point of the same number (epipolar line, and a 3D point the marker
+can have reached since its last accepted position); a pair that fails is withheld, never
+given out as the marker. Every fault is counted: undecodable images, dropped frames (a stamp
+gap of more than 1.5 frame periods), frames out of stamp order, frames without any marker,
+lost and re-attached markers, withheld pairs. ``update`` returns each frame as numbered on
+arrival; ``release`` gives the frames out ``number_delay_frames`` later, with the numbers
+their new tracks got meanwhile. :func:`track_bag` is the batch form over a bag (``update``,
+``release``, ``flush``), and :func:`~dempath_recon.trajectories.triangulate_tracks`
+(re-exported here) turns the numbered pixel tracks into 3D trajectories.
 """
 
 from __future__ import annotations
