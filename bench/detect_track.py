@@ -15,7 +15,9 @@ detection, tracking, numbering) over the run's frames, and compares with the tru
   wall-clock figures measure the other jobs as much as this code: ``load_average`` (1, 5 and
   15 min, before the timed runs) and ``load_average_end`` say how busy the machine was;
 - ``rms_px``: localisation error of detected markers whose disc is at least 90 % visible;
-- ``recall``: share of markers at least half visible (truth) that were detected and numbered;
+- ``recall``: share of markers at least half visible (truth) that were detected and numbered,
+  in the frames as :meth:`StereoMarkerTracker.release` gives them out (held
+  ``number_delay_frames`` frames, default config; the node path uses ``update``'s frames);
 - ``id_switches``: numbered detections given a number other than the marker's own;
 - ``traj_rms_mm``: 3D error of the triangulated trajectories (true cameras) against the truth;
 - ``node_path``: the demo's code path (``make demo``): both cameras calibrated from the bag's
@@ -73,8 +75,11 @@ def run(frames: list[tuple[str, int, bytes]], cams: dict[str, CameraModel],
     t0, c0 = time.perf_counter(), time.process_time()
     with ThreadPoolExecutor(threads) as pool:
         dets = list(pool.map(lambda f: detectors[f[0]].detect_jpeg(f[2]), frames))
-    out = [tracker.update_detections(c, s * 1e-9, d)
-           for (c, s, _), d in zip(frames, dets, strict=True)]
+    out = []
+    for (c, s, _), d in zip(frames, dets, strict=True):
+        tracker.update_detections(c, s * 1e-9, d)
+        out += tracker.release()  # held number_delay_frames frames, then given out
+    out += tracker.flush()
     run.cpu_s = time.process_time() - c0  # type: ignore[attr-defined]
     return out, time.perf_counter() - t0, tracker.report()
 
@@ -222,7 +227,8 @@ def main(argv: list[str]) -> int:
                'frames': len(frames), 'image': f'{w}x{h}',
                'cpu_ms_per_frame': 1e3 * cpu / len(frames),
                'fps_two_free_cores': 2 * len(frames) / cpu, 'stage_ms': stages,
-               'threads': args.threads, **score(out, truth, cams),
+               'threads': args.threads, 'number_delay_frames': config.number_delay_frames,
+               **score(out, truth, cams),
                'load_average': load, 'load_average_end': [round(x, 2) for x in os.getloadavg()],
                'cpus': os.cpu_count(),
                'lost': sum(r['lost'] for r in report.values()),

@@ -262,10 +262,13 @@ class MarkerPositions:
         max_speed_m_s: fastest a marker moves [m/s].
     """
 
+    HISTORY = 200  # accepted positions kept per marker (a few seconds at 50 FPS per camera)
+
     def __init__(self, gate_m: float, max_speed_m_s: float) -> None:
         self.gate_m = gate_m
         self.max_speed_m_s = max_speed_m_s
         self.known: dict[int, tuple[float, FloatArray]] = {}
+        self.history: dict[int, list[tuple[float, FloatArray]]] = {}  # the last HISTORY each
 
     def distance(self, marker: int, stamp_s: float, xyz: FloatArray) -> tuple[float, float]:
         """``(distance, allowed)`` [m] of ``xyz`` (3,) from the marker's last position."""
@@ -284,3 +287,36 @@ class MarkerPositions:
         """Record ``xyz`` (3,) m as the marker's position at ``stamp_s``."""
         if np.isfinite(xyz).all():
             self.known[marker] = (stamp_s, np.asarray(xyz, np.float64).copy())
+            past = self.history.setdefault(marker, [])
+            past.append(self.known[marker])
+            del past[:-self.HISTORY]
+
+    def carried(self, marker: int, stamp_s: float, near_s: float, recent_s: float,
+                anchor: tuple[float, FloatArray] | None = None, neighbours: int = 3,
+                ) -> FloatArray | None:
+        """Where the bed's motion has carried a marker not seen since its last position.
+
+        Its last accepted position, moved by the mean displacement, over the same interval, of
+        the ``neighbours`` markers nearest to it then that have a position within ``near_s``
+        of its last one and one at most ``recent_s`` old now (the bed moves as a continuum:
+        a covered marker goes where the markers around it go). A marker never accepted starts
+        from ``anchor`` ``(stamp s, (3,) m)`` if given. None when it has no position or no
+        such neighbour.
+        """
+        start = self.known.get(marker, anchor)
+        if start is None:
+            return None
+        t_m, x_m = start
+        moves = []
+        for n, past in self.history.items():
+            now = self.known[n]
+            if n == marker or stamp_s - now[0] > recent_s or now[0] <= t_m:
+                continue
+            then = min(past, key=lambda p: abs(p[0] - t_m))
+            if abs(then[0] - t_m) <= near_s:
+                moves.append((float(np.linalg.norm(then[1] - x_m)), now[1] - then[1]))
+        if not moves:
+            return None
+        moves.sort(key=lambda mv: mv[0])
+        return np.asarray(x_m + np.mean([mv[1] for mv in moves[:neighbours]], axis=0),
+                          np.float64)

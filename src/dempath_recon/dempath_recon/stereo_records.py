@@ -43,6 +43,12 @@ class StereoTrackConfig:
             than this [px] (markers moving smoothly miss by a pixel or two).
         max_speed_m_s: fastest a marker can move [m/s] (the tool's speed, 1 m/s in the
             paper, with a margin: sand ahead of the tool does not outrun it by much).
+        number_delay_frames: frames of its camera a frame is held in
+            ``StereoMarkerTracker.release`` before it is given out; a point of a then
+            unnumbered track goes out with the number the track got within the delay (a
+            marker that comes back is often numbered a few frames later, when the other
+            camera sees it too). 0 gives every frame out as it is numbered on arrival (what
+            ``update`` returns, whatever this is).
     """
 
     detector: DetectorConfig = field(default_factory=DetectorConfig)
@@ -55,6 +61,7 @@ class StereoTrackConfig:
     position_gate_m: float = 0.01
     doubt_link_px: float = 5.0
     max_speed_m_s: float = 2.0
+    number_delay_frames: int = 5
 
     def __post_init__(self) -> None:
         for name in ('fps', 'epipolar_px', 'grid_gate_px', 'position_gate_m',
@@ -62,6 +69,9 @@ class StereoTrackConfig:
             if not getattr(self, name) > 0:
                 msg = f'{name}: must be > 0, got {getattr(self, name)!r}'
                 raise ValueError(msg)
+        if self.number_delay_frames < 0:
+            msg = f'number_delay_frames: must be >= 0, got {self.number_delay_frames!r}'
+            raise ValueError(msg)
         if self.min_grid_markers < 1:
             msg = f'min_grid_markers: must be >= 1, got {self.min_grid_markers!r}'
             raise ValueError(msg)
@@ -93,6 +103,8 @@ class CameraCounts:
     reattached: int = 0
     numbered_by_epipolar: int = 0
     numbered_by_grid_late: int = 0
+    numbered_by_pair: int = 0
+    numbered_late: int = 0
     unnumbered: int = 0
     epipolar_conflicts: int = 0
     position_conflicts: int = 0

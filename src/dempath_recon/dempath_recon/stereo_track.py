@@ -4,20 +4,23 @@
 (``update(camera, stamp, jpeg)``): it decodes and detects (``detect``), links to the camera's
 tracks (``track``), numbers a camera's tracks by the marker grid once a frame fits it, and
 later new tracks by the other camera's epipolar lines or, for a marker that camera never saw,
-by its grid point (``associate``). Every numbered point is checked against the other camera's
-point of the same number (epipolar line, and a 3D point the marker can have reached since its
-last accepted position); a pair that fails is withheld, never given out as the marker. Every
-fault is counted: undecodable images, dropped frames (a stamp gap of more than 1.5 frame
-periods), frames out of stamp order, frames without any marker, lost and re-attached markers,
-withheld pairs. :func:`track_bag` is the batch form over a bag, and
-:func:`~dempath_recon.trajectories.triangulate_tracks` (re-exported here) turns the numbered
-pixel tracks into 3D trajectories.
+by its grid point (``associate``), or, for a marker back in both cameras while neither has it
+numbered, as a pair placed by the motion of its neighbours. Every numbered point is checked
+against the other camera's point of the same number (epipolar line, and a 3D point the marker
+can have reached since its last accepted position); a pair that fails is withheld, never
+given out as the marker. Every fault is counted: undecodable images, dropped frames (a stamp
+gap of more than 1.5 frame periods), frames out of stamp order, frames without any marker,
+lost and re-attached markers, withheld pairs. ``update`` returns each frame as numbered on
+arrival; ``release`` gives the frames out ``number_delay_frames`` later, with the numbers
+their new tracks got meanwhile. :func:`track_bag` is the batch form over a bag (``update``,
+``release``, ``flush``), and :func:`~dempath_recon.trajectories.triangulate_tracks`
+(re-exported here) turns the numbered pixel tracks into 3D trajectories.
 """
 
 from __future__ import annotations
 
 import logging
-from collections import Counter
+from collections import Counter, deque
 from pathlib import Path
 from typing import Any
 
@@ -51,6 +54,8 @@ RECENT_S = 0.05  # the other camera's position of a marker counts for numbering 
 ALONE_RATIO = 3.0  # a re-found spot is kept on one camera's evidence when every other marker
 # this camera does not see now would have had to move at least this many times faster to be there
 MIN_SPEED_PX_S = 50.0  # speed floor of that comparison: a pixel a frame at 50 FPS [px/s]
+CARRY_FLOOR_M = 0.003  # nearest-marker comparison of ``_only_marker``: distances below this
+# (a few times the triangulation noise, ~1 mm RMS) count as this [m]
 MAX_DEPTH_AGE_S = 0.06  # a 3D point older than this (three frames) no longer bounds the depth
 # along an epipolar line usefully (the gate has grown to 0.13 m, several marker pitches)
 
@@ -81,6 +86,13 @@ class StereoMarkerTracker:
         self._grid_time: dict[str, float] = {}  # stamp of the frame each camera's grid fit
         # withheld points of unconfirmed re-attachments: marker -> (stamp s, (2,) px)
         self._pending: dict[str, dict[int, tuple[float, FloatArray]]] = {n: {} for n in cameras}
+        # each camera's last frame's unnumbered tracks: (stamp s, track ids (k,), px (k, 2))
+        self._free: dict[str, tuple[float, NDArray[np.int64], FloatArray] | None] = \
+            dict.fromkeys(cameras)
+        # frames not yet released: (camera, its frame count, frame, track ids, free mask)
+        self._held: deque[tuple[str, int, PixelFrame, NDArray[np.int64], NDArray[np.bool_]]] \
+            = deque()
+        self._arrived: dict[str, int] = dict.fromkeys(cameras, 0)
 
     def other(self, camera: str) -> str:
         """The other camera's name."""
@@ -136,13 +148,64 @@ class StereoMarkerTracker:
         if camera not in self._grid_uv:
             markers = self._number_by_grid(camera, tf.track_ids, tf.uv, events)
         markers = self._number_new(camera, tf.track_ids, markers, tf.uv, stamp_s, events)
+        markers = self._number_pairs(camera, tf.track_ids, markers, tf.uv, stamp_s, events)
         markers = self._verify(camera, tf.track_ids, markers, tf.uv, stamp_s, events)
+        free_mask = self._unnumbered_tracks(camera, tf.track_ids, markers)
+        free = np.flatnonzero(free_mask)
+        self._free[camera] = (stamp_s, tf.track_ids[free], tf.uv[free])
         counts.tracked += int((markers >= 0).sum())
         for m, p in zip(markers, tf.uv, strict=True):
             if m >= 0:
                 self.latest[camera][int(m)] = (stamp_s, p)
-        return PixelFrame(camera, stamp_s, markers, tf.uv, tf.confidence,
-                          tuple(events) + tf.events)
+        frame = PixelFrame(camera, stamp_s, markers, tf.uv, tf.confidence,
+                           tuple(events) + tf.events)
+        self._arrived[camera] += 1
+        self._held.append((camera, self._arrived[camera], frame, tf.track_ids.copy(),
+                           free_mask))
+        delay = self.config.number_delay_frames  # frames ``release`` would have given out
+        self._held = deque(h for h in self._held if self._arrived[h[0]] - h[1] <= delay)
+        return frame
+
+    def release(self) -> list[PixelFrame]:
+        """The frames now ``number_delay_frames`` frames old in their camera, in arrival
+        order (with a delay of 0: the frame ``update`` just returned). Call it after every
+        ``update``: frames older than the delay are dropped at the next ``update`` (a caller
+        that only uses ``update``'s frames, like the detector node, holds nothing).
+
+        A point that was unnumbered on arrival because its track had no number goes out with
+        the number the track has now, if the track was given one since and kept its 2D links
+        in the meantime (no re-attachment after that frame, which could be another marker)
+        and no other point of the frame has that number. Held frames keep their stamps: the
+        delay only postpones them.
+        """
+        delay, out = self.config.number_delay_frames, []
+        while self._held and self._arrived[self._held[0][0]] - self._held[0][1] >= delay:
+            out.append(self._amend(*self._held.popleft()))
+        return out
+
+    def flush(self) -> list[PixelFrame]:
+        """All frames still held (end of a recording), with the numbers known now."""
+        out = [self._amend(*h) for h in self._held]
+        self._held.clear()
+        return out
+
+    def _amend(self, camera: str, _: int, frame: PixelFrame, track_ids: NDArray[np.int64],
+               free: NDArray[np.bool_]) -> PixelFrame:
+        """``frame`` with its unnumbered tracks' points numbered as their tracks are now."""
+        if not free.any():
+            return frame
+        tracks = {t.track_id: t for t in self.trackers[camera].tracks}
+        markers, gap = frame.markers.copy(), 1.5 / self.config.fps
+        for k in np.flatnonzero(free).tolist():
+            track = tracks.get(int(track_ids[k]))
+            if track is None or track.marker < 0 or track.marker in markers:
+                continue
+            stamps = [h[0] for h in track.history if h[0] >= frame.stamp_s]
+            if not stamps or stamps[0] != frame.stamp_s or np.any(np.diff(stamps) > gap):
+                continue  # re-attached (or lost) since: the number may be another marker's
+            markers[k] = track.marker
+            self.counts[camera].numbered_late += 1
+        return frame._replace(markers=markers)
 
     def _number_by_grid(self, camera: str, track_ids: NDArray[np.int64], uv: FloatArray,
                         events: list[str]) -> NDArray[np.int32]:
@@ -208,6 +271,116 @@ class StereoMarkerTracker:
             markers[k] = number
             seen.add(number)
         return markers
+
+    def _unnumbered_tracks(self, camera: str, track_ids: NDArray[np.int64],
+                           markers: NDArray[np.int32]) -> NDArray[np.bool_]:
+        """(k,) whether each detection is unnumbered and so is its track (not a withheld
+        point of a numbered track)."""
+        numbered = {t.track_id for t in self.trackers[camera].tracks if t.marker >= 0}
+        return np.array([m == UNNUMBERED and int(t) not in numbered
+                         for t, m in zip(track_ids, markers, strict=True)], bool)
+
+    def _number_pairs(self, camera: str, track_ids: NDArray[np.int64],
+                      markers: NDArray[np.int32], uv: FloatArray, stamp_s: float,
+                      events: list[str]) -> NDArray[np.int32]:
+        """Number an unnumbered track of each camera together, as the one missing marker
+        their pair can be.
+
+        A marker that comes back in both cameras while neither has it numbered cannot be
+        numbered by the other camera's line (each waits for the other). Here an unnumbered
+        track of this camera and one of the other camera's last frame (at most one frame
+        period old) are a pair when each is the other's only unnumbered point within
+        ``epipolar_px`` of its epipolar line; the pair's 3D point is given the number of the
+        marker, among those numbered in neither camera now, that ``_only_marker`` finds.
+        Both tracks take the number (and lose it if a later pair check contradicts it), and
+        the other camera's point becomes its latest, so ``_verify`` checks the pair and
+        records the 3D point at once.
+        """
+        other = self.other(camera)
+        free = self._free[other]
+        if free is None or abs(free[0] - stamp_s) > 1.0 / self.config.fps or not len(free[1]):
+            return markers
+        t_o, o_ids, o_uv = free
+        o_numbered = {t.track_id for t in self.trackers[other].tracks if t.marker >= 0}
+        keep = [j for j, tid in enumerate(o_ids.tolist()) if tid not in o_numbered]
+        mine = np.flatnonzero(self._unnumbered_tracks(camera, track_ids, markers))
+        if not keep or not len(mine):
+            return markers
+        cam, cam_o = self.cameras[camera], self.cameras[other]
+        close = epipolar_distance(cam, cam_o, uv[mine], o_uv[keep]) <= self.config.epipolar_px
+        taken = {int(m) for m in markers if m >= 0} | {
+            m for m, (t, _) in self.latest[other].items() if abs(t - stamp_s) <= RECENT_S}
+        missing = [m for m in self.config.grid.points()[0].tolist() if m not in taken]
+        markers = markers.copy()
+        for a, k in enumerate(mine.tolist()):
+            js = np.flatnonzero(close[a])
+            if len(js) != 1 or close[:, js[0]].sum() != 1:
+                continue
+            j = keep[int(js[0])]
+            tid, tid_o = int(track_ids[k]), int(o_ids[j])
+            xyz, _ = triangulate_pairs(cam, cam_o, uv[k][None], o_uv[j][None])
+            number = self._only_marker(xyz[0], stamp_s, missing)
+            if number < 0 or (tid, number) in self._refused[camera] \
+                    or (tid_o, number) in self._refused[other]:
+                continue
+            for c, t in ((camera, tid), (other, tid_o)):
+                self._retire(c, number)
+                self.trackers[c].number(t, number)
+                self._late_numbered[c].add(t)
+            self.latest[other][number] = (t_o, o_uv[j])
+            self.counts[camera].numbered_by_pair += 1
+            events.append(f'{camera}: track {tid} and {other} track {tid_o} numbered marker '
+                          f'{number} as a pair: no other missing marker can be there')
+            markers[k] = number
+            missing.remove(number)
+        return markers
+
+    def _only_marker(self, xyz: FloatArray, stamp_s: float, missing: list[int]) -> int:
+        """The one marker of ``missing`` that a 3D point can be, else -1.
+
+        Each missing marker is placed where the bed has carried it since its last accepted 3D
+        position (``MarkerPositions.carried``: moved as its nearest tracked neighbours moved;
+        a marker never triangulated starts from its fitted grid point when the grid was
+        fitted). The point is the nearest such marker's when it lies within what the marker
+        can have reached (``position_gate_m + max_speed_m_s x dt``) and every other missing
+        marker is at least ``ALONE_RATIO`` times as far (at least ``CARRY_FLOOR_M``). A missing
+        marker that cannot be placed (no position, or no neighbour tracked across its gap)
+        could be anywhere (-1). Its last position alone is not enough: the bed carries a
+        covered marker 50 mm in half a second, to where a neighbour was lost shortly before
+        (measured on the bundled render: marker 8 back 13 mm from 9's last point, 50 mm from
+        its own; carried, 4.5 mm from 8 and 25 mm from 9).
+        """
+        near_s, ages = 1.5 / self.config.fps, []
+        for m in missing:
+            anchor = self._grid_point(m)
+            at = self.positions.carried(m, stamp_s, near_s, MAX_DEPTH_AGE_S, anchor)
+            if at is None:
+                return UNNUMBERED
+            since = self.positions.known.get(m, anchor or (stamp_s, at))[0]
+            reach = self.config.position_gate_m + self.config.max_speed_m_s * (stamp_s - since)
+            dist = float(np.linalg.norm(xyz - at))
+            ages.append((dist, dist <= reach, m))
+        ages.sort()
+        if not ages or not ages[0][1]:
+            return UNNUMBERED
+        bar = ALONE_RATIO * max(ages[0][0], CARRY_FLOOR_M)
+        if len(ages) > 1 and ages[1][0] < bar:
+            return UNNUMBERED
+        return ages[0][2]
+
+    def _grid_point(self, marker: int) -> tuple[float, FloatArray] | None:
+        """``(stamp s, (3,) m)``: a marker's fitted grid point in the first camera whose grid
+        was fitted, at the grid point's depth, at that fit's stamp; None before any fit."""
+        if not self._grid_time:
+            return None
+        camera = min(self._grid_time, key=lambda c: self._grid_time[c])
+        grid_uv = self._grid_uv[camera]
+        if marker not in grid_uv:
+            return None
+        numbers, xyz = self.config.grid.points()
+        cam = self.cameras[camera]
+        z = depth(cam, xyz[list(numbers).index(marker)])
+        return self._grid_time[camera], back_project(cam, grid_uv[marker], z)
 
     def _late_grid(self, camera: str, uv: FloatArray, k: int, seen: set[int]) -> int:
         """A marker this camera never saw, appearing as a new track alone and unambiguously at
@@ -460,7 +633,7 @@ def track_bag(bag: Path, cameras: dict[str, Camera], config: StereoTrackConfig |
     from dempath.bagio import open_bag
 
     tracker = StereoMarkerTracker(cameras, config)
-    frames = []
+    frames: list[PixelFrame] = []
     topic_cam = {f'/{n}/image_raw/compressed': n for n in cameras}
     with open_bag(bag, list(topic_cam)) as reader:
         for raw in reader.messages(list(topic_cam)):
@@ -468,5 +641,6 @@ def track_bag(bag: Path, cameras: dict[str, Camera], config: StereoTrackConfig |
             stamp = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
             if stamp < start_ns:
                 continue
-            frames.append(tracker.update(topic_cam[raw.topic], stamp * 1e-9, bytes(msg.data)))
-    return frames, tracker.report()
+            tracker.update(topic_cam[raw.topic], stamp * 1e-9, bytes(msg.data))
+            frames += tracker.release()
+    return frames + tracker.flush(), tracker.report()

@@ -270,3 +270,101 @@ def test_far_reattachment_kept_when_no_other_marker_can_be_there(rig) -> None:
     assert [numbers_at(f, rig.cameras[1], moved) for f in fronts[5:7]] == [3, 3]
     rep = tracker.report()['cam_front']
     assert rep['confirmed_alone'] == 1 and rep['unconfirmed'] == 0
+
+
+GRID6 = tuple((x, 0.0, z) for z in (-0.05, 0.05) for x in (-0.05, 0.0, 0.05))  # markers 1-6
+
+
+def _carried_scene(spot_shift_m: float) -> tuple[list, np.ndarray]:
+    """Six markers flowing 5 mm a frame along Z; 2 and 5 (ahead of 2) covered in both cameras
+    after frame 2; at frame 12 a spot appears in both cameras where the flow has carried 2,
+    moved ``spot_shift_m`` along Z. Returns the scene and the spot."""
+    step = np.array([0.0, 0.0, 0.005])
+    grid = [np.array(g) for g in GRID6]
+    scene = []
+    for k in range(16):
+        pts = [g + k * step for i, g in enumerate(grid) if k <= 2 or i not in (1, 4)]
+        spot = grid[1] + k * step + np.array([0.0, 0.0, spot_shift_m])
+        if k >= 12:
+            pts.append(spot)
+        scene.append((pts, pts))
+    return scene, grid[1] + 12 * step + np.array([0.0, 0.0, spot_shift_m])
+
+
+def test_marker_back_in_both_cameras_is_numbered_where_the_flow_carried_it(rig) -> None:
+    """Marker 2 comes back as a new track in both cameras, where the flow carried it (60 mm
+    on), which is 10 mm from marker 5's last point and 50 mm from its own: numbered 2 in both
+    (each camera alone waits for the other's number), never 5. A spot halfway between where
+    the flow carried 2 and 5 could be either: no number."""
+    config = StereoTrackConfig(grid=MarkerGrid(layout_m=GRID6),
+                               tracker=TrackerConfig(max_lost_s=0.1))
+    scene, spot = _carried_scene(0.0)
+    out, tracker = run(rig, scene, config)
+    side, front = rig.cameras
+    sides = [f for f in out if f.camera == 'cam_side']
+    fronts = [f for f in out if f.camera == 'cam_front']
+    assert numbers_at(fronts[12], front, spot) == 2  # the front pairs with side's frame 12
+    step = np.array([0.0, 0.0, 0.005])
+    assert [numbers_at(f, side, spot + k * step) for k, f in enumerate(sides[13:16], 1)] == \
+        [2, 2, 2]
+    assert [numbers_at(f, front, spot + k * step) for k, f in enumerate(fronts[13:16], 1)] == \
+        [2, 2, 2]
+    assert tracker.report()['cam_front']['numbered_by_pair'] == 1
+    assert all(5 not in f.markers for f in out[6:])
+
+    scene, spot = _carried_scene(0.05)  # halfway between 2's and 5's carried places
+    out, tracker = run(rig, scene, config)
+    assert all(numbers_at(f, c, spot) == -1 for f, c in zip(out[24:26], rig.cameras,
+                                                           strict=True))
+    assert tracker.report()['cam_front']['numbered_by_pair'] == 0
+
+
+def test_marker_positions_carry_a_covered_marker_with_its_neighbours() -> None:
+    """A marker last seen at t = 0 is carried by the mean displacement of its nearest
+    neighbours since then; no neighbour tracked across the gap: None."""
+    pos = MarkerPositions(0.01, 2.0)
+    pos.accept(1, 0.0, np.zeros(3))
+    for n, x in ((2, 0.05), (3, -0.05), (4, 0.5)):
+        pos.accept(n, 0.0, np.array([x, 0.0, 0.0]))
+    assert pos.carried(1, 0.2, 0.03, 0.06) is None  # nobody seen since
+    for n, x in ((2, 0.05), (3, -0.05)):
+        pos.accept(n, 0.2, np.array([x, 0.0, 0.04]))
+    pos.accept(4, 0.2, np.array([0.5, 0.0, -0.3]))
+    assert np.allclose(pos.carried(1, 0.2, 0.03, 0.06, neighbours=2), [0.0, 0.0, 0.04])
+
+
+def test_held_frames_go_out_with_the_number_found_within_the_delay(rig) -> None:
+    """The scene above: the side's frame 12 (marker 2 back, unnumbered on arrival, numbered
+    with the front's frame 12) goes out numbered 2 when frames are held 2 frames, and is
+    given out unnumbered with no delay, where ``release`` gives exactly ``update``'s
+    frames. ``update`` itself is not delayed either way."""
+    scene, spot = _carried_scene(0.0)
+    cams = {c.name: c for c in rig.cameras}
+    side = cams['cam_side']
+    for delay, want in ((0, -1), (2, 2)):
+        config = StereoTrackConfig(grid=MarkerGrid(layout_m=GRID6), number_delay_frames=delay,
+                                   tracker=TrackerConfig(max_lost_s=0.1))
+        tracker = StereoMarkerTracker(cams, config)
+        now, released = [], []
+        for k, (side_pts, front_pts) in enumerate(scene):
+            now.append(tracker.update_detections('cam_side', k * DT,
+                                                 dets(side, np.array(side_pts))))
+            released += tracker.release()
+            now.append(tracker.update_detections('cam_front', k * DT + OFFSET,
+                                                 dets(cams['cam_front'], np.array(front_pts))))
+            released += tracker.release()
+            assert len(released) == max(len(now) - 2 * delay, 0)
+        released += tracker.flush()
+        assert [(f.camera, f.stamp_s) for f in released] == [(f.camera, f.stamp_s) for f in now]
+        assert numbers_at(now[24], side, spot) == -1
+        assert numbers_at(released[24], side, spot) == want
+        changed = [k for k, (a, b) in enumerate(zip(now, released, strict=True))
+                   if not np.array_equal(a.markers, b.markers)]
+        assert changed == ([] if delay == 0 else [24])
+        assert tracker.report()['cam_side']['numbered_late'] == (delay > 0)
+
+
+def test_negative_number_delay_is_refused() -> None:
+    """A negative publication delay is a configuration error naming the field."""
+    with pytest.raises(ValueError, match='number_delay_frames'):
+        StereoTrackConfig(number_delay_frames=-1)
