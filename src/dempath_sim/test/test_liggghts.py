@@ -82,7 +82,7 @@ def test_contact_model_switches_follow_the_effects() -> None:
     """Rolling resistance and cohesion add epsd2 / sjkr exactly when a coefficient is set."""
     assert cmd.contact_model(_params(0.0)) == 'model hertz tangential history'
     assert cmd.contact_model(_params(0.26, 500.0)) == (
-        'model hertz tangential history rolling_friction epsd2 cohesion sjkr')
+        'model hertz tangential history cohesion sjkr rolling_friction epsd2')
     assert cmd.needs_soft(_params())
 
 
@@ -165,6 +165,27 @@ def test_tiny_scene_runs_end_to_end_on_liggghts(liggghts: LiggghtsInstall, tmp_p
     fill = result.meta['fill']
     assert 0.4 < fill['solid_fraction'] < 0.7
     assert abs(fill['surface_height_m']) < 0.03
+
+
+@pytest.mark.liggghts
+def test_liggghts_accepts_the_contact_model_with_every_effect(liggghts: LiggghtsInstall,
+                                                              tmp_path: Path) -> None:
+    """Two grains and a wall with rolling resistance and cohesion both on: LIGGGHTS 3.8 reads
+    the pair style and the wall fix as written (it rejects the keywords in another order)."""
+    params = _params(0.26, 1e5)
+    words = cmd.contact_model(params)
+    deck = tmp_path / 'in.effects'
+    deck.write_text('\n'.join([
+        *cmd.header((-0.05, -0.05, -0.05), (0.05, 0.05, 0.05), 2, 0.002, cmd.needs_soft(params)),
+        'hard_particles yes', *cmd.materials(params), *cmd.pair_style(params),
+        f'fix floor all wall/gran {words} primitive type 2 yplane -0.01',
+        'timestep 1e-6', 'fix integr all nve/sphere', 'fix grav all gravity 9.81 vector 0 -1 0',
+        'create_atoms 1 single 0 0 0 units box', 'create_atoms 1 single 0.0039 0 0 units box',
+        'set group all diameter 0.004 density 1734', 'run 20',
+        'write_dump all custom out.dump id x y z', '']))
+    run_deck(deck, install=liggghts)
+    frame = read_dump(tmp_path / 'out.dump')[0]
+    assert frame.step == 20 and frame.data.shape == (2, 4)
 
 
 @pytest.mark.liggghts

@@ -104,12 +104,16 @@ def materials(params: SimParams, friction: str = 'static') -> list[str]:
 
 
 def contact_model(params: SimParams) -> str:
-    """The granular model words shared by ``pair_style gran`` and ``fix wall/gran``."""
+    """The granular model words shared by ``pair_style gran`` and ``fix wall/gran``.
+
+    LIGGGHTS 3.8 reads them in a fixed order (model, tangential, cohesion, rolling_friction,
+    surface) and rejects any other ("wrong keyword order"), so cohesion comes first.
+    """
     words = 'model hertz tangential history'
-    if params.rolling_enabled:
-        words += ' rolling_friction epsd2'
     if params.cohesion_enabled:
         words += ' cohesion sjkr'
+    if params.rolling_enabled:
+        words += ' rolling_friction epsd2'
     return words
 
 
