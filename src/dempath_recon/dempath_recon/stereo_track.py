@@ -20,7 +20,7 @@ their new tracks got meanwhile. :func:`track_bag` is the batch form over a bag (
 from __future__ import annotations
 
 import logging
-from collections import Counter, deque
+from collections import Counter
 from pathlib import Path
 from typing import Any
 
@@ -42,6 +42,7 @@ from dempath_recon.detect import (
     MarkerDetector,
 )
 from dempath_recon.stereo_records import CameraCounts, PixelFrame, StereoTrackConfig
+from dempath_recon.stereo_release import HeldFrame, ReleaseQueue, renumber
 from dempath_recon.track import UNNUMBERED, MarkerTracker
 from dempath_recon.trajectories import marker_histories, triangulate_tracks
 from dempath_recon.triangulate import Camera
@@ -89,10 +90,7 @@ class StereoMarkerTracker:
         # each camera's last frame's unnumbered tracks: (stamp s, track ids (k,), px (k, 2))
         self._free: dict[str, tuple[float, NDArray[np.int64], FloatArray] | None] = \
             dict.fromkeys(cameras)
-        # frames not yet released: (camera, its frame count, frame, track ids, free mask)
-        self._held: deque[tuple[str, int, PixelFrame, NDArray[np.int64], NDArray[np.bool_]]] \
-            = deque()
-        self._arrived: dict[str, int] = dict.fromkeys(cameras, 0)
+        self._queue = ReleaseQueue(cameras, self.config.number_delay_frames)
 
     def other(self, camera: str) -> str:
         """The other camera's name."""
@@ -159,11 +157,7 @@ class StereoMarkerTracker:
                 self.latest[camera][int(m)] = (stamp_s, p)
         frame = PixelFrame(camera, stamp_s, markers, tf.uv, tf.confidence,
                            tuple(events) + tf.events)
-        self._arrived[camera] += 1
-        self._held.append((camera, self._arrived[camera], frame, tf.track_ids.copy(),
-                           free_mask))
-        delay = self.config.number_delay_frames  # frames ``release`` would have given out
-        self._held = deque(h for h in self._held if self._arrived[h[0]] - h[1] <= delay)
+        self._queue.hold(frame, tf.track_ids, free_mask)
         return frame
 
     def release(self) -> list[PixelFrame]:
@@ -178,34 +172,16 @@ class StereoMarkerTracker:
         and no other point of the frame has that number. Held frames keep their stamps: the
         delay only postpones them.
         """
-        delay, out = self.config.number_delay_frames, []
-        while self._held and self._arrived[self._held[0][0]] - self._held[0][1] >= delay:
-            out.append(self._amend(*self._held.popleft()))
-        return out
+        return [self._amend(h) for h in self._queue.due()]
 
     def flush(self) -> list[PixelFrame]:
         """All frames still held (end of a recording), with the numbers known now."""
-        out = [self._amend(*h) for h in self._held]
-        self._held.clear()
-        return out
+        return [self._amend(h) for h in self._queue.rest()]
 
-    def _amend(self, camera: str, _: int, frame: PixelFrame, track_ids: NDArray[np.int64],
-               free: NDArray[np.bool_]) -> PixelFrame:
-        """``frame`` with its unnumbered tracks' points numbered as their tracks are now."""
-        if not free.any():
-            return frame
-        tracks = {t.track_id: t for t in self.trackers[camera].tracks}
-        markers, gap = frame.markers.copy(), 1.5 / self.config.fps
-        for k in np.flatnonzero(free).tolist():
-            track = tracks.get(int(track_ids[k]))
-            if track is None or track.marker < 0 or track.marker in markers:
-                continue
-            stamps = [h[0] for h in track.history if h[0] >= frame.stamp_s]
-            if not stamps or stamps[0] != frame.stamp_s or np.any(np.diff(stamps) > gap):
-                continue  # re-attached (or lost) since: the number may be another marker's
-            markers[k] = track.marker
-            self.counts[camera].numbered_late += 1
-        return frame._replace(markers=markers)
+    def _amend(self, held: HeldFrame) -> PixelFrame:
+        frame, late = renumber(held, self.trackers[held.camera].tracks, self.config.fps)
+        self.counts[held.camera].numbered_late += late
+        return frame
 
     def _number_by_grid(self, camera: str, track_ids: NDArray[np.int64], uv: FloatArray,
                         events: list[str]) -> NDArray[np.int32]:
@@ -374,13 +350,19 @@ class StereoMarkerTracker:
         if not self._grid_time:
             return None
         camera = min(self._grid_time, key=lambda c: self._grid_time[c])
-        grid_uv = self._grid_uv[camera]
+        placed = self._grid_xyz(camera, marker)
+        return None if placed is None else (self._grid_time[camera], placed[1])
+
+    def _grid_xyz(self, camera: str, marker: int) -> tuple[float, FloatArray] | None:
+        """``(depth m, (3,) m)``: the marker's fitted grid point in ``camera`` placed at the
+        grid point's depth; None when the camera's grid has no such point."""
+        grid_uv = self._grid_uv.get(camera, {})
         if marker not in grid_uv:
             return None
         numbers, xyz = self.config.grid.points()
         cam = self.cameras[camera]
         z = depth(cam, xyz[list(numbers).index(marker)])
-        return self._grid_time[camera], back_project(cam, grid_uv[marker], z)
+        return z, back_project(cam, grid_uv[marker], z)
 
     def _late_grid(self, camera: str, uv: FloatArray, k: int, seen: set[int]) -> int:
         """A marker this camera never saw, appearing as a new track alone and unambiguously at
@@ -454,16 +436,15 @@ class StereoMarkerTracker:
         camera has not seen (its own sightings would be the better anchor, but they carry no
         depth). None otherwise.
         """
-        grid_uv = self._grid_uv.get(camera, {})
         t0 = self._grid_time.get(camera)
-        if marker not in grid_uv or t0 is None or stamp_s - t0 > MAX_DEPTH_AGE_S \
-                or marker in self.latest[camera]:
+        if t0 is None or stamp_s - t0 > MAX_DEPTH_AGE_S or marker in self.latest[camera]:
             return None
-        numbers, xyz = self.config.grid.points()
-        cam = self.cameras[camera]
-        z = depth(cam, xyz[list(numbers).index(marker)])
-        point = back_project(cam, grid_uv[marker], z)
-        allowed = (self.config.position_gate_m + self.config.grid_gate_px * z / float(cam.K[0, 0])
+        placed = self._grid_xyz(camera, marker)
+        if placed is None:
+            return None
+        z, point = placed
+        allowed = (self.config.position_gate_m
+                   + self.config.grid_gate_px * z / float(self.cameras[camera].K[0, 0])
                    + self.config.max_speed_m_s * (stamp_s - t0))
         return point, allowed
 
