@@ -41,12 +41,22 @@ MARKER_Z = (0.200, 0.235, 0.270, 0.305, 0.340)  # m
 SIDE_X = 0.05  # m, the side markers' distance from the tine's axis
 NEAR_M = 0.012  # m, horizontal reach of a marker's grid point
 TOP_ZONE = ((-0.09, 0.09), (-0.03, 0.06), (0.17, 0.37))  # the deck's 'top' group, X Y Z [m]
-# Scene overrides of the deck's physics variants (in.pass -var variant): rolling resistance and
-# cohesion between grains only, as the deck's wall and tine fixes leave them out.
+# Scene overrides of the deck's physics variants (in.pass -var variant, physics_<variant>.in):
+# rolling resistance and cohesion between grains only, as the deck's wall and tine fixes leave
+# them out; the other candidates of the effects library at the library's upper strength (x1.5,
+# Young's modulus x3). LIGGGHTS has one Coulomb coefficient per pair: static = dynamic.
 VARIANTS: dict[str, tuple[dict[str, float], tuple[str, ...]]] = {
     'base': ({}, ()),
     'rolling': ({'rolling_resistance.boundary_fraction': 0.0}, ('rolling_resistance',)),
     'cohesion': ({'cohesion.boundary_fraction': 0.0}, ('cohesion',)),
+    'tool_friction': ({'tool_friction.static_friction': 0.60,
+                       'tool_friction.dynamic_friction': 0.60}, ()),
+    'particle_friction': ({'particle_friction.static_friction': 1.065,
+                           'particle_friction.dynamic_friction': 1.065}, ()),
+    'youngs_modulus': ({'youngs_modulus.youngs_modulus_pa': 5.1e6}, ()),
+    'restitution': ({'restitution.particle_particle': 0.45,
+                     'restitution.particle_boundary': 0.45}, ()),
+    'tool_speed': ({'tool_speed.speed_scale': 1.5}, ()),
 }
 
 
@@ -221,7 +231,8 @@ def same_bed_run(bed: Path, scene: SceneSpec, resettle_s: float = RESETTLE_S,
     state.angular_velocities[:] = bed_data['omegas']
     tool = scene.tool
     start = (tool.x_m, -tool.depth_m + tool.settling_offset_m, tool.start_z_m)
-    path = ToolPath(tool.profile, start, tool.profile_offset_m)
+    path = ToolPath(tool.profile.scaled(scene.physics_model().speed_scale), start,
+                    tool.profile_offset_m)
     engine = Engine(params, bin_walls(scene),
                     TriangleMesh.from_stl(tool.mesh, material=TOOL, scale=tool.scale))
     still = ToolPose(np.array(start), np.zeros(3))

@@ -1,7 +1,9 @@
 #!/bin/sh
 # Run the leaning-tine bin on LIGGGHTS 3.8: settle a bed for a seed (if not done) and drive the
 # tine through it with one physics variant.
-#   run.sh SEED VARIANT OUTDIR [NP]     SEED 1-8, VARIANT base|rolling|cohesion, NP MPI ranks (2)
+#   run.sh SEED VARIANT OUTDIR [NP]     SEED 1-8, VARIANT a physics_VARIANT.in of this folder
+#   (base, rolling, cohesion, tool_friction, particle_friction, youngs_modulus, restitution,
+#   tool_speed), NP MPI ranks (2)
 # Writes OUTDIR/seed<SEED>/bed.data (shared by the variants) and OUTDIR/seed<SEED>/<VARIANT>/
 # (start.dump, top.dump, end.dump, tine_force.txt, logs). Needs liggghts and mpirun on PATH.
 set -eu
@@ -15,6 +17,8 @@ case $seed in
   7) p1=236887691; p2=256203161 ;; 8) p1=275604541; p2=295075147 ;;
   *) echo "error: seed: $seed: use 1-8" >&2; exit 2 ;;
 esac
+[ -f "$deck/physics_$variant.in" ] || {
+  echo "error: variant: $variant: no physics_$variant.in in $deck" >&2; exit 2; }
 mpi="mpirun --allow-run-as-root --oversubscribe -np $np"
 mkdir -p "$out/seed$seed/$variant"
 cd "$out/seed$seed"
