@@ -15,6 +15,7 @@ from dempath_sim.validation.cross_engine import (
     compare,
     run_cross_engine,
     same_physics,
+    saved_runs,
 )
 
 
@@ -58,7 +59,7 @@ def test_tiny_scene_agrees_loosely_across_engines(liggghts: LiggghtsInstall,
                                                   tmp_path: Path) -> None:
     """Both engines move the markers and resist the tool alike within a few seed spreads."""
     report = run_cross_engine(bundled_scene('tiny'), (1, 2, 3), tmp_path,
-                              cache_dir=tmp_path / 'packings')
+                              cache_dir=tmp_path / 'packings', results_dir=tmp_path / 'results')
     drafts = [s.draft for s in (*report.dempath, *report.liggghts)]
     assert min(drafts) > 0.0
     dem = np.mean([s.draft for s in report.dempath])
@@ -67,3 +68,11 @@ def test_tiny_scene_agrees_loosely_across_engines(liggghts: LiggghtsInstall,
     axis_end = [np.nanmax(s.axis) for s in (*report.dempath, *report.liggghts)]
     assert min(axis_end) > 0.005  # the tool displaces the axis markers by millimetres at least
     assert report.cross_engine_ratio < 10.0, report.summary()
+    # An interrupted comparison resumes: saved seeds are read back, nothing runs again.
+    again = run_cross_engine(bundled_scene('tiny'), (1, 2, 3), tmp_path / 'again',
+                             cache_dir=tmp_path / 'packings', results_dir=tmp_path / 'results')
+    assert not (tmp_path / 'again').exists()
+    assert again.ratios == report.ratios
+    # ... but not for other effects: the saved runs are not theirs.
+    assert saved_runs(tmp_path / 'results', same_physics(
+        bundled_scene('tiny').with_overrides(on=('cohesion',), seed=1))) is None

@@ -36,7 +36,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dempath_sim.liggghts.backend import FILLS, LiggghtsBackend
-from dempath_sim.runs import ROLE_MARKER, Backend, NativeBackend, RunOptions, SimResult
+from dempath_sim.runs import (
+    ROLE_MARKER,
+    Backend,
+    NativeBackend,
+    RunOptions,
+    SimResult,
+    run_id,
+)
 from dempath_sim.scene.spec import SceneSpec
 
 logger = logging.getLogger(__name__)
@@ -188,6 +195,21 @@ def _run_figures(seed: int, dem: SimResult, lig: SimResult) -> dict[str, Any]:
                                           'pass_loop_s': g.get('pass_loop_time_s', 0.0)})}
 
 
+def saved_runs(results_dir: Path | None, scene: SceneSpec,
+                ) -> tuple[SimResult, SimResult] | None:
+    """Both engines' saved results of ``scene``'s seed, or None (not saved, or other effects)."""
+    if results_dir is None:
+        return None
+    paths = [results_dir / f'{engine}-s{scene.seed}.npz' for engine in ('dempath', 'liggghts')]
+    if not all(p.exists() for p in paths):
+        return None
+    dem, lig = (SimResult.load_npz(p) for p in paths)
+    if dem.meta.get('run_id') != run_id(scene):
+        return None
+    logger.info('cross-engine: seed %d read from %s', scene.seed, results_dir)
+    return dem, lig
+
+
 def run_cross_engine(scene: SceneSpec, seeds: Sequence[int], workdir: Path, nprocs: int = 1,
                      cache_dir: Path | None = None, shared_packing: bool = False,
                      fill: str = 'shared_pour',
@@ -207,7 +229,9 @@ def run_cross_engine(scene: SceneSpec, seeds: Sequence[int], workdir: Path, npro
             ``fix insert/pack``. ``'shared_packing'``: LIGGGHTS starts from dempath's settled
             packing, so the comparison isolates contact laws and integration from the fill.
         results_dir: If given, both engines' results are saved there as
-            ``<engine>-s<seed>.npz`` (``SimResult.save_npz``).
+            ``<engine>-s<seed>.npz`` (``SimResult.save_npz``), and a seed whose two results are
+            there already, dempath's of the same effects (``run_id``), is read instead of run:
+            an interrupted comparison resumes.
 
     Raises:
         ValueError: ``fill`` is not one of ``FILLS``.
@@ -220,8 +244,13 @@ def run_cross_engine(scene: SceneSpec, seeds: Sequence[int], workdir: Path, npro
     columns = scene.markers.columns
     dem, lig, runs = [], [], []
     for seed in seeds:
-        d, g = _run_seed(base.with_overrides(seed=seed), workdir, nprocs, cache_dir, mode)
-        if results_dir is not None:
+        seeded = base.with_overrides(seed=seed)
+        saved = saved_runs(results_dir, seeded)
+        if saved is not None:
+            d, g = saved
+        else:
+            d, g = _run_seed(seeded, workdir, nprocs, cache_dir, mode)
+        if results_dir is not None and saved is None:
             results_dir.mkdir(parents=True, exist_ok=True)
             d.save_npz(results_dir / f'dempath-s{seed}.npz')
             g.save_npz(results_dir / f'liggghts-s{seed}.npz')

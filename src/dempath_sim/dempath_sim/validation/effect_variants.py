@@ -1,0 +1,68 @@
+"""The effects library's candidates as variants of a scene, for checks across engines.
+
+A cross-engine check that passes for the baseline physics says little about the diagnosis: the
+diagnosis names the effect whose signature fits, so each signature must transfer between the
+engines too. A variant changes one candidate of the library the way the signature library runs
+it (``dempath_diagnose.library``): an effect the scene has off is switched on at
+``EFFECT_FACTOR`` x its default strength, a parameter (or an effect that is on) is moved to
+``PARAMETER_FACTOR`` x its value (Young's modulus: ``LOG_FACTOR`` x), the parameters linked to it
+scaled alike (dynamic with static friction, the boundary's restitution with the particles').
+Contact effects switched on act between grains only (``boundary_fraction`` 0), as a deck's
+pair style does when its wall and tool fixes leave them out.
+
+Every variant keeps the scene's bed physics: the bed is poured once with the scene file's
+effects and each variant re-settles it with its own physics, tool in place (``tool.settle_s``),
+on both engines alike.
+"""
+
+from __future__ import annotations
+
+from dempath_sim.effects import all_effects
+from dempath_sim.scene.spec import SceneSpec
+
+# The library's upper strengths (dempath_diagnose.library: EFFECT_FACTORS[0],
+# PARAMETER_FACTORS[1], LOG_FACTORS[1]; a test checks they agree).
+EFFECT_FACTOR = 5.0
+PARAMETER_FACTOR = 1.5
+LOG_FACTOR = 3.0
+# Each candidate's main parameter and the parameters scaled with it (as the library's).
+MAIN = {'cohesion': 'energy_density_j_m3', 'rolling_resistance': 'coefficient',
+        'tool_friction': 'static_friction', 'particle_friction': 'static_friction',
+        'youngs_modulus': 'youngs_modulus_pa', 'restitution': 'particle_particle',
+        'tool_speed': 'speed_scale'}
+LINKED = {'static_friction': ('dynamic_friction',), 'particle_particle': ('particle_boundary',)}
+LOG_SCALE = frozenset({'youngs_modulus'})
+VARIANTS = ('base', *MAIN)
+
+
+def variant_overrides(scene: SceneSpec, name: str) -> tuple[dict[str, float], tuple[str, ...]]:
+    """Scene overrides ``({'effect.parameter': value}, effects switched on)`` of one variant.
+
+    Raises:
+        ValueError: ``name`` is not one of ``VARIANTS``.
+    """
+    if name not in VARIANTS:
+        msg = f'variant: {name!r} is not one of {", ".join(VARIANTS)}'
+        raise ValueError(msg)
+    if name == 'base':
+        return {}, ()
+    setting = scene.effects[name]
+    main = MAIN[name]
+    if not setting.enabled:
+        default = all_effects()[name].parameter(main).default
+        values = {f'{name}.{main}': EFFECT_FACTOR * default}
+        if 'boundary_fraction' in setting.values:
+            values[f'{name}.boundary_fraction'] = 0.0
+        return values, (name,)
+    factor = LOG_FACTOR if name in LOG_SCALE else PARAMETER_FACTOR
+    values = {f'{name}.{main}': factor * float(setting.values[main])}
+    for linked in LINKED.get(main, ()):
+        if linked in setting.values:
+            values[f'{name}.{linked}'] = factor * float(setting.values[linked])
+    return values, ()
+
+
+def variant_scene(scene: SceneSpec, name: str) -> SceneSpec:
+    """``scene`` with one variant's physics (its bed physics kept: see the module docstring)."""
+    values, on = variant_overrides(scene, name)
+    return scene.with_overrides(values, on=on) if values or on else scene

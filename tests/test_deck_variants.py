@@ -1,0 +1,120 @@
+"""The hand-written leaning-tine deck's physics variants and dempath's scene of each agree.
+
+The deck (``data/decks/leaning_tine``) is the reference set-up of issue 12's cross-engine check;
+each candidate of the effects library is one of its physics variants. The values a variant sets
+in LIGGGHTS (``physics_<variant>.in``, the index variables of ``materials.in`` and ``in.pass``)
+must be the ones dempath's scene of that variant runs with, or the check compares two physics.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from dempath_sim.liggghts.errors import LiggghtsNotFoundError
+from dempath_sim.liggghts.install import LiggghtsInstall, ensure_liggghts
+from dempath_sim.validation.cross_engine import same_physics
+from dempath_sim.validation.deck_setup import (
+    DECK_DIR,
+    MARKER_Z,
+    SIDE_X,
+    VARIANTS,
+    deck_frames,
+    deck_stats,
+    run_deck,
+    same_bed_run,
+    scene_for,
+)
+
+INDEX = re.compile(r'^variable\s+(\w+)\s+index\s+(\S+)', re.MULTILINE)
+
+
+def deck_values(variant: str) -> dict[str, float]:
+    """The sand's values a variant runs with in LIGGGHTS: its own index variables first, then
+    the defaults of materials.in and in.pass (LIGGGHTS keeps the first definition)."""
+    values: dict[str, float] = {}
+    for path in (DECK_DIR / f'physics_{variant}.in', DECK_DIR / 'materials.in',
+                 DECK_DIR / 'in.pass'):
+        for name, value in INDEX.findall(path.read_text()):
+            if name not in ('deck', 'variant'):
+                values.setdefault(name, float(value))
+    return values
+
+
+@pytest.mark.parametrize('variant', sorted(VARIANTS))
+def test_deck_and_scene_run_the_same_values(variant: str) -> None:
+    """Young's modulus, restitution, the three Coulomb coefficients and the tine's speed of each
+    variant are the same in the deck and in dempath's scene of it (LIGGGHTS' one coefficient
+    per pair: static = dynamic)."""
+    deck = deck_values(variant)
+    scene = same_physics(scene_for(variant))
+    model = scene.physics_model()
+    assert model.particle_youngs_modulus_pa == pytest.approx(deck['E_sand'])
+    effects = {name: scene.effects[name].values for name in scene.effects}
+    assert effects['restitution']['particle_particle'] == pytest.approx(deck['e_rest'])
+    assert effects['restitution']['particle_boundary'] == pytest.approx(deck['e_rest'])
+    assert effects['particle_friction']['static_friction'] == pytest.approx(deck['mu_pp'])
+    assert effects['wall_friction']['static_friction'] == pytest.approx(deck['mu_pw'])
+    assert effects['tool_friction']['static_friction'] == pytest.approx(deck['mu_pt'])
+    speed = scene.tool.profile.speed_m_s * model.speed_scale
+    assert speed == pytest.approx(deck['speed'])
+    assert deck['npass'] * 5e-5 == pytest.approx(0.31 / deck['speed'], abs=0.01)
+
+
+def test_unknown_deck_variant_is_one_clear_error(tmp_path: Path) -> None:
+    """run.sh names a variant without a physics file before LIGGGHTS is started."""
+    import subprocess
+
+    done = subprocess.run(['sh', str(DECK_DIR / 'run.sh'), '1', 'sticky', str(tmp_path)],
+                          capture_output=True, text=True, check=False)
+    assert done.returncode == 2
+    assert 'variant: sticky: no physics_sticky.in' in done.stderr
+
+
+@pytest.fixture(scope='module')
+def liggghts() -> LiggghtsInstall:
+    """LIGGGHTS 3.8 (Debian package), installed through apt-get when root; skip otherwise."""
+    try:
+        return ensure_liggghts(install=True)
+    except LiggghtsNotFoundError as err:
+        pytest.skip(f'LIGGGHTS unavailable: {err}')
+
+
+def write_marker_bed(path: Path) -> None:
+    """A bed of columns of ten 9 mm grains standing on the floor under each marker spot, their
+    tops in the deck's surface zone (a LIGGGHTS data file): the tine knocks the axis columns
+    over and passes the side ones, and a pass runs in seconds."""
+    spots = [(x, z) for x in (-SIDE_X, 0.0, SIDE_X) for z in MARKER_Z]
+    grains = [(x, -0.0955 + 0.009 * j, z) for x, z in spots for j in range(10)]
+    rows = [f'{k + 1} 1 0.009 1734 {x:.4f} {y:.4f} {z:.4f}' for k, (x, y, z) in enumerate(grains)]
+    head = ['LIGGGHTS data: marker columns', '', f'{len(rows)} atoms', '3 atom types',
+            '-0.16 0.16 xlo xhi', '-0.11 0.12 ylo yhi', '-0.01 0.51 zlo zhi', '', 'Atoms', '']
+    path.parent.mkdir(parents=True)
+    path.write_text('\n'.join(head + rows) + '\n')
+
+
+@pytest.mark.slow
+@pytest.mark.liggghts
+def test_every_deck_variant_runs_on_liggghts_and_matches_dempaths_time_axis(
+        liggghts: LiggghtsInstall, tmp_path: Path) -> None:
+    """Each variant's pass runs on LIGGGHTS 3.8 (the files parse, the tine moves through the
+    axis markers), the tool-speed variant drives the same 270 mm in 0.31 s / 1.5, and dempath's
+    engine on the same bed records the same output times and picks the same marker grains."""
+    bed = tmp_path / 'seed1' / 'bed.data'
+    write_marker_bed(bed)
+    for variant in sorted(VARIANTS):
+        run = run_deck(1, variant, tmp_path, nprocs=1)
+        frames = deck_frames(run)
+        speed = VARIANTS[variant][0].get('tool_speed.speed_scale', 1.0)
+        assert frames.times[-1] == pytest.approx(0.31 / speed, abs=0.01), variant
+        stats = deck_stats(frames, 0.0045)
+        assert np.nanmax(stats.axis) > 0.02, variant  # the tine knocks the axis columns over
+        assert np.nanmax(stats.lateral) < 0.002, variant  # and passes the side ones
+    dem = same_bed_run(bed, same_physics(scene_for('tool_speed')))
+    lig = deck_frames(tmp_path / 'seed1' / 'tool_speed')
+    np.testing.assert_allclose(dem.times, lig.times, atol=1e-9)
+    assert np.nanmax(deck_stats(dem, 0.0045).axis) > 0.02
+    assert deck_stats(dem, 0.0045).markers == deck_stats(lig, 0.0045).markers

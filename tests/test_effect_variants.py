@@ -1,0 +1,62 @@
+"""The effects library's candidates as cross-engine variants (validation.effect_variants)."""
+
+from __future__ import annotations
+
+import pytest
+
+from dempath_diagnose import library, simulate
+from dempath_sim.scene import bundled_scene
+from dempath_sim.validation.effect_variants import (
+    EFFECT_FACTOR,
+    LINKED,
+    LOG_FACTOR,
+    LOG_SCALE,
+    MAIN,
+    PARAMETER_FACTOR,
+    VARIANTS,
+    variant_overrides,
+    variant_scene,
+)
+
+
+def test_variants_use_the_signature_librarys_upper_strengths() -> None:
+    """The cross-engine variants are the strengths the diagnosis library runs, so a signature
+    checked across engines is one the diagnosis uses."""
+    assert library.EFFECT_FACTORS[0] == EFFECT_FACTOR
+    assert max(library.PARAMETER_FACTORS) == PARAMETER_FACTOR
+    assert max(library.LOG_FACTORS) == LOG_FACTOR
+    assert set(LOG_SCALE) == set(library.LOG_SCALE)
+    assert set(MAIN) == set(simulate.LIBRARY_CANDIDATES)
+    assert all(MAIN[name] == simulate.MAIN_PARAMETER[name] for name in MAIN)
+    assert LINKED == simulate.LINKED
+
+
+def test_reduced_scene_variants() -> None:
+    """Cohesion (off) comes on at 5x its default between grains only; rolling resistance (on)
+    and the parameters move x1.5 with their linked values, Young's modulus x3."""
+    scene = bundled_scene('reduced_1ms')
+    values, on = variant_overrides(scene, 'cohesion')
+    assert on == ('cohesion',)
+    assert values == {'cohesion.energy_density_j_m3': pytest.approx(1.0e5),
+                      'cohesion.boundary_fraction': 0.0}
+    values, on = variant_overrides(scene, 'rolling_resistance')
+    assert on == ()
+    assert values['rolling_resistance.coefficient'] == pytest.approx(1.5 * 0.26)
+    values, _ = variant_overrides(scene, 'particle_friction')
+    assert values['particle_friction.static_friction'] == pytest.approx(1.5 * 0.71)
+    assert values['particle_friction.dynamic_friction'] == pytest.approx(1.5 * 0.59)
+    values, _ = variant_overrides(scene, 'youngs_modulus')
+    assert values['youngs_modulus.youngs_modulus_pa'] == pytest.approx(3 * 1.7e6)
+    assert variant_overrides(scene, 'base') == ({}, ())
+    with pytest.raises(ValueError, match="'friction' is not one of"):
+        variant_overrides(scene, 'friction')
+
+
+@pytest.mark.parametrize('name', VARIANTS)
+def test_a_variant_keeps_the_scenes_bed(name: str) -> None:
+    """Every variant starts from the bed poured with the scene file's effects (one pour per
+    seed for all variants, on both engines) and changes the run's physics only."""
+    scene = bundled_scene('reduced_1ms')
+    variant = variant_scene(scene, name)
+    assert variant.bed_model() == scene.bed_model()
+    assert (variant.physics_model() == scene.physics_model()) == (name == 'base')
