@@ -25,7 +25,7 @@ outputs, one ``.npz`` of figures per run), so an interrupted bench resumes. Last
 object.
 
     .venv/bin/python bench/cross_engine_setup.py [--seeds 4 | --seed-list 2,3]
-        [--variants base,rolling,cohesion] [--setups same_bed,dempath] [--np 2] [--work DIR]
+        [--variants base,rolling,cohesion | all] [--setups same_bed,dempath] [--np 2] [--work DIR]
         [--json-out FILE]
 
 ``--seed-list`` runs the given seeds only (several processes can fill one cache in parallel,
@@ -51,6 +51,7 @@ from dempath_sim.validation.cross_engine import compare, same_physics
 from dempath_sim.validation.deck_setup import (
     MEASURED_SCENE_FILE,
     RESETTLE_S,
+    VARIANTS,
     DeckStats,
     deck_frames,
     deck_stats,
@@ -138,7 +139,8 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     ap.add_argument('--seeds', type=int, default=4, help='seeds 1..N')
     ap.add_argument('--seed-list', help='comma-separated seeds (instead of --seeds)')
-    ap.add_argument('--variants', default='base')
+    ap.add_argument('--variants', default='base',
+                    help=f'comma-separated among {", ".join(VARIANTS)}, or all')
     ap.add_argument('--setups', default='same_bed,dempath')
     ap.add_argument('--np', type=int, default=2, dest='nprocs')
     ap.add_argument('--work', type=Path,
@@ -152,7 +154,12 @@ def main() -> None:
              else list(range(1, args.seeds + 1)))
     figures: dict[str, Any] = {'bench': 'cross_engine_setup', 'scene': 'leaning_tine',
                                'seeds': seeds, 'variants': {}}
-    for variant in args.variants.split(','):
+    variants = list(VARIANTS) if args.variants == 'all' else args.variants.split(',')
+    unknown = [v for v in variants if v not in VARIANTS]
+    if unknown:
+        ap.error(f'--variants: {", ".join(unknown)}: not a variant of the deck '
+                 f'({", ".join(VARIANTS)})')
+    for variant in variants:
         deck = [_one_run('liggghts', variant, s, args.work, args.nprocs) for s in seeds]
         entry: dict[str, Any] = {'liggghts': _summary(deck)}
         for setup in args.setups.split(','):
@@ -161,6 +168,10 @@ def main() -> None:
             if len(seeds) > 1:
                 entry[setup].update(_against(runs, deck, seeds))
         figures['variants'][variant] = entry
+    if len(seeds) > 1:  # per set-up, the largest D / S over every variant and statistic
+        entries = figures['variants'].values()
+        figures['ratio_max'] = {setup: max(e[setup]['ratio_max'] for e in entries)
+                                for setup in args.setups.split(',')}
     figures['wall_s'] = round(time.monotonic() - t0, 1)
     text = json.dumps(figures)
     if args.json_out is not None:
