@@ -16,6 +16,8 @@ with it, packing seed by packing seed:
 - ``dempath_measured``: the same with ``leaning_tine_measured.yaml``, the bin as the deck's
   settled beds measure (95 mm deep, 1018 kg/m^3 inside, the tip 65 mm below the surface;
   ``fill.count: surface``): what a user gets from the deck's measured bed.
+- ``dempath_poured``: the same bin poured the way the deck pours it, around the standing tine
+  (``leaning_tine_poured.yaml``, ``tool.placement: poured``).
 
 Every run is reduced by the same rules (``deck_setup.deck_stats``): axis and side markers' mean
 displacement over time, the side markers' outward motion, the mean draft. For each set-up and
@@ -50,6 +52,7 @@ from dempath_sim.runs import RunOptions, run_scene
 from dempath_sim.validation.cross_engine import compare, same_physics
 from dempath_sim.validation.deck_setup import (
     MEASURED_SCENE_FILE,
+    POURED_SCENE_FILE,
     RESETTLE_S,
     VARIANTS,
     DeckStats,
@@ -64,6 +67,7 @@ from dempath_sim.validation.deck_setup import (
 log = logging.getLogger('bench')
 STATS = ('axis', 'lateral', 'outward')
 MEAN_R = 0.0045  # m, the deck's mean grain radius (marker rule)
+SCENE_FILES = {'dempath_measured': MEASURED_SCENE_FILE, 'dempath_poured': POURED_SCENE_FILE}
 
 
 def _save(path: Path, stats: DeckStats, extra: dict[str, Any]) -> None:
@@ -102,8 +106,8 @@ def _one_run(setup: str, variant: str, seed: int, work: Path, nprocs: int) -> De
                               RESETTLE_S if setup == 'same_bed' else 0.0)
         stats = deck_stats(frames, MEAN_R)
     else:
-        if setup == 'dempath_measured':
-            scene = same_physics(scene_for(variant, seed, MEASURED_SCENE_FILE))
+        if setup in SCENE_FILES:
+            scene = same_physics(scene_for(variant, seed, SCENE_FILES[setup]))
         scene = replace(scene, output=replace(scene.output, snapshot_interval_s=0.01))
         result = run_scene(scene, RunOptions(cache_dir=work / 'packings'))
         stats = deck_stats(result_frames(result), MEAN_R)

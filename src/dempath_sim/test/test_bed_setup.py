@@ -147,3 +147,50 @@ def test_run_places_the_tool_by_carve(tiny_bed: tuple[Path, object]) -> None:
     _, carved = place_tool(state, mesh, start, 'carve')
     _, slotted = place_tool(state, mesh, start, 'slot')
     assert 0 < carved < slotted
+
+
+def poured_tiny(tmp_path: Path, reference: str = 'nominal_surface') -> Path:
+    """The tiny scene with its bed poured around the standing chisel (a scene file)."""
+    text = (SCENES_DIR / 'tiny.yaml').read_text().replace(
+        '  scale: 0.5', f'  scale: 0.5\n  placement: poured\n  depth_reference: {reference}')
+    path = tmp_path / 'poured.yaml'
+    path.write_text(text)
+    return path
+
+
+def test_poured_needs_the_tool_placed_below_the_nominal_surface(tmp_path: Path) -> None:
+    """The tool stands in the bin before the bed settles: its depth cannot follow the settled
+    surface, and LIGGGHTS' own pours have no tool in them."""
+    from dempath_sim.liggghts.backend import LiggghtsBackend
+
+    with pytest.raises(SceneError, match=r'tool\.placement: poured places the tool before'):
+        load_scene(poured_tiny(tmp_path, 'settled_surface'))
+    scene = load_scene(poured_tiny(tmp_path))
+    with pytest.raises(SceneError, match=r"tool\.placement: poured: .*fill 'shared_pour'"):
+        LiggghtsBackend(tmp_path / 'lig').run(scene)
+
+
+def test_bed_poured_around_the_tool_rests_against_it(tmp_path: Path,
+                                                     tiny_bed: tuple[Path, object]) -> None:
+    """A poured bed is the tool's own packing (another key), no grain centre lies inside the
+    standing tool, grains rest against it, and the run's placement removes none of them."""
+    cache, _ = tiny_bed
+    carve = bundled_scene('tiny')
+    scene = load_scene(poured_tiny(tmp_path))
+    bed = scene.bed_model()
+    key = packing_key(scene, bed)
+    assert key != packing_key(carve, carve.bed_model())
+    moved = replace(scene, tool=replace(scene.tool, start_z_m=scene.tool.start_z_m + 0.01))
+    assert packing_key(moved, bed) != key
+    state, report = fill_bed(scene, bed, build_params(scene, bed), cache)
+    mesh = TriangleMesh.from_stl(scene.tool.mesh, scale=scene.tool.scale)
+    from dempath_sim.runs.fill_tool import nominal_start
+
+    start = nominal_start(scene)
+    touching = removal_mask(state.positions, state.radii, mesh, start, 'carve')
+    assert touching.sum() >= 5  # the bed settled against the tool
+    assert not removal_mask(state.positions, state.radii, mesh, start, 'poured').any()
+    assert place_tool(state, mesh, start, 'poured')[1] == 0
+    tris = mesh.triangles + np.asarray(start)
+    assert (np.abs(winding_numbers(state.positions, tris)) < 0.5).all()
+    assert report.n_particles == state.n

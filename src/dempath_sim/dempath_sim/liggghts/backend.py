@@ -23,7 +23,7 @@ from dempath_sim.engine.params import SimParams
 from dempath_sim.engine.state import SimState
 from dempath_sim.engine.stl import read_stl
 from dempath_sim.engine.timestep import rayleigh_time_step
-from dempath_sim.errors import RunStoppedError
+from dempath_sim.errors import RunStoppedError, SceneError
 from dempath_sim.liggghts import deck as dk
 from dempath_sim.liggghts.commands import write_ascii_stl
 from dempath_sim.liggghts.dumps import frames_by_id, read_dump, read_print
@@ -257,11 +257,17 @@ class LiggghtsBackend:
 
         Raises:
             LiggghtsNotFoundError: LIGGGHTS or mpirun missing.
+            SceneError: ``tool.placement: poured`` with a fill other than shared_packing.
             LiggghtsRunError: A LIGGGHTS run failed (names the log).
             DumpError: A dump is missing or malformed.
             RunStoppedError: ``options.stop`` was set before the pass.
         """
         options = options or RunOptions()
+        if scene.tool.placement == 'poured' and self.fill != 'shared_packing':
+            msg = (f'{scene.source}: tool.placement: poured: the LIGGGHTS backend pours its bed '
+                   f"without the tool (fill {self.fill!r}); run it with fill 'shared_packing' "
+                   "(dempath's bed poured around the tool) or set tool.placement: carve")
+            raise SceneError(msg)
         _check_stop(options, 'fill')
         packing = None
         if self.fill == 'shared_packing':

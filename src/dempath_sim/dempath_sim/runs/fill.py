@@ -22,7 +22,9 @@ particle top per column of cells two top-layer diameters wide).
 Settled packings are cached as ``<cache>/<key>.npz``; the key hashes everything that determines
 the packing (bin, layers, particle and wall physics, fill settings, numerics, seed, engine
 version), so repeated runs of a scene, and runs that only change the tool or its speed, skip
-the fill. Assumptions: no tool during the fill; particles of one material.
+the fill. The tool is not in the bin during the fill unless ``tool.placement: poured``
+(``runs.fill_tool``: the bed poured and settled around the standing tool, and the key then
+includes the tool). Particles of one material.
 """
 
 from __future__ import annotations
@@ -45,8 +47,9 @@ from dempath_sim.engine.params import SimParams
 from dempath_sim.engine.state import SimState
 from dempath_sim.errors import SceneError
 from dempath_sim.runs.bed_measure import measure
+from dempath_sim.runs.fill_tool import FillTool, fill_engine, fill_tool, tool_key, without_overlaps
 from dempath_sim.runs.packing_io import load_packing
-from dempath_sim.runs.physics import PARTICLES, bin_walls, scaled_friction
+from dempath_sim.runs.physics import PARTICLES, scaled_friction
 from dempath_sim.runs.pour import pour, target_solid_fraction
 from dempath_sim.scene.spec import FillSpec, NumericsSpec, SceneSpec
 
@@ -146,6 +149,9 @@ def packing_key(scene: SceneSpec, model: PhysicsModel) -> str:
                'physics': physics, 'fill': fill,
                'sim': numerics,
                'seed': scene.seed}
+    standing = tool_key(scene)
+    if standing is not None:  # a bed poured around the tool belongs to the tool
+        payload['tool'] = standing
     text = json.dumps(payload, sort_keys=True, default=str)
     return hashlib.sha256(text.encode()).hexdigest()[:20]
 
@@ -173,15 +179,16 @@ def settle(engine: Engine, state: SimState, scene: SceneSpec, until_s: float,
 
 
 def pour_and_settle(scene: SceneSpec, state: SimState, params: SimParams,
-                    progress: Progress | None = None) -> tuple[SimState, bool]:
-    """Settle the poured state, first with scaled friction when ``fill.friction_scale`` < 1."""
-    walls = bin_walls(scene)
+                    progress: Progress | None = None,
+                    tool: FillTool | None = None) -> tuple[SimState, bool]:
+    """Settle the poured state, first with scaled friction when ``fill.friction_scale`` < 1
+    (around ``tool`` standing at its start, when given)."""
     limit = scene.fill.max_settle_time_s
     factor = scene.fill.friction_scale
     if factor < 1.0:
-        state, _ = settle(Engine(scaled_friction(params, factor), walls), state, scene,
-                          limit / 2, progress)
-    return settle(Engine(params, walls), state, scene, limit, progress)
+        state, _ = settle(fill_engine(scene, scaled_friction(params, factor), tool), state,
+                          scene, limit / 2, progress)
+    return settle(fill_engine(scene, params, tool), state, scene, limit, progress)
 
 
 def _copy(state: SimState) -> SimState:
@@ -198,7 +205,8 @@ def _unreachable(scene: SceneSpec, found: dict[str, float], what: str) -> SceneE
 
 
 def compact(scene: SceneSpec, model: PhysicsModel, params: SimParams, state: SimState,
-            progress: Progress | None = None) -> tuple[SimState, float]:
+            progress: Progress | None = None,
+            tool: FillTool | None = None) -> tuple[SimState, float]:
     """Settle the bed with friction scaled down until its bulk density reaches the target.
 
     Bisection on the friction scale in (0, 1): a trial settles the last bed that was still
@@ -210,12 +218,11 @@ def compact(scene: SceneSpec, model: PhysicsModel, params: SimParams, state: Sim
     """
     phi_t = target_solid_fraction(scene, model)
     tol = scene.fill.tolerance * phi_t
-    walls = bin_walls(scene)
     hi, lo, found = 1.0, 0.0, measure(scene, model, state)
     for _ in range(COMPACTION_TRIALS):
         scale = 0.5 * (hi + lo)
-        trial, _ = settle(Engine(scaled_friction(params, scale), walls), _copy(state), scene,
-                          state.time + COMPACTION_SETTLE_S, progress)
+        trial, _ = settle(fill_engine(scene, scaled_friction(params, scale), tool),
+                          _copy(state), scene, state.time + COMPACTION_SETTLE_S, progress)
         found = measure(scene, model, trial)
         logger.info('fill: compaction with friction x %.3g: solid fraction %.4f (target %.4f)',
                     scale, found['solid_fraction'], phi_t)
@@ -277,15 +284,16 @@ def _pour_once(scene: SceneSpec, model: PhysicsModel, params: SimParams, key: st
                progress: Progress | None, count_scale: float) -> tuple[SimState, FillReport]:
     """One pour of ``count_scale`` x the volume count, settled and compacted to the target."""
     target = scene.fill.bulk_density_target_kg_m3
-    state, settled = pour_and_settle(scene, pour(scene, model, params, count_scale), params,
-                                     progress)
+    tool = fill_tool(scene)
+    state = without_overlaps(pour(scene, model, params, count_scale), tool)
+    state, settled = pour_and_settle(scene, state, params, progress, tool)
     report = _report(scene, model, state, key, settled, count_scale=count_scale)
     if target is None or report.within_tolerance:
         return state, report
     if report.bulk_density_kg_m3 > target:
         raise _unreachable(scene, asdict(report), 'the loosest pour (full friction)')
-    state, scale = compact(scene, model, params, state, progress)
-    state, settled = settle(Engine(params, bin_walls(scene)), state, scene,
+    state, scale = compact(scene, model, params, state, progress, tool)
+    state, settled = settle(fill_engine(scene, params, tool), state, scene,
                             state.time + COMPACTION_SETTLE_S, progress)
     return state, _report(scene, model, state, key, settled, scale, count_scale=count_scale)
 

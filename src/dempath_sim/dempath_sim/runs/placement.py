@@ -6,7 +6,10 @@ a lab pushes the tine into the sand): a particle goes when its centre lies insid
 mesh (generalised winding number, ``engine.solid``) or its sphere cuts the mesh surface.
 ``tool.placement: slot`` removes every particle touching the tool's bounding box, a pre-cut slot
 (dempath's set-up before issue 12): for a leaning tine it also empties the wedge behind the
-share. The carve needs a closed mesh; an open one stops with one error naming the STL.
+share. ``tool.placement: poured``: the bed was poured and settled around the standing tool
+(``runs.fill_tool``), so the grains resting against it stay (their contact overlap is the
+bed's); only a centre inside the mesh would go, as none should. The carve needs a closed mesh;
+an open one stops with one error naming the STL.
 """
 
 from __future__ import annotations
@@ -17,7 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dempath_sim.engine.mesh import TriangleMesh
-from dempath_sim.engine.solid import open_edges, overlapping_spheres
+from dempath_sim.engine.solid import open_edges, overlapping_spheres, winding_numbers
 from dempath_sim.engine.state import SimState
 from dempath_sim.errors import GeometryError
 from dempath_sim.runs.fill import FillReport
@@ -25,7 +28,8 @@ from dempath_sim.scene.spec import SceneSpec
 
 logger = logging.getLogger(__name__)
 
-PLACEMENTS = ('carve', 'slot')  # tool.placement: overlap with the mesh / its bounding box
+# tool.placement: overlap with the mesh / its bounding box / bed poured around the tool
+PLACEMENTS = ('carve', 'slot', 'poured')
 
 
 def tool_start(scene: SceneSpec, fill: FillReport) -> tuple[float, float, float]:
@@ -70,10 +74,15 @@ def removal_mask(positions: NDArray[np.float64], radii: NDArray[np.float64],
     triangles = mesh.triangles + np.asarray(start, dtype=np.float64)
     if placement == 'slot':
         return slot_mask(positions, radii, triangles)
-    if placement != 'carve':
+    if placement not in PLACEMENTS:
         msg = f'tool placement must be one of {PLACEMENTS}, got {placement!r}'
         raise ValueError(msg)
     check_closed(mesh)
+    if placement == 'poured':
+        inside = slot_mask(positions, np.zeros(len(positions)), triangles)
+        near = np.flatnonzero(inside)
+        inside[near] = np.abs(winding_numbers(positions[near], triangles)) > 0.5
+        return inside
     return overlapping_spheres(triangles, positions, radii)
 
 

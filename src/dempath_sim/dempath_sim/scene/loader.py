@@ -144,13 +144,17 @@ def _read_tool(r: Reader, base_dir: Path | None, bin_spec: records.BinSpec) -> r
         profile=_read_profile(r),
         profile_offset_m=r.number('profile_offset_m', 0.0, 1000.0, 0.0),
         travel_m=r.number('travel_m', 0.0, bin_spec.length_z_m, low_open=True),
-        placement=r.text('placement', 'carve', ('carve', 'slot')),
+        placement=r.text('placement', 'carve', ('carve', 'slot', 'poured')),
         settle_s=r.number('settle_s', 0.0, 10.0, 0.06))
-    bad = open_edges(read_stl(spec.mesh)) if spec.placement == 'carve' else 0
+    bad = open_edges(read_stl(spec.mesh)) if spec.placement != 'slot' else 0
     if bad:
         r.fail('mesh', f'{str(spec.mesh)!r} is not a closed mesh ({bad} open or inconsistently '
                        'oriented edges), so the carve cannot tell inside from outside; close '
                        'it or set tool.placement: slot')
+    if spec.placement == 'poured' and spec.depth_reference != 'nominal_surface':
+        r.fail('placement', 'poured places the tool before the bed settles, so its depth must '
+                            'be below the nominal surface: set tool.depth_reference: '
+                            'nominal_surface')
     if spec.start_z_m + spec.travel_m > bin_spec.length_z_m:
         r.fail('travel_m', f'start_z_m + travel_m = {spec.start_z_m + spec.travel_m:g} m '
                            f'runs past the bin end at {bin_spec.length_z_m:g} m')

@@ -89,8 +89,9 @@ class ToolSpec:
         profile_offset_m: Profile distance already travelled at time 0 [m].
         travel_m: Distance the tool moves in the simulation (active length) [m].
         placement: ``carve`` (remove the particles overlapping the tool's closed mesh, as a
-            LIGGGHTS deck deletes them) or ``slot`` (everything in its bounding box: a pre-cut
-            slot).
+            LIGGGHTS deck deletes them), ``slot`` (everything in its bounding box: a pre-cut
+            slot) or ``poured`` (the bed poured and settled around the tool standing at its
+            start, as LIGGGHTS users set a bin up; ``runs.fill_tool``).
         settle_s: Re-settle of the bed with the tool in place and the run's own physics before
             the pass [s] (builds the contact history; 0 starts the pass at once).
     """

@@ -33,6 +33,7 @@ F64 = NDArray[np.float64]
 DECK_DIR = Path(__file__).resolve().parents[1] / 'data' / 'decks' / 'leaning_tine'
 SCENE_FILE = DECK_DIR / 'leaning_tine.yaml'
 MEASURED_SCENE_FILE = DECK_DIR / 'leaning_tine_measured.yaml'  # the deck's bed as measured
+POURED_SCENE_FILE = DECK_DIR / 'leaning_tine_poured.yaml'  # the same, poured around the tine
 RESETTLE_S = 0.06  # the deck's re-settle with the tine in place (in.pass)
 DECK_DT = 5e-5  # s, the deck's time step
 DECK_SKIN_M = 0.003  # m, the deck's neighbour skin (header of in.settle / in.pass)
