@@ -194,3 +194,22 @@ def test_bed_poured_around_the_tool_rests_against_it(tmp_path: Path,
     tris = mesh.triangles + np.asarray(start)
     assert (np.abs(winding_numbers(state.positions, tris)) < 0.5).all()
     assert report.n_particles == state.n
+
+
+def test_the_tool_moves_when_it_removes_nothing(tmp_path: Path,
+                                                tiny_bed: tuple[Path, object]) -> None:
+    """A bed poured around the tool loses no grain to it, and the tool still drives (the count
+    of removed grains once landed in the drive's stop time, freezing such a tool at t = 0)."""
+    from dempath_sim.runs import RunOptions, run_scene
+
+    cache, _ = tiny_bed
+    scene = load_scene(poured_tiny(tmp_path))
+    short = replace(scene, tool=replace(scene.tool, travel_m=0.02))
+    result = run_scene(short, RunOptions(cache_dir=cache))
+    assert result.meta['removed_by_tool'] == 0
+    travelled = result.tool_position[-1, 2] - result.tool_position[0, 2]
+    assert travelled == pytest.approx(0.02, abs=0.005)
+    tiny = bundled_scene('tiny')
+    carved = run_scene(replace(tiny, tool=replace(tiny.tool, travel_m=0.02)),
+                       RunOptions(cache_dir=cache))
+    assert carved.meta['removed_by_tool'] > 0

@@ -120,7 +120,7 @@ def _prepare_drive(scene: SceneSpec, params: SimParams, model: PhysicsModel, sta
     per_snap = max(1, round(scene.output.snapshot_interval_s / (steps * dt)))
     drive = _Drive(engine, path, Recorder(ids, roles, marker_ids, radii, state.ids.copy()),
                    selection, path.time_to_travel(scene.tool.travel_m), steps, per_snap,
-                   removed)
+                   removed_by_tool=removed)
     return drive, state
 
 
