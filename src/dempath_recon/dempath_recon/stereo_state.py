@@ -88,6 +88,19 @@ class StereoState:
         z = depth(cam, xyz[list(numbers).index(marker)])
         return z, back_project(cam, grid_uv[marker], z)
 
+    def _forget_refusals(self, camera: str, stamp_s: float) -> None:
+        """Forget the numbers refused to a track that re-attached in this frame farther than
+        ``doubt_link_px`` from its prediction: a refusal says the marker the track followed is
+        not that number, and after such a jump the track may follow another marker (one that
+        reappeared beside its covered own). Kept, a refusal made on the old marker's spot would
+        bar the right number for good (on the bundled render: the front's track of 8 at the
+        start, which had refused 8 and later re-attached onto 8's spot)."""
+        for track in self.trackers[camera].tracks:
+            if track.reattached is not None and track.reattached[0] == stamp_s \
+                    and track.reattached[1] > self.config.doubt_link_px:
+                self._refused[camera] = {r for r in self._refused[camera]
+                                         if r[0] != track.track_id}
+
     def _retire(self, camera: str, number: int) -> None:
         """Drop the lost track that held ``number`` (its marker came back as a new track)."""
         tracker = self.trackers[camera]

@@ -104,6 +104,7 @@ class StereoMarkerTracker(PairChecks, PairNumbering):
         counts.detected += len(det.uv)
         counts.lost += tracker.counts.lost - before[0]
         counts.reattached += tracker.counts.reattached - before[1]
+        self._forget_refusals(camera, stamp_s)
         markers = tf.markers
         if camera not in self._grid_uv:
             markers = self._number_by_grid(camera, tf.track_ids, tf.uv, events)
