@@ -93,8 +93,8 @@ class StereoState:
         ``doubt_link_px`` from its prediction: a refusal says the marker the track followed is
         not that number, and after such a jump the track may follow another marker (one that
         reappeared beside its covered own). Kept, a refusal made on the old marker's spot would
-        bar the right number for good (on the bundled render: the front's track of 8 at the
-        start, which had refused 8 and later re-attached onto 8's spot)."""
+        bar the right number for good (on the bundled render: the front's track of 8 took 9's
+        spot at frame 1, lost number 8 there, and re-attached onto 8's own spot at frame 16)."""
         for track in self.trackers[camera].tracks:
             if track.reattached is not None and track.reattached[0] == stamp_s \
                     and track.reattached[1] > self.config.doubt_link_px:
