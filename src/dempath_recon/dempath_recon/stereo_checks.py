@@ -14,7 +14,7 @@ from dempath_recon.associate import triangulate_pairs
 from dempath_recon.stereo_one_camera import OneCameraChecks
 from dempath_recon.track import UNNUMBERED
 
-LOG = logging.getLogger('dempath_recon.stereo_track')
+LOG = logging.getLogger('dempath_recon.stereo_track')  # the pipeline's logger, as before the split
 FloatArray = NDArray[np.float64]
 
 
