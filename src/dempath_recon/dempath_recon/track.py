@@ -217,7 +217,8 @@ class MarkerTracker:
         gate = np.array([self.config.reattach_px if t.lost else self.config.gate_px
                          for t in self.tracks])
         # a link's worth: the longest link allowed minus its length; no link (or one outside its
-        # gate) is worth 0, so the assignment never trades a short link for an extra long one
+        # gate, or one exactly as long as the larger gate) is worth 0, so one more link is made
+        # only when it is worth more than the misses the rearrangement it needs adds
         reach = max(self.config.gate_px, self.config.reattach_px)
         worth = np.where(cost <= gate[:, None], reach - cost, 0.0)
         rows, cols = linear_sum_assignment(worth, maximize=True)
