@@ -2,9 +2,16 @@
 
 Each track predicts its marker's next position with a constant velocity (in pixels per second,
 so dropped frames and uneven stamps only lengthen the step). Detections are linked to tracks by
-a one-to-one assignment minimising the total distance to the predictions
-(``scipy.optimize.linear_sum_assignment``, the Hungarian/Jonker-Volgenant solution), with a gate:
-a link longer than ``gate_px`` is never made. Why not trackpy's linking: with 15 markers the
+a one-to-one assignment (``scipy.optimize.linear_sum_assignment``, the Hungarian/Jonker-Volgenant
+solution), with gates: a link longer than ``gate_px`` (a lost track: ``reattach_px``) is never
+made. Each link scores the longest link allowed (the larger gate) minus its length, and the
+assignment maximises the total: every link inside its gate is worth making on its own,
+but a track is not moved off the spot it predicts to a farther one just so that one more link
+(a lost track's re-attachment) can be made, unless the extra link is worth more than the
+distance the moves add. (Minimising the total distance among the assignments with the most
+links, the previous rule, let a lost track re-attach to a spot a running track predicted within
+1 px by pushing that track 14 px onto a marker reappearing beside it: both tracks then followed
+the wrong marker, on the bundled render.) Why not trackpy's linking: with 15 markers the
 exact global assignment costs microseconds, needs no new dependency, and every decision (link,
 loss, re-attachment) is explicit and reported, which the paper's validation needs; trackpy's
 subnetwork search is built for thousands of dense particles.
@@ -36,7 +43,6 @@ from dempath_recon.detect import Detections
 LOG = logging.getLogger(__name__)
 FloatArray = NDArray[np.float64]
 UNNUMBERED = -1  # marker number of a track that is not (yet) identified
-NO_LINK = 1e9  # cost of a forbidden link
 
 
 @dataclass(frozen=True)
@@ -77,6 +83,7 @@ class Track:
     link_px: float = 0.0  # largest distance of a linked detection from the prediction since
     # the caller last reset it (a check against the other camera passed) [px]
     reattach_px: float = 0.0  # the same, of re-attachments only (a lost track taking a spot)
+    reattached: tuple[float, float] | None = None  # (stamp s, miss px) of its last re-attachment
 
     def predict(self, stamp_s: float, decay: float) -> FloatArray:
         """(2,) expected position at ``stamp_s`` [px]."""
@@ -209,9 +216,14 @@ class MarkerTracker:
         cost = np.linalg.norm(pred[:, None, :] - uv[None, :, :], axis=2)
         gate = np.array([self.config.reattach_px if t.lost else self.config.gate_px
                          for t in self.tracks])
-        cost = np.where(cost <= gate[:, None], cost, NO_LINK)
-        rows, cols = linear_sum_assignment(cost)
-        return [(int(r), int(c)) for r, c in zip(rows, cols, strict=True) if cost[r, c] < NO_LINK]
+        # a link's worth: the longest link allowed minus its length; no link (or one outside its
+        # gate, or one exactly as long as the larger gate) is worth 0, so one more link is made
+        # only when it is worth more than the misses the rearrangement it needs adds
+        reach = max(self.config.gate_px, self.config.reattach_px)
+        worth = np.where(cost <= gate[:, None], reach - cost, 0.0)
+        rows, cols = linear_sum_assignment(worth, maximize=True)
+        return [(int(r), int(c)) for r, c in zip(rows, cols, strict=True)
+                if cost[r, c] <= gate[r] and worth[r, c] > 0]
 
     def _advance(self, track: Track, uv: FloatArray, stamp_s: float, events: list[str]) -> None:
         dt = stamp_s - track.last_stamp_s
@@ -220,6 +232,7 @@ class MarkerTracker:
         if track.lost:
             self.counts.reattached += 1
             track.reattach_px = max(track.reattach_px, miss)
+            track.reattached = (stamp_s, miss)
             events.append(f're-attached track {track.track_id} (marker {track.marker}) after '
                           f'{dt:.3f} s unseen, {np.linalg.norm(uv - track.uv):.1f} px away')
             track.lost = False

@@ -1,0 +1,93 @@
+"""The frame-to-frame linker's choices when a covered marker's track could take a running
+track's spot, and a track's refused numbers after it jumped to another marker's spot.
+
+Synthetic cases, exact positions: each detection's true marker is known.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from dempath_recon.associate import MarkerGrid
+from dempath_recon.detect import Detections
+from dempath_recon.stereo_track import StereoTrackConfig
+from dempath_recon.track import MarkerTracker
+
+sys.path.insert(0, str(Path(__file__).parent))
+from test_association import GRID, intruder, numbers_at, run
+
+DT = 0.02  # frame period [s]
+
+
+def dets(uv: np.ndarray) -> Detections:
+    """Detections at exact positions (px)."""
+    return Detections(np.asarray(uv, np.float64).reshape(-1, 2), np.ones(len(uv)),
+                      np.full(len(uv), 3.0))
+
+
+def test_running_track_is_not_pushed_onto_a_neighbour_to_make_room_for_a_lost_one() -> None:
+    """Marker 1 moves 2 px a frame; marker 2, 33 px beside its path, is covered from frame 3;
+    at frame 5 an unknown marker appears 14 px from marker 1, beyond the reach of 2's lost
+    track. Linking 1 to the newcomer and re-attaching 2 onto 1's spot would make one more
+    link, at 48 px of misses instead of 0: marker 1 keeps its spot, the newcomer is a new
+    track, and 2 stays lost."""
+    tracker = MarkerTracker()
+    start = np.array([[100.0, 100.0], [110.0, 133.0]])
+    tracker.seed(start, np.array([1, 2], np.int32), -DT)
+    frames = []
+    for k in range(8):
+        uv = [start[0] + [2.0 * (k + 1), 0.0]]
+        if k < 3:
+            uv.append(start[1])
+        if k >= 5:
+            uv.append(start[0] + [2.0 * (k + 1), -14.0])  # the newcomer, 14 px from marker 1
+        frames.append((uv, tracker.update(k * DT, dets(np.array(uv)))))
+    reach = np.linalg.norm(frames[5][0][1] - start[1])
+    assert reach > tracker.config.reattach_px, f'precondition: newcomer {reach:.0f} px from 2'
+    assert np.linalg.norm(frames[5][0][0] - start[1]) < tracker.config.reattach_px
+    for uv, frame in frames[5:]:
+        got = {tuple(p): int(m) for p, m in zip(frame.uv, frame.markers, strict=True)}
+        assert got[tuple(uv[0])] == 1 and got[tuple(uv[1])] == -1
+        assert not any('re-attached' in e for e in frame.events)
+    assert tracker.counts.reattached == 0 and tracker.counts.new_tracks == 1
+
+
+def test_lost_track_still_takes_a_spot_it_predicts_better() -> None:
+    """Marker 1's own spot gone (covered) and marker 2 back 3 px from where it was lost,
+    16 px from marker 1's prediction: the spot is 2's (re-attached), 1 is lost."""
+    tracker = MarkerTracker()
+    tracker.seed(np.array([[100.0, 100.0], [100.0, 120.0]]), np.array([1, 2], np.int32), -DT)
+    tracker.update(0.0, dets(np.array([[100.0, 100.0], [100.0, 120.0]])))
+    tracker.update(DT, dets(np.array([[100.0, 100.0]])))
+    frame = tracker.update(2 * DT, dets(np.array([[100.0, 117.0]])))
+    assert list(frame.markers) == [2]
+    assert any('re-attached track 1 (marker 2)' in e for e in frame.events)
+    assert any('lost track 0 (marker 1)' in e for e in frame.events)
+
+
+def test_refused_number_is_forgotten_when_the_track_jumps_to_another_spot(rig) -> None:
+    """Marker 3 covered in the front; a front-only spot x on 3's epipolar line 80 mm nearer
+    starts a track, which is refused number 3 (an impossible depth). x is then covered, and
+    marker 3, which moved 60 mm towards the side camera meanwhile (the side still sees it),
+    reappears in the front nearer x's last spot than its own: the track of x re-attaches
+    there, more than ``doubt_link_px`` from its prediction, so it may be another marker now
+    and the refusal, made on x's spot, no longer applies: the spot is numbered 3 from the
+    side camera's line."""
+    p1, p2, p3 = (np.array(g) for g in GRID)
+    x = intruder(rig, p3, 0.08)
+    moved = intruder(rig, p3, 0.06)  # on the side's line of sight: the side sees no move
+    front = rig.cameras[1]
+    jump = np.linalg.norm(front.project(moved[None]) - front.project(x[None]))
+    own = np.linalg.norm(front.project(moved[None]) - front.project(p3[None]))
+    assert 5 < jump < own, f'precondition: {jump:.0f} px from x, {own:.0f} px from 3'
+    scene = [([p1, p2, p3], [p1, p2, p3])] * 3 + [([p1, p2, p3], [p1, p2, x])]
+    scene += [([p1, p2, moved], [p1, p2])] + [([p1, p2, moved], [p1, p2, moved])] * 3
+    out, tracker = run(rig, scene, StereoTrackConfig(grid=MarkerGrid(layout_m=GRID)))
+    fronts = [f for f in out if f.camera == 'cam_front']
+    assert numbers_at(fronts[3], front, x) == -1
+    assert any('is not marker 3' in e for e in fronts[3].events)
+    assert [numbers_at(f, front, moved) for f in fronts[5:]] == [3, 3, 3]
+    assert tracker.report()['cam_front']['numbered_by_epipolar'] == 1
