@@ -14,8 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from dempath_sim.liggghts.errors import LiggghtsNotFoundError
-from dempath_sim.liggghts.install import LiggghtsInstall, ensure_liggghts
+from dempath_sim.liggghts.install import LiggghtsInstall
 from dempath_sim.validation.cross_engine import same_physics
 from dempath_sim.validation.deck_setup import (
     DECK_DIR,
@@ -72,15 +71,6 @@ def test_unknown_deck_variant_is_one_clear_error(tmp_path: Path) -> None:
                           capture_output=True, text=True, check=False)
     assert done.returncode == 2
     assert 'variant: sticky: no physics_sticky.in' in done.stderr
-
-
-@pytest.fixture(scope='module')
-def liggghts() -> LiggghtsInstall:
-    """LIGGGHTS 3.8 (Debian package), installed through apt-get when root; skip otherwise."""
-    try:
-        return ensure_liggghts(install=True)
-    except LiggghtsNotFoundError as err:
-        pytest.skip(f'LIGGGHTS unavailable: {err}')
 
 
 def write_marker_bed(path: Path) -> None:
