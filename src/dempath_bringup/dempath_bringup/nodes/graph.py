@@ -175,6 +175,11 @@ def _play_images(harness: Any, recorder: Any, spec: GraphSpec, detectors: dict[s
 
     images = {c: topics.camera_topic(topics.IMAGE_COMPRESSED, c) for c in topics.CAMERAS}
     infos = [topics.camera_topic(topics.CAMERA_INFO, c) for c in topics.CAMERAS]
+    # The player waits for one subscriber per topic, which the detector already is; the recorder
+    # subscribes to a topic when it discovers it (here: the detectors' subscriptions), so wait for
+    # it too, or the first image may be published before it has matched
+    harness.spin_until(lambda: all(recorder.count_subscribers(t) >= 2 for t in images.values()),
+                       timeout_s=10.0, step_s=0.02)
     player = harness.start(PlayerNode, bag=str(spec.field_bag), rate=float(spec.rate),
                            start_offset_s=float(spec.start_offset_s),
                            topics=list(images.values()) + infos, wait_for_subscribers=1)
