@@ -24,6 +24,7 @@ from dempath_sim.engine.solid import open_edges, overlapping_spheres, winding_nu
 from dempath_sim.engine.state import SimState
 from dempath_sim.errors import GeometryError
 from dempath_sim.runs.fill import FillReport
+from dempath_sim.runs.fill_tool import nominal_start
 from dempath_sim.scene.spec import SceneSpec
 
 logger = logging.getLogger(__name__)
@@ -36,10 +37,8 @@ def tool_start(scene: SceneSpec, fill: FillReport) -> tuple[float, float, float]
     """Tip position at time 0 [m]: depth below the settled (or nominal, offset) surface."""
     tool = scene.tool
     if tool.depth_reference == 'settled_surface':
-        y = fill.surface_height_m - tool.depth_m
-    else:
-        y = -tool.depth_m + tool.settling_offset_m
-    return (tool.x_m, y, tool.start_z_m)
+        return (tool.x_m, fill.surface_height_m - tool.depth_m, tool.start_z_m)
+    return nominal_start(scene)
 
 
 def slot_mask(positions: NDArray[np.float64], radii: NDArray[np.float64],
