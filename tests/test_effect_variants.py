@@ -7,12 +7,6 @@ import pytest
 from dempath_diagnose import library, simulate
 from dempath_sim.scene import bundled_scene
 from dempath_sim.validation.effect_variants import (
-    EFFECT_FACTOR,
-    LINKED,
-    LOG_FACTOR,
-    LOG_SCALE,
-    MAIN,
-    PARAMETER_FACTOR,
     VARIANTS,
     variant_overrides,
     variant_scene,
@@ -20,15 +14,16 @@ from dempath_sim.validation.effect_variants import (
 
 
 def test_variants_use_the_signature_librarys_upper_strengths() -> None:
-    """The cross-engine variants are the strengths the diagnosis library runs, so a signature
-    checked across engines is one the diagnosis uses."""
-    assert library.EFFECT_FACTORS[0] == EFFECT_FACTOR
-    assert max(library.PARAMETER_FACTORS) == PARAMETER_FACTOR
-    assert max(library.LOG_FACTORS) == LOG_FACTOR
-    assert set(LOG_SCALE) == set(library.LOG_SCALE)
-    assert set(MAIN) == set(simulate.LIBRARY_CANDIDATES)
-    assert all(MAIN[name] == simulate.MAIN_PARAMETER[name] for name in MAIN)
-    assert LINKED == simulate.LINKED
+    """The cross-engine variants are the strengths the diagnosis library runs (one table,
+    ``dempath_sim.effects.candidates``), so a signature checked across engines is one the
+    diagnosis uses: every candidate of the library is a variant, at the library's largest
+    strength."""
+    scene = bundled_scene('reduced_1ms')
+    assert set(VARIANTS) == {'base', *simulate.LIBRARY_CANDIDATES}
+    for cand in simulate.scene_candidates(scene):
+        values, _ = variant_overrides(scene, cand.name)
+        strongest = max(library.strengths(cand, 1))
+        assert values[f'{cand.name}.{cand.parameter}'] == pytest.approx(strongest)
 
 
 def test_reduced_scene_variants() -> None:

@@ -38,15 +38,16 @@ from dempath_diagnose.simulate import (
     run_pass,
     scene_candidates,
 )
+from dempath_sim.effects.candidates import (
+    EFFECT_FACTORS,
+    LOG_FACTORS,
+    LOG_SCALE,
+    PARAMETER_FACTORS,
+)
 
 logger = logging.getLogger(__name__)
 
 LIBRARY_VERSION = 2  # bump when what a run records changes (2: effect runs re-settle the bed)
-LOG_SCALE = frozenset({'youngs_modulus'})  # strengths spread by factors, not steps
-EFFECT_FACTORS = (5.0, 1.0)  # an effect that is off: its default x these (first if one)
-PARAMETER_FACTORS = (0.6, 1.5)  # a parameter that is on: its value x these
-LOG_FACTORS = (0.3, 3.0)
-
 
 COVER_STEP_S = 0.5  # longer measurements get libraries in steps of this [s]
 

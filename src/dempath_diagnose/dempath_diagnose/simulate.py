@@ -28,23 +28,15 @@ from numpy.typing import NDArray
 from dempath.errors import DempathError
 from dempath_diagnose.errors import DiagnosisError
 from dempath_diagnose.records import PassRecord
+from dempath_sim.effects.candidates import CANDIDATES as LIBRARY_CANDIDATES
+from dempath_sim.effects.candidates import LINKED, MAIN_PARAMETER
 
 logger = logging.getLogger(__name__)
 
 SceneSpec = Any  # dempath_sim.scene_spec.SceneSpec (kept opaque outside this module)
-LIBRARY_CANDIDATES = ('cohesion', 'rolling_resistance', 'tool_friction', 'tool_speed',
-                      'particle_friction', 'youngs_modulus', 'restitution')
-# Main parameter of each effect: the one whose value is the candidate's strength.
-MAIN_PARAMETER = {'cohesion': 'energy_density_j_m3', 'rolling_resistance': 'coefficient',
-                  'tool_friction': 'static_friction', 'particle_friction': 'static_friction',
-                  'wall_friction': 'static_friction', 'tool_speed': 'speed_scale',
-                  'youngs_modulus': 'youngs_modulus_pa', 'restitution': 'particle_particle',
-                  'particle_size': 'coarse_grain'}
 # The engine's overlap stop is a safety heuristic that kills soft cohesive or rolling runs that
 # finish in LIGGGHTS (issue 12); sweeps raise it to this fraction of the radius.
 SWEEP_OVERLAP_LIMIT = 0.95
-# Parameters scaled together with the main one (kept in the scene's proportion).
-LINKED = {'static_friction': ('dynamic_friction',), 'particle_particle': ('particle_boundary',)}
 
 
 @dataclass(frozen=True)

@@ -1,7 +1,8 @@
 """Registry of physical effects, discovered from the modules of this package.
 
-Every public module here defines ``EFFECT``, an instance of :class:`~.base.Effect`; adding an
-effect means adding one module. Other distributions can add effects through the entry-point
+Every public module here but ``base`` and ``candidates`` (the diagnosis's candidate table)
+defines ``EFFECT``, an instance of :class:`~.base.Effect`; adding an effect means adding one
+module. Other distributions can add effects through the entry-point
 group ``dempath_sim.effects`` (``name = module:EFFECT``).
 
 Example:
@@ -32,7 +33,7 @@ def all_effects() -> dict[str, Effect]:
     """Every known effect by name, in alphabetical order."""
     found: dict[str, Effect] = {}
     for info in pkgutil.iter_modules(__path__):
-        if info.name.startswith('_') or info.name == 'base':
+        if info.name.startswith('_') or info.name in ('base', 'candidates'):
             continue
         module = importlib.import_module(f'{__name__}.{info.name}')
         effect = getattr(module, 'EFFECT', None)

@@ -3,12 +3,13 @@
 A cross-engine check that passes for the baseline physics says little about the diagnosis: the
 diagnosis names the effect whose signature fits, so each signature must transfer between the
 engines too. A variant changes one candidate of the library the way the signature library runs
-it (``dempath_diagnose.library``): an effect the scene has off is switched on at
-``EFFECT_FACTOR`` x its default strength, a parameter (or an effect that is on) is moved to
-``PARAMETER_FACTOR`` x its value (Young's modulus: ``LOG_FACTOR`` x), the parameters linked to it
-scaled alike (dynamic with static friction, the boundary's restitution with the particles').
-Contact effects switched on act between grains only (``boundary_fraction`` 0), as a deck's
-pair style does when its wall and tool fixes leave them out.
+it (``dempath_diagnose.library``; both read ``effects.candidates``): an effect the scene has off
+is switched on at ``EFFECT_FACTOR`` x its default strength, a parameter (or an effect that is
+on) is moved to ``PARAMETER_FACTOR`` x its value (Young's modulus: ``LOG_FACTOR`` x), the
+parameters linked to it scaled alike (dynamic with static friction, the boundary's
+restitution with the particles'). Contact effects switched on act between grains only
+(``boundary_fraction`` 0), as a deck's pair style does when its wall and tool fixes leave them
+out.
 
 Every variant keeps the scene's bed physics: the bed is poured once with the scene file's
 effects and each variant re-settles it with its own physics, tool in place (``tool.settle_s``),
@@ -18,20 +19,22 @@ on both engines alike.
 from __future__ import annotations
 
 from dempath_sim.effects import all_effects
+from dempath_sim.effects.candidates import (
+    CANDIDATES,
+    EFFECT_FACTORS,
+    LINKED,
+    LOG_FACTORS,
+    LOG_SCALE,
+    MAIN_PARAMETER,
+    PARAMETER_FACTORS,
+)
 from dempath_sim.scene.spec import SceneSpec
 
-# The library's upper strengths (dempath_diagnose.library: EFFECT_FACTORS[0],
-# PARAMETER_FACTORS[1], LOG_FACTORS[1]; a test checks they agree).
-EFFECT_FACTOR = 5.0
-PARAMETER_FACTOR = 1.5
-LOG_FACTOR = 3.0
-# Each candidate's main parameter and the parameters scaled with it (as the library's).
-MAIN = {'cohesion': 'energy_density_j_m3', 'rolling_resistance': 'coefficient',
-        'tool_friction': 'static_friction', 'particle_friction': 'static_friction',
-        'youngs_modulus': 'youngs_modulus_pa', 'restitution': 'particle_particle',
-        'tool_speed': 'speed_scale'}
-LINKED = {'static_friction': ('dynamic_friction',), 'particle_particle': ('particle_boundary',)}
-LOG_SCALE = frozenset({'youngs_modulus'})
+# The signature library's upper strengths (``effects.candidates``): what it runs is checked.
+EFFECT_FACTOR = EFFECT_FACTORS[0]
+PARAMETER_FACTOR = max(PARAMETER_FACTORS)
+LOG_FACTOR = max(LOG_FACTORS)
+MAIN = {name: MAIN_PARAMETER[name] for name in CANDIDATES}
 VARIANTS = ('base', *MAIN)
 
 
