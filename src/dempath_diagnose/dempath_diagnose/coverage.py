@@ -25,9 +25,10 @@ import numpy as np
 
 from dempath_diagnose.decision import fit_candidate
 from dempath_diagnose.emulator import Allowance, build_emulator
-from dempath_diagnose.library import LOG_SCALE, Library
+from dempath_diagnose.library import Library
 from dempath_diagnose.records import F64, Measurement, PassRecord
 from dempath_diagnose.statistics import Layout, build_layout, measured_statistics
+from dempath_sim.effects.candidates import LOG_SCALE
 
 
 @dataclass(frozen=True)

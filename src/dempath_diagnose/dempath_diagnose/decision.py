@@ -38,8 +38,8 @@ from scipy import stats
 from scipy.special import logsumexp
 
 from dempath_diagnose.emulator import CandidateEmulator, Emulator
-from dempath_diagnose.library import LOG_SCALE
 from dempath_diagnose.records import F64
+from dempath_sim.effects.candidates import LOG_SCALE
 
 GRID = 121  # strength grid points for the marginalisation
 THRESHOLD = 3.0  # implausibility above which a model is ruled out [sigma]

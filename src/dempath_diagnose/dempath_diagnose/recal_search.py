@@ -24,9 +24,9 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from dempath_diagnose.emulator import CandidateEmulator
-from dempath_diagnose.library import LOG_SCALE
 from dempath_diagnose.objective import Objective
 from dempath_diagnose.records import F64
+from dempath_sim.effects.candidates import LOG_SCALE
 
 CMA_SIGMA0 = 0.3  # initial step of CMA-ES on the unit box (a third of each prior range)
 CMA_MAX_EVALS = 1500  # emulator evaluations CMA-ES may use (milliseconds each)
