@@ -74,7 +74,7 @@ def _run(candidates: bool, n_steps: int) -> tuple[list[F64], Engine]:
         out.append(np.concatenate([force.ravel(), torque.ravel(), eng.tool_force,
                                    eng.tool_torque]))
         if eng.candidates:  # particles out of reach hold no wall/tool contact
-            idx = eng._cand_idx
+            idx = eng._reach.indices
             assert idx is not None
             out_of_reach = np.setdiff1d(np.arange(st.n), idx)
             assert (eng._gkey[out_of_reach] == -1).all()
@@ -92,8 +92,8 @@ def test_candidate_lists_match_full_pass() -> None:
     full, eng_full = _run(False, 400)
     cand, eng_cand = _run(True, 400)
     assert eng_cand.n_rebuilds == eng_full.n_rebuilds > 5
-    assert eng_cand._cand_idx is not None
-    assert 0 < eng_cand._cand_idx.size < 7 ** 3  # the list leaves the bed's inside out
+    assert eng_cand._reach.indices is not None
+    assert 0 < eng_cand._reach.indices.size < 7 ** 3  # the list leaves the bed's inside out
     tool_load = np.array([row[-6:-3] for row in full])
     assert np.linalg.norm(tool_load, axis=1).max() > 1e-3  # the tool pushes the bed (N)
     for a, b in zip(full, cand, strict=True):
@@ -123,7 +123,7 @@ def test_candidates_follow_the_tool_between_builds() -> None:
         pose = motion(states[0].time + eng.time_step(states[0]))
         states = [eng.step(states[0], pose), ref.step(states[1], pose)]
         if eng.n_rebuilds == 1:
-            searches += eng._cand_ref is eng._packed[1]  # found for this step's pose
+            searches += eng._reach.pose is eng._packed[1]  # found for this step's pose
         np.testing.assert_allclose(eng.forces[0], ref.forces[0], rtol=1e-12, atol=1e-15)
         np.testing.assert_allclose(eng.tool_force, ref.tool_force, rtol=1e-12, atol=1e-15)
     assert states[0].velocities[0, 2] < -0.5  # the tool hit and pushed the sphere (m/s)

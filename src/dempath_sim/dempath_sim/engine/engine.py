@@ -13,7 +13,7 @@ carried over; states of REORDER_MIN or more particles are first put in cell orde
 `SimState.reorder`: index order changes, ids follow the particles),
 `contact_forces` (particle-particle, particle-plane, particle-tool), `integrate_second_half`.
 The plane and tool pass runs over the particles that can reach a plane or the tool until the
-next list build (`reach.reach_candidates`, from the build positions); the candidates are
+next list build (`reach.BoundaryCandidates`, from the build positions); the candidates are
 found again when the tool has moved more than TOOL_MARGIN_SKINS skins since they were found.
 The arrays of `SimState` are updated in place; when particles leave the domain box they are
 removed with a warning and a new, compacted state is returned, so always use the returned state.
@@ -21,7 +21,6 @@ removed with a warning and a new, compacted state is returned, so always use the
 
 from __future__ import annotations
 
-import logging
 import math
 from collections.abc import Callable, Sequence
 
@@ -34,8 +33,8 @@ from dempath_sim.engine.boundary import MAX_CANDIDATES, N_SLOTS, boundary_forces
 from dempath_sim.engine.integrate import first_half, second_half
 from dempath_sim.engine.kernel_cache import refresh_own_kernel_cache
 from dempath_sim.engine.kernel_threads import prefer_openmp_layer, threads_at_most
-from dempath_sim.engine.laws.dispatch import TAB_OK, build_pair_table
-from dempath_sim.engine.mesh import TriangleMesh, build_triangle_grid, mesh_margin
+from dempath_sim.engine.laws.dispatch import build_pair_table
+from dempath_sim.engine.mesh import TriangleGrid, TriangleMesh, build_triangle_grid, mesh_margin
 from dempath_sim.engine.neighbors import (
     build_neighbor_list,
     cell_order,
@@ -45,12 +44,12 @@ from dempath_sim.engine.neighbors import (
 )
 from dempath_sim.engine.pair_forces import pair_forces, reduce_buffers
 from dempath_sim.engine.params import SimParams
-from dempath_sim.engine.reach import box_corners, box_displacement, reach_candidates
+from dempath_sim.engine.reach import BoundaryCandidates, box_displacement
 from dempath_sim.engine.stability import (
     check_contacts,
     check_drift,
     checked_time_step,
-    lost_error,
+    inside_domain,
     unstable_overlap,
 )
 from dempath_sim.engine.state import SimState
@@ -59,8 +58,6 @@ from dempath_sim.engine.walls import Plane, pack_planes
 from dempath_sim.errors import SimulationError
 
 __all__ = ['Engine']
-
-logger = logging.getLogger(__name__)
 
 F64 = NDArray[np.float64]
 
@@ -106,8 +103,6 @@ class Engine:
         self.candidates = candidates
         self._n_bound = 0  # most particles bound so far (the base of the lost fraction)
         self._screen = 0.0  # overlap / radius below which no contact is unstable at dt
-        self._cand_idx: NDArray[np.int64] | None = None  # None: to be found
-        self._cand_ref: F64 = np.zeros(18)  # tool pose the candidates were found for
         self.params = params
         self.walls = tuple(walls)
         self.tool = tool
@@ -118,10 +113,12 @@ class Engine:
         self._dom_hi = np.asarray(params.domain_max, np.float64)
         self._tris = np.zeros((0, 3, 3)) if tool is None else tool.triangles
         self._packed: tuple[ToolPose | None, F64] = (None, np.zeros(18))
-        for m in (*(p.material for p in self.walls), *(() if tool is None else (tool.material,))):
-            if not 0 <= m < len(params.materials):
-                msg = f'Engine: wall/tool material index {m} is not in SimParams.materials'
-                raise SimulationError(msg)
+        self._boundary_mats = [*(p.material for p in self.walls), *([] if tool is None
+                                                                     else [tool.material])]
+        bad = [m for m in self._boundary_mats if not 0 <= m < len(params.materials)]
+        if bad:
+            msg = f'Engine: wall/tool material index {bad[0]} is not in SimParams.materials'
+            raise SimulationError(msg)
         self.dt: float | None = None
         self._dt = math.nan  # self.dt as a float once a state is bound
         self.tool_force = np.zeros(3)
@@ -131,8 +128,6 @@ class Engine:
         self.n_rebuilds = 0
         self.slot_overflows = 0
         self._bound: SimState | None = None
-        self._no_grid = (np.zeros(3), 1.0, np.ones(3, np.int64), np.zeros(2, np.int64),
-                         np.zeros(0, np.int32))
 
     # ----------------------------------------------------------------- set-up
     def time_step(self, state: SimState) -> float:
@@ -143,19 +138,9 @@ class Engine:
         """
         return checked_time_step(state, self.params)
 
-    def _check_pairs(self, state: SimState) -> None:
-        used = np.unique(state.material)
-        others = [*(p.material for p in self.walls)]
-        if self.tool is not None:
-            others.append(self.tool.material)
-        for a in used:
-            for b in (*used, *others):
-                if self._tab[a, b, TAB_OK] == 0:
-                    self.params.interaction(int(a), int(b))  # raises naming the pair
-
     def bind(self, state: SimState) -> None:
         """Allocate buffers and the neighbour list for `state` and compute its forces at t."""
-        self._check_pairs(state)
+        self.params.require_interactions(np.unique(state.material).tolist(), self._boundary_mats)
         self.dt = self._dt = self.time_step(state)
         n = state.n
         tool_mat = 0 if self.tool is None else self.tool.material
@@ -179,8 +164,9 @@ class Engine:
         self._hr = np.zeros((0, 3))
         grid = self._grid = None if self.tool is None else build_triangle_grid(
             self.tool, mesh_margin(state.radii))
-        self._tool_hi = np.zeros(3) if grid is None else grid.lo + grid.dims * grid.cell
-        self._tool_corners = box_corners(np.zeros(3) if grid is None else grid.lo, self._tool_hi)
+        self._reach = BoundaryCandidates(
+            self._planes, self._skin, self.TOOL_MARGIN_SKINS * self._skin,
+            None if grid is None else (grid.lo, grid.lo + grid.dims * grid.cell))
         self._bound = state
         with threads_at_most(self._threads):
             self.find_contacts(state, np.arange(n))
@@ -219,27 +205,8 @@ class Engine:
         self._start, self._nbr, self._ht, self._hr = start, nbr, ht, hr
         self._pos_build = state.positions.copy()
         self._tool_build = self.tool_pose.packed()
-        self._cand_idx = None
+        self._reach.forget()
         self.n_rebuilds += 1
-
-    def _boundary_particles(self, state: SimState, packed: F64) -> NDArray[np.int64]:
-        """Particles the plane/tool pass must test at this step (see `reach_candidates`)."""
-        if not self.candidates:
-            return np.arange(state.n)
-        grid = self._grid
-        margin = self.TOOL_MARGIN_SKINS * self._skin
-        if (grid is not None and self._cand_idx is not None and packed is not self._cand_ref
-                and box_displacement(self._tool_corners, self._cand_ref, packed) > margin):
-            self._cand_idx = None  # the tool left the reach of these candidates
-        if self._cand_idx is None:
-            keep = np.empty(state.n, np.bool_)
-            lo, hi, reach = ((grid.lo, self._tool_hi, self._skin + margin) if grid is not None
-                             else (np.zeros(3), np.zeros(3), -1.0))
-            reach_candidates(self._pos_build, state.radii, self._planes, self._skin, packed,
-                             lo, hi, reach, self._gkey, self._ght, self._ghr, keep)
-            self._cand_idx = np.flatnonzero(keep)
-            self._cand_ref = packed
-        return self._cand_idx
 
     def contact_forces(self, state: SimState, pose: ToolPose, dt: float) -> None:
         """Forces and torques of all contacts into the engine's force/torque arrays.
@@ -257,9 +224,7 @@ class Engine:
         cohesion = self.params.cohesion_enabled
         if self._packed[0] is not pose:
             self._packed = (pose, pose.packed())
-        grid = self._grid
-        g_args = self._no_grid if grid is None else (grid.lo, grid.cell, grid.dims,
-                                                     grid.cell_start, grid.cell_tris)
+        g_args = TriangleGrid.kernel_args(self._grid)
         tri_mat = 0 if self.tool is None else self.tool.material
         with threads_at_most(self._threads):
             pair_forces(state.positions, state.velocities, state.angular_velocities,
@@ -273,14 +238,20 @@ class Engine:
                             self._plane_mat, self._tris, tri_mat, *g_args, self._packed[1],
                             self._gkey, self._ght, self._ghr, self._tab, dt, rolling, cohesion,
                             self._force, self._torque, self._tool_acc, self._worst, self._cand,
-                            self._tmp_t, self._tmp_r,
-                            self._boundary_particles(state, self._packed[1]))
+                            self._tmp_t, self._tmp_r, self._boundary_particles(state))
         total = self._tool_acc.sum(axis=0)
         self.tool_force = total[:3]
         self.tool_torque = total[3:]
         worst = self._worst
         self.slot_overflows += int(worst[0, 3]) if worst.shape[0] == 1 else int(worst[:, 3].sum())
         check_contacts(state, worst, self.walls, tri_mat, self.params, self._dt, self._screen)
+
+    def _boundary_particles(self, state: SimState) -> NDArray[np.int64]:
+        """Particles the plane/tool pass must test at this step (see `BoundaryCandidates`)."""
+        if not self.candidates:
+            return np.arange(state.n)
+        return self._reach.particles(self._pos_build, state.radii, self._packed[1], self._gkey,
+                                     self._ght, self._ghr)
 
     def integrate_first_half(self, state: SimState) -> tuple[float, int]:
         """Half kick and drift; returns (max displacement since the list build [m], n_out).
@@ -337,19 +308,13 @@ class Engine:
         with dempath's forms a build changes nothing)."""
         if self.tool is None or self.params.contact_forms != 'liggghts':
             return False
-        return box_displacement(self._tool_corners, self._tool_build,
+        return box_displacement(self._reach.corners, self._tool_build,
                                 self.tool_pose.packed()) > 0.5 * self._skin
 
     def _remove_outside(self, state: SimState) -> SimState:
-        lo = np.asarray(self.params.domain_min)
-        hi = np.asarray(self.params.domain_max)
-        keep = np.all((state.positions >= lo) & (state.positions <= hi), axis=1)
-        gone = state.ids[~keep]
-        self.removed_count += len(gone)
-        if self.removed_count > max(self.LOST_MIN, self.LOST_FRACTION * self._n_bound):
-            raise lost_error(state, self.removed_count, self._n_bound, self.params, self._dt)
-        logger.warning('removed %d particle(s) that left the domain box at t = %.6f s (ids %s)',
-                       len(gone), state.time, gone[:10].tolist())
+        keep = inside_domain(state, self.params, self.removed_count, self._n_bound, self._dt,
+                             self.LOST_MIN, self.LOST_FRACTION)
+        self.removed_count += int(np.count_nonzero(~keep))
         new = state.subset(keep)
         new_to_old = np.flatnonzero(keep)
         for name in ('_force', '_torque', '_gkey', '_ght', '_ghr'):  # per-particle buffers

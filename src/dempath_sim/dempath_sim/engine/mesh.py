@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numba import njit
@@ -79,6 +80,15 @@ class TriangleGrid:
     dims: NDArray[np.int64]
     cell_start: NDArray[np.int64]
     cell_tris: NDArray[np.int32]
+
+    @staticmethod
+    def kernel_args(grid: TriangleGrid | None) -> tuple[Any, ...]:
+        """(lo, cell, dims, cell_start, cell_tris) for the boundary kernel; an empty grid for
+        None (no tool)."""
+        if grid is None:
+            return (np.zeros(3), 1.0, np.ones(3, np.int64), np.zeros(2, np.int64),
+                    np.zeros(0, np.int32))
+        return grid.lo, grid.cell, grid.dims, grid.cell_start, grid.cell_tris
 
 
 def build_triangle_grid(mesh: TriangleMesh, margin: float) -> TriangleGrid:

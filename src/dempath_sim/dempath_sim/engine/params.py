@@ -10,7 +10,7 @@ coefficient (`rolling_enabled`, `cohesion_enabled`); 0 means off.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 from dempath_sim.engine.materials import Interaction, Material
@@ -145,6 +145,17 @@ class SimParams:
     def has_interaction(self, i: int, j: int) -> bool:
         """Whether material indices i and j have an interaction."""
         return (i, j) in self._table
+
+    def require_interactions(self, used: Sequence[int], others: Sequence[int] = ()) -> None:
+        """Check that every pair among the materials ``used`` and each of them with each of
+        ``others`` (walls, tool) has an interaction.
+
+        Raises:
+            SimulationError: Naming the first pair that has none.
+        """
+        for a in used:
+            for b in (*used, *others):
+                self.interaction(int(a), int(b))
 
     @property
     def rolling_enabled(self) -> bool:

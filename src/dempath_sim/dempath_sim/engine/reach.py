@@ -81,3 +81,56 @@ def box_displacement(corners: NDArray[np.float64], pose_a: NDArray[np.float64],
     rot_b = pose_b[9:18].reshape(3, 3)
     moved = corners @ (rot_b - rot_a).T + (pose_b[:3] - pose_a[:3])
     return float(np.sqrt((moved * moved).sum(axis=1).max()))
+
+
+class BoundaryCandidates:
+    """The particles the plane/tool pass tests, kept from one neighbour-list build to the next.
+
+    Found at the build positions (``reach_candidates``) and again when the tool has moved more
+    than ``margin`` since they were found; ``forget`` after every list build.
+    """
+
+    def __init__(self, planes: NDArray[np.float64], skin: float, margin: float,
+                 tool_box: tuple[NDArray[np.float64], NDArray[np.float64]] | None) -> None:
+        """Args: packed planes, the skin [m], the tool travel one set covers [m], and the
+        tool's triangle-grid box (lo, hi) in its own frame [m] (None: no tool)."""
+        self._planes = planes
+        self._skin = skin
+        self._margin = margin
+        self._box = tool_box
+        self.corners = box_corners(*tool_box) if tool_box is not None else box_corners(
+            np.zeros(3), np.zeros(3))
+        self._idx: NDArray[np.int64] | None = None  # None: to be found
+        self._ref: NDArray[np.float64] = np.zeros(18)  # tool pose they were found for
+
+    @property
+    def indices(self) -> NDArray[np.int64] | None:
+        """The particles found last (None: to be found at the next call)."""
+        return self._idx
+
+    @property
+    def pose(self) -> NDArray[np.float64]:
+        """The packed tool pose they were found for."""
+        return self._ref
+
+    def forget(self) -> None:
+        """Find them afresh at the next call (a list build moved the build positions)."""
+        self._idx = None
+
+    def particles(self, pos_build: NDArray[np.float64], radii: NDArray[np.float64],
+                  packed: NDArray[np.float64], gkey: NDArray[np.int32],
+                  ght: NDArray[np.float64], ghr: NDArray[np.float64]) -> NDArray[np.int64]:
+        """Indices of the particles to test at the tool pose ``packed``; the history slots of
+        the particles dropped are cleared (see ``reach_candidates``)."""
+        if (self._box is not None and self._idx is not None and packed is not self._ref
+                and box_displacement(self.corners, self._ref, packed) > self._margin):
+            self._idx = None  # the tool left the reach of these candidates
+        if self._idx is None:
+            keep = np.empty(len(radii), np.bool_)
+            lo, hi, reach = ((*self._box, self._skin + self._margin) if self._box is not None
+                             else (np.zeros(3), np.zeros(3), -1.0))
+            reach_candidates(pos_build, radii, self._planes, self._skin, packed, lo, hi, reach,
+                             gkey, ght, ghr, keep)
+            self._idx = np.flatnonzero(keep)
+            self._ref = packed
+        return self._idx

@@ -15,6 +15,7 @@ by default). Each message names what went wrong and the setting to change.
 
 from __future__ import annotations
 
+import logging
 import math
 from collections.abc import Sequence
 
@@ -27,6 +28,8 @@ from dempath_sim.engine.state import SimState
 from dempath_sim.engine.timestep import rayleigh_time_step
 from dempath_sim.engine.walls import Plane
 from dempath_sim.errors import SimulationError
+
+logger = logging.getLogger(__name__)
 
 
 def stable_time_step(state: SimState, params: SimParams) -> float:
@@ -234,3 +237,27 @@ def lost_error(state: SimState, lost: int, n_start: int, params: SimParams,
            f'{state.time:.6f} s: the bed is blowing up or escaping the bin; '
            f'{_lower_dt(state, params, dt)}, or make the bin taller (bin.height_y_m)')
     return SimulationError(msg)
+
+
+def inside_domain(state: SimState, params: SimParams, removed: int, n_start: int,
+                  dt: float, lost_min: int, lost_fraction: float) -> NDArray[np.bool_]:
+    """(n,) whether each particle is inside the domain box; the ones outside are logged.
+
+    Args:
+        removed: Particles removed earlier in the run.
+        n_start: Particles the run started with.
+        lost_min, lost_fraction: A run stops when more than both this many and this fraction
+            of n_start particles left the box (single grains thrown out are only counted).
+
+    Raises:
+        SimulationError: Too many particles left the box (see `lost_error`).
+    """
+    keep: NDArray[np.bool_] = np.all((state.positions >= np.asarray(params.domain_min))
+                                     & (state.positions <= np.asarray(params.domain_max)),
+                                     axis=1)
+    gone = state.ids[~keep]
+    if removed + len(gone) > max(lost_min, lost_fraction * n_start):
+        raise lost_error(state, removed + len(gone), n_start, params, dt)
+    logger.warning('removed %d particle(s) that left the domain box at t = %.6f s (ids %s)',
+                   len(gone), state.time, gone[:10].tolist())
+    return keep
