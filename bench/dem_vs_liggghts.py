@@ -16,10 +16,11 @@ engines / packing-seed spread). Last line: one JSON object.
         --seeds 4 --fill shared_packing --variants all --results-dir /tmp/xe/results
 
 ``--variants`` runs the comparison for the baseline and for each candidate of the effects
-library at the library's upper strength (``dempath_sim.validation.effect_variants``), every
-variant from the same packings; ``cross_engine_ratio`` is then the largest over the variants,
-``cross_engine`` the first variant's figures and ``cross_variants`` every variant's. With
-``--results-dir`` an interrupted run resumes (finished seeds are read back).
+library at the library's upper strength (``--strength lower``: its lower one;
+``dempath_sim.validation.effect_variants``), every variant from the same packings;
+``cross_engine_ratio`` is then the largest over the variants, ``cross_engine`` the first
+variant's figures and ``cross_variants`` every variant's. With ``--results-dir`` an interrupted
+run resumes (finished seeds are read back).
 """
 
 from __future__ import annotations
@@ -126,12 +127,15 @@ def cross_engine(args: argparse.Namespace, workdir: Path) -> dict[str, dict[str,
     out: dict[str, dict[str, object]] = {}
     for variant in args.variants:
         t0 = time.monotonic()
-        results = None if args.results_dir is None else args.results_dir / variant
-        report = run_cross_engine(variant_scene(scene, variant),
-                                  list(range(1, args.seeds + 1)), workdir / variant,
+        # The upper strength keeps the plain names (earlier results directories stay valid).
+        label = variant if args.strength == 'upper' or variant == 'base' \
+            else f'{variant}-{args.strength}'
+        results = None if args.results_dir is None else args.results_dir / label
+        report = run_cross_engine(variant_scene(scene, variant, args.strength),
+                                  list(range(1, args.seeds + 1)), workdir / label,
                                   args.nprocs, cache_dir=cache, fill=fill, results_dir=results)
-        out[variant] = {**report.summary(), 'wall_s': time.monotonic() - t0}
-        log.info('cross-engine %s: D/S %s', variant,
+        out[label] = {**report.summary(), 'wall_s': time.monotonic() - t0}
+        log.info('cross-engine %s: D/S %s', label,
                  ', '.join(f'{k} {v:.2f}' for k, v in report.ratios.items()))
     return out
 
@@ -177,6 +181,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
                         help='cross-engine physics: base and/or candidates of the effects '
                              'library at its upper strength, comma-separated, or all '
                              '(dempath_sim.validation.effect_variants)')
+    parser.add_argument('--strength', choices=('upper', 'lower'), default='upper',
+                        help="the candidates' strength: the library's upper (default) or "
+                             'lower run')
     parser.add_argument('--json-out', type=Path, default=None,
                         help='also write the JSON (with the command) to this file')
     return parser.parse_args(argv)
@@ -218,11 +225,12 @@ def main() -> None:
         result.update(speed(args, work))
     if not args.skip_cross:
         variants = cross_engine(args, work / 'cross')
-        first = variants[args.variants[0]]
+        first = next(iter(variants.values()))
         worst = max(float(str(v['cross_engine_ratio'])) for v in variants.values())
         result.update({'cross_engine_ratio': worst,
                        'cross_engine': first, 'cross_scene': args.cross_scene,
-                       'cross_fill': first['fill'], 'cross_nprocs': args.nprocs})
+                       'cross_fill': first['fill'], 'cross_nprocs': args.nprocs,
+                       'cross_strength': args.strength})
         if len(variants) > 1:
             result['cross_variants'] = variants
     result['command'] = ' '.join(['.venv/bin/python bench/dem_vs_liggghts.py', *sys.argv[1:]])

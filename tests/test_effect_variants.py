@@ -21,9 +21,13 @@ def test_variants_use_the_signature_librarys_upper_strengths() -> None:
     scene = bundled_scene('reduced_1ms')
     assert set(VARIANTS) == {'base', *simulate.LIBRARY_CANDIDATES}
     for cand in simulate.scene_candidates(scene):
-        values, _ = variant_overrides(scene, cand.name)
-        strongest = max(library.strengths(cand, 1))
-        assert values[f'{cand.name}.{cand.parameter}'] == pytest.approx(strongest)
+        upper, _ = variant_overrides(scene, cand.name)
+        lower, _ = variant_overrides(scene, cand.name, 'lower')
+        runs = library.strengths(cand, 2)
+        assert upper[f'{cand.name}.{cand.parameter}'] == pytest.approx(max(runs))
+        assert lower[f'{cand.name}.{cand.parameter}'] == pytest.approx(min(runs))
+    with pytest.raises(ValueError, match="strength: 'middle' is not one of upper, lower"):
+        variant_overrides(scene, 'cohesion', 'middle')
 
 
 def test_reduced_scene_variants() -> None:

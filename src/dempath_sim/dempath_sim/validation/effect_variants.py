@@ -34,30 +34,46 @@ from dempath_sim.scene.spec import SceneSpec
 EFFECT_FACTOR = EFFECT_FACTORS[0]
 PARAMETER_FACTOR = max(PARAMETER_FACTORS)
 LOG_FACTOR = max(LOG_FACTORS)
+# Strength -> (effect factor, parameter factor, log factor): the library's upper and lower runs.
+STRENGTHS = {'upper': (EFFECT_FACTOR, PARAMETER_FACTOR, LOG_FACTOR),
+             'lower': (min(EFFECT_FACTORS), min(PARAMETER_FACTORS), min(LOG_FACTORS))}
 MAIN = {name: MAIN_PARAMETER[name] for name in CANDIDATES}
 VARIANTS = ('base', *MAIN)
 
 
-def variant_overrides(scene: SceneSpec, name: str) -> tuple[dict[str, float], tuple[str, ...]]:
+def variant_overrides(scene: SceneSpec, name: str, strength: str = 'upper',
+                      ) -> tuple[dict[str, float], tuple[str, ...]]:
     """Scene overrides ``({'effect.parameter': value}, effects switched on)`` of one variant.
 
+    Args:
+        scene: The scene the variant changes.
+        name: One of ``VARIANTS``.
+        strength: ``'upper'`` (the library's strongest run of the candidate, the default) or
+            ``'lower'`` (its weakest: an effect that is off at its default strength, a
+            parameter x0.6, Young's modulus x0.3).
+
     Raises:
-        ValueError: ``name`` is not one of ``VARIANTS``.
+        ValueError: ``name`` is not one of ``VARIANTS`` or ``strength`` not one of
+            ``STRENGTHS``.
     """
     if name not in VARIANTS:
         msg = f'variant: {name!r} is not one of {", ".join(VARIANTS)}'
         raise ValueError(msg)
+    if strength not in STRENGTHS:
+        msg = f'variant strength: {strength!r} is not one of {", ".join(STRENGTHS)}'
+        raise ValueError(msg)
+    effect_factor, parameter_factor, log_factor = STRENGTHS[strength]
     if name == 'base':
         return {}, ()
     setting = scene.effects[name]
     main = MAIN[name]
     if not setting.enabled:
         default = all_effects()[name].parameter(main).default
-        values = {f'{name}.{main}': EFFECT_FACTOR * default}
+        values = {f'{name}.{main}': effect_factor * default}
         if 'boundary_fraction' in setting.values:
             values[f'{name}.boundary_fraction'] = 0.0
         return values, (name,)
-    factor = LOG_FACTOR if name in LOG_SCALE else PARAMETER_FACTOR
+    factor = log_factor if name in LOG_SCALE else parameter_factor
     values = {f'{name}.{main}': factor * float(setting.values[main])}
     for linked in LINKED.get(main, ()):
         if linked in setting.values:
@@ -65,7 +81,7 @@ def variant_overrides(scene: SceneSpec, name: str) -> tuple[dict[str, float], tu
     return values, ()
 
 
-def variant_scene(scene: SceneSpec, name: str) -> SceneSpec:
+def variant_scene(scene: SceneSpec, name: str, strength: str = 'upper') -> SceneSpec:
     """``scene`` with one variant's physics (its bed physics kept: see the module docstring)."""
-    values, on = variant_overrides(scene, name)
+    values, on = variant_overrides(scene, name, strength)
     return scene.with_overrides(values, on=on) if values or on else scene
