@@ -98,8 +98,7 @@ class BoundaryCandidates:
         self._skin = skin
         self._margin = margin
         self._box = tool_box
-        self.corners = box_corners(*tool_box) if tool_box is not None else box_corners(
-            np.zeros(3), np.zeros(3))
+        self.corners = box_corners(*(tool_box or (np.zeros(3), np.zeros(3))))  # tool frame
         self._idx: NDArray[np.int64] | None = None  # None: to be found
         self._ref: NDArray[np.float64] = np.zeros(18)  # tool pose they were found for
 
