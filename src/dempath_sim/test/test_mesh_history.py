@@ -1,7 +1,9 @@
-"""Tool-mesh contact history per patch: carried across triangle edges, one contact per vertex."""
+"""Tool-mesh contact history per patch: carried across triangle edges (with LIGGGHTS' forms only
+between coplanar faces), one contact per vertex."""
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 
 import numpy as np
@@ -9,6 +11,7 @@ import pytest
 from numpy.typing import NDArray
 
 from dempath_sim.engine import Engine
+from dempath_sim.engine.boundary import patch_slot
 from dempath_sim.engine.mesh import TriangleMesh, closest_point_triangle_numpy
 from dempath_sim.engine.state import SimState
 from dempath_sim.engine.walls import Plane
@@ -28,12 +31,13 @@ def _fan(n: int, size: float, apex_height: float) -> F64:
 
 
 def _slide(walls: Sequence[Plane], tool: TriangleMesh | None, start: F64,
-           velocity: F64, spin: F64, n_steps: int) -> F64:
+           velocity: F64, spin: F64, n_steps: int, forms: str = 'dempath') -> F64:
     """Move one sphere at a fixed overlap and velocity; return its (n_steps, 6) force, torque."""
-    state = SimState.from_spheres(start[None, :], np.full(1, RADIUS), 0, PARAMS,
+    params = dataclasses.replace(PARAMS, contact_forms=forms)
+    state = SimState.from_spheres(start[None, :], np.full(1, RADIUS), 0, params,
                                   velocities=velocity[None])
     state.angular_velocities[0] = spin
-    engine = Engine(PARAMS, walls=walls, tool=tool)
+    engine = Engine(params, walls=walls, tool=tool)
     engine.bind(state)
     dt = engine.time_step(state)  # the bound time step [s]
     out = np.empty((n_steps, 6))
@@ -93,9 +97,14 @@ def _normal_tangential(tris: F64, centres: F64,
     return f_n, f_t, nearest
 
 
-def test_sliding_over_a_convex_ridge_keeps_the_friction() -> None:
+@pytest.mark.parametrize('forms', ['dempath', 'liggghts'])
+def test_sliding_over_a_convex_ridge(forms: str) -> None:
     """Sliding over a roof ridge (faces 2.9 deg apart) the friction force stays at the Coulomb
-    level mu_d F_n when the contact passes from one face to the next: the spring carries over."""
+    level mu_d F_n when the contact passes from one face to the next with dempath's forms (the
+    spring carries over); with LIGGGHTS' forms the spring starts afresh on the new face (LIGGGHTS
+    3.8 copies a contact's history from a coplanar neighbour face only), so the friction drops
+    there and builds up again to the Coulomb level. Across the flat seams of each face (the
+    triangles' diagonals) it carries over with both forms."""
     roof = np.array([[[-0.01, 0.0, -0.01], [0.0, 0.0, 0.01], [0.0, 0.0, -0.01]],
                      [[-0.01, 0.0, -0.01], [-0.01, 0.0, 0.01], [0.0, 0.0, 0.01]],
                      [[0.0, 0.0, -0.01], [0.01, -5e-4, 0.01], [0.01, -5e-4, -0.01]],
@@ -103,7 +112,8 @@ def test_sliding_over_a_convex_ridge_keeps_the_friction() -> None:
     velocity = np.array([0.05, 0.0, 0.0])  # m/s
     start = np.array([-3.0e-4, RADIUS - OVERLAP, 0.0])
     n_steps = 700
-    out = _slide([], TriangleMesh(roof, material=1), start, velocity, np.zeros(3), n_steps)
+    out = _slide([], TriangleMesh(roof, material=1), start, velocity, np.zeros(3), n_steps,
+                 forms)
     dt = Engine(PARAMS).time_step(SimState.from_spheres(start[None, :], RADIUS, 0, PARAMS))
     centres = start + np.outer(np.arange(1, n_steps + 1) * dt, velocity)
     f_n, f_t, nearest = _normal_tangential(roof, centres, out[:, :3])
@@ -111,7 +121,62 @@ def test_sliding_over_a_convex_ridge_keeps_the_friction() -> None:
     assert f_n.min() > 0.3 * f_n.max(), 'the sphere must stay in contact'
     mu_d = PARAMS.interaction(0, 1).dynamic_friction
     slipping = f_t[50:] / (mu_d * f_n[50:])
+    ridge = 50 + int(np.argmin(slipping))
+    if forms == 'dempath':
+        assert slipping.min() > 1.0 - 1e-6, f'friction drops to {slipping.min():.3f} mu_d F_n'
+        return
+    assert slipping.min() < 0.8, 'the spring must start afresh on the other face'
+    assert nearest[ridge] in (2, 3) and nearest[ridge - 1] in (0, 1), 'at the ridge, once'
+    assert slipping[ridge - 50 + 100:].min() > 1.0 - 1e-6, 'and slip again on the new face'
+
+
+def test_sliding_along_a_convex_ridge_keeps_the_friction_with_liggghts_forms() -> None:
+    """A sphere sliding along the ridge line itself touches both faces at one point of the
+    shared edge: with LIGGGHTS' forms that contact goes on (LIGGGHTS gives the edge to one
+    triangle), so the friction stays at the Coulomb level whichever face is the nearest."""
+    roof = np.array([[[-0.01, 0.0, -0.01], [0.0, 0.0, 0.01], [0.0, 0.0, -0.01]],
+                     [[-0.01, 0.0, -0.01], [-0.01, 0.0, 0.01], [0.0, 0.0, 0.01]],
+                     [[0.0, 0.0, -0.01], [0.01, -5e-4, 0.01], [0.01, -5e-4, -0.01]],
+                     [[0.0, 0.0, -0.01], [0.0, 0.0, 0.01], [0.01, -5e-4, 0.01]]])
+    velocity = np.array([0.0, 0.0, 0.05])  # m/s, along the ridge
+    start = np.array([0.0, RADIUS - OVERLAP, -0.004])
+    n_steps = 500
+    out = _slide([], TriangleMesh(roof, material=1), start, velocity, np.zeros(3), n_steps,
+                 'liggghts')
+    dt = Engine(PARAMS).time_step(SimState.from_spheres(start[None, :], RADIUS, 0, PARAMS))
+    centres = start + np.outer(np.arange(1, n_steps + 1) * dt, velocity)
+    f_n, f_t, _ = _normal_tangential(roof, centres, out[:, :3])
+    mu_d = PARAMS.interaction(0, 1).dynamic_friction
+    slipping = f_t[50:] / (mu_d * f_n[50:])
     assert slipping.min() > 1.0 - 1e-6, f'friction drops to {slipping.min():.3f} mu_d F_n'
+
+
+ROOF_EDGE = np.array([[[0.0, 0.0, -0.01], [0.0, 0.0, 0.01], [-0.01, 0.0, 0.0]],  # left face
+                      [[0.0, 0.0, -0.01], [0.01, -5e-4, 0.0], [0.0, 0.0, 0.01]],  # right face
+                      [[0.0, 0.0, 0.01], [-0.01, 0.0, 0.0], [-0.01, 0.0, 0.02]]])  # left again
+
+
+@pytest.mark.parametrize(('old', 'old_point', 'new_point', 'carried'), [
+    (1, (0.0, 0.0, 0.001), (0.0, 0.0, 0.001), True),  # both on the shared edge: goes on
+    (1, (0.0, 0.0, 0.001), (-0.001, 0.0, 0.001), False),  # onto the left face: afresh
+    (2, (-0.002, 0.0, 0.009), (-0.001, 0.0, 0.001), True),  # coplanar neighbour faces
+])
+def test_liggghts_forms_carry_a_mesh_spring_where_the_contact_goes_on(
+        old: int, old_point: tuple[float, ...], new_point: tuple[float, ...],
+        carried: bool) -> None:
+    """LIGGGHTS' forms: the nearest triangle 0 takes over the history slot of a triangle of its
+    patch only if the contact goes on (same closest point, or a coplanar neighbour face);
+    dempath's forms always carry it."""
+    for forms, want in ((True, carried), (False, True)):
+        cand = np.zeros((2, 9))
+        cand[0, :5] = (0, 1e-6, *new_point)
+        cand[1, :5] = (old, 1e-6, *old_point)
+        cand[:, 5] = (-1.0, 0.0)  # 1 shadowed by 0: one patch
+        gkey = np.array([[-1, 7, -1, -1]], np.int32)
+        gkey[0, 1] = old  # the patch's slot, keyed to the old triangle (no planes)
+        slot = patch_slot(gkey, 0, 0, cand, 2, 0, 0, ROOF_EDGE, forms)
+        assert (slot == 1) == want
+        assert gkey[0, slot] == 0  # keyed to the nearest triangle now
 
 
 @pytest.mark.parametrize('apex_height', [0.0, 1.0e-3])

@@ -13,7 +13,11 @@ Contact history lives in N_SLOTS slots per particle keyed by plane index or n_pl
 index. A patch keeps its history when its closest feature moves to another triangle: if the
 nearest triangle has no slot but a triangle of its patch held one at the previous step, that slot
 is re-keyed (LIGGGHTS transfers the shear history between coplanar neighbour faces for the same
-reason; here any triangle of the patch qualifies, so convex edges pass it on too). The carried
+reason; with dempath's forms any triangle of the patch qualifies, so convex edges pass it on too;
+with LIGGGHTS' forms only a coplanar neighbour face, or a triangle whose closest point is the
+same point (the contact sits on their shared edge or corner), as LIGGGHTS 3.8 copies a new face
+contact's history from a coplanar neighbour only, so a contact that slides round a convex edge
+onto the next face starts a fresh spring there). The carried
 springs are projected on the new tangent plane with their length kept, as between steps (see
 `laws/hertz_mindlin.py`). When all slots are busy the contact runs without history (counted
 in `worst[:, 3]`).
@@ -35,7 +39,7 @@ from numba import njit, prange
 
 from dempath_sim.engine.laws.cohesion_sjkr import sjkr_area_wall
 from dempath_sim.engine.laws.dispatch import TAB_FORMS, resolve_contact
-from dempath_sim.engine.mesh import closest_point_triangle
+from dempath_sim.engine.mesh import closest_point_triangle, coplanar_neighbours
 
 N_SLOTS = 4  # geometry contacts with history per particle
 MAX_CANDIDATES = 16  # mesh triangles within reach of one particle
@@ -208,19 +212,36 @@ def _group_patches(px, py, pz, nc, cand, tol):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def patch_slot(gkey, i, a, cand, nc, n_planes, used):  # pragma: no cover - compiled
+def _same_contact(tris, cand, a, b):  # pragma: no cover - compiled
+    """LIGGGHTS' forms: whether the contact at candidate a continues the one at b: both closest
+    points are one point (the contact sits on the edge or corner the two triangles share, which
+    LIGGGHTS gives to one triangle, whose contact goes on), or the faces are coplanar neighbours
+    (LIGGGHTS' ``checkCoplanarContactHistory``)."""
+    dx = cand[a, 2] - cand[b, 2]
+    dy = cand[a, 3] - cand[b, 3]
+    dz = cand[a, 4] - cand[b, 4]
+    if dx * dx + dy * dy + dz * dz <= 1e-18 * cand[a, 1]:
+        return True
+    return coplanar_neighbours(tris, int(cand[a, 0]), int(cand[b, 0]))
+
+
+@njit(cache=True)
+def patch_slot(gkey, i, a, cand, nc, n_planes, used, tris,
+               coplanar_only):  # pragma: no cover - compiled
     """History slot of the patch kept at candidate a of particle i; -1 if all slots are busy.
 
     The slot of a's own triangle if it has one; else the unused slot of a triangle of a's
     patch (the contact slid over an edge or vertex: the slot is re-keyed to a's triangle, so
-    its springs carry over); else a free slot.
+    its springs carry over; with ``coplanar_only``, LIGGGHTS' forms, only where the contact
+    goes on (``_same_contact``), so that one sliding round a convex edge onto the next face
+    starts afresh, as in LIGGGHTS 3.8); else a free slot.
     """
     key = n_planes + int(cand[a, 0])
     for s in range(gkey.shape[1]):
         if gkey[i, s] == key:
             return s
     for b in range(a + 1, nc):
-        if cand[b, 5] != a:
+        if cand[b, 5] != a or (coplanar_only and not _same_contact(tris, cand, a, b)):
             continue
         old = n_planes + int(cand[b, 0])
         for s in range(gkey.shape[1]):
@@ -240,6 +261,7 @@ def _mesh_contacts(i, c, pos, vel, omg, rad, mass, mat, tris, tri_mat, n_planes,
     nc = _collect_candidates(px, py, pz, rad[i], tris, g_lo, g_cell, g_dims, g_start, g_tris,
                              cand)
     _group_patches(px, py, pz, nc, cand, 1e-6 * rad[i])
+    forms = tab[mat[i], tri_mat, TAB_FORMS]
     for b in range(nc):
         if cand[b, 5] >= 0.0:
             continue
@@ -259,7 +281,8 @@ def _mesh_contacts(i, c, pos, vel, omg, rad, mass, mat, tris, tri_mat, n_planes,
         vz = vel[i, 2] - lev * (omg[i, 0] * ny - omg[i, 1] * nx) - (tool[5] + tool[6] * cy
                                                                      - tool[7] * cx)
         fx, fy, fz, mx, my, mz, used = _apply(
-            i, c, n_planes + int(cand[b, 0]), patch_slot(gkey, i, b, cand, nc, n_planes, used),
+            i, c, n_planes + int(cand[b, 0]),
+            patch_slot(gkey, i, b, cand, nc, n_planes, used, tris, forms > 0.0),
             rad[i] - d, lev, nx, ny, nz, vx, vy, vz,
             ws * (omg[i, 0] - tool[6]), ws * (omg[i, 1] - tool[7]), ws * (omg[i, 2] - tool[8]),
             mat[i], tri_mat,

@@ -125,6 +125,37 @@ def build_triangle_grid(mesh: TriangleMesh, margin: float) -> TriangleGrid:
     return TriangleGrid(lo, float(cell), dims, start, tri_ids[order].astype(np.int32))
 
 
+# LIGGGHTS 3.8 takes two faces as coplanar when |n_a . n_b| >= 1 - 1e-5 (its mesh `curvature`
+# default, surface_mesh.h EPSILON_CURVATURE), i.e. within 0.26 deg.
+COPLANAR_DOT = 1.0 - 1e-5
+
+
+@njit(cache=True)
+def _unit_normal(tri):  # pragma: no cover - compiled
+    ax, ay, az = tri[1, 0] - tri[0, 0], tri[1, 1] - tri[0, 1], tri[1, 2] - tri[0, 2]
+    bx, by, bz = tri[2, 0] - tri[0, 0], tri[2, 1] - tri[0, 1], tri[2, 2] - tri[0, 2]
+    nx, ny, nz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
+    norm = (nx * nx + ny * ny + nz * nz) ** 0.5
+    return nx / norm, ny / norm, nz / norm
+
+
+@njit(cache=True)
+def coplanar_neighbours(tris, a, b):  # pragma: no cover - compiled
+    """Whether triangles a and b share a vertex and lie in one plane (LIGGGHTS 3.8's
+    ``areCoplanarNodeNeighs``: the faces between which it carries a contact's history)."""
+    shared = False
+    for u in range(3):
+        for v in range(3):
+            if (tris[a, u, 0] == tris[b, v, 0] and tris[a, u, 1] == tris[b, v, 1]
+                    and tris[a, u, 2] == tris[b, v, 2]):
+                shared = True
+    if not shared:
+        return False
+    ax, ay, az = _unit_normal(tris[a])
+    bx, by, bz = _unit_normal(tris[b])
+    return abs(ax * bx + ay * by + az * bz) >= COPLANAR_DOT
+
+
 @njit(fastmath=True, cache=True)
 def closest_point_triangle(px, py, pz, tri):  # pragma: no cover - compiled
     """Closest point of triangle tri (3, 3) to p (Ericson 2005, 5.1.5).
