@@ -62,7 +62,9 @@ class SimParams:
             LIGGGHTS 3.8's forms: the tangential spring loses its normal part, the rolling
             spring is carried unturned with its limit on |F_n|, and plane and tool contacts
             have the lever arm r - delta / 2 and grow the rolling spring with the spin scaled
-            by (r - delta / 2) / (r - delta) (for like-for-like cross-engine checks).
+            by (r - delta / 2) / (r - delta); a tool contact keeps its springs onto a coplanar
+            neighbour face or along a shared edge only, not round a convex edge (for
+            like-for-like cross-engine checks).
     """
 
     materials: tuple[Material, ...]
