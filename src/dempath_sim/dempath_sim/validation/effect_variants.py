@@ -4,8 +4,8 @@ A cross-engine check that passes for the baseline physics says little about the 
 diagnosis names the effect whose signature fits, so each signature must transfer between the
 engines too. A variant changes one candidate of the library the way the signature library runs
 it (``dempath_diagnose.library``; both read ``effects.candidates``): an effect the scene has off
-is switched on at ``EFFECT_FACTOR`` x its default strength, a parameter (or an effect that is
-on) is moved to ``PARAMETER_FACTOR`` x its value (Young's modulus: ``LOG_FACTOR`` x), the
+is switched on at 5x its default strength, a parameter (or an effect that is on) is moved to
+1.5x its value (Young's modulus: 3x; ``STRENGTHS``, 'upper'; 'lower': 1x, 0.6x, 0.3x), the
 parameters linked to it scaled alike (dynamic with static friction, the boundary's
 restitution with the particles'). Contact effects switched on act between grains only
 (``boundary_fraction`` 0), as a deck's pair style does when its wall and tool fixes leave them
@@ -30,15 +30,11 @@ from dempath_sim.effects.candidates import (
 )
 from dempath_sim.scene.spec import SceneSpec
 
-# The signature library's upper strengths (``effects.candidates``): what it runs is checked.
-EFFECT_FACTOR = EFFECT_FACTORS[0]
-PARAMETER_FACTOR = max(PARAMETER_FACTORS)
-LOG_FACTOR = max(LOG_FACTORS)
-# Strength -> (effect factor, parameter factor, log factor): the library's upper and lower runs.
-STRENGTHS = {'upper': (EFFECT_FACTOR, PARAMETER_FACTOR, LOG_FACTOR),
+# Strength -> (effect factor, parameter factor, log factor): the signature library's strongest
+# and weakest runs of a candidate (``effects.candidates``), so what it runs is what is checked.
+STRENGTHS = {'upper': (max(EFFECT_FACTORS), max(PARAMETER_FACTORS), max(LOG_FACTORS)),
              'lower': (min(EFFECT_FACTORS), min(PARAMETER_FACTORS), min(LOG_FACTORS))}
-MAIN = {name: MAIN_PARAMETER[name] for name in CANDIDATES}
-VARIANTS = ('base', *MAIN)
+VARIANTS = ('base', *CANDIDATES)
 
 
 def variant_overrides(scene: SceneSpec, name: str, strength: str = 'upper',
@@ -66,7 +62,7 @@ def variant_overrides(scene: SceneSpec, name: str, strength: str = 'upper',
     if name == 'base':
         return {}, ()
     setting = scene.effects[name]
-    main = MAIN[name]
+    main = MAIN_PARAMETER[name]
     if not setting.enabled:
         default = all_effects()[name].parameter(main).default
         values = {f'{name}.{main}': effect_factor * default}
