@@ -18,6 +18,14 @@ with it, packing seed by packing seed:
   ``fill.count: surface``): what a user gets from the deck's measured bed.
 - ``dempath_poured``: the same bin poured the way the deck pours it, around the standing tine
   (``leaning_tine_poured.yaml``, ``tool.placement: poured``).
+- any set-up with ``_default`` appended (``same_bed_default``, ``dempath_poured_default``): the
+  same with the scene file's own contact law instead of LIGGGHTS 3.8's (``same_physics``), e.g.
+  dempath's default forms as a scene written without ``sim`` keys runs them.
+
+``--deck raked_tine`` takes the second hand-written deck (``data/decks/raked_tine``: a 35 mm bar
+leaning 25 deg through 120 mm of 7 / 8 mm sand, issue 29) with its own scene and marker grid
+(X = 0, +-50 mm; Z = 150-350 mm); its only scene file (``raked_tine.yaml``) is poured around the
+tine, so ``dempath`` and ``dempath_poured`` are the same set-up there.
 
 Every run is reduced by the same rules (``deck_setup.deck_stats``): axis and side markers' mean
 displacement over time, the side markers' outward motion, the mean draft. For each set-up and
@@ -28,7 +36,7 @@ object.
 
     .venv/bin/python bench/cross_engine_setup.py [--seeds 4 | --seed-list 2,3]
         [--variants base,rolling,cohesion | all] [--setups same_bed,dempath] [--np 2] [--work DIR]
-        [--json-out FILE]
+        [--deck leaning_tine | raked_tine] [--json-out FILE]
 
 ``--seed-list`` runs the given seeds only (several processes can fill one cache in parallel,
 each with its own seeds); with fewer than two seeds the JSON gives the runs' figures without
@@ -51,10 +59,10 @@ from dempath_sim.liggghts.install import ensure_liggghts
 from dempath_sim.runs import RunOptions, run_scene
 from dempath_sim.validation.cross_engine import compare, same_physics
 from dempath_sim.validation.deck_setup import (
-    MEASURED_SCENE_FILE,
-    POURED_SCENE_FILE,
+    DECKS,
     RESETTLE_S,
     VARIANTS,
+    Deck,
     DeckStats,
     deck_frames,
     deck_stats,
@@ -66,8 +74,7 @@ from dempath_sim.validation.deck_setup import (
 
 log = logging.getLogger('bench')
 STATS = ('axis', 'lateral', 'outward')
-MEAN_R = 0.0045  # m, the deck's mean grain radius (marker rule)
-SCENE_FILES = {'dempath_measured': MEASURED_SCENE_FILE, 'dempath_poured': POURED_SCENE_FILE}
+DEFAULT_LAW = '_default'  # set-up suffix: the scene's own contact law, not same_physics
 
 
 def _save(path: Path, stats: DeckStats, extra: dict[str, Any]) -> None:
@@ -86,31 +93,34 @@ def _load(path: Path) -> tuple[DeckStats, dict[str, Any]]:
                          meta.pop('markers')), meta
 
 
-def _one_run(setup: str, variant: str, seed: int, work: Path, nprocs: int) -> DeckStats:
+def _one_run(setup: str, variant: str, seed: int, work: Path, nprocs: int,
+             deck: Deck) -> DeckStats:
     """Figures of one run, from the cache or by running it."""
     path = work / 'stats' / f'{setup}-{variant}-s{seed}.npz'
     if path.exists():
         return _load(path)[0]
     t0 = time.monotonic()
-    scene = same_physics(scene_for(variant, seed))
+    base = setup.removesuffix(DEFAULT_LAW)
+    scene = scene_for(variant, seed, deck.scene_file(base if base in deck.scenes else 'dempath'))
+    if not setup.endswith(DEFAULT_LAW):
+        scene = same_physics(scene)
     extra: dict[str, Any] = {}
     if setup == 'liggghts':
         run = work / 'liggghts' / f'seed{seed}' / variant
         if not (run / 'end.dump').exists():  # the deck's last output: the run is complete
-            run_deck(seed, variant, work / 'liggghts', nprocs)
-        stats = deck_stats(deck_frames(run), MEAN_R)
-    elif setup in ('same_bed', 'same_bed_cold'):
+            run_deck(seed, variant, work / 'liggghts', nprocs, deck)
+        stats = deck_stats(deck_frames(run), deck.mean_r, deck.marker_z)
+    elif base in ('same_bed', 'same_bed_cold'):
         if not (work / 'liggghts' / f'seed{seed}' / 'bed.data').exists():
-            run_deck(seed, variant, work / 'liggghts', nprocs)
+            run_deck(seed, variant, work / 'liggghts', nprocs, deck)
         frames = same_bed_run(work / 'liggghts' / f'seed{seed}' / 'bed.data', scene,
-                              RESETTLE_S if setup == 'same_bed' else 0.0)
-        stats = deck_stats(frames, MEAN_R)
+                              RESETTLE_S if base == 'same_bed' else 0.0,
+                              top_zone=deck.top_zone)
+        stats = deck_stats(frames, deck.mean_r, deck.marker_z)
     else:
-        if setup in SCENE_FILES:
-            scene = same_physics(scene_for(variant, seed, SCENE_FILES[setup]))
         scene = replace(scene, output=replace(scene.output, snapshot_interval_s=0.01))
         result = run_scene(scene, RunOptions(cache_dir=work / 'packings'))
-        stats = deck_stats(result_frames(result), MEAN_R)
+        stats = deck_stats(result_frames(result, deck.top_zone), deck.mean_r, deck.marker_z)
         extra['fill'] = {k: v for k, v in result.meta.get('fill', {}).items()
                          if isinstance(v, int | float)}
     extra['wall_s'] = time.monotonic() - t0
@@ -149,6 +159,7 @@ def main() -> None:
     ap.add_argument('--np', type=int, default=2, dest='nprocs')
     ap.add_argument('--work', type=Path,
                     default=Path.home() / '.cache' / 'dempath' / 'cross_engine_setup')
+    ap.add_argument('--deck', choices=sorted(DECKS), default='leaning_tine')
     ap.add_argument('--json-out', type=Path)
     args = ap.parse_args()
     logging.basicConfig(level=logging.INFO, format='%(message)s')
@@ -156,7 +167,8 @@ def main() -> None:
     t0 = time.monotonic()
     seeds = ([int(s) for s in args.seed_list.split(',')] if args.seed_list
              else list(range(1, args.seeds + 1)))
-    figures: dict[str, Any] = {'bench': 'cross_engine_setup', 'scene': 'leaning_tine',
+    deck = DECKS[args.deck]
+    figures: dict[str, Any] = {'bench': 'cross_engine_setup', 'scene': deck.name,
                                'seeds': seeds, 'variants': {}}
     variants = list(VARIANTS) if args.variants == 'all' else args.variants.split(',')
     unknown = [v for v in variants if v not in VARIANTS]
@@ -164,13 +176,13 @@ def main() -> None:
         ap.error(f'--variants: {", ".join(unknown)}: not a variant of the deck '
                  f'({", ".join(VARIANTS)})')
     for variant in variants:
-        deck = [_one_run('liggghts', variant, s, args.work, args.nprocs) for s in seeds]
-        entry: dict[str, Any] = {'liggghts': _summary(deck)}
+        ref = [_one_run('liggghts', variant, s, args.work, args.nprocs, deck) for s in seeds]
+        entry: dict[str, Any] = {'liggghts': _summary(ref)}
         for setup in args.setups.split(','):
-            runs = [_one_run(setup, variant, s, args.work, args.nprocs) for s in seeds]
+            runs = [_one_run(setup, variant, s, args.work, args.nprocs, deck) for s in seeds]
             entry[setup] = _summary(runs)
             if len(seeds) > 1:
-                entry[setup].update(_against(runs, deck, seeds))
+                entry[setup].update(_against(runs, ref, seeds))
         figures['variants'][variant] = entry
     if len(seeds) > 1:  # per set-up, the largest D / S over every variant and statistic
         entries = figures['variants'].values()

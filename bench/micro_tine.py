@@ -9,6 +9,13 @@ face, its side edge or its tip; a grain sliding or rolling along a wall; an obli
 the tine face; a small bed pushed by the tine.
 
     .venv/bin/python bench/micro_tine.py [--scenes edge,wall,impact,drop,bed] [--work DIR]
+    .venv/bin/python bench/micro_tine.py --deck raked_tine [--scenes edge,bed,bed_laws]
+
+``--deck raked_tine`` takes the second hand-written deck (issue 29: a 35 mm bar leaning 25 deg,
+7 / 8 mm grains of 2600 kg/m^3, floor at -0.12 m). ``bed_laws`` pushes the small bed with the
+deck's tine on LIGGGHTS and on dempath twice: with LIGGGHTS 3.8's contact law
+(``same_physics``) and with the scene file's own law (for ``raked_tine.yaml`` dempath's
+default forms), to show which law choice moves the grains beside the tine.
 
 Prints per-scene lines and, last, one JSON line of figures (both engines per scene).
 """
@@ -28,13 +35,42 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dempath_sim.engine import Engine, Plane, SimState, ToolPose, TriangleMesh
+from dempath_sim.engine.laws.dispatch import TAB_FORMS, TAB_SPRING
 from dempath_sim.runs import PARTICLES, TOOL, WALLS, build_params
-from dempath_sim.validation.deck_setup import DECK_DIR, read_data, read_dump, scene_for
+from dempath_sim.validation.cross_engine import same_physics
+from dempath_sim.validation.deck_setup import (
+    LEANING_TINE,
+    RAKED_TINE,
+    Deck,
+    read_data,
+    read_dump,
+    scene_for,
+)
 
 F64 = NDArray[np.float64]
-DENSITY = 1734.0  # kg/m^3, the deck's grains
 DT = 5e-5  # s
-FLOOR_Y = -0.10  # m, the deck's floor
+
+
+@dataclass(frozen=True)
+class MicroDeck:
+    """What a micro-scene takes from its deck: the deck, its grains' density [kg/m^3] and
+    radii [m], its floor [m] and the lateral offsets [m] of the edge scene."""
+
+    deck: Deck
+    density: float
+    radii: tuple[float, ...]
+    floor_y: float
+    edge_offsets: tuple[float, ...]
+
+
+MICRO_DECKS = {
+    'leaning_tine': MicroDeck(LEANING_TINE, 1734.0, (0.00405, 0.0045, 0.00495), -0.10,
+                              (0.0, 0.010, 0.018, 0.022, 0.025, 0.027, 0.029, 0.031)),
+    'raked_tine': MicroDeck(RAKED_TINE, 2600.0, (0.0035, 0.0040), -0.12,
+                            (0.0, 0.010, 0.015, 0.0175, 0.020, 0.022)),
+}
+MICRO = MICRO_DECKS['leaning_tine']  # the deck of this run (main's --deck)
+FLOOR_Y = MICRO.floor_y
 LIGGGHTS_SKIN = 0.003  # m, the deck's `neighbor 0.003 bin`
 # Axis-aligned walls LIGGGHTS takes as `wall/gran primitive`: (axis, coordinate, inward sign).
 AXES = {'x': 0, 'y': 1, 'z': 2}
@@ -55,6 +91,10 @@ class Scene:
     omegas: F64 | None = None
     params_over: dict[str, Any] = field(default_factory=dict)
     variant: str = 'base'
+    law: str = 'liggghts'  # dempath's contact law: 'liggghts' (same_physics) or 'scene'
+    # Per material pair (a, b): {'spring': 0/1, 'forms': 0/1}, LIGGGHTS' Coulomb limit and
+    # forms switched on that pair alone (dempath's pair table columns TAB_SPRING, TAB_FORMS).
+    pair_law: dict[tuple[int, int], dict[str, float]] = field(default_factory=dict)
     write_bed: bool = False  # LIGGGHTS writes bed.data at the end (settling a micro-bed)
 
 
@@ -77,8 +117,11 @@ def _empty(times: F64, n: int) -> Trace:
 
 
 def run_dempath(sc: Scene) -> Trace:
-    """The scene on dempath's engine with the leaning-tine scene's physics."""
-    scene = scene_for(sc.variant)
+    """The scene on dempath's engine with the deck scene's physics (and LIGGGHTS 3.8's
+    contact law unless ``sc.law`` is 'scene')."""
+    scene = scene_for(sc.variant, scene_file=MICRO.deck.scene_file())
+    if sc.law == 'liggghts':
+        scene = same_physics(scene)
     params = build_params(scene, scene.physics_model())
     if sc.params_over:
         params = replace(params, **sc.params_over)
@@ -89,9 +132,13 @@ def run_dempath(sc: Scene) -> Trace:
         p[AXES[ax]] = c
         n[AXES[ax]] = s
         planes.append(Plane(tuple(p), tuple(n), WALLS))  # type: ignore[arg-type]
-    mesh = None if sc.tip is None else TriangleMesh.from_stl(DECK_DIR / 'tine.stl',
+    mesh = None if sc.tip is None else TriangleMesh.from_stl(MICRO.deck.folder / 'tine.stl',
                                                              material=TOOL)
     engine = Engine(params, planes, mesh)
+    for (a, b), cols in sc.pair_law.items():  # one factor at a time: the engine's pair table
+        for name, value in cols.items():
+            col = {'spring': TAB_SPRING, 'forms': TAB_FORMS}[name]
+            engine._tab[a, b, col] = engine._tab[b, a, col] = value
     state = SimState.from_spheres(sc.positions, sc.radii, PARTICLES, params,
                                   velocities=sc.velocities)
     if sc.omegas is not None:
@@ -123,8 +170,9 @@ def write_data(path: Path, sc: Scene) -> None:
     vel = np.zeros((n, 3)) if sc.velocities is None else sc.velocities
     omg = np.zeros((n, 3)) if sc.omegas is None else sc.omegas
     lines = ['micro-scene of bench/micro_tine.py', '', f'{n} atoms', '3 atom types',
-             '-0.16 0.16 xlo xhi', '-0.11 0.25 ylo yhi', '-0.06 0.56 zlo zhi', '', 'Atoms', '']
-    lines += [f'{i + 1} 1 {2 * r:.12g} {DENSITY} {x:.12g} {y:.12g} {z:.12g}'
+             '-0.16 0.16 xlo xhi', f'{FLOOR_Y - 0.01:.12g} 0.25 ylo yhi',
+             '-0.06 0.56 zlo zhi', '', 'Atoms', '']
+    lines += [f'{i + 1} 1 {2 * r:.12g} {MICRO.density} {x:.12g} {y:.12g} {z:.12g}'
               for i, (r, (x, y, z)) in enumerate(zip(sc.radii, sc.positions, strict=True))]
     lines += ['', 'Velocities', '']
     lines += [f'{i + 1} ' + ' '.join(f'{v:.12g}' for v in (*vel[i], *omg[i])) for i in range(n)]
@@ -132,8 +180,8 @@ def write_data(path: Path, sc: Scene) -> None:
 
 
 def deck_text(sc: Scene) -> str:
-    """The LIGGGHTS 3.8 input of the scene (the leaning-tine deck's pieces)."""
-    d = DECK_DIR
+    """The LIGGGHTS 3.8 input of the scene (the deck's pieces)."""
+    d = MICRO.deck.folder
     out = ['atom_style granular', 'atom_modify map array', 'boundary f f f', 'newton off',
            'communicate single vel yes', 'units si', 'soft_particles yes', 'hard_particles yes',
            'read_data micro.data', 'neighbor 0.003 bin', 'neigh_modify delay 0',
@@ -169,7 +217,7 @@ def run_liggghts(sc: Scene, work: Path) -> Trace:
     write_data(work / 'micro.data', sc)
     (work / 'in.micro').write_text(deck_text(sc))
     subprocess.run(['liggghts', '-echo', 'none', '-log', 'log.micro', '-var', 'deck',
-                    str(DECK_DIR), '-in', 'in.micro'], cwd=work, check=True,
+                    str(MICRO.deck.folder), '-in', 'in.micro'], cwd=work, check=True,
                    capture_output=True)
     frames = read_dump(work / 'micro.dump')
     nt = len(frames)
@@ -194,8 +242,10 @@ def both(sc: Scene, work: Path, name: str) -> tuple[Trace, Trace]:
     return run_dempath(sc), run_liggghts(sc, work / name)
 
 
-def one_grain(x0: float, z0: float = 0.10, r: float = 0.0045, **kw: Any) -> Scene:
-    """One grain resting on the floor at lateral offset x0, the tine 40 mm behind it."""
+def one_grain(x0: float, z0: float = 0.10, r: float | None = None, **kw: Any) -> Scene:
+    """One grain (the deck's largest unless r [m] is given) resting on the floor at lateral
+    offset x0, the tine 40 mm behind it."""
+    r = MICRO.radii[-1] if r is None else r
     return Scene(np.array([[x0, FLOOR_Y + r, z0]]), np.array([r]), **kw,
                  tip=(0.0, FLOOR_Y + 0.002, z0 - 0.04))
 
@@ -204,7 +254,7 @@ def scene_edge(work: Path) -> dict[str, Any]:
     """One grain met by the tine at lateral offsets across its front face, side edge and beyond:
     the grain's lateral exit (x - x0) and velocity, its forward travel, the peak tine force."""
     out: dict[str, Any] = {}
-    for x0 in (0.0, 0.010, 0.018, 0.022, 0.025, 0.027, 0.029, 0.031):
+    for x0 in MICRO.edge_offsets:
         res = []
         for tr in both(one_grain(x0, steps=2400), work, f'edge_{x0 * 1e3:.0f}'):
             res.append({'dx_mm': round(float(tr.positions[-1, 0, 0] - x0) * 1e3, 3),
@@ -274,14 +324,14 @@ def scene_impact(work: Path) -> dict[str, Any]:
 
 
 def small_bed(nx: int = 6, ny: int = 8, nz: int = 6, seed: int = 1) -> tuple[F64, F64]:
-    """Grains of 8.1 / 9.0 / 9.9 mm on a jittered 10 mm lattice above the floor, centred on
-    X = 0, Z = 0.2 m: (positions (n, 3), radii (n,))."""
+    """Grains of the deck's sizes in equal numbers on a jittered 10 mm lattice above the floor,
+    centred on X = 0, Z = 0.2 m: (positions (n, 3), radii (n,))."""
     rng = np.random.default_rng(seed)
     g = np.stack(np.meshgrid(np.arange(nx), np.arange(ny), np.arange(nz), indexing='ij'), -1)
     pos = g.reshape(-1, 3) * 0.010 + np.array([-(nx - 1) * 0.005, FLOOR_Y + 0.006,
                                                0.2 - (nz - 1) * 0.005])
     pos += rng.uniform(-0.0004, 0.0004, pos.shape)
-    return pos, rng.choice([0.00405, 0.0045, 0.00495], len(pos))
+    return pos, rng.choice(MICRO.radii, len(pos))
 
 
 def divergence(d: Trace, g: Trace) -> list[float]:
@@ -348,8 +398,113 @@ def scene_bed(work: Path) -> dict[str, Any]:
     return out
 
 
+LAW_SEEDS = (1, 2, 3, 4)  # micro-beds of the law scenes
+
+
+def _laws_bed(work: Path, seed: int = 1) -> tuple[dict[str, F64], dict[str, Any], float]:
+    """The bed of the law scenes for a lattice seed (settled once on LIGGGHTS, cached in
+    ``work``), the push's scene keywords and the bed's top [m]."""
+    pos, rad = small_bed(nx=14, ny=8, nz=9, seed=seed)
+    settled = work / ('laws_settle' if seed == 1 else f'laws_settle_s{seed}')
+    walls = [('y', FLOOR_Y, 1.0), ('x', -0.075, 1.0), ('x', 0.075, -1.0), ('z', 0.150, 1.0),
+             ('z', 0.300, -1.0)]
+    if not (settled / 'bed.data').exists():
+        settle = Scene(pos, rad, walls=walls, tip=None, steps=4000, every=4000, write_bed=True)
+        run_liggghts(settle, settled)
+    bed = read_data(settled / 'bed.data')
+    top = float((bed['positions'][:, 1] + bed['radii']).max())
+    push = {'walls': [*walls[:3], walls[4]], 'tip': (0.0, FLOOR_Y + 0.012, 0.14),
+            'steps': 2000, 'every': 100, 'velocities': bed['velocities'],
+            'omegas': bed['omegas'], 'params_over': {'skin': LIGGGHTS_SKIN / float(rad.min())}}
+    return bed, push, top
+
+
+def _side_motion(bed: dict[str, F64], top: float, traces: dict[str, Trace]) -> dict[str, Any]:
+    """Outward and forward motion [mm] of the top grains beside the tine (centres 10-40 mm
+    outside its side faces, ahead of Z = 0.20 m) and the mean draft [N], per trace."""
+    half = float(np.max(np.abs(np.array(read_stl_x(MICRO.deck.folder / 'tine.stl')))))
+    x0 = np.abs(bed['positions'][:, 0])
+    pick = (x0 > half + 0.010) & (x0 < half + 0.040) & (bed['positions'][:, 1] > top - 0.015)
+    pick &= bed['positions'][:, 2] > 0.20
+    out: dict[str, Any] = {'n': len(bed['radii']), 'bed_top_mm': round((top - FLOOR_Y) * 1e3, 1),
+                           'side_grains': int(pick.sum())}
+    for name, tr in traces.items():
+        sign = np.sign(tr.positions[0, pick, 0])
+        dx = sign * (tr.positions[-1, pick, 0] - tr.positions[0, pick, 0])
+        dz = tr.positions[-1, pick, 2] - tr.positions[0, pick, 2]
+        out[name] = {'outward_mm': round(float(dx.mean()) * 1e3, 2),
+                     'forward_mm': round(float(dz.mean()) * 1e3, 2),
+                     'draft_n': round(float(-tr.force[1:, 2].mean()), 3)}
+    return out
+
+
+def _over_seeds(per_seed: dict[int, dict[str, Any]]) -> dict[str, Any]:
+    """Per-seed figures and, per trace, the mean and SD over the seeds of each figure."""
+    names = [k for k, v in next(iter(per_seed.values())).items() if isinstance(v, dict)]
+    out: dict[str, Any] = {'seeds': per_seed}
+    for name in names:
+        out[name] = {}
+        for fig in ('outward_mm', 'forward_mm', 'draft_n'):
+            vals = np.array([r[name][fig] for r in per_seed.values()])
+            out[name][fig] = round(float(vals.mean()), 3)
+            out[name][fig + '_sd'] = round(float(vals.std(ddof=1)), 3) if len(vals) > 1 else 0.0
+    return out
+
+
+def scene_bed_laws(work: Path) -> dict[str, Any]:
+    """Beds of 1,008 grains (14 x 8 x 9 on the lattice, 140 mm wide, LAW_SEEDS) settled on
+    LIGGGHTS, then pushed 100 mm by the tine, its side edges inside the bed, on LIGGGHTS and on
+    dempath with LIGGGHTS' contact law and with the scene's own: the outward and forward motion
+    of the top grains beside the tine, per seed and mean per engine and law."""
+    per_seed = {}
+    for seed in LAW_SEEDS:
+        bed, push, top = _laws_bed(work, seed)
+        name = 'laws_push' if seed == 1 else f'laws_push_s{seed}'
+        traces = {
+            'liggghts': run_liggghts(Scene(bed['positions'], bed['radii'], **push), work / name),
+            'dempath_liggghts_law': run_dempath(Scene(bed['positions'], bed['radii'], **push)),
+            'dempath_scene_law': run_dempath(Scene(bed['positions'], bed['radii'], **push,
+                                                   law='scene'))}
+        per_seed[seed] = _side_motion(bed, top, traces)
+    return _over_seeds(per_seed)
+
+
+# One factor of LIGGGHTS' law at a time on dempath's default law, per material pair: grains
+# with each other (PARTICLES, PARTICLES), with the bin (PARTICLES, WALLS), with the tine
+# (PARTICLES, TOOL); 'spring': the Coulomb limit on the spring alone, 'forms': LIGGGHTS' forms
+# (a pair's springs kept across a separation, the spring's normal part dropped; at a boundary
+# the lever arm r - delta/2 and a mesh spring carried to coplanar faces only).
+FACTORS: dict[str, dict[tuple[int, int], dict[str, float]]] = {
+    'pairs_spring': {(PARTICLES, PARTICLES): {'spring': 1.0}},
+    'pairs_forms': {(PARTICLES, PARTICLES): {'forms': 1.0}},
+    'pairs_both': {(PARTICLES, PARTICLES): {'spring': 1.0, 'forms': 1.0}},
+    'boundary_both': {(PARTICLES, WALLS): {'spring': 1.0, 'forms': 1.0},
+                      (PARTICLES, TOOL): {'spring': 1.0, 'forms': 1.0}},
+}
+
+
+def scene_bed_factors(work: Path) -> dict[str, Any]:
+    """The law scenes' beds pushed on dempath with its default law and one factor of LIGGGHTS'
+    law switched on (FACTORS): which factor moves the grains beside the tine."""
+    per_seed = {}
+    for seed in LAW_SEEDS:
+        bed, push, top = _laws_bed(work, seed)
+        traces = {name: run_dempath(Scene(bed['positions'], bed['radii'], **push, law='scene',
+                                          pair_law=pl))
+                  for name, pl in FACTORS.items()}
+        per_seed[seed] = _side_motion(bed, top, traces)
+    return _over_seeds(per_seed)
+
+
+def read_stl_x(path: Path) -> list[float]:
+    """X of every vertex of an ASCII STL [m]."""
+    return [float(line.split()[1]) for line in path.read_text().splitlines()
+            if line.strip().startswith('vertex')]
+
+
 SCENES = {'edge': scene_edge, 'wall': scene_wall, 'impact': scene_impact, 'drop': scene_drop,
-          'bed': scene_bed}
+          'bed': scene_bed, 'bed_laws': scene_bed_laws,
+          'bed_factors': scene_bed_factors}
 
 
 def main(argv: list[str] | None = None) -> dict[str, Any]:
@@ -357,7 +512,11 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument('--scenes', default=','.join(SCENES))
     ap.add_argument('--work', type=Path, default=None)
+    ap.add_argument('--deck', choices=sorted(MICRO_DECKS), default='leaning_tine')
     args = ap.parse_args(argv)
+    global MICRO, FLOOR_Y  # the run's deck for every scene of this script
+    MICRO = MICRO_DECKS[args.deck]
+    FLOOR_Y = MICRO.floor_y
     work = args.work or Path(tempfile.mkdtemp(prefix='micro_tine_'))
     out: dict[str, Any] = {}
     for name in args.scenes.split(','):

@@ -1,7 +1,8 @@
-"""The hand-written leaning-tine deck's physics variants and dempath's scene of each agree.
+"""The hand-written decks' physics variants and dempath's scene of each agree.
 
-The deck (``data/decks/leaning_tine``) is the reference set-up of issue 12's cross-engine check;
-each candidate of the effects library is one of its physics variants. The values a variant sets
+The decks (``data/decks/leaning_tine``, issue 12; ``data/decks/raked_tine``, issue 29) are the
+reference set-ups of the cross-engine checks; each candidate of the effects library is one of
+their physics variants. The values a variant sets
 in LIGGGHTS (``physics_<variant>.in``, the index variables of ``materials.in`` and ``in.pass``)
 must be the ones dempath's scene of that variant runs with, or the check compares two physics.
 """
@@ -14,11 +15,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from dempath_sim.engine import TriangleMesh
 from dempath_sim.liggghts.install import LiggghtsInstall
+from dempath_sim.scene import ToolPath
 from dempath_sim.validation.cross_engine import same_physics
 from dempath_sim.validation.deck_setup import (
     DECK_DIR,
+    DECKS,
     MARKER_Z,
+    RAKED_TINE,
     SIDE_X,
     VARIANTS,
     deck_frames,
@@ -31,25 +36,27 @@ from dempath_sim.validation.deck_setup import (
 INDEX = re.compile(r'^variable\s+(\w+)\s+index\s+(\S+)', re.MULTILINE)
 
 
-def deck_values(variant: str) -> dict[str, float]:
+def deck_values(variant: str, folder: Path = DECK_DIR) -> dict[str, float]:
     """The sand's values a variant runs with in LIGGGHTS: its own index variables first, then
     the defaults of materials.in and in.pass (LIGGGHTS keeps the first definition)."""
     values: dict[str, float] = {}
-    for path in (DECK_DIR / f'physics_{variant}.in', DECK_DIR / 'materials.in',
-                 DECK_DIR / 'in.pass'):
+    for path in (folder / f'physics_{variant}.in', folder / 'materials.in',
+                 folder / 'in.pass'):
         for name, value in INDEX.findall(path.read_text()):
             if name not in ('deck', 'variant'):
                 values.setdefault(name, float(value))
     return values
 
 
+@pytest.mark.parametrize('name', sorted(DECKS))
 @pytest.mark.parametrize('variant', sorted(VARIANTS))
-def test_deck_and_scene_run_the_same_values(variant: str) -> None:
-    """Young's modulus, restitution, the three Coulomb coefficients and the tine's speed of each
-    variant are the same in the deck and in dempath's scene of it (LIGGGHTS' one coefficient
-    per pair: static = dynamic)."""
-    deck = deck_values(variant)
-    scene = same_physics(scene_for(variant))
+def test_deck_and_scene_run_the_same_values(name: str, variant: str) -> None:
+    """Young's modulus, restitution, the three Coulomb coefficients and the tine's speed and
+    pass time of each variant are the same in the deck and in dempath's scene of it
+    (LIGGGHTS' one coefficient per pair: static = dynamic)."""
+    spec = DECKS[name]
+    deck = deck_values(variant, spec.folder)
+    scene = same_physics(scene_for(variant, scene_file=spec.scene_file()))
     model = scene.physics_model()
     assert model.particle_youngs_modulus_pa == pytest.approx(deck['E_sand'])
     effects = {name: scene.effects[name].values for name in scene.effects}
@@ -60,14 +67,37 @@ def test_deck_and_scene_run_the_same_values(variant: str) -> None:
     assert effects['tool_friction']['static_friction'] == pytest.approx(deck['mu_pt'])
     speed = scene.tool.profile.speed_m_s * model.speed_scale
     assert speed == pytest.approx(deck['speed'])
-    assert deck['npass'] * 5e-5 == pytest.approx(0.31 / deck['speed'], abs=0.01)
+    profile = scene.tool.profile.scaled(model.speed_scale)
+    pass_s = ToolPath(profile, (0.0, 0.0, 0.0)).time_to_travel(scene.tool.travel_m)
+    assert deck['npass'] * 5e-5 == pytest.approx(pass_s, abs=0.005)
 
 
-def test_unknown_deck_variant_is_one_clear_error(tmp_path: Path) -> None:
+def test_raked_tine_is_the_issue_29_bar() -> None:
+    """The raked deck's tine as issue 29 describes it: 35 mm wide, 12 mm thick, its axis
+    leaning 25 deg from the vertical with the tip leading, 80 mm below and 80 mm above the
+    nominal surface, the leading bottom edge at Z = 0.10 m; the scene places it there too."""
+    v = TriangleMesh.from_stl(RAKED_TINE.folder / 'tine.stl', material=1).triangles.reshape(-1, 3)
+    assert np.ptp(v[:, 0]) == pytest.approx(0.035)
+    assert np.ptp(v[:, 1]) == pytest.approx(0.160)
+    assert v[:, 2].max() == pytest.approx(0.0)  # the tip leads
+    top = v[v[:, 1] > 0.1]
+    assert np.degrees(np.arctan2(-top[:, 2].max(), 0.160)) == pytest.approx(25.0)
+    bottom = v[np.abs(v[:, 1]) < 1e-12]
+    assert np.ptp(bottom[:, 2]) * np.cos(np.radians(25.0)) == pytest.approx(0.012)
+    scene = scene_for('base', scene_file=RAKED_TINE.scene_file())
+    assert (scene.tool.depth_m, scene.tool.start_z_m) == (0.08, 0.10)
+    assert scene.tool.placement == 'poured'
+    tine_in = (RAKED_TINE.folder / 'tine.in').read_text()
+    assert 'move 0.0 -0.080 0.100' in tine_in
+
+
+@pytest.mark.parametrize('name', sorted(DECKS))
+def test_unknown_deck_variant_is_one_clear_error(name: str, tmp_path: Path) -> None:
     """run.sh names a variant without a physics file before LIGGGHTS is started."""
     import subprocess
 
-    done = subprocess.run(['sh', str(DECK_DIR / 'run.sh'), '1', 'sticky', str(tmp_path)],
+    done = subprocess.run(['sh', str(DECKS[name].folder / 'run.sh'), '1', 'sticky',
+                           str(tmp_path)],
                           capture_output=True, text=True, check=False)
     assert done.returncode == 2
     assert 'variant: sticky: no physics_sticky.in' in done.stderr

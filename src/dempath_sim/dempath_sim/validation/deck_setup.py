@@ -30,18 +30,59 @@ from dempath_sim.runs import PARTICLES, TOOL, SimResult, bin_walls, build_params
 from dempath_sim.scene import SceneSpec, ToolPath, load_scene
 
 F64 = NDArray[np.float64]
-DECK_DIR = Path(__file__).resolve().parents[1] / 'data' / 'decks' / 'leaning_tine'
-SCENE_FILE = DECK_DIR / 'leaning_tine.yaml'
-MEASURED_SCENE_FILE = DECK_DIR / 'leaning_tine_measured.yaml'  # the deck's bed as measured
-POURED_SCENE_FILE = DECK_DIR / 'leaning_tine_poured.yaml'  # the same, poured around the tine
-RESETTLE_S = 0.06  # the deck's re-settle with the tine in place (in.pass)
-DECK_DT = 5e-5  # s, the deck's time step
-DECK_SKIN_M = 0.003  # m, the deck's neighbour skin (header of in.settle / in.pass)
-OUTPUT_STEPS = 200  # the deck's dump and print interval (0.01 s)
-MARKER_Z = (0.200, 0.235, 0.270, 0.305, 0.340)  # m
+DECKS_DIR = Path(__file__).resolve().parents[1] / 'data' / 'decks'
+RESETTLE_S = 0.06  # the decks' re-settle with the tine in place (in.pass)
+DECK_DT = 5e-5  # s, the decks' time step
+DECK_SKIN_M = 0.003  # m, the decks' neighbour skin (header of in.settle / in.pass)
+OUTPUT_STEPS = 200  # the decks' dump and print interval (0.01 s)
 SIDE_X = 0.05  # m, the side markers' distance from the tine's axis
 NEAR_M = 0.012  # m, horizontal reach of a marker's grid point
-TOP_ZONE = ((-0.09, 0.09), (-0.03, 0.06), (0.17, 0.37))  # the deck's 'top' group, X Y Z [m]
+
+
+@dataclass(frozen=True)
+class Deck:
+    """One hand-written deck: its folder, its scene files and its marker rules.
+
+    Attributes:
+        name: the folder under ``data/decks``.
+        marker_z: Z of the marker grid points [m] (X = 0 and +-SIDE_X).
+        top_zone: the deck's 'top' group (X, Y, Z ranges [m]) dumped every output.
+        mean_r: mean grain radius [m] (marker rule).
+        scenes: set-up name -> scene file of the folder (``dempath`` is the deck's input
+            numbers; others as the deck's README says).
+    """
+
+    name: str
+    marker_z: tuple[float, ...]
+    top_zone: tuple[tuple[float, float], ...]
+    mean_r: float
+    scenes: dict[str, str]
+
+    @property
+    def folder(self) -> Path:
+        """The deck's folder."""
+        return DECKS_DIR / self.name
+
+    def scene_file(self, setup: str = 'dempath') -> Path:
+        """The scene file of a dempath set-up of the deck's bin."""
+        return self.folder / self.scenes[setup]
+
+
+LEANING_TINE = Deck('leaning_tine', (0.200, 0.235, 0.270, 0.305, 0.340),
+                    ((-0.09, 0.09), (-0.03, 0.06), (0.17, 0.37)), 0.0045,
+                    {'dempath': 'leaning_tine.yaml',
+                     'dempath_measured': 'leaning_tine_measured.yaml',
+                     'dempath_poured': 'leaning_tine_poured.yaml'})
+RAKED_TINE = Deck('raked_tine', (0.15, 0.20, 0.25, 0.30, 0.35),
+                  ((-0.09, 0.09), (-0.03, 0.06), (0.12, 0.38)), 0.00375,
+                  {'dempath': 'raked_tine.yaml', 'dempath_poured': 'raked_tine.yaml'})
+DECKS = {d.name: d for d in (LEANING_TINE, RAKED_TINE)}
+DECK_DIR = LEANING_TINE.folder
+SCENE_FILE = LEANING_TINE.scene_file()
+MEASURED_SCENE_FILE = LEANING_TINE.scene_file('dempath_measured')  # the deck's bed as measured
+POURED_SCENE_FILE = LEANING_TINE.scene_file('dempath_poured')  # the same, poured around the tine
+MARKER_Z = LEANING_TINE.marker_z
+TOP_ZONE = LEANING_TINE.top_zone
 # Scene overrides of the deck's physics variants (in.pass -var variant, physics_<variant>.in):
 # rolling resistance and cohesion between grains only, as the deck's wall and tine fixes leave
 # them out; the other candidates of the effects library at the library's upper strength (x1.5,
@@ -98,13 +139,14 @@ def scene_for(variant: str, seed: int = 1, scene_file: Path = SCENE_FILE) -> Sce
     return load_scene(scene_file).with_overrides(values, on=on, seed=seed)
 
 
-def run_deck(seed: int, variant: str, workdir: Path, nprocs: int = 2) -> Path:
+def run_deck(seed: int, variant: str, workdir: Path, nprocs: int = 2,
+             deck: Deck = LEANING_TINE) -> Path:
     """Run the deck (``run.sh``) for one packing seed and variant; returns the run directory.
 
     The settled bed of a seed (``workdir/seed<k>/bed.data``) is made once and shared by the
     variants. Raises subprocess.CalledProcessError when LIGGGHTS fails.
     """
-    subprocess.run(['sh', str(DECK_DIR / 'run.sh'), str(seed), variant, str(workdir),
+    subprocess.run(['sh', str(deck.folder / 'run.sh'), str(seed), variant, str(workdir),
                     str(nprocs)], check=True, capture_output=True)
     return workdir / f'seed{seed}' / variant
 
@@ -161,12 +203,13 @@ def deck_frames(run: Path) -> Frames:
     return Frames(times, ids, pos, force)
 
 
-def pick_markers(ids: NDArray[np.int64], positions: F64, mean_r: float) -> dict[str, list[int]]:
+def pick_markers(ids: NDArray[np.int64], positions: F64, mean_r: float,
+                 marker_z: tuple[float, ...] = MARKER_Z) -> dict[str, list[int]]:
     """Marker indices into ``ids`` per group ('axis', 'left', 'right'), from the start positions
-    (n, 3) [m] (see the module docstring)."""
+    (n, 3) [m], at the grid points ``marker_z`` (see the module docstring)."""
     out: dict[str, list[int]] = {'axis': [], 'left': [], 'right': []}
     for group, gx in (('axis', 0.0), ('left', -SIDE_X), ('right', SIDE_X)):
-        for gz in MARKER_Z:
+        for gz in marker_z:
             h = np.hypot(positions[:, 0] - gx, positions[:, 2] - gz)
             near = np.flatnonzero(h < NEAR_M)
             top = positions[near, 1].max()
@@ -175,9 +218,9 @@ def pick_markers(ids: NDArray[np.int64], positions: F64, mean_r: float) -> dict[
     return out
 
 
-def deck_stats(frames: Frames, mean_r: float) -> DeckStats:
-    """The figures of one run from its frames (markers picked at t = 0)."""
-    idx = pick_markers(frames.ids, frames.positions[0], mean_r)
+def deck_stats(frames: Frames, mean_r: float, marker_z: tuple[float, ...] = MARKER_Z) -> DeckStats:
+    """The figures of one run from its frames (markers picked at t = 0 at ``marker_z``)."""
+    idx = pick_markers(frames.ids, frames.positions[0], mean_r, marker_z)
     p = frames.positions
     disp = np.linalg.norm(p - p[:1], axis=2)
     side = idx['left'] + idx['right']
@@ -189,20 +232,22 @@ def deck_stats(frames: Frames, mean_r: float) -> DeckStats:
                      np.nanmean(disp[:, side], axis=1), outward, draft, markers)
 
 
-def result_frames(result: SimResult) -> Frames:
+def result_frames(result: SimResult, top_zone: tuple[tuple[float, float], ...] = TOP_ZONE
+                  ) -> Frames:
     """Frames of a dempath run (`run_scene`) whose full-bed snapshots fall on every output:
-    the grains of the deck's surface zone at t = 0, and the tool force."""
+    the grains of the deck's surface zone (``top_zone``) at t = 0, and the tool force."""
     if len(result.snapshot_times) != len(result.times):
         msg = 'result_frames: the run needs output.snapshot_interval_s = output.interval_s'
         raise ValueError(msg)
     snap = np.asarray(result.snapshot_positions, np.float64)
-    zone = _in_top_zone(snap[0])
+    zone = _in_top_zone(snap[0], top_zone)
     return Frames(result.times, result.snapshot_ids[zone], snap[:, zone], result.tool_force)
 
 
-def _in_top_zone(positions: F64) -> NDArray[np.bool_]:
+def _in_top_zone(positions: F64, top_zone: tuple[tuple[float, float], ...] = TOP_ZONE
+                 ) -> NDArray[np.bool_]:
     keep = np.ones(len(positions), bool)
-    for axis, (lo, hi) in enumerate(TOP_ZONE):
+    for axis, (lo, hi) in enumerate(top_zone):
         keep &= (positions[:, axis] > lo) & (positions[:, axis] < hi)
     return keep
 
@@ -219,7 +264,8 @@ def deck_params(scene: SceneSpec, radii: F64) -> SimParams:
 
 
 def same_bed_run(bed: Path, scene: SceneSpec, resettle_s: float = RESETTLE_S,
-                 max_frames: int | None = None) -> Frames:
+                 max_frames: int | None = None,
+                 top_zone: tuple[tuple[float, float], ...] = TOP_ZONE) -> Frames:
     """dempath's engine from the deck's settled bed (``bed.data``): the tine in place, a re-settle
     of ``resettle_s`` with the scene's physics (contacts start with no history, as the deck's
     ``read_data``), then the scene's pass, recorded every OUTPUT_STEPS steps (the first
@@ -242,7 +288,7 @@ def same_bed_run(bed: Path, scene: SceneSpec, resettle_s: float = RESETTLE_S,
     dt = float(engine.dt or 0.0)
     state = engine.run(state, round(resettle_s / dt), lambda _t: still)
     state.time = 0.0
-    zone = _in_top_zone(state.positions)
+    zone = _in_top_zone(state.positions, top_zone)
     ids = state.ids[zone].copy()
     n_frames = int(np.ceil(path.time_to_travel(tool.travel_m) / (OUTPUT_STEPS * dt) - 1e-9))
     if max_frames is not None:
