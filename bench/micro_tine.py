@@ -323,13 +323,14 @@ def scene_impact(work: Path) -> dict[str, Any]:
     return out
 
 
-def small_bed(nx: int = 6, ny: int = 8, nz: int = 6, seed: int = 1) -> tuple[F64, F64]:
+def small_bed(nx: int = 6, ny: int = 8, nz: int = 6, seed: int = 1,
+              z_centre: float = 0.2) -> tuple[F64, F64]:
     """Grains of the deck's sizes in equal numbers on a jittered 10 mm lattice above the floor,
-    centred on X = 0, Z = 0.2 m: (positions (n, 3), radii (n,))."""
+    centred on X = 0, Z = z_centre [m]: (positions (n, 3), radii (n,))."""
     rng = np.random.default_rng(seed)
     g = np.stack(np.meshgrid(np.arange(nx), np.arange(ny), np.arange(nz), indexing='ij'), -1)
     pos = g.reshape(-1, 3) * 0.010 + np.array([-(nx - 1) * 0.005, FLOOR_Y + 0.006,
-                                               0.2 - (nz - 1) * 0.005])
+                                               z_centre - (nz - 1) * 0.005])
     pos += rng.uniform(-0.0004, 0.0004, pos.shape)
     return pos, rng.choice(MICRO.radii, len(pos))
 
@@ -398,34 +399,62 @@ def scene_bed(work: Path) -> dict[str, Any]:
     return out
 
 
-LAW_SEEDS = (1, 2, 3, 4)  # micro-beds of the law scenes
+LAW_SEEDS = [1, 2, 3, 4]  # beds of the law scenes (main's --law-seeds)
 
 
-def _laws_bed(work: Path, seed: int = 1) -> tuple[dict[str, F64], dict[str, Any], float]:
+@dataclass(frozen=True)
+class LawBed:
+    """A bed of the law scenes: lattice (nx, ny, nz) centred on Z = z_centre [m], side walls at
+    +-half_width [m], end walls z_walls [m], settle and push steps, the tine's start Z [m] and
+    the side grains' least start Z [m]."""
+
+    name: str
+    lattice: tuple[int, int, int]
+    z_centre: float
+    half_width: float
+    z_walls: tuple[float, float]
+    settle_steps: int
+    push_steps: int
+    tip_z: float
+    side_from_z: float
+
+
+LAW_BEDS = {
+    # 1,008 grains, 140 mm wide, ~35 mm deep; the tine 12 mm above the floor, pushed 100 mm.
+    'micro': LawBed('laws', (14, 8, 9), 0.2, 0.075, (0.150, 0.300), 4000, 2000, 0.14, 0.20),
+    # 6,160 grains, 200 mm wide, ~75 mm deep, 130 mm long; pushed 150 mm.
+    'mid': LawBed('mid', (20, 22, 14), 0.25, 0.10, (0.175, 0.420), 6000, 3000, 0.15, 0.22),
+}
+
+
+def _laws_bed(work: Path, seed: int = 1, size: LawBed = LAW_BEDS['micro']
+              ) -> tuple[dict[str, F64], dict[str, Any], float]:
     """The bed of the law scenes for a lattice seed (settled once on LIGGGHTS, cached in
     ``work``), the push's scene keywords and the bed's top [m]."""
-    pos, rad = small_bed(nx=14, ny=8, nz=9, seed=seed)
-    settled = work / ('laws_settle' if seed == 1 else f'laws_settle_s{seed}')
-    walls = [('y', FLOOR_Y, 1.0), ('x', -0.075, 1.0), ('x', 0.075, -1.0), ('z', 0.150, 1.0),
-             ('z', 0.300, -1.0)]
+    pos, rad = small_bed(*size.lattice, seed=seed, z_centre=size.z_centre)
+    settled = work / (f'{size.name}_settle' if seed == 1 else f'{size.name}_settle_s{seed}')
+    walls = [('y', FLOOR_Y, 1.0), ('x', -size.half_width, 1.0), ('x', size.half_width, -1.0),
+             ('z', size.z_walls[0], 1.0), ('z', size.z_walls[1], -1.0)]
     if not (settled / 'bed.data').exists():
-        settle = Scene(pos, rad, walls=walls, tip=None, steps=4000, every=4000, write_bed=True)
+        settle = Scene(pos, rad, walls=walls, tip=None, steps=size.settle_steps,
+                       every=size.settle_steps, write_bed=True)
         run_liggghts(settle, settled)
     bed = read_data(settled / 'bed.data')
     top = float((bed['positions'][:, 1] + bed['radii']).max())
-    push = {'walls': [*walls[:3], walls[4]], 'tip': (0.0, FLOOR_Y + 0.012, 0.14),
-            'steps': 2000, 'every': 100, 'velocities': bed['velocities'],
+    push = {'walls': [*walls[:3], walls[4]], 'tip': (0.0, FLOOR_Y + 0.012, size.tip_z),
+            'steps': size.push_steps, 'every': 100, 'velocities': bed['velocities'],
             'omegas': bed['omegas'], 'params_over': {'skin': LIGGGHTS_SKIN / float(rad.min())}}
     return bed, push, top
 
 
-def _side_motion(bed: dict[str, F64], top: float, traces: dict[str, Trace]) -> dict[str, Any]:
+def _side_motion(bed: dict[str, F64], top: float, traces: dict[str, Trace],
+                 from_z: float = 0.20) -> dict[str, Any]:
     """Outward and forward motion [mm] of the top grains beside the tine (centres 10-40 mm
-    outside its side faces, ahead of Z = 0.20 m) and the mean draft [N], per trace."""
+    outside its side faces, ahead of Z = from_z [m]) and the mean draft [N], per trace."""
     half = float(np.max(np.abs(np.array(read_stl_x(MICRO.deck.folder / 'tine.stl')))))
     x0 = np.abs(bed['positions'][:, 0])
     pick = (x0 > half + 0.010) & (x0 < half + 0.040) & (bed['positions'][:, 1] > top - 0.015)
-    pick &= bed['positions'][:, 2] > 0.20
+    pick &= bed['positions'][:, 2] > from_z
     out: dict[str, Any] = {'n': len(bed['radii']), 'bed_top_mm': round((top - FLOOR_Y) * 1e3, 1),
                            'side_grains': int(pick.sum())}
     for name, tr in traces.items():
@@ -451,22 +480,33 @@ def _over_seeds(per_seed: dict[int, dict[str, Any]]) -> dict[str, Any]:
     return out
 
 
-def scene_bed_laws(work: Path) -> dict[str, Any]:
-    """Beds of 1,008 grains (14 x 8 x 9 on the lattice, 140 mm wide, LAW_SEEDS) settled on
-    LIGGGHTS, then pushed 100 mm by the tine, its side edges inside the bed, on LIGGGHTS and on
-    dempath with LIGGGHTS' contact law and with the scene's own: the outward and forward motion
-    of the top grains beside the tine, per seed and mean per engine and law."""
+def _bed_laws(work: Path, size: LawBed) -> dict[str, Any]:
+    """The law scene on beds of one size (LAW_SEEDS), see scene_bed_laws."""
     per_seed = {}
     for seed in LAW_SEEDS:
-        bed, push, top = _laws_bed(work, seed)
-        name = 'laws_push' if seed == 1 else f'laws_push_s{seed}'
+        bed, push, top = _laws_bed(work, seed, size)
+        name = f'{size.name}_push' if seed == 1 else f'{size.name}_push_s{seed}'
         traces = {
             'liggghts': run_liggghts(Scene(bed['positions'], bed['radii'], **push), work / name),
             'dempath_liggghts_law': run_dempath(Scene(bed['positions'], bed['radii'], **push)),
             'dempath_scene_law': run_dempath(Scene(bed['positions'], bed['radii'], **push,
                                                    law='scene'))}
-        per_seed[seed] = _side_motion(bed, top, traces)
+        per_seed[seed] = _side_motion(bed, top, traces, size.side_from_z)
     return _over_seeds(per_seed)
+
+
+def scene_bed_laws(work: Path) -> dict[str, Any]:
+    """Beds of 1,008 grains (14 x 8 x 9 on the lattice, 140 mm wide, LAW_SEEDS) settled on
+    LIGGGHTS, then pushed 100 mm by the tine, its side edges inside the bed, on LIGGGHTS and on
+    dempath with LIGGGHTS' contact law and with the scene's own: the outward and forward motion
+    of the top grains beside the tine, per seed and mean per engine and law."""
+    return _bed_laws(work, LAW_BEDS['micro'])
+
+
+def scene_mid_laws(work: Path) -> dict[str, Any]:
+    """The same on beds of 6,160 grains (200 mm wide, ~75 mm deep, the tine's tip ~60 mm below
+    the surface), pushed 150 mm."""
+    return _bed_laws(work, LAW_BEDS['mid'])
 
 
 # One factor of LIGGGHTS' law at a time on dempath's default law, per material pair: grains
@@ -480,7 +520,11 @@ FACTORS: dict[str, dict[tuple[int, int], dict[str, float]]] = {
     'pairs_both': {(PARTICLES, PARTICLES): {'spring': 1.0, 'forms': 1.0}},
     'boundary_both': {(PARTICLES, WALLS): {'spring': 1.0, 'forms': 1.0},
                       (PARTICLES, TOOL): {'spring': 1.0, 'forms': 1.0}},
+    'walls_both': {(PARTICLES, WALLS): {'spring': 1.0, 'forms': 1.0}},
+    'tool_spring': {(PARTICLES, TOOL): {'spring': 1.0}},
+    'tool_forms': {(PARTICLES, TOOL): {'forms': 1.0}},
 }
+FACTOR_RUNS = list(FACTORS)  # the factors bed_factors runs (main's --factors)
 
 
 def scene_bed_factors(work: Path) -> dict[str, Any]:
@@ -491,7 +535,7 @@ def scene_bed_factors(work: Path) -> dict[str, Any]:
         bed, push, top = _laws_bed(work, seed)
         traces = {name: run_dempath(Scene(bed['positions'], bed['radii'], **push, law='scene',
                                           pair_law=pl))
-                  for name, pl in FACTORS.items()}
+                  for name, pl in FACTORS.items() if name in FACTOR_RUNS}
         per_seed[seed] = _side_motion(bed, top, traces)
     return _over_seeds(per_seed)
 
@@ -504,7 +548,7 @@ def read_stl_x(path: Path) -> list[float]:
 
 SCENES = {'edge': scene_edge, 'wall': scene_wall, 'impact': scene_impact, 'drop': scene_drop,
           'bed': scene_bed, 'bed_laws': scene_bed_laws,
-          'bed_factors': scene_bed_factors}
+          'bed_factors': scene_bed_factors, 'mid_laws': scene_mid_laws}
 
 
 def main(argv: list[str] | None = None) -> dict[str, Any]:
@@ -513,7 +557,12 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     ap.add_argument('--scenes', default=','.join(SCENES))
     ap.add_argument('--work', type=Path, default=None)
     ap.add_argument('--deck', choices=sorted(MICRO_DECKS), default='leaning_tine')
+    ap.add_argument('--law-seeds', default='1,2,3,4', help='beds of the law scenes')
+    ap.add_argument('--factors', default='', help=f'bed_factors: among {", ".join(FACTORS)}')
     args = ap.parse_args(argv)
+    LAW_SEEDS[:] = [int(k) for k in args.law_seeds.split(',')]
+    if args.factors:
+        FACTOR_RUNS[:] = args.factors.split(',')
     global MICRO, FLOOR_Y  # the run's deck for every scene of this script
     MICRO = MICRO_DECKS[args.deck]
     FLOOR_Y = MICRO.floor_y
