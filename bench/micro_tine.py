@@ -324,14 +324,15 @@ def scene_impact(work: Path) -> dict[str, Any]:
 
 
 def small_bed(nx: int = 6, ny: int = 8, nz: int = 6, seed: int = 1,
-              z_centre: float = 0.2) -> tuple[F64, F64]:
-    """Grains of the deck's sizes in equal numbers on a jittered 10 mm lattice above the floor,
-    centred on X = 0, Z = z_centre [m]: (positions (n, 3), radii (n,))."""
+              z_centre: float = 0.2, spacing: float = 0.010) -> tuple[F64, F64]:
+    """Grains of the deck's sizes in equal numbers on a jittered lattice (``spacing`` [m])
+    above the floor, centred on X = 0, Z = z_centre [m]: (positions (n, 3), radii (n,))."""
     rng = np.random.default_rng(seed)
     g = np.stack(np.meshgrid(np.arange(nx), np.arange(ny), np.arange(nz), indexing='ij'), -1)
-    pos = g.reshape(-1, 3) * 0.010 + np.array([-(nx - 1) * 0.005, FLOOR_Y + 0.006,
-                                               z_centre - (nz - 1) * 0.005])
-    pos += rng.uniform(-0.0004, 0.0004, pos.shape)
+    pos = g.reshape(-1, 3) * spacing + np.array([-(nx - 1) * spacing / 2, FLOOR_Y + 0.006,
+                                                 z_centre - (nz - 1) * spacing / 2])
+    jitter = (spacing - 2 * max(MICRO.radii)) / 2 - 1e-5
+    pos += rng.uniform(-jitter, jitter, pos.shape)
     return pos, rng.choice(MICRO.radii, len(pos))
 
 
@@ -417,6 +418,10 @@ class LawBed:
     push_steps: int
     tip_z: float
     side_from_z: float
+    spacing: float = 0.010  # m, lattice spacing
+    tip_y: float = 0.012  # m, the tine's tip above the floor
+    poured: bool = False  # the bed settles around the standing tine (the grains it overlaps
+    # removed first), as the deck's; else the tine starts outside the bed's back wall
 
 
 LAW_BEDS = {
@@ -424,24 +429,50 @@ LAW_BEDS = {
     'micro': LawBed('laws', (14, 8, 9), 0.2, 0.075, (0.150, 0.300), 4000, 2000, 0.14, 0.20),
     # 6,160 grains, 200 mm wide, ~75 mm deep, 130 mm long; pushed 150 mm.
     'mid': LawBed('mid', (20, 22, 14), 0.25, 0.10, (0.175, 0.420), 6000, 3000, 0.15, 0.22),
+    # ~15,000 grains, 200 x 250 mm, ~120 mm deep, poured around the tine standing with its tip
+    # 40 mm above the floor at Z = 0.10 m (80 mm deep, as the deck's); pushed 100 mm.
+    'poured': LawBed('poured', (23, 23, 29), 0.125, 0.10, (0.0, 0.25), 7000, 2000, 0.10, 0.14,
+                     spacing=0.0085, tip_y=0.040, poured=True),
 }
+
+
+def _outside_tine(pos: F64, rad: F64, tip: tuple[float, float, float]) -> NDArray[np.bool_]:
+    """Grains that do not overlap the deck's tine standing at ``tip`` (its bar: width, height,
+    thickness and lean read from the deck's STL)."""
+    v = np.array([[float(w) for w in line.split()[1:]]
+                  for line in (MICRO.deck.folder / 'tine.stl').read_text().splitlines()
+                  if line.strip().startswith('vertex')])
+    rel = pos - np.array(tip)
+    height = float(v[:, 1].max())
+    lean = -float(v[v[:, 1] == height, 2].max()) / height  # tan of the lean from vertical
+    normal = np.array([0.0, lean, 1.0]) / math.hypot(lean, 1.0)  # the front face's
+    thick = -float(v[np.abs(v[:, 1]) < 1e-12, 2].min()) * normal[2]
+    inside = ((np.abs(rel[:, 0]) < float(v[:, 0].max()) + rad) & (rel[:, 1] > -rad)
+              & (rel[:, 1] < height + rad) & (rel @ normal < rad)
+              & (rel @ normal > -(thick + rad)))
+    return ~inside
 
 
 def _laws_bed(work: Path, seed: int = 1, size: LawBed = LAW_BEDS['micro']
               ) -> tuple[dict[str, F64], dict[str, Any], float]:
     """The bed of the law scenes for a lattice seed (settled once on LIGGGHTS, cached in
     ``work``), the push's scene keywords and the bed's top [m]."""
-    pos, rad = small_bed(*size.lattice, seed=seed, z_centre=size.z_centre)
+    pos, rad = small_bed(*size.lattice, seed=seed, z_centre=size.z_centre,
+                         spacing=size.spacing)
     settled = work / (f'{size.name}_settle' if seed == 1 else f'{size.name}_settle_s{seed}')
     walls = [('y', FLOOR_Y, 1.0), ('x', -size.half_width, 1.0), ('x', size.half_width, -1.0),
              ('z', size.z_walls[0], 1.0), ('z', size.z_walls[1], -1.0)]
+    tip = (0.0, FLOOR_Y + size.tip_y, size.tip_z)
     if not (settled / 'bed.data').exists():
-        settle = Scene(pos, rad, walls=walls, tip=None, steps=size.settle_steps,
+        keep = _outside_tine(pos, rad, tip) if size.poured else np.ones(len(rad), bool)
+        settle = Scene(pos[keep], rad[keep], walls=walls, tip=tip if size.poured else None,
+                       tine_velocity=(0.0, 0.0, 0.0), steps=size.settle_steps,
                        every=size.settle_steps, write_bed=True)
         run_liggghts(settle, settled)
     bed = read_data(settled / 'bed.data')
-    top = float((bed['positions'][:, 1] + bed['radii']).max())
-    push = {'walls': [*walls[:3], walls[4]], 'tip': (0.0, FLOOR_Y + 0.012, size.tip_z),
+    tops = bed['positions'][:, 1] + bed['radii']  # (grains resting on the tine's top face
+    top = float(np.percentile(tops, 99) if size.poured else tops.max())  # are left out)
+    push = {'walls': walls if size.poured else [*walls[:3], walls[4]], 'tip': tip,
             'steps': size.push_steps, 'every': 100, 'velocities': bed['velocities'],
             'omegas': bed['omegas'], 'params_over': {'skin': LIGGGHTS_SKIN / float(rad.min())}}
     return bed, push, top
@@ -503,6 +534,12 @@ def scene_bed_laws(work: Path) -> dict[str, Any]:
     return _bed_laws(work, LAW_BEDS['micro'])
 
 
+def scene_poured_laws(work: Path) -> dict[str, Any]:
+    """The same on beds of ~15,000 grains (200 x 250 mm, ~120 mm deep) poured around the
+    standing tine (80 mm deep) as the deck's bin is, pushed 100 mm from rest."""
+    return _bed_laws(work, LAW_BEDS['poured'])
+
+
 def scene_mid_laws(work: Path) -> dict[str, Any]:
     """The same on beds of 6,160 grains (200 mm wide, ~75 mm deep, the tine's tip ~60 mm below
     the surface), pushed 150 mm."""
@@ -523,7 +560,9 @@ FACTORS: dict[str, dict[tuple[int, int], dict[str, float]]] = {
     'walls_both': {(PARTICLES, WALLS): {'spring': 1.0, 'forms': 1.0}},
     'tool_spring': {(PARTICLES, TOOL): {'spring': 1.0}},
     'tool_forms': {(PARTICLES, TOOL): {'forms': 1.0}},
+    'chaos': {},  # the default law again with a 5 % larger skin: the runs' own chaos
 }
+CHAOS_SKIN = 1.05
 FACTOR_RUNS = list(FACTORS)  # the factors bed_factors runs (main's --factors)
 
 
@@ -533,9 +572,15 @@ def scene_bed_factors(work: Path) -> dict[str, Any]:
     per_seed = {}
     for seed in LAW_SEEDS:
         bed, push, top = _laws_bed(work, seed)
-        traces = {name: run_dempath(Scene(bed['positions'], bed['radii'], **push, law='scene',
-                                          pair_law=pl))
-                  for name, pl in FACTORS.items() if name in FACTOR_RUNS}
+        traces = {}
+        for name, pl in FACTORS.items():
+            if name not in FACTOR_RUNS:
+                continue
+            kw = dict(push)
+            if name == 'chaos':
+                kw['params_over'] = {'skin': push['params_over']['skin'] * CHAOS_SKIN}
+            traces[name] = run_dempath(Scene(bed['positions'], bed['radii'], **kw, law='scene',
+                                             pair_law=pl))
         per_seed[seed] = _side_motion(bed, top, traces)
     return _over_seeds(per_seed)
 
@@ -548,7 +593,8 @@ def read_stl_x(path: Path) -> list[float]:
 
 SCENES = {'edge': scene_edge, 'wall': scene_wall, 'impact': scene_impact, 'drop': scene_drop,
           'bed': scene_bed, 'bed_laws': scene_bed_laws,
-          'bed_factors': scene_bed_factors, 'mid_laws': scene_mid_laws}
+          'bed_factors': scene_bed_factors, 'mid_laws': scene_mid_laws,
+          'poured_laws': scene_poured_laws}
 
 
 def main(argv: list[str] | None = None) -> dict[str, Any]:

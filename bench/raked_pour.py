@@ -31,6 +31,7 @@ import itertools
 import json
 import math
 import subprocess
+from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -151,11 +152,17 @@ def main() -> None:
     lig = read_data(folder / 'bed.data')
     out['liggghts'] = figures(scene, lig['positions'], lig['radii'])
     inserted = read_data(folder / 'inserted.data')
-    runs = {'dempath_on_insert_default': (scene, lambda s: bed_state(s, inserted)),
-            'dempath_on_insert_liggghts': (same_physics(scene), lambda s: bed_state(s, inserted)),
-            'dempath_pour_default': (scene, lambda s: pour(
-                s, s.physics_model(), build_params(s, s.physics_model()),
-                len(inserted['radii']) / _pour_count(s)))}
+    def on_insert(sc: SceneSpec) -> SimState:
+        return bed_state(sc, inserted)
+
+    def own_pour(sc: SceneSpec) -> SimState:
+        model = sc.physics_model()
+        return pour(sc, model, build_params(sc, model), len(inserted['radii']) / _pour_count(sc))
+
+    runs: dict[str, tuple[SceneSpec, Callable[[SceneSpec], SimState]]] = {
+        'dempath_on_insert_default': (scene, on_insert),
+        'dempath_on_insert_liggghts': (same_physics(scene), on_insert),
+        'dempath_pour_default': (scene, own_pour)}
     for name, (sc, make) in runs.items():
         cache = args.work / f'{name}_s{args.seed}.npz'
         if not cache.exists():
@@ -171,7 +178,7 @@ def main() -> None:
 def _pour_count(scene: SceneSpec) -> int:
     """Grains dempath's pour places at count scale 1."""
     model = scene.physics_model()
-    return pour(scene, model, build_params(scene, model)).n
+    return int(pour(scene, model, build_params(scene, model)).n)
 
 
 if __name__ == '__main__':

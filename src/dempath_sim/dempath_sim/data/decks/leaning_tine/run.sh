@@ -1,6 +1,6 @@
 #!/bin/sh
-# Run the leaning-tine bin on LIGGGHTS 3.8: settle a bed for a seed (if not done) and drive the
-# tine through it with one physics variant.
+# Run the leaning-tine bin (or the deck in $DECK, e.g. ../raked_tine) on LIGGGHTS 3.8: settle a
+# bed for a seed (if not done) and drive the tine through it with one physics variant.
 #   run.sh SEED VARIANT OUTDIR [NP]     SEED 1-8, VARIANT a physics_VARIANT.in of this folder
 #   (base, rolling, cohesion, tool_friction, particle_friction, youngs_modulus, restitution,
 #   tool_speed), NP MPI ranks (2)
@@ -8,7 +8,7 @@
 # (start.dump, top.dump, end.dump, tine_force.txt, logs). Needs liggghts and mpirun on PATH.
 set -eu
 seed=$1; variant=$2; out=$3; np=${4:-2}
-deck=$(cd "$(dirname "$0")" && pwd)
+deck=${DECK:-$(cd "$(dirname "$0")" && pwd)}  # DECK: another deck folder of the same files
 # LIGGGHTS wants prime random seeds above 10,000: two per packing seed.
 case $seed in
   1) p1=15485863; p2=32452843 ;;  2) p1=49979687; p2=67867967 ;;
