@@ -26,7 +26,8 @@ ROSDEP_KEYS = {  # rosdep key -> where it lives in rosdistro (python.yaml unless
     'python3-numpy': 'python', 'python3-scipy': 'python', 'python3-opencv': 'python',
     'python3-matplotlib': 'python', 'python3-yaml': 'python', 'python3-rich': 'python',
     'python3-sklearn': 'python', 'python3-openpyxl': 'python', 'python3-pil': 'python',
-    'python3-numba': 'python', 'python3-torch': 'python', 'python3-pytest': 'python',
+    'python3-numba': 'python', 'python3-meshio': 'python', 'python3-torch': 'python',
+    'python3-pytest': 'python',
     'python3-selenium': 'python', 'python3-rosbags-pip': 'python (pip)',
     'python3-simplejpeg-pip': 'python (pip)', 'mcap-ros2-support': 'python (pip)',
     'chromium-browser': 'base (Debian: chromium)',
@@ -45,7 +46,8 @@ THIRD_PARTY = {
     'simplejpeg': ('python3-simplejpeg-pip', 'simplejpeg'),
     'mcap': (None, 'mcap'), 'zlib_ng': (None, 'zlib-ng'), 'backports': (None, 'backports.zstd'),
     'dtaidistance': (None, 'dtaidistance'), 'cma': (None, 'cma'), 'dask': (None, 'dask'),
-    'distributed': (None, 'distributed'),
+    'distributed': (None, 'distributed'), 'meshio': ('python3-meshio', 'meshio'),
+    'scoringrules': (None, 'scoringrules'),
 }
 OPTIONAL = {'torch': 'mlp'}  # import -> the setup.py extra that brings it
 ROS_MODULES = {'rclpy', 'builtin_interfaces', 'rcl_interfaces', 'rosgraph_msgs'}

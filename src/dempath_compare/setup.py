@@ -24,6 +24,7 @@ setup(
         'openpyxl',
         'rich',
         'dtaidistance',
+        'pyyaml',
     ],
     zip_safe=False,
     maintainer='dempath developers',

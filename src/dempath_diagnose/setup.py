@@ -28,6 +28,7 @@ setup(
         'dask',
         'distributed',
         'cma',
+        'scoringrules',
     ],
     zip_safe=False,
     maintainer='dempath developers',

@@ -24,6 +24,7 @@ setup(
         'matplotlib',
         'pyyaml',
         'rich',
+        'meshio',
     ],
     zip_safe=False,
     maintainer='dempath developers',
