@@ -70,8 +70,8 @@ def print_ranking(result: CompareResult, top: int) -> None:
 
 def compare_main(argv: list[str]) -> int:
     """``dempath compare MEASURED MODEL --out DIR``: score model against measured trajectories."""
+    from dempath_compare.comparison_folder import write_outputs
     from dempath_compare.pipeline import compare_paths, problems
-    from dempath_compare.report import write_outputs
 
     args = build_parser().parse_args(argv)
     logging.basicConfig(level=logging.WARNING, format='%(levelname)s %(name)s: %(message)s')

@@ -17,11 +17,16 @@ from numpy.typing import NDArray
 
 from dempath.errors import DempathError
 from dempath_recon.errors import ModelFileError, ReconstructionError
-from dempath_recon.methods import METHODS, load_calibration, load_reconstructor, make_reconstructor
-from dempath_recon.mlp import PAPER_RECIPE
-from dempath_recon.report import evaluate, holdout_split, write_report
-from dempath_recon.shipped import RIG_NOTE
-from dempath_recon.uncertainty import CLICK_SIGMA_PX, propagate, sigma_from_covariance
+from dempath_recon.methods.evaluation import evaluate, holdout_split, write_report
+from dempath_recon.methods.mlp import PAPER_RECIPE
+from dempath_recon.methods.registry import (
+    METHODS,
+    load_calibration,
+    load_reconstructor,
+    make_reconstructor,
+)
+from dempath_recon.methods.shipped import RIG_NOTE
+from dempath_recon.methods.uncertainty import CLICK_SIGMA_PX, propagate, sigma_from_covariance
 
 logger = logging.getLogger(__name__)
 PIXEL_COLUMNS = ('xs', 'ys', 'xf', 'yf')

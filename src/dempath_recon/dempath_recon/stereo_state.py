@@ -18,10 +18,10 @@ from numpy.typing import NDArray
 
 from dempath_recon.associate import MarkerPositions, back_project, depth
 from dempath_recon.detect import MarkerDetector
+from dempath_recon.methods.triangulate import Camera
 from dempath_recon.stereo_records import CameraCounts, StereoTrackConfig
 from dempath_recon.stereo_release import ReleaseQueue
 from dempath_recon.track import UNNUMBERED, MarkerTracker
-from dempath_recon.triangulate import Camera
 
 FloatArray = NDArray[np.float64]
 RECENT_S = 0.05  # the other camera's position of a marker counts for numbering this long [s]

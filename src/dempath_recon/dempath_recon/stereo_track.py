@@ -35,6 +35,7 @@ from numpy.typing import NDArray
 
 from dempath_recon.associate import number_by_grid, on_epipolar_line, triangulate_pairs
 from dempath_recon.detect import Detections, ImageDecodeError
+from dempath_recon.methods.triangulate import Camera
 from dempath_recon.stereo_checks import PairChecks
 from dempath_recon.stereo_pairs import PairNumbering
 from dempath_recon.stereo_records import CameraCounts, PixelFrame, StereoTrackConfig
@@ -42,7 +43,6 @@ from dempath_recon.stereo_release import HeldFrame, renumber
 from dempath_recon.stereo_state import MAX_DEPTH_AGE_S, RECENT_S
 from dempath_recon.track import UNNUMBERED
 from dempath_recon.trajectories import marker_histories, triangulate_tracks
-from dempath_recon.triangulate import Camera
 
 __all__ = ['CameraCounts', 'PixelFrame', 'StereoMarkerTracker', 'StereoTrackConfig',
            'marker_histories', 'track_bag', 'triangulate_tracks']

@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from dempath_recon.triangulate import Camera, triangulate_points
+from dempath_recon.methods.triangulate import Camera, triangulate_points
 
 if TYPE_CHECKING:
     from dempath_recon.stereo_track import PixelFrame
