@@ -19,9 +19,12 @@ from pathlib import Path
 from typing import Any
 
 from dempath.errors import DempathError
+from dempath.outputs import staged_output
 from dempath_sim.effects import effect_table
-from dempath_sim.runs import Progress, RunOptions, run_scene
+from dempath_sim.runs import Progress, RunOptions, SimResult, run_scene
 from dempath_sim.scene import SceneError, SceneSpec, parse_overrides, resolve_scene
+
+SUMMARY = 'summary.json'  # the run's manifest, written last
 
 
 def _error_line(scene: str, err: Exception) -> str:
@@ -68,6 +71,20 @@ def _progress_bar(quiet: bool) -> tuple[Any, Any]:
     return bar, update
 
 
+def write_run_folder(result: SimResult, out: Path) -> dict[str, Any]:
+    """Write a run's outputs whole into ``out`` (staged beside it and installed at the end, with
+    ``summary.json`` last as the manifest readers check) and return the summary."""
+    summary = {**result.meta, 'outputs': str(out),
+               'max_draft_force_n': float(max(result.draft_force(), default=0.0))}
+    with staged_output(out, SUMMARY) as stage:
+        result.write_model_csv(stage / 'model.csv')
+        result.write_marker_csv(stage / 'markers.csv')
+        result.write_tool_csv(stage / 'tool.csv')
+        result.save_npz(stage / 'result.npz')
+        (stage / SUMMARY).write_text(json.dumps(summary, indent=2), encoding='utf-8')
+    return summary
+
+
 def simulate_main(argv: list[str]) -> int:
     """``dempath simulate SCENE --out DIR``: run a scene offline with a progress bar."""
     args = _simulate_parser().parse_args(argv)
@@ -75,7 +92,6 @@ def simulate_main(argv: list[str]) -> int:
         scene = resolve_scene(args.scene).with_overrides(
             parse_overrides(args.effect), off=args.off, on=args.on, seed=args.seed)
         out = args.out or Path(f'sim_{scene.name}_s{scene.seed}')
-        out.mkdir(parents=True, exist_ok=True)
         bar, update = _progress_bar(args.quiet)
         options = RunOptions(cache_dir=args.cache_dir, progress=update)
         if bar is not None:
@@ -83,13 +99,7 @@ def simulate_main(argv: list[str]) -> int:
                 result = run_scene(scene, options)
         else:
             result = run_scene(scene, options)
-        result.write_model_csv(out / 'model.csv')
-        result.write_marker_csv(out / 'markers.csv')
-        result.write_tool_csv(out / 'tool.csv')
-        result.save_npz(out / 'result.npz')
-        summary = {**result.meta, 'outputs': str(out),
-                   'max_draft_force_n': float(max(result.draft_force(), default=0.0))}
-        (out / 'summary.json').write_text(json.dumps(summary, indent=2))
+        summary = write_run_folder(result, out)
     except (DempathError, OSError) as err:
         print(_error_line(args.scene, err), file=sys.stderr)
         return 1

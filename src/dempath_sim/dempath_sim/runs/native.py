@@ -21,6 +21,7 @@ import math
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -55,12 +56,35 @@ def _with_run_masses(state: SimState, params: SimParams) -> SimState:
 
 
 def run_id(scene: SceneSpec) -> str:
-    """Label of one run: scene name, seed and a short hash of the effect settings."""
+    """Label of one run: scene name, seed and a short hash of everything that changes the run.
+
+    The hash covers the whole scene record (effects and the bed's effects, bin, layers,
+    materials, tool and profile, markers, fill, output cadence, numerics such as the time step)
+    and the bytes of the files it names (the tool's STL, a ``fill.packing``) in place of their
+    paths, so that two runs with the same id are the same run; the scene's name (the id's
+    prefix), description and path are left out.
+    """
     import hashlib
     import json
 
-    text = json.dumps(scene.to_dict()['effects'], sort_keys=True)
+    record = scene.to_dict()
+    for label in ('name', 'source', 'description'):
+        record.pop(label, None)
+    record['tool']['mesh'] = _file_digest(scene.tool.mesh)  # the bytes, not where they lie
+    if scene.fill.packing is not None:
+        record['fill']['packing'] = _file_digest(scene.fill.packing)
+    text = json.dumps(record, sort_keys=True, default=str)
     return f'{scene.name}-s{scene.seed}-{hashlib.sha256(text.encode()).hexdigest()[:8]}'
+
+
+def _file_digest(path: Path) -> str:
+    """sha256 of a file's bytes (hex, 16 chars), or 'missing' when it cannot be read."""
+    import hashlib
+
+    try:
+        return hashlib.sha256(Path(path).read_bytes()).hexdigest()[:16]
+    except OSError:
+        return 'missing'
 
 
 @dataclass
