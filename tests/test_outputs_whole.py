@@ -25,14 +25,14 @@ from dempath_sim.cli import write_run_folder
 from dempath_sim.runs.markers import ROLE_CANDIDATE, ROLE_MARKER
 from dempath_sim.runs.results import SimResult
 
-WRITER = '''
+WRITER = """
 import sys
 from pathlib import Path
 sys.path.insert(0, {here!r})
 from test_outputs_whole import synthetic_result
 from dempath_sim.cli import write_run_folder
 write_run_folder(synthetic_result(int(sys.argv[2]), int(sys.argv[3])), Path(sys.argv[1]))
-'''
+"""
 
 
 def synthetic_result(seed: int, frames: int = 40) -> SimResult:

@@ -11,8 +11,7 @@ import pytest
 from numpy.typing import NDArray
 
 from dempath_sim.engine import mesh as mesh_module
-from dempath_sim.engine.mesh import (TriangleMesh, build_triangle_grid,
-                                     closest_point_triangle_numpy)
+from dempath_sim.engine.mesh import TriangleMesh, build_triangle_grid, closest_point_triangle_numpy
 
 
 def reference_pairs(tris: NDArray[np.float64], margin: float, lo: NDArray[np.float64],
