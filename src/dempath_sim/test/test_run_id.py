@@ -1,4 +1,5 @@
-"""``run_id``: one id per run, different whenever anything that changes the run differs."""
+"""``run_id`` (one id per run, different whenever anything that changes the run differs) and
+the warnings a finished run carries when its answer cannot mean anything."""
 
 from __future__ import annotations
 
@@ -34,3 +35,24 @@ def test_run_id_changes_with_everything_that_changes_the_run(tmp_path: Path) -> 
     same = [label for label, rid in ids.items() if rid == base]
     assert not same, f'run_id ignores {same}'
     assert len(set(ids.values())) == len(ids)
+
+
+def test_sparse_bed_and_untouched_tool_are_warned() -> None:
+    """A 106-sphere bed (solid fraction 0.01) and a pass with 0 N draft each get a warning;
+    a settled bed with a loaded tool gets none."""
+    import numpy as np
+
+    from dempath_sim.runs.fill import FillReport
+    from dempath_sim.runs.native import run_warnings
+
+    def report(n: int, fraction: float) -> FillReport:
+        return FillReport(n, 2650 * fraction, fraction, -0.1, -0.2, None, True, 0.0, True,
+                          'file:0', source='bed106.csv')
+
+    loaded = np.zeros((20, 3))
+    loaded[5:, 2] = -40.0
+    assert run_warnings(loaded, report(45000, 0.6)) == []
+    warnings = run_warnings(np.zeros((20, 3)), report(106, 0.012))
+    assert len(warnings) == 2
+    assert '106 particles at solid fraction 0.012' in warnings[0] and 'bed106.csv' in warnings[0]
+    assert 'draft force is 0 N' in warnings[1]
