@@ -91,8 +91,11 @@ def _install(stage: Path, out: Path, manifest: str) -> None:
         marker.write_text(f'{os.getpid()}\n', encoding='utf-8')
         (out / manifest).unlink(missing_ok=True)
         for path in sorted(stage.iterdir()):
-            if path.name != manifest:
-                os.replace(path, out / path.name)
+            if path.name == manifest:
+                continue
+            if path.is_dir():  # a sub-folder replaces the old one whole
+                shutil.rmtree(out / path.name, ignore_errors=True)
+            os.replace(path, out / path.name)
         os.replace(stage / manifest, out / manifest)
         marker.unlink()
     except OSError as err:

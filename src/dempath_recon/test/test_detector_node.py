@@ -18,9 +18,9 @@ from spots import spot_image
 from dempath import topics
 from dempath_calib.camera import StereoCalibration
 from dempath_msgs.msg import PixelPoints
-from dempath_recon.associate import MarkerGrid
 from dempath_recon.errors import ReconstructionError
 from dempath_recon.nodes.detector import DetectorNode
+from dempath_recon.tracking.associate import MarkerGrid
 
 
 def half(cam):

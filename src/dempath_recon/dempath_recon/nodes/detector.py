@@ -53,10 +53,10 @@ from dempath import topics
 from dempath.nodes.spin import run_node
 from dempath.workqueue import WorkQueue
 from dempath_msgs.msg import PixelPoints
-from dempath_recon.associate import MarkerGrid
 from dempath_recon.errors import ReconstructionError
-from dempath_recon.stereo_track import PixelFrame, StereoMarkerTracker, StereoTrackConfig
 from dempath_recon.stride import FrameStride
+from dempath_recon.tracking.associate import MarkerGrid
+from dempath_recon.tracking.stereo import PixelFrame, StereoMarkerTracker, StereoTrackConfig
 
 PARAMETERS: tuple[tuple[str, Any, str], ...] = (
     ('camera', 'cam_side', 'camera whose images this node detects in (cam_side, cam_front)'),
@@ -117,7 +117,7 @@ class Latency:
 
 
 class DetectorNode(Node):
-    """Thin adapter around :class:`dempath_recon.stereo_track.StereoMarkerTracker`."""
+    """Thin adapter around :class:`dempath_recon.tracking.stereo.StereoMarkerTracker`."""
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__('dempath_detector', **kwargs)
@@ -203,9 +203,8 @@ class DetectorNode(Node):
 
     def note_other(self, msg: PixelPoints) -> None:
         """Remember the other camera's numbered markers (for epipolar numbering)."""
-        t = _stamp_s(msg)
-        for m, u, v in zip(msg.marker_ids, msg.u, msg.v, strict=True):
-            self.core.latest[self.other][int(m)] = (t, np.array([u, v], np.float64))
+        self.core.note_other(self.other, _stamp_s(msg), np.asarray(msg.marker_ids, np.int32),
+                             np.column_stack([msg.u, msg.v]).astype(np.float64))
 
     def publish(self, frame: PixelFrame, header: Any) -> None:
         """PixelPoints of the numbered markers; log the frame's events."""

@@ -15,8 +15,8 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from dempath_recon.stereo_records import PixelFrame
-from dempath_recon.track import Track
+from dempath_recon.tracking.linker import Track
+from dempath_recon.tracking.records import PixelFrame
 
 
 class HeldFrame(NamedTuple):

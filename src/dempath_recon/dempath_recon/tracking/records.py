@@ -1,8 +1,8 @@
 """The records of the two-camera marker tracker: its settings, one camera frame's numbered
 pixels, and the counts of what happened to each camera's frames (the run report's rows).
 
-Kept apart from :mod:`dempath_recon.stereo_track`, which re-exports them, so that the tracker
-module holds the tracking logic only.
+Kept apart from the tracker (:mod:`dempath_recon.tracking.stereo` re-exports them), so that
+the records stand below everything that uses them, ``trajectories`` included.
 """
 
 from __future__ import annotations
@@ -13,9 +13,9 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from dempath_recon.associate import MarkerGrid
-from dempath_recon.detect import DetectorConfig
-from dempath_recon.track import TrackerConfig
+from dempath_recon.tracking.associate import MarkerGrid
+from dempath_recon.tracking.detect import DetectorConfig
+from dempath_recon.tracking.linker import TrackerConfig
 
 FloatArray = NDArray[np.float64]
 

@@ -1,22 +1,18 @@
 """Numbered pixel tracks of two cameras -> 3D marker trajectories (batch).
 
 :func:`triangulate_tracks` turns the numbered pixel frames of
-:class:`dempath_recon.stereo_track.StereoMarkerTracker` into 3D trajectories at the side
+:class:`dempath_recon.tracking.stereo.StereoMarkerTracker` into 3D trajectories at the side
 camera's stamps, interpolating the other camera's track to each side stamp, because
 unsynchronised cameras expose at different instants (a few ms at 1 m/s is a few mm).
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 from numpy.typing import NDArray
 
+from dempath_recon.tracking.records import PixelFrame
 from dempath_recon.triangulate import Camera, triangulate_points
-
-if TYPE_CHECKING:
-    from dempath_recon.stereo_track import PixelFrame
 
 FloatArray = NDArray[np.float64]
 

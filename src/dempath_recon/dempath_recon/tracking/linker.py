@@ -38,7 +38,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import linear_sum_assignment
 
-from dempath_recon.detect import Detections
+from dempath_recon.tracking.detect import Detections
 
 LOG = logging.getLogger(__name__)
 FloatArray = NDArray[np.float64]
