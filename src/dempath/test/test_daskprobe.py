@@ -48,13 +48,13 @@ def talking_proxy() -> Iterator[str]:
 
 def test_http_server_is_not_a_scheduler(http_server: str) -> None:
     """A silent HTTP server: refused after the timeout (the Dask client used to hang)."""
-    with pytest.raises(SchedulerProbeError, match='not a Dask scheduler .no handshake'):
+    with pytest.raises(SchedulerProbeError, match=r'not a Dask scheduler .no handshake'):
         check_dask_scheduler(http_server, timeout_s=0.5)
 
 
 def test_proxy_answering_404_is_not_a_scheduler(talking_proxy: str) -> None:
     """A 404 answer is named (the client used to read it as a frame length: 3.07 EiB)."""
-    with pytest.raises(SchedulerProbeError, match="answered 'HTTP/1.1 404 Not Found'"):
+    with pytest.raises(SchedulerProbeError, match=r"answered 'HTTP/1\.1 404 Not Found'"):
         check_dask_scheduler(talking_proxy, timeout_s=2.0)
 
 
