@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import logging
 import sys
 from pathlib import Path
 from typing import NoReturn
@@ -80,7 +79,6 @@ def compare_main(argv: list[str]) -> int:
     from dempath_compare.report import write_outputs
 
     args = build_parser().parse_args(argv)
-    logging.basicConfig(level=logging.WARNING, format='%(levelname)s %(name)s: %(message)s')
     try:
         config = CompareConfig(top_n=args.top, sp=args.sp, z_weight=args.z_weight,
                                rank_by=args.rank_by, matching=args.matching,
