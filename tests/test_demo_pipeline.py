@@ -16,7 +16,7 @@ from dempath.frames import SCENE_IN_WORLD, Transform, check_tree, matrix_from_qu
 from dempath_bringup.frames import marker_grid_centre
 from dempath_bringup.nodes.graph import GraphResult, GraphSpec, field_truth_error, run_graph
 from dempath_sim.scene.loader import resolve_scene
-from dempath_twin import field as ft
+from dempath_twin.field import markers as ft
 from dempath_twin.rig import paper_rig
 
 ROOT = Path(__file__).resolve().parents[1]
