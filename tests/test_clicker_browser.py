@@ -1,7 +1,7 @@
 """The clicker used as a person would: a real headless Chromium clicks rendered markers.
 
 Frames with shaded spheres at known sub-pixel centres (a folder of two cameras, two frames) are
-served by ``dempath_recon.clickserver``; selenium selects marker numbers, zooms with the mouse
+served by ``dempath_recon.clicker.server``; selenium selects marker numbers, zooms with the mouse
 wheel around each marker, clicks its centre, undoes a wrong click, steps to the next frame,
 accepts a detection, and downloads the CSV through the page's Export link. The exported centres
 must match the rendered ones within 0.5 px. ``DEMPATH_SCREENSHOTS=1`` keeps the page's
@@ -25,9 +25,9 @@ import pytest
 
 from dempath.browser import BrowserNotFoundError, headless_chromium
 from dempath.nodes.pytest_plugin import require_component
-from dempath_recon.clickframes import open_frames
-from dempath_recon.clicks import ClickBounds, ClickStore
-from dempath_recon.clickserver import ClickServer, ClickSession
+from dempath_recon.clicker.clicks import ClickBounds, ClickStore
+from dempath_recon.clicker.frames import open_frames
+from dempath_recon.clicker.server import ClickServer, ClickSession
 
 WIDTH, HEIGHT = 960, 540
 RADIUS_PX = 6.0

@@ -346,7 +346,7 @@ def field_truth_error(bag: Path, truth_csv: Path) -> tuple[float, float, float]:
     """(mean, max, RMS) mm distance of the recorded MarkerPoints3D from the field twin's truth."""
     from dempath import topics
     from dempath.bagio import open_bag
-    from dempath_twin.field import START_NS, read_marker_csv
+    from dempath_twin.field.markers import START_NS, read_marker_csv
 
     truth = read_marker_csv(truth_csv)
     frame = {round(t * 1e4): k for k, t in enumerate(truth.times)}

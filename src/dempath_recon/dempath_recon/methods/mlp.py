@@ -33,7 +33,7 @@ import torch
 from numpy.typing import NDArray
 
 from dempath_recon.errors import ModelFileError, NotFittedError, PixelInputError
-from dempath_recon.nets import (
+from dempath_recon.methods.nets import (
     TrainSettings,
     build_mlp,
     make_scaler,
@@ -42,7 +42,7 @@ from dempath_recon.nets import (
     scaler_from_dict,
     train_network,
 )
-from dempath_recon.params import ParamsMixin
+from dempath_recon.methods.params import ParamsMixin
 
 FloatArray = NDArray[np.float64]
 logger = logging.getLogger(__name__)

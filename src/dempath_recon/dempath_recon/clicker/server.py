@@ -12,7 +12,7 @@ gets 404 (403 for a path climbing out with ``..``) and one log line. A POST must
 session's random token in ``X-Clicker-Token`` (a page of another site cannot send that header
 without a CORS preflight, which this server never grants) and a ``Host`` naming this server
 (against DNS rebinding). The only file written is the session's click file, atomically, after
-every change (:class:`dempath_recon.clicks.ClickStore`).
+every change (:class:`dempath_recon.clicker.clicks.ClickStore`).
 """
 
 from __future__ import annotations
@@ -28,8 +28,8 @@ from importlib import resources
 from typing import Any
 from urllib.parse import unquote, urlsplit
 
-from dempath_recon.clickframes import FrameSet
-from dempath_recon.clicks import Click, ClickStore, describe, read_clicks_text
+from dempath_recon.clicker.clicks import Click, ClickStore, describe, read_clicks_text
+from dempath_recon.clicker.frames import FrameSet
 from dempath_recon.errors import ClickError
 
 LOG = logging.getLogger(__name__)
@@ -144,7 +144,7 @@ class ClickHandler(BaseHTTPRequestHandler):
             return
         if path in STATIC:
             name, kind = STATIC[path]
-            text = resources.files('dempath_recon').joinpath('clicker_web', name).read_text()
+            text = resources.files('dempath_recon.clicker').joinpath('web', name).read_text()
             self.send_text(HTTPStatus.OK, text.replace('@TOKEN@', self.session.token), kind)
         elif path == '/api/session':
             self.send_json(self.session.summary())

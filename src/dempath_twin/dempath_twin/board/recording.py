@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 from dempath_calib.board import PAPER_BOARD, SURFACE_ROT, BoardSpec
 from dempath_calib.camera import CameraModel, StereoCalibration
 from dempath_calib.pointset import PointSet, make_point_set
-from dempath_twin.render import BoardRenderer, FrameConditions
+from dempath_twin.board.renderer import BoardRenderer, FrameConditions
 from dempath_twin.rig import WORKING_VOLUME, paper_rig
 
 LOG = logging.getLogger(__name__)

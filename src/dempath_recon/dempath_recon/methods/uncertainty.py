@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from dempath_recon.triangulate import Camera, projection_jacobian, split_views
+from dempath_recon.methods.triangulate import Camera, projection_jacobian, split_views
 
 FloatArray = NDArray[np.float64]
 CLICK_SIGMA_PX = (2.36, 2.75)  # (x, y) px, repeatability of clicking measured in the paper

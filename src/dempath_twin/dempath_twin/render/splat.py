@@ -4,7 +4,7 @@ The field recordings are rendered from the simulated bed itself: every sphere is
 an ideal (undistorted) pinhole image with a depth test, so grains in front hide grains and
 markers behind them (painter's algorithm by z-buffer, not a visibility flag); the tool's
 triangles go through the same depth test. Each pixel keeps the depth, the index of what it
-shows and the surface normal, from which ``field_render`` shades it. Shadows come from a
+shows and the surface normal, from which ``camera_frame`` shades it. Shadows come from a
 second depth buffer seen from the light (an orthographic shadow map, Williams 1978).
 
 Geometry: camera frame x right, y down, z forward (OpenCV); an ideal pixel (i, j) of a buffer

@@ -9,7 +9,7 @@ A reconstructor has ``fit(X (n, 4) px, y (n, 3) m, calibration=...) -> self`` an
 - ``dlt_refined``: the same plus Gauss-Newton refinement of the pixel reprojection error;
 - ``dlt_residual``: triangulation plus a small network learning its residual;
 - ``mlp``: the paper's 2048-1024-512 network (a trained one for the twin rig ships with the
-  package, ``dempath_recon.shipped``).
+  package, ``dempath_recon.methods.shipped``).
 
 The two learned methods need torch, an optional dependency (the extra ``mlp``,
 ``requirements-mlp.txt``); it is imported only when one of them is asked for, and its absence is
@@ -25,7 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dempath_recon.errors import ModelFileError, ReconstructionError
-from dempath_recon.triangulate import DLTTriangulator
+from dempath_recon.methods.triangulate import DLTTriangulator
 
 FloatArray = NDArray[np.float64]
 METHODS = ('dlt', 'dlt_refined', 'dlt_residual', 'mlp')
@@ -55,10 +55,10 @@ def learned_class(method: str) -> Any:
     """
     try:
         if method == 'mlp':
-            from dempath_recon.mlp import MLPReconstructor
+            from dempath_recon.methods.mlp import MLPReconstructor
 
             return MLPReconstructor
-        from dempath_recon.residual import ResidualReconstructor
+        from dempath_recon.methods.residual import ResidualReconstructor
     except ImportError as err:
         if (err.name or '').split('.')[0] != 'torch':
             raise
@@ -120,7 +120,7 @@ def load_reconstructor(method: str, calibration_file: str = '', model_file: str 
         return make_reconstructor(method).fit(calibration=load_calibration(calibration_file))
     if method == 'mlp' and not model_file:
         learned_class(method)  # torch is there, or one clear line
-        from dempath_recon.shipped import load_shipped_mlp
+        from dempath_recon.methods.shipped import load_shipped_mlp
 
         return load_shipped_mlp(device)
     if method in ('mlp', 'dlt_residual'):

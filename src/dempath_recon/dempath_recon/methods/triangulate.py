@@ -14,7 +14,7 @@ Method (Hartley & Zisserman, *Multiple View Geometry*, 2nd ed., sec. 12.2 and 4.
    ``1 / (r3 . X + t3)`` so that the residual approximates the image-plane error.
 3. Optional Gauss-Newton refinement of the reprojection error in distorted pixels (the maximum
    likelihood estimate for Gaussian pixel noise), whose normal matrix also gives the first-order
-   covariance used by :mod:`dempath_recon.uncertainty`.
+   covariance used by :mod:`dempath_recon.methods.uncertainty`.
 """
 
 from __future__ import annotations
@@ -312,7 +312,8 @@ class DLTTriangulator:
     """Classical reconstruction behind the estimator surface shared with the MLP.
 
     ``fit`` takes the calibration (a ``StereoCalibration`` or a sequence of cameras); when only
-    a point set is given, the cameras are resected from it (:mod:`dempath_recon.resection`).
+    a point set is given, the cameras are resected from it
+    (:mod:`dempath_recon.methods.resection`).
 
     Args:
         refine: run the Gauss-Newton refinement after the linear solve.
@@ -339,7 +340,7 @@ class DLTTriangulator:
             cams = getattr(calibration, 'cameras', calibration)
             self.cameras_ = tuple(cams)
         elif X is not None and y is not None:
-            from dempath_recon.resection import resect_stereo
+            from dempath_recon.methods.resection import resect_stereo
             self.cameras_ = resect_stereo(np.asarray(X, float), np.asarray(y, float))
         else:
             msg = 'fit: give a calibration, or pixels X (n, 4) and points y (n, 3)'

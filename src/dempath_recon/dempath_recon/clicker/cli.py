@@ -13,9 +13,9 @@ import logging
 import sys
 from pathlib import Path
 
-from dempath_recon.clickframes import open_frames
-from dempath_recon.clicks import ClickBounds, ClickStore, parse_markers, read_clicks_text
-from dempath_recon.clickserver import ClickServer, ClickSession, Detection
+from dempath_recon.clicker.clicks import ClickBounds, ClickStore, parse_markers, read_clicks_text
+from dempath_recon.clicker.frames import open_frames
+from dempath_recon.clicker.server import ClickServer, ClickSession, Detection
 from dempath_recon.errors import ClickError
 
 LOG = logging.getLogger(__name__)

@@ -20,15 +20,15 @@ from dempath import topics
 from dempath.bagio import write_bag
 from dempath_calib.board import PAPER_BOARD, BoardSpec
 from dempath_calib.camera import StereoCalibration
-from dempath_twin.images import jpeg_message, stamp_header
-from dempath_twin.rig import paper_rig
-from dempath_twin.views import (
+from dempath_twin.board.recording import (
     BoardPose,
     calibration_poses,
     render_views,
     save_truth,
     smooth_poses,
 )
+from dempath_twin.images import jpeg_message, stamp_header
+from dempath_twin.rig import paper_rig
 
 LOG = logging.getLogger(__name__)
 JPEG_QUALITY = 92  # GoPro-like compression; corners stay within ~0.05 px

@@ -26,7 +26,7 @@ from numpy.typing import NDArray
 
 from dempath import topics
 from dempath.bagio import make_typestore, write_bag
-from dempath_twin.field import background
+from dempath_twin.field.markers import background
 from dempath_twin.images import jpeg_message, stamp_header
 
 WIDTH, HEIGHT, FPS, SECONDS = 640, 360, 50, 2.0

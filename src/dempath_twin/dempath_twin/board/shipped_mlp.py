@@ -1,11 +1,12 @@
 """Rebuild the MLP that ships with dempath_recon from the twin's calibration point set.
 
-The twin (``views.synthetic_point_set``: 94,939 board corners seen through ``paper_rig``, 0.2 px
-corner noise, seed 0) is split as in the paper (4,149 held-out rows); the default
-:class:`~dempath_recon.mlp.MLPReconstructor` trains on the rest and is saved as float16 into
-``dempath_recon/data`` (see :mod:`dempath_recon.shipped`). About 2-3 minutes on two idle cores::
+The twin (``recording.synthetic_point_set``: 94,939 board corners seen through ``paper_rig``, 0.2
+px corner noise, seed 0) is split as in the paper (4,149 held-out rows); the default
+:class:`~dempath_recon.methods.mlp.MLPReconstructor` trains on the rest and is saved as float16
+into ``dempath_recon/data`` (see :mod:`dempath_recon.methods.shipped`). About 2-3 minutes on two
+idle cores::
 
-    python -m dempath_twin.mlp_build [--out DIR] [--threads 2]
+    python -m dempath_twin.board.shipped_mlp [--out DIR] [--threads 2]
 """
 
 from __future__ import annotations
@@ -23,10 +24,10 @@ import numpy as np
 import torch
 from numpy.typing import NDArray
 
-from dempath_recon.mlp import MLPReconstructor
-from dempath_recon.report import error_metrics, holdout_split
-from dempath_recon.shipped import DATA_DIR, RIG_NOTE, SHIPPED_NAME
-from dempath_twin.views import synthetic_point_set
+from dempath_recon.methods.evaluation import error_metrics, holdout_split
+from dempath_recon.methods.mlp import MLPReconstructor
+from dempath_recon.methods.shipped import DATA_DIR, RIG_NOTE, SHIPPED_NAME
+from dempath_twin.board.recording import synthetic_point_set
 
 FloatArray = NDArray[np.float64]
 TWIN_SAMPLES, TWIN_NOISE_PX, TWIN_SEED = 94_939, 0.2, 0  # the paper's point-set size
@@ -55,8 +56,9 @@ def build_shipped(out_dir: str | Path = DATA_DIR, seed: int = TWIN_SEED) -> dict
     path = est.save(out / f'{SHIPPED_NAME}.pt', weights='float16')
     loaded = MLPReconstructor.load(path, device='cpu')
     info = {'file': path.name, 'bytes': path.stat().st_size, 'weights': 'float16',
-            'note': RIG_NOTE, 'rebuild': 'python -m dempath_twin.mlp_build',
-            'data': {'source': 'dempath_twin.views.synthetic_point_set', 'rig': 'paper_rig',
+            'note': RIG_NOTE, 'rebuild': 'python -m dempath_twin.board.shipped_mlp',
+            'data': {'source': 'dempath_twin.board.recording.synthetic_point_set',
+                     'rig': 'paper_rig',
                      'samples': TWIN_SAMPLES, 'corner_noise_px': TWIN_NOISE_PX, 'seed': seed,
                      'train_rows': len(px), 'held_out_rows': len(px_test)},
             'params': est.get_params(), 'epochs_run': est.n_iter_,
@@ -72,8 +74,9 @@ def build_shipped(out_dir: str | Path = DATA_DIR, seed: int = TWIN_SEED) -> dict
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``python -m dempath_twin.mlp_build``: rebuild the shipped network; prints its figures."""
-    parser = argparse.ArgumentParser(prog='python -m dempath_twin.mlp_build',
+    """``python -m dempath_twin.board.shipped_mlp``: rebuild the shipped network; prints its
+    figures."""
+    parser = argparse.ArgumentParser(prog='python -m dempath_twin.board.shipped_mlp',
                                      description=main.__doc__)
     parser.add_argument('--out', default=str(DATA_DIR), help='folder for the .pt and .json')
     parser.add_argument('--threads', type=int, default=2, help='torch CPU threads')

@@ -24,8 +24,8 @@ import torch
 from numpy.typing import NDArray
 
 from dempath_recon.errors import ModelFileError, NotFittedError
-from dempath_recon.mlp import check_pixels, read_model_file
-from dempath_recon.nets import (
+from dempath_recon.methods.mlp import check_pixels, read_model_file
+from dempath_recon.methods.nets import (
     MinMaxScaler,
     TrainSettings,
     build_mlp,
@@ -33,8 +33,8 @@ from dempath_recon.nets import (
     resolve_device,
     train_network,
 )
-from dempath_recon.params import ParamsMixin
-from dempath_recon.triangulate import DLTTriangulator
+from dempath_recon.methods.params import ParamsMixin
+from dempath_recon.methods.triangulate import DLTTriangulator
 
 FloatArray = NDArray[np.float64]
 logger = logging.getLogger(__name__)

@@ -2,7 +2,7 @@
 
 The recording starts with a calibration segment (the ChArUco board moved through the shared
 view, rendered by the calibration twin's board renderer), then every camera frame of the run:
-the whole bed rendered from the run's snapshots (``field_render``), markers as 8 mm clay
+the whole bed rendered from the run's snapshots (``camera_frame``), markers as 8 mm clay
 spheres riding on their particles, the steel tool, changing light, motion blur, noise and JPEG.
 The two cameras are not synchronised: the front camera exposes ``front_offset_s`` after the side
 one, and each stamps its frames with its own clock. The bag (rosbag2 MCAP) holds per camera
@@ -26,8 +26,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from dempath_twin.bed_source import BedRecord
-from dempath_twin.field_render import (
+from dempath_twin.render.bed_source import BedRecord
+from dempath_twin.render.camera_frame import (
     CLAY_BGR,
     SAND_BGR,
     FieldCamera,

@@ -26,8 +26,10 @@ from numpy.typing import NDArray
 from dempath import topics
 from dempath.bagio import make_typestore, write_bag
 from dempath.errors import DempathError
-from dempath_twin.bed_source import BedRecord, load_bed, run_for_recording
-from dempath_twin.field_record import (
+from dempath_twin.images import jpeg_message, stamp_header
+from dempath_twin.render.bed_source import BedRecord, load_bed, run_for_recording
+from dempath_twin.render.camera_frame import Look
+from dempath_twin.render.recording import (
     CALIB_GAP_S,
     START_NS,
     FrameTruth,
@@ -37,8 +39,6 @@ from dempath_twin.field_record import (
     save_truth,
     truth_json,
 )
-from dempath_twin.field_render import Look
-from dempath_twin.images import jpeg_message, stamp_header
 
 LOG = logging.getLogger(__name__)
 
@@ -71,7 +71,7 @@ def calibration_frames(rig: Any, config: RecordingConfig,
                        ) -> tuple[list[tuple[int, NDArray[np.uint8], int]], dict[str, Any]]:
     """The calibration segment: ``(camera index, BGR image, stamp)`` and its truth."""
     from dempath_calib.camera import StereoCalibration
-    from dempath_twin.views import calibration_poses, render_views, truth_dict
+    from dempath_twin.board.recording import calibration_poses, render_views, truth_dict
 
     if config.calib_views == 0:
         return [], {'views': 0}
@@ -122,7 +122,7 @@ def write_field_recording(bed: BedRecord, rig: Any, out: Path,
 
 
 def _origin(bed: BedRecord) -> Any:
-    from dempath_twin.field_record import grid_origin
+    from dempath_twin.render.recording import grid_origin
 
     return grid_origin(bed)
 

@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from dempath.bagio import make_typestore, write_bag
-from dempath_twin import field as ft
+from dempath_twin.field import markers as ft
 from dempath_twin.rig import paper_rig
 
 HIDDEN: dict[str, Any] = {'seed': 7, 'on': ['cohesion'], 'effects': {}}  # for the diagnosis

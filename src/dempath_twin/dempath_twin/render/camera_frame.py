@@ -1,7 +1,7 @@
 """What one camera of the twin rig sees of the simulated bed: a shaded, distorted colour frame.
 
 Every sphere of the bed and the tool's triangles are depth-tested into an ideal pinhole image
-(``bed_view``) at ``supersample`` times the sensor's resolution; each pixel is shaded from a
+(``splat``) at ``supersample`` times the sensor's resolution; each pixel is shaded from a
 directional light with an ambient term (Lambert) and a shadow map, sand grains get their own
 albedo and a texture, the marker spheres a clay colour that contrasts with sand, the steel tool
 a specular highlight. The ideal image is box-filtered to the sensor's pitch (anti-aliasing) and
@@ -22,7 +22,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from dempath_twin.bed_view import (
+from dempath_twin.render.splat import (
     NO_HIT,
     light_frame,
     lookup_shadow,

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from dempath_sim.validation import CASES, energy, impact, incline, repose
+from dempath_sim.validation import CASES, energy_conservation, impact, incline, repose
 from dempath_sim.validation.cross_engine import CrossEngineReport
 
 logger = logging.getLogger(__name__)
@@ -119,10 +119,11 @@ def _incline(rep: Report) -> None:
 
 
 def _energy(rep: Report) -> None:
-    case = energy.EnergyCase()
-    res = [energy.energy_dempath(case)]
+    case = energy_conservation.EnergyCase()
+    res = [energy_conservation.energy_dempath(case)]
     if rep.liggghts:
-        res.append(energy.energy_liggghts(case, rep.out / 'work' / 'energy', res[0].dt))
+        res.append(energy_conservation.energy_liggghts(case, rep.out / 'work' / 'energy',
+                                                       res[0].dt))
     rep.figures['energy'] = {r.engine: r.drift for r in res}
     rep.lines += ['## Energy', '', f'{case.n_side ** 3} elastic frictionless spheres in a '
                   f'closed box, no gravity, {case.steps} steps; kinetic + Hertz elastic energy.',
