@@ -221,6 +221,18 @@ def http_server() -> str:
     return f'tcp://127.0.0.1:{server.server_address[1]}'
 
 
+def frame_folder(work: Path) -> Path:
+    """Two cameras x two small frames for ``dempath click``."""
+    import cv2
+    import numpy as np
+
+    for camera in ('cam_side', 'cam_front'):
+        (work / 'frames' / camera).mkdir(parents=True, exist_ok=True)
+        for k in range(2):
+            cv2.imwrite(str(work / 'frames' / camera / f'{k}.png'), np.zeros((24, 32, 3), 'u1'))
+    return work / 'frames'
+
+
 def diagnose(work: Path, name: str, *extra: str, scene: str = 'reduced_1ms',
              measured: Path = MEASURED, library: Path = LIBRARY, warn: str = '') -> Outcome:
     """``dempath diagnose`` on the shipped packed library with changed inputs."""
@@ -261,6 +273,9 @@ def all_cases(work: Path) -> dict[str, Callable[[], Outcome]]:
             lambda: corrupt_packing_cache(work), warn='set aside'),
         'tool mesh: 1.2 M triangles': lambda: call(big_mesh, warn='triangles'),
         'run_id: other time step': lambda: call(run_ids_differ, warn='distinct'),
+        'click: --host 0.0.0.0 without --allow-remote': lambda: run(
+            ['click', str(frame_folder(work)), '--host', '0.0.0.0', '--port', '0', '--out',
+             str(work / 'clicks.csv')]),
         'diagnose: --scheduler an HTTP server': lambda: run(
             ['diagnose', '--measured', str(MEASURED), '--scene', 'reduced_1ms', '--origin',
              ORIGIN, '--out', str(work / 'diag_http'), '--library-root', str(work / 'libs'),
