@@ -1,7 +1,7 @@
 """Benchmark: marker detection and tracking on a rendered field recording, against its truth.
 
 Reads a bag written by ``dempath twin render`` (default: the bundled one) and its
-``<bag>.truth.json``, runs the two-camera pipeline (``dempath_recon.stereo_track``: JPEG decode,
+``<bag>.truth.json``, runs the two-camera pipeline (``dempath_recon.tracking.stereo``: JPEG decode,
 detection, tracking, numbering) over the run's frames, and compares with the truth:
 
 - ``fps``: frames processed per second of wall time, decode included (JPEGs read from the bag
@@ -45,9 +45,13 @@ import numpy as np
 
 from dempath.bagio import open_bag
 from dempath_calib.camera import CameraModel
-from dempath_recon.associate import MarkerGrid
-from dempath_recon.detect import MarkerDetector, decode_jpeg
-from dempath_recon.stereo_track import StereoMarkerTracker, StereoTrackConfig, triangulate_tracks
+from dempath_recon.tracking.associate import MarkerGrid
+from dempath_recon.tracking.detect import MarkerDetector, decode_jpeg
+from dempath_recon.tracking.stereo import (
+    StereoMarkerTracker,
+    StereoTrackConfig,
+    triangulate_tracks,
+)
 
 HERE = Path(__file__).resolve().parent
 DEFAULT_BAG = HERE.parent / 'bags' / 'field_render_reduced_1ms'
@@ -172,8 +176,7 @@ def node_path(bag: Path, frames: list[tuple[str, int, bytes]], truth: dict) -> d
         fr = cores[cam].update(cam, stamp * 1e-9, data)
         keep = fr.markers >= 0
         other = names[1 - names.index(cam)]
-        for m, uv in zip(fr.markers[keep], fr.uv[keep], strict=True):  # the node's on_other
-            cores[other].latest[cam][int(m)] = (stamp * 1e-9, uv)
+        cores[other].note_other(cam, stamp * 1e-9, fr.markers[keep], fr.uv[keep])  # on_other
         unnumbered += int((~keep).sum())
         true_uv = np.array(by_key[(cam, stamp)]['uv']) if (cam, stamp) in by_key else None
         for m, uv in zip(fr.markers[keep], fr.uv[keep], strict=True):

@@ -11,10 +11,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dempath_recon.associate import MarkerGrid, MarkerPositions
-from dempath_recon.detect import Detections
-from dempath_recon.stereo_track import StereoMarkerTracker, StereoTrackConfig
-from dempath_recon.track import TrackerConfig
+from dempath_recon.tracking.associate import MarkerGrid, MarkerPositions
+from dempath_recon.tracking.detect import Detections
+from dempath_recon.tracking.linker import TrackerConfig
+from dempath_recon.tracking.stereo import StereoMarkerTracker, StereoTrackConfig
 
 DT = 0.02  # frame period [s]
 OFFSET = 0.003  # the front camera exposes this much after the side one [s]

@@ -53,10 +53,10 @@ from dempath import topics
 from dempath.nodes.spin import run_node
 from dempath.workqueue import WorkQueue
 from dempath_msgs.msg import PixelPoints
-from dempath_recon.associate import MarkerGrid
 from dempath_recon.errors import ReconstructionError
-from dempath_recon.stereo_track import PixelFrame, StereoMarkerTracker, StereoTrackConfig
 from dempath_recon.stride import FrameStride
+from dempath_recon.tracking.associate import MarkerGrid
+from dempath_recon.tracking.stereo import PixelFrame, StereoMarkerTracker, StereoTrackConfig
 
 PARAMETERS: tuple[tuple[str, Any, str], ...] = (
     ('camera', 'cam_side', 'camera whose images this node detects in (cam_side, cam_front)'),
@@ -117,7 +117,7 @@ class Latency:
 
 
 class DetectorNode(Node):
-    """Thin adapter around :class:`dempath_recon.stereo_track.StereoMarkerTracker`."""
+    """Thin adapter around :class:`dempath_recon.tracking.stereo.StereoMarkerTracker`."""
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__('dempath_detector', **kwargs)
@@ -203,9 +203,8 @@ class DetectorNode(Node):
 
     def note_other(self, msg: PixelPoints) -> None:
         """Remember the other camera's numbered markers (for epipolar numbering)."""
-        t = _stamp_s(msg)
-        for m, u, v in zip(msg.marker_ids, msg.u, msg.v, strict=True):
-            self.core.latest[self.other][int(m)] = (t, np.array([u, v], np.float64))
+        self.core.note_other(self.other, _stamp_s(msg), np.asarray(msg.marker_ids, np.int32),
+                             np.column_stack([msg.u, msg.v]).astype(np.float64))
 
     def publish(self, frame: PixelFrame, header: Any) -> None:
         """PixelPoints of the numbered markers; log the frame's events."""
@@ -222,12 +221,17 @@ class DetectorNode(Node):
         self.pub.publish(out)
         self.counts['published'] += 1
 
+    def handled_frames(self) -> int:
+        """Frames the worker has finished with, skipped ones (undecodable, out of order,
+        failed) included: whoever waits for the detector waits for this count."""
+        c = self.core.counts[self.camera]
+        return int(c.frames + c.undecodable + c.out_of_order + self.counts['failed'])
+
     def figures(self) -> dict[str, int | float]:
         """Every count of this camera (what ``/diagnostics`` carries)."""
         core = {k: v for k, v in self.core.report()[self.camera].items() if k != 'gaps_s'}
         core['gap_frames'] = core.pop('dropped')
-        processed = (core['frames'] + core['undecodable'] + core['out_of_order']
-                     + self.counts['failed'])
+        processed = self.handled_frames()
         return {**self.counts, 'missing_in': self.stride.missing,
                 'processed': processed, 'skipped': self.stride.skipped,
                 'stride': self.stride.stride, 'most_stride': self.stride.most_stride,
