@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import yaml
 
 from dempath_sim.runs.markers import (
     ROLE_CANDIDATE,
@@ -12,7 +13,9 @@ from dempath_sim.runs.markers import (
     grid_xz,
     select_markers,
 )
+from dempath_sim.scene import SceneError, load_scene, scene_from_dict
 from dempath_sim.scene.spec import MarkerSpec
+from dempath_sim.validation.deck_setup import RAKED_TINE
 
 D = 0.004  # grain diameter of the paper's top layer [m]
 
@@ -70,3 +73,25 @@ def test_grid_outside_the_bed_is_an_error() -> None:
     pos, rad, ids = cubic_bed()
     with pytest.raises(MarkerSelectionError, match='marker 1'):
         select_markers(pos, rad, ids, MarkerSpec(first_z_m=2.0))
+
+
+def test_top_pick_takes_the_highest_grain_not_a_half_buried_one() -> None:
+    """Beside a grain resting on top (centre at Y = 0) a half-buried grain lies right at the
+    grid point (centre 5 mm lower, its top within one diameter of the surface): the default
+    rule takes the buried one, ``pick: top`` (the hand-written decks' surface grain) the top
+    one; a scene file reads the key and refuses another value."""
+    pos = np.array([[0.0, -0.005, 1.0], [0.008, 0.0, 1.0]])
+    rad = np.full(2, 0.004)
+    ids = np.array([7, 8])
+    grid = {'rows': 1, 'columns': 1, 'first_z_m': 1.0}
+    assert select_markers(pos, rad, ids, MarkerSpec(**grid)).particle_ids.tolist() == [7]
+    top = select_markers(pos, rad, ids, MarkerSpec(**grid, pick='top'))
+    assert top.particle_ids.tolist() == [8]
+    scene = load_scene(RAKED_TINE.scene_file())
+    assert scene.markers.pick == 'exposed'
+    raw = yaml.safe_load(RAKED_TINE.scene_file().read_text())
+    raw['markers']['pick'] = 'top'
+    assert scene_from_dict(raw, base_dir=RAKED_TINE.folder).markers.pick == 'top'
+    raw['markers']['pick'] = 'highest'
+    with pytest.raises(SceneError, match="pick: 'highest' is not one of exposed, top"):
+        scene_from_dict(raw, base_dir=RAKED_TINE.folder)

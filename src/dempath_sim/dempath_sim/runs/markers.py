@@ -9,7 +9,11 @@ tool (30 x 20 x 10 mm in X, Y, Z, about 90 particles of 4 mm) centred on the gri
 Z and reaching down from the local surface. Particles are referred to by their stable ids.
 
 Assumptions: the local surface height is the highest particle top within two diameters of the
-grid point; a particle is on the surface when its top is within one diameter of that height.
+grid point; a particle is on the surface when its top is within one diameter of that height
+(``MarkerSpec.pick: exposed``, the default) or, with ``pick: top``, when its centre is within one
+radius of the highest centre there (the hand-written LIGGGHTS decks' surface grains: they sit
+about 2 mm higher on the raked-tine bin's 7-8 mm sand, and grains beside a tine move outward
+less the deeper they sit, docs/liggghts.md).
 A particle inside two cubes is a candidate of the lower-numbered marker only.
 """
 
@@ -78,8 +82,10 @@ def grid_xz(spec: MarkerSpec) -> tuple[NDArray[np.int32], NDArray[np.float64]]:
 
 
 def _pick_marker(positions: NDArray[np.float64], radii: NDArray[np.float64],
-                 point: NDArray[np.float64], number: int) -> tuple[int, float]:
-    """Index of the surface particle nearest ``point`` (x, z) and the local surface height."""
+                 point: NDArray[np.float64], number: int, pick: str = 'exposed'
+                 ) -> tuple[int, float]:
+    """Index of the surface particle nearest ``point`` (x, z) by the rule ``pick`` and the
+    local surface height."""
     d_xz = np.hypot(positions[:, 0] - point[0], positions[:, 2] - point[1])
     reach = 4.0 * float(np.median(radii))
     near = np.flatnonzero(d_xz < reach)
@@ -88,7 +94,11 @@ def _pick_marker(positions: NDArray[np.float64], radii: NDArray[np.float64],
         raise MarkerSelectionError(msg)
     tops = positions[near, 1] + radii[near]
     surface = float(tops.max())
-    exposed = near[tops > surface - 2.0 * radii[near]]
+    if pick == 'top':
+        centres = positions[near, 1]
+        exposed = near[centres > centres.max() - float(np.median(radii))]
+    else:
+        exposed = near[tops > surface - 2.0 * radii[near]]
     return int(exposed[np.argmin(d_xz[exposed])]), surface
 
 
@@ -114,7 +124,7 @@ def select_markers(positions: NDArray[np.float64], radii: NDArray[np.float64],
     cand_num: list[NDArray[np.int32]] = []
     sx, sy, sz = spec.cube_size_m
     for number, point in zip(numbers, points, strict=True):
-        index, surface = _pick_marker(positions, radii, point, int(number))
+        index, surface = _pick_marker(positions, radii, point, int(number), spec.pick)
         chosen.append(index)
         grid.append((point[0], surface, point[1]))
         taken[index] = True

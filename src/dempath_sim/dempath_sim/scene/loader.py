@@ -52,7 +52,7 @@ from dempath_sim.errors import GeometryError, SceneError
 from dempath_sim.scene import profiles
 from dempath_sim.scene import spec as records
 from dempath_sim.scene._reader import Reader
-from dempath_sim.scene.spec import SceneSpec, read_effects
+from dempath_sim.scene.spec import MARKER_PICKS, SceneSpec, read_effects
 
 __all__ = ['bundled_scene', 'list_bundled_scenes', 'load_scene', 'parse_overrides',
            'resolve_scene', 'scene_from_dict']
@@ -204,7 +204,8 @@ def _read_markers(r: Reader, bin_spec: records.BinSpec) -> records.MarkerSpec:
         first_z_m=r.number('first_z_m', 0.0, bin_spec.length_z_m),
         x_m=r.number('x_m', -bin_spec.width_x_m / 2, bin_spec.width_x_m / 2, 0.0),
         side=r.integer('side', -1, 1, 1),
-        cube_size_m=r.vector('cube_size_m', 3, 1e-4, 1.0, (0.03, 0.02, 0.01)))  # type: ignore[arg-type]
+        cube_size_m=r.vector('cube_size_m', 3, 1e-4, 1.0, (0.03, 0.02, 0.01)),  # type: ignore[arg-type]
+        pick=r.text('pick', 'exposed', MARKER_PICKS))
     if spec.side == 0:
         r.fail('side', 'must be +1 or -1 (the side of the axis the other rows lie on)')
     last_z = spec.first_z_m + (spec.columns - 1) * spec.spacing_z_m

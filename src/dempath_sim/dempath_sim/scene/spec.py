@@ -110,12 +110,19 @@ class ToolSpec:
     settle_s: float = 0.06
 
 
+MARKER_PICKS = ('exposed', 'top')  # MarkerSpec.pick
+
+
 @dataclass(frozen=True)
 class MarkerSpec:
     """Marker grid (paper Sec. 2.1: 3 x 5, 50 mm, 1-5 on the tool axis) and candidate cube.
 
     Markers are numbered row by row: row 0 (on the tool axis, X = x_m) holds 1..columns in
-    travel order, row r lies at X = x_m + r * side * spacing_x_m.
+    travel order, row r lies at X = x_m + r * side * spacing_x_m. ``pick``: which grain near a
+    grid point is its marker (``runs.markers``): ``exposed`` (default), the nearest whose top
+    lies within one diameter of the local surface; ``top``, the nearest whose centre lies within
+    one radius of the highest centre there, as the hand-written LIGGGHTS decks pick surface
+    grains (grains beside a tine move outward less the deeper they sit).
     """
 
     rows: int = 3
@@ -126,6 +133,7 @@ class MarkerSpec:
     x_m: float = 0.0
     side: int = 1
     cube_size_m: tuple[float, float, float] = (0.03, 0.02, 0.01)
+    pick: str = 'exposed'
 
 
 @dataclass(frozen=True)
