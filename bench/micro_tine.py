@@ -37,10 +37,13 @@ from numpy.typing import NDArray
 from dempath_sim.engine import Engine, Plane, SimState, ToolPose, TriangleMesh
 from dempath_sim.engine.laws.dispatch import TAB_FORMS, TAB_SPRING
 from dempath_sim.runs import PARTICLES, TOOL, WALLS, build_params
+from dempath_sim.runs.markers import select_markers
+from dempath_sim.scene.spec import MARKER_PICKS, MarkerSpec
 from dempath_sim.validation.cross_engine import same_physics
 from dempath_sim.validation.deck_setup import (
     LEANING_TINE,
     RAKED_TINE,
+    SIDE_X,
     Deck,
     read_data,
     read_dump,
@@ -585,6 +588,65 @@ def scene_bed_factors(work: Path) -> dict[str, Any]:
     return _over_seeds(per_seed)
 
 
+RULE_Z = (0.10, 0.12, 0.14, 0.16)  # m, marker grid points beside the tine's path (poured beds)
+
+
+def _marker_rules(run: Path) -> dict[str, Any]:
+    """On one LIGGGHTS push of a poured bed (its dump of every grain): the outward motion of the
+    grains 40-60 mm beside the axis per 3 mm of depth below the local surface (highest top
+    within 15 mm), and of the markers at X = +-50 mm, Z = RULE_Z picked by each
+    ``MarkerSpec.pick`` rule (their forward motion and mean depth too)."""
+    frames = read_dump(run / 'micro.dump')
+    data = read_data(run / 'micro.data')
+    (_, first), (_, last) = frames[0], frames[-1]
+    ids = np.asarray(first['id'], np.int64)
+    p0 = np.stack([first['x'], first['y'], first['z']], 1)
+    where = {int(i): k for k, i in enumerate(last['id'])}
+    p1 = np.stack([last['x'], last['y'], last['z']], 1)[[where[int(i)] for i in ids]]
+    rad = data['radii'][np.searchsorted(data['ids'], ids)]
+    tops = p0[:, 1] + rad
+    depth = np.array([tops[np.hypot(p0[:, 0] - p[0], p0[:, 2] - p[2]) < 0.015].max() - t
+                      for p, t in zip(p0, tops, strict=True)])
+    outward = np.sign(p0[:, 0]) * (p1[:, 0] - p0[:, 0])
+    side = ((np.abs(p0[:, 0]) > 0.04) & (np.abs(p0[:, 0]) < 0.06)
+            & (p0[:, 2] > RULE_Z[0] - 0.01) & (p0[:, 2] < RULE_Z[-1] + 0.01))
+    out: dict[str, Any] = {'depth_mm': [], 'outward_mm': [], 'grains': []}
+    for lo in np.arange(0.0, 0.024, 0.003):
+        band = side & (depth >= lo) & (depth < lo + 0.003)
+        out['depth_mm'].append(round(float(lo) * 1e3, 1))
+        out['outward_mm'].append(round(float(outward[band].mean()) * 1e3, 2))
+        out['grains'].append(int(band.sum()))
+    for pick in MARKER_PICKS:
+        chosen = np.concatenate([
+            select_markers(p0, rad, ids, MarkerSpec(
+                rows=1, columns=len(RULE_Z), x_m=x, first_z_m=RULE_Z[0],
+                spacing_z_m=RULE_Z[1] - RULE_Z[0], pick=pick)).particle_ids
+            for x in (-SIDE_X, SIDE_X)])
+        k = np.searchsorted(ids, chosen, sorter=np.argsort(ids))
+        k = np.argsort(ids)[k]
+        out[pick] = {'outward_mm': round(float(outward[k].mean()) * 1e3, 2),
+                     'forward_mm': round(float((p1[k, 2] - p0[k, 2]).mean()) * 1e3, 2),
+                     'depth_mm': round(float(depth[k].mean()) * 1e3, 2)}
+    return out
+
+
+def scene_marker_rules(work: Path) -> dict[str, Any]:
+    """The marker rules on the LIGGGHTS pushes of the poured beds that ``poured_laws`` left in
+    ``work`` (LAW_SEEDS): how much a grain's depth and the rule that picks it change the side
+    markers' outward motion, on the same trajectories."""
+    size = LAW_BEDS['poured']
+    per_seed = {}
+    for seed in LAW_SEEDS:
+        run = work / (f'{size.name}_push' if seed == 1 else f'{size.name}_push_s{seed}')
+        if (run / 'micro.dump').exists():
+            per_seed[seed] = _marker_rules(run)
+    out: dict[str, Any] = {'seeds': per_seed}
+    for pick in MARKER_PICKS:
+        out[pick] = {k: round(float(np.mean([r[pick][k] for r in per_seed.values()])), 2)
+                     for k in ('outward_mm', 'forward_mm', 'depth_mm')}
+    return out
+
+
 def read_stl_x(path: Path) -> list[float]:
     """X of every vertex of an ASCII STL [m]."""
     return [float(line.split()[1]) for line in path.read_text().splitlines()
@@ -594,7 +656,7 @@ def read_stl_x(path: Path) -> list[float]:
 SCENES = {'edge': scene_edge, 'wall': scene_wall, 'impact': scene_impact, 'drop': scene_drop,
           'bed': scene_bed, 'bed_laws': scene_bed_laws,
           'bed_factors': scene_bed_factors, 'mid_laws': scene_mid_laws,
-          'poured_laws': scene_poured_laws}
+          'poured_laws': scene_poured_laws, 'marker_rules': scene_marker_rules}
 
 
 def main(argv: list[str] | None = None) -> dict[str, Any]:
