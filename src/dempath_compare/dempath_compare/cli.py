@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import logging
 import sys
+from pathlib import Path
 from typing import NoReturn
 
 from dempath.errors import DempathError
@@ -43,6 +44,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument('--dtw-engine', choices=['kernel', 'dtaidistance'], default='kernel',
                         help='source of the DTW distances (identical numbers) [kernel]')
     parser.add_argument('--no-plots', action='store_true', help='skip the PNG figures')
+    parser.add_argument('--model-map', type=Path, metavar='YAML',
+                        help='how to read a foreign model export: a LIGGGHTS dump (its time '
+                             'step) or an EDEM/Rocky CSV (columns, units, axes); see '
+                             'docs/compare.md')
     return parser
 
 
@@ -70,6 +75,7 @@ def print_ranking(result: CompareResult, top: int) -> None:
 
 def compare_main(argv: list[str]) -> int:
     """``dempath compare MEASURED MODEL --out DIR``: score model against measured trajectories."""
+    from dempath_compare.foreign import load_mapping
     from dempath_compare.pipeline import compare_paths, problems
     from dempath_compare.report import write_outputs
 
@@ -81,7 +87,8 @@ def compare_main(argv: list[str]) -> int:
                                pairing=args.pairing, range_kind=args.range_kind,
                                trim_y_drop=args.trim_y_drop, rest_samples=args.rest_samples,
                                dtw_engine=args.dtw_engine)
-        result = compare_paths(args.measured, args.model, config)
+        model_map = load_mapping(args.model_map) if args.model_map else None
+        result = compare_paths(args.measured, args.model, config, model_map)
         print_ranking(result, args.top)
         outputs = write_outputs(result, args.out, plots=not args.no_plots)
     except DempathError as err:

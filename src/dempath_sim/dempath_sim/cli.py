@@ -3,8 +3,10 @@
 ``dempath simulate SCENE [--out DIR] [--seed N] [--effect EFFECT.PARAM=VALUE ...] [--off EFFECT]``
 fills (or reads the cached packing), drives the tool with a progress bar showing simulated time
 and the real-time factor, and writes ``model.csv`` (t,id,x,y,z), ``markers.csv``
-(t,marker,x,y,z), ``tool.csv``, ``result.npz`` and ``summary.json`` to DIR. SCENE is a scene
-file or the name of a shipped scene (``tiny``, ``reduced_1ms``, ... or ``builtin:tiny``).
+(t,marker,x,y,z), ``tool.csv``, ``result.npz`` and ``summary.json`` to DIR; with ``--vtk`` also
+the bed snapshots (with radii) and the tool per snapshot as VTK for ParaView (DIR/vtk, see
+:mod:`dempath_sim.runs.vtk`). SCENE is a scene file or the name of a shipped scene (``tiny``,
+``reduced_1ms``, ... or ``builtin:tiny``).
 
 ``dempath effects [SCENE] [--json]`` prints every effect with its parameters, units, ranges and
 defaults, and, with a scene, whether each is on and the scene's values.
@@ -20,7 +22,9 @@ from typing import Any
 
 from dempath.errors import DempathError
 from dempath_sim.effects import effect_table
+from dempath_sim.engine import TriangleMesh
 from dempath_sim.runs import Progress, RunOptions, run_scene
+from dempath_sim.runs.vtk import write_vtk
 from dempath_sim.scene import SceneError, SceneSpec, parse_overrides, resolve_scene
 
 
@@ -42,6 +46,9 @@ def _simulate_parser() -> argparse.ArgumentParser:
     p.add_argument('--on', action='append', default=[], metavar='EFFECT',
                    help='switch an effect on with its scene/default values; repeatable')
     p.add_argument('--cache-dir', type=Path, help='packing cache directory')
+    p.add_argument('--vtk', action='store_true',
+                   help='also write the bed snapshots (with radii) and the tool per snapshot as '
+                        'VTK for ParaView (DIR/vtk/bed.pvd, tool.pvd)')
     p.add_argument('--quiet', action='store_true', help='no progress bar')
     return p
 
@@ -90,6 +97,10 @@ def simulate_main(argv: list[str]) -> int:
         summary = {**result.meta, 'outputs': str(out),
                    'max_draft_force_n': float(max(result.draft_force(), default=0.0))}
         (out / 'summary.json').write_text(json.dumps(summary, indent=2))
+        if args.vtk:
+            mesh = TriangleMesh.from_stl(scene.tool.mesh, scale=scene.tool.scale)
+            vtk = write_vtk(result, mesh.triangles, out / 'vtk')
+            print(f'VTK: {vtk.bed_series} and {vtk.tool_series} ({len(vtk.bed_files)} frames)')
     except (DempathError, OSError) as err:
         print(_error_line(args.scene, err), file=sys.stderr)
         return 1

@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from dempath.dumpio import frames_by_id, read_dump, read_print
 from dempath_sim.effects import PhysicsModel
 from dempath_sim.engine.mesh import TriangleMesh
 from dempath_sim.engine.params import SimParams
@@ -26,7 +27,6 @@ from dempath_sim.engine.timestep import rayleigh_time_step
 from dempath_sim.errors import RunStoppedError, SceneError
 from dempath_sim.liggghts import deck as dk
 from dempath_sim.liggghts.commands import write_ascii_stl
-from dempath_sim.liggghts.dumps import frames_by_id, read_dump, read_print
 from dempath_sim.liggghts.errors import DeckError
 from dempath_sim.liggghts.runner import RunOutput, run_deck
 from dempath_sim.runs.backend import RunOptions

@@ -118,9 +118,9 @@ def _prepare_drive(scene: SceneSpec, params: SimParams, model: PhysicsModel, sta
     dt = float(engine.dt or 0.0)
     steps = max(1, round(scene.output.interval_s / dt))
     per_snap = max(1, round(scene.output.snapshot_interval_s / (steps * dt)))
-    drive = _Drive(engine, path, Recorder(ids, roles, marker_ids, radii, state.ids.copy()),
-                   selection, path.time_to_travel(scene.tool.travel_m), steps, per_snap,
-                   removed_by_tool=removed)
+    recorder = Recorder(ids, roles, marker_ids, radii, state.ids.copy(), state.radii.copy())
+    drive = _Drive(engine, path, recorder, selection, path.time_to_travel(scene.tool.travel_m),
+                   steps, per_snap, removed_by_tool=removed)
     return drive, state
 
 
