@@ -4,8 +4,8 @@ The twin renders one look (``bags/field_render_reduced_1ms``: 4 ms shutter, its 
 noise). Each :class:`Condition` changes that recording's frames the way the field would, with
 the truth kept exact: the light level (in linear intensity, with the shot noise a darker frame
 has), flicker (a gain per frame), a cloud (the light falling and recovering during the pass,
-with a shadow edge moving across the view), a low sun (a strong light gradient and a warm
-cast), a longer shutter (each marker smeared along its own motion between frames: the static
+with a shadow edge moving across the view), a low sun (a strong light gradient across the
+view), a longer shutter (each marker smeared along its own motion between frames: the static
 sand stays sharp, as it does in a camera on a still frame), read noise, JPEG quality, dust on a
 lens (dark soft blobs fixed in one camera's image), camera shake (the image moves a few pixels
 per frame while the calibration stays: the truth's pixels move with it, its 3D does not), and
@@ -43,7 +43,7 @@ class Condition:
         shutter_ms: exposure [ms]; above the render's 4 ms each marker is smeared.
         flicker: relative amplitude of a random gain per frame (0: none).
         cloud: darkest relative light while a cloud passes (1: no cloud).
-        low_sun: strength of a left-to-right light gradient with a warm cast (0: none).
+        low_sun: strength of a left-to-right light gradient (0: none).
         noise_dn: extra read noise [DN, standard deviation].
         jpeg_quality: quality of the re-encoded JPEGs.
         dust: dust spots on the second camera's lens.
