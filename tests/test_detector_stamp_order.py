@@ -70,7 +70,8 @@ def run_nodes(ros_harness, calib: Path,
     nodes, got = {}, {}
     for cam in topics.CAMERAS:
         params = [Parameter('camera', value=cam), Parameter('lossless', value=True),
-                  Parameter('calibration_file', value=str(calib))]
+                  Parameter('calibration_file', value=str(calib)),
+                  Parameter('merge_wait_s', value=5.0)]  # a stalled test process is no end
         nodes[cam] = ros_harness.add(DetectorNode(context=ros_harness.context, namespace=cam,
                                                   parameter_overrides=params))
         got[cam] = ros_harness.collect(PixelPoints,

@@ -82,7 +82,7 @@ PARAMETERS: tuple[tuple[str, Any, str], ...] = (
     ('subscription_depth', 10, 'frames the middleware keeps on the image topic (best effort)'),
     ('lossless', False, 'bag playback: reliable keep-all subscription, every frame detected (no '
                         'stride, no drop, no age limit)'),
-    ('merge_wait_s', 1.0, 'lossless: after this long without an image of either camera, the '
+    ('merge_wait_s', 2.0, 'lossless: after this long without an image of either camera, the '
                           'frames still waiting for the other camera are tracked and the held '
                           'ones published (the end of a recording) [s]'),
     ('silent_s', 1.0, 'no frame for this long after the first: diagnostics say WARN [s]'),
@@ -267,11 +267,12 @@ class DetectorNode(Node):
             if camera == self.camera:
                 self.headers[stamp_s] = (arrival.msg.header, arrival.arrived_s,
                                          self.enqueued - arrival.index)
+            held = self.core.held()
             try:
                 if isinstance(arrival.msg, CompressedImage):
-                    self.core.update(camera, stamp_s, bytes(arrival.msg.data))
+                    frame = self.core.update(camera, stamp_s, bytes(arrival.msg.data))
                 else:
-                    self.core.update_image(camera, stamp_s, _bgr(arrival.msg))
+                    frame = self.core.update_image(camera, stamp_s, _bgr(arrival.msg))
             except Exception as err:  # a live node counts a bad frame, says why, and goes on
                 if camera == self.camera:
                     self.headers.pop(stamp_s, None)
@@ -280,6 +281,8 @@ class DetectorNode(Node):
                                         f'{type(err).__name__}: {err}; skipped (counted as '
                                         'failed)')
                 continue
+            if self.core.held() == held:  # not held (undecodable, out of order): out now
+                self.publish_released([frame])
             self.publish_released(self.core.release())
         if item.msg is None and not left and now - self.last_any_s > self.merge_wait_s:
             self.publish_released(self.core.flush())  # the recording ended (or paused)
@@ -327,7 +330,15 @@ class DetectorNode(Node):
 
     def handled_frames(self) -> int:
         """Frames the worker has finished with, skipped ones (undecodable, out of order,
-        failed) included: whoever waits for the detector waits for this count."""
+        failed) included: whoever waits for the detector waits for this count. With
+        ``lossless`` a frame is finished when it is published (the tracker holds frames for
+        its publication delay, and the last ones until the recording ends)."""
+        if self.merge is not None:
+            return int(self.counts['published'] + self.counts['failed'])
+        return self.processed_frames()
+
+    def processed_frames(self) -> int:
+        """Frames through the tracker, bad ones included."""
         c = self.core.counts[self.camera]
         return int(c.frames + c.undecodable + c.out_of_order + self.counts['failed'])
 
@@ -335,7 +346,7 @@ class DetectorNode(Node):
         """Every count of this camera (what ``/diagnostics`` carries)."""
         core = {k: v for k, v in self.core.report()[self.camera].items() if k != 'gaps_s'}
         core['gap_frames'] = core.pop('dropped')
-        processed = self.handled_frames()
+        processed = self.processed_frames()
         return {**self.counts, 'missing_in': self.stride.missing,
                 'processed': processed, 'skipped': self.stride.skipped,
                 'stride': self.stride.stride, 'most_stride': self.stride.most_stride,
