@@ -50,15 +50,17 @@ def node_class(spec: NodeSpec) -> Any:
 
 @pytest.mark.parametrize('graph', sorted(GRAPHS))
 def test_launch_file_and_parameter_file_exist_and_name_the_graph(graph: str) -> None:
-    """launch/<graph>.launch.py builds GRAPHS[<graph>] with config/<graph>.yaml; setup.py
-    installs both into share/dempath_bringup."""
+    """launch/<graph>.launch.py returns graph_launch_description(<graph>), which builds
+    GRAPHS[<graph>] with config/<graph>.yaml; setup.py installs both into share/."""
     source = (BRINGUP / 'launch' / f'{graph}.launch.py').read_text()
     tree = ast.parse(source)
     consts = {t.id: n.value.value for n in tree.body if isinstance(n, ast.Assign)
               for t in n.targets if isinstance(t, ast.Name) and isinstance(n.value, ast.Constant)}
     assert consts.get('GRAPH') == graph
-    assert any(isinstance(n, ast.FunctionDef) and n.name == 'generate_launch_description'
-               for n in tree.body)
+    (func,) = [n for n in tree.body if isinstance(n, ast.FunctionDef)
+               and n.name == 'generate_launch_description']
+    calls = [n for n in ast.walk(func) if isinstance(n, ast.Call)]
+    assert [ast.unparse(c) for c in calls] == ['graph_launch_description(GRAPH)']
     assert (BRINGUP / 'config' / f'{graph}.yaml').is_file()
     setup = (BRINGUP / 'setup.py').read_text()
     assert "f'share/{PACKAGE}/launch'" in setup and "f'share/{PACKAGE}/config'" in setup
