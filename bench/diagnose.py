@@ -106,7 +106,17 @@ def adaptive_row(case: HiddenCase, data: dict[str, Any]) -> dict[str, Any]:
            'baseline': {'probability': before['nothing']},
            'remaining': adaptive['remaining_before']}
     was = score(case, old)
-    return {'verdict_before': was['verdict'], 'top_before': was['top'],
+    top, prior = data['ranking'][0], adaptive['top_before']
+    value = case.overrides.get(f"{case.truth}.{top['strength']['parameter']}")
+    fits = {}
+    if value is not None:
+        fits = {'true_strength': value, 'fitted': round(top['strength']['value'], 4),
+                'fitted_sd': round(top['strength']['uncertainty'], 4)}
+        if prior.get('effect') == case.truth:
+            fits.update({'fitted_before': round(prior['strength'], 4),
+                         'fitted_sd_before': round(prior['sd'], 4),
+                         'at_edge_before': prior['at_range_edge']})
+    return {**fits, 'verdict_before': was['verdict'], 'top_before': was['top'],
             'top_p_before': was['top_p'], 'correct_before': was['correct'],
             'brier_before': was['brier'], 'confident_wrong_before': was['confident_wrong'],
             'extra_simulations': adaptive['extra_simulations'], 'stop': adaptive['stop'],

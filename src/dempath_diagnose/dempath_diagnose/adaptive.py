@@ -64,6 +64,8 @@ class AdaptiveResult:
         verdict_before: The verdict on the library alone.
         before: Every answer's probability on the library alone.
         remaining_before: The answers not ruled out on the library alone.
+        top_before: The most probable candidate on the library alone: effect, fitted
+            strength, its sd and whether the fit lay at the range edge.
     """
 
     budget: int
@@ -73,12 +75,14 @@ class AdaptiveResult:
     verdict_before: str = ''
     before: dict[str, float] = field(default_factory=dict)
     remaining_before: tuple[str, ...] = ()
+    top_before: dict[str, Any] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready form (diagnosis.json's ``adaptive``)."""
         return {'budget': self.budget, 'extra_simulations': self.used, 'stop': self.stop,
                 'verdict_before': self.verdict_before, 'probabilities_before': self.before,
                 'remaining_before': list(self.remaining_before),
+                'top_before': self.top_before,
                 'steps': [{**asdict(s), 'runs': [asdict(r) for r in s.runs]}
                           for s in self.steps]}
 
@@ -118,8 +122,12 @@ def refine(first: Diagnosis, library: Library, rediagnose: Callable[[Library], D
                                   after.decision.verdict, probabilities(d),
                                   probabilities(after), float(top.strength)))
         d = after
+    top = first.decision.ranking[0]
     result = AdaptiveResult(budget, used, tuple(steps), stop, first.decision.verdict,
-                            probabilities(first), tuple(first.decision.remaining))
+                            probabilities(first), tuple(first.decision.remaining),
+                            {'effect': top.name, 'strength': float(top.strength),
+                             'sd': float(top.strength_sd),
+                             'at_range_edge': bool(top.at_range_edge)})
     d.simulations = len(library.runs)
     return d, library, result
 

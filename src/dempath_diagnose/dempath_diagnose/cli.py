@@ -314,10 +314,13 @@ def diagnose_main(argv: list[str] | None = None) -> int:
     Returns 0, or 1 after one ``error: <input>: <problem>`` line on bad input.
     """
     parser = _parser()
-    parser.add_argument('--budget', dest='extra_budget', type=int, default=DEFAULT_BUDGET,
+    parser.add_argument('--budget', dest='extra_budget', type=int, default=None,
                         help='simulations allowed beyond the library where they would settle '
-                             'an open answer (0: none)')
+                             f'an open answer (0: none; default {DEFAULT_BUDGET}, or 0 with '
+                             '--library)')
     args = parser.parse_args(argv)
+    if args.extra_budget is None:  # a library given by path is fixed unless asked otherwise
+        args.extra_budget = 0 if args.library is not None else DEFAULT_BUDGET
     try:
         if args.extra_budget < 0:
             raise DiagnosisError(f'--budget {args.extra_budget}: must be >= 0')

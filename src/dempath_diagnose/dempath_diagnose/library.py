@@ -163,9 +163,19 @@ def library_state(scene: SceneSpec, spec: LibrarySpec, root: Path | None = None,
         return 'ready', done, len(runs)
     if done:
         return 'partial', done, len(runs)
-    others = [p for p in folder.parent.glob(f'{scene.name}-*') if p != folder] \
+    others = [p for p in folder.parent.glob(f'{scene.name}-*')
+              if p != folder and library_backend(p) == backend] \
         if folder.parent.is_dir() else []
     return ('stale' if others else 'missing'), 0, len(runs)
+
+
+def library_backend(folder: Path) -> str:
+    """The engine a library folder was built on (``dempath`` for libraries before there was a
+    choice, or when its design cannot be read)."""
+    try:
+        return str(json.loads((folder / 'design.json').read_text()).get('backend', 'dempath'))
+    except (OSError, ValueError, AttributeError):
+        return 'dempath'
 
 
 MAX_TIMED_RUNS = 20  # runs whose recorded wall time is read for an estimate
@@ -182,7 +192,8 @@ def recorded_run_s(scene: SceneSpec, spec: LibrarySpec, root: Path | None = None
     folder = library_dir(scene, spec, root, backend)
     folders = [folder]
     if folder.parent.is_dir():
-        folders += sorted(p for p in folder.parent.glob(f'{scene.name}-*') if p != folder)
+        folders += sorted(p for p in folder.parent.glob(f'{scene.name}-*')
+                          if p != folder and library_backend(p) == backend)
     for f in folders:
         files = sorted(p for p in (f / 'runs').glob('*.npz') if not p.name.endswith('.tmp.npz'))
         times = [float(PassRecord.read_meta(p).get('drive_wall_s', 0.0))
