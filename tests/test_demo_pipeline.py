@@ -11,7 +11,7 @@ from mcap.reader import make_reader
 from dempath import topics
 from dempath.bagio import make_typestore, write_bag
 from dempath_bringup.nodes.graph import GraphSpec, field_truth_error, run_graph
-from dempath_twin import field as ft
+from dempath_twin.field import markers as ft
 from dempath_twin.rig import paper_rig
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -62,9 +62,9 @@ def test_logging_levels_and_one_handler(capsys: pytest.CaptureFixture[str]) -> N
         configure_logging(0, progress=True)
         configure_logging(0, progress=True)
         assert sum(isinstance(h, StderrHandler) for h in root.handlers) == 1
-        logging.getLogger('dempath_recon.nets').info('epoch 1/12')
+        logging.getLogger('dempath_recon.methods.nets').info('epoch 1/12')
         logging.getLogger('dempath_sim.fill').debug('hidden')
-        assert capsys.readouterr().err == 'INFO dempath_recon.nets: epoch 1/12\n'
+        assert capsys.readouterr().err == 'INFO dempath_recon.methods.nets: epoch 1/12\n'
         configure_logging(1)
         logging.getLogger('dempath_sim.fill').info('shown')
         logging.getLogger('dempath_sim.fill').debug('hidden')
@@ -73,7 +73,7 @@ def test_logging_levels_and_one_handler(capsys: pytest.CaptureFixture[str]) -> N
         logging.getLogger('dempath_sim.fill').debug('shown')
         assert capsys.readouterr().err == 'DEBUG dempath_sim.fill: shown\n'
         configure_logging(-1, progress=True)
-        logging.getLogger('dempath_recon.nets').info('hidden')
+        logging.getLogger('dempath_recon.methods.nets').info('hidden')
         assert capsys.readouterr().err == ''
     finally:
         for handler in [h for h in root.handlers if isinstance(h, StderrHandler)]:

@@ -109,6 +109,7 @@ def calibrate_main(argv: list[str]) -> int:
                       'views': rep['views'], 'offset_s': rep.get('offset_s'),
                       'corner_spacing_mm': rep['corner_spacing'].get('mean_mm'),
                       'point_set_size': rep['point_set_size'],
+                      'undecodable_images': len(getattr(source, 'undecodable', ())),
                       'outputs': [str(p) for p in paths.values()]}))
     return 0
 

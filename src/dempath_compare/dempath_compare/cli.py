@@ -74,9 +74,9 @@ def print_ranking(result: CompareResult, top: int) -> None:
 
 def compare_main(argv: list[str]) -> int:
     """``dempath compare MEASURED MODEL --out DIR``: score model against measured trajectories."""
+    from dempath_compare.comparison_folder import write_outputs
     from dempath_compare.foreign import load_mapping
     from dempath_compare.pipeline import compare_paths, problems
-    from dempath_compare.report import write_outputs
 
     args = build_parser().parse_args(argv)
     try:

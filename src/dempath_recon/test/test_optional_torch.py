@@ -49,5 +49,6 @@ def test_recon_train_shows_its_progress(points: PointSet, tmp_path: Path) -> Non
                            str(tmp_path / 'mlp.pt')], capture_output=True, text=True,
                           check=False, timeout=300)
     assert done.returncode == 0, done.stderr
-    epochs = [ln for ln in done.stderr.splitlines() if ln.startswith('INFO dempath_recon.nets: ')]
+    prefix = 'INFO dempath_recon.methods.nets: '
+    epochs = [ln for ln in done.stderr.splitlines() if ln.startswith(prefix)]
     assert [ln.split(': ')[1].split(':')[0] for ln in epochs] == ['epoch 1/2', 'epoch 2/2']

@@ -1,4 +1,4 @@
-"""A portable scene carries its tool mesh and cached beds to a machine without the client's disk."""
+"""A portable scene carries its tool mesh and cached beds to a worker without the client's disk."""
 
 from __future__ import annotations
 

@@ -79,7 +79,7 @@ def validate_main(argv: list[str]) -> int:
     from dempath_sim.liggghts.install import ensure_liggghts
     from dempath_sim.scene import load_scene
     from dempath_sim.validation.cross_engine import run_cross_engine
-    from dempath_sim.validation.report import write_report
+    from dempath_sim.validation.validation_report import write_report
 
     use_liggghts = not args.no_liggghts
     try:
