@@ -79,6 +79,17 @@ def scheduler(tmp_path: Path) -> Iterator[tuple[str, list[subprocess.Popen[bytes
                     p.kill()
 
 
+def stop_all(procs: list[subprocess.Popen[bytes]]) -> None:
+    """Stop the processes' groups started here (last first): SIGTERM, SIGKILL after 10 s."""
+    for p in reversed(procs):
+        if p.poll() is None:
+            os.killpg(p.pid, signal.SIGTERM)
+            try:
+                p.wait(10)
+            except subprocess.TimeoutExpired:
+                os.killpg(p.pid, signal.SIGKILL)
+
+
 def wait_workers(address: str, n: int) -> None:
     """Wait until ``n`` workers have joined the scheduler."""
     from distributed import Client

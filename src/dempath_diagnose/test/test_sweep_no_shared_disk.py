@@ -14,7 +14,6 @@ from __future__ import annotations
 import json
 import os
 import shutil
-import signal
 import subprocess
 import time
 from collections.abc import Iterator
@@ -31,7 +30,7 @@ from dempath_sim.runs.portable import pack_scene
 from .conftest import SCENE
 from .test_hidden import case_files
 from .test_recal_cli import argv_for
-from .test_sweep import DASK, _start
+from .test_sweep import DASK, _start, stop_all
 
 
 def _namespaces_allowed() -> bool:
@@ -78,13 +77,7 @@ def lone_worker(tmp_path_factory: pytest.TempPathFactory,
             client.wait_for_workers(1, timeout=120)
         yield address, isolated
     finally:
-        for p in reversed(procs):
-            if p.poll() is None:
-                os.killpg(p.pid, signal.SIGTERM)
-                try:
-                    p.wait(10)
-                except subprocess.TimeoutExpired:
-                    os.killpg(p.pid, signal.SIGKILL)
+        stop_all(procs)
 
 
 def _worker_sees(address: str, path: Path) -> bool:
