@@ -103,9 +103,9 @@ def diagnose_argv(ctx: DemoContext, out: Path) -> list[str]:
 def library_status(ctx: DemoContext) -> tuple[bool, str]:
     """(ready, why not) of the signature library the diagnosis would use."""
     from dempath_diagnose.cli import library_spec
-    from dempath_diagnose.library import library_state
-    from dempath_diagnose.measure import load_tracks
-    from dempath_diagnose.simulate import LIBRARY_CANDIDATES, load_scene
+    from dempath_diagnose.decision.measure import load_tracks
+    from dempath_diagnose.library.simulator import LIBRARY_CANDIDATES, load_scene
+    from dempath_diagnose.library.store import library_state
 
     o = ctx.options
     if o.get('library_file'):
@@ -161,7 +161,7 @@ def diagnosis_stage(ctx: DemoContext) -> str:
 
 def recalibration_stage(ctx: DemoContext) -> str:
     """``dempath recalibrate`` with the named (or top-ranked) effect and a small budget."""
-    from dempath_diagnose.recal_cli import recalibrate_main
+    from dempath_diagnose.recalibrate_cli import recalibrate_main
 
     diag = ctx.results.get('diagnosis')
     if diag is None:

@@ -18,10 +18,19 @@ from typing import Any
 import numpy as np
 
 from dempath.errors import DempathError
-from dempath_diagnose.diagnose import CaseGeometry, Diagnosis, diagnose
-from dempath_diagnose.emulator import Allowance
+from dempath_diagnose.decision.diagnosis import CaseGeometry, Diagnosis, diagnose
+from dempath_diagnose.decision.emulator import Allowance
+from dempath_diagnose.decision.measure import load_force, load_tracks
 from dempath_diagnose.errors import DiagnosisError, MeasurementError
-from dempath_diagnose.library import (
+from dempath_diagnose.library.packed import DEFAULT_MARGIN_M
+from dempath_diagnose.library.simulator import (
+    LIBRARY_CANDIDATES,
+    SceneSpec,
+    load_scene,
+    pass_travel_s,
+    tool_geometry,
+)
+from dempath_diagnose.library.store import (
     Library,
     LibrarySpec,
     build_library,
@@ -30,16 +39,7 @@ from dempath_diagnose.library import (
     library_state,
     recorded_run_s,
 )
-from dempath_diagnose.measure import load_force, load_tracks
-from dempath_diagnose.packed import DEFAULT_MARGIN_M
 from dempath_diagnose.records import Measurement
-from dempath_diagnose.simulate import (
-    LIBRARY_CANDIDATES,
-    SceneSpec,
-    load_scene,
-    pass_travel_s,
-    tool_geometry,
-)
 
 MAX_FOLLOW_S = 5.0  # the model follows the bed at most this long after the tool stops [s]
 
@@ -168,7 +168,7 @@ def _build(args: argparse.Namespace, scene: SceneSpec, spec: LibrarySpec, todo: 
         TimeRemainingColumn,
     )
 
-    from dempath_diagnose.library import serial_executor
+    from dempath_diagnose.library.store import serial_executor
 
     bar = Progress(TextColumn('library'), BarColumn(), MofNCompleteColumn(),
                    TimeElapsedColumn(), TextColumn('ETA'), TimeRemainingColumn(),
@@ -189,7 +189,7 @@ def _build(args: argparse.Namespace, scene: SceneSpec, spec: LibrarySpec, todo: 
             build_library(scene, spec, args.library_root, serial_executor, args.packing_cache,
                           on_done)
             return
-        from dempath_diagnose.sweep import DaskSweep
+        from dempath_diagnose.library.sweep import DaskSweep
 
         with DaskSweep(args.scheduler, args.workers) as sweep:
             build_library(scene, spec, args.library_root, sweep.run, args.packing_cache,
@@ -201,7 +201,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     t0 = time.monotonic()
     scene, _spec, library, allowance, result = diagnosis_of(args)
     result.wall_s = time.monotonic() - t0
-    from dempath_diagnose.report import print_ranking, write_outputs
+    from dempath_diagnose.report.diagnosis_outputs import print_ranking, write_outputs
 
     extra: dict[str, Any] = {'scene': scene.name, 'library': str(library.folder),
                              'allowance': vars(allowance)}
@@ -215,7 +215,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
 def export(args: argparse.Namespace, library: Library, result: Diagnosis,
            cube: tuple[float, float, float]) -> dict[str, Any]:
     """Pack the library for the measured markers (and ``--export-box``) into the export file."""
-    from dempath_diagnose.packed import export_library
+    from dempath_diagnose.library.packed import export_library
 
     box = None
     if args.export_box:

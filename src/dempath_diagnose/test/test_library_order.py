@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from dempath_diagnose.library import LibrarySpec, LibraryTask, design
-from dempath_diagnose.simulate import load_scene
+from dempath_diagnose.library.simulator import load_scene
+from dempath_diagnose.library.store import LibrarySpec, LibraryTask, design
 
 
 def test_run_cost_follows_simulated_time_over_the_stable_step(tmp_path: Path) -> None:

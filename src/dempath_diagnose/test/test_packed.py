@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 
 from dempath_diagnose.cli import diagnose_main
-from dempath_diagnose.diagnose import CaseGeometry, diagnose
-from dempath_diagnose.library import Library
-from dempath_diagnose.measure import load_force, load_tracks
-from dempath_diagnose.packed import QUANTUM_M, export_library
+from dempath_diagnose.decision.diagnosis import CaseGeometry, diagnose
+from dempath_diagnose.decision.measure import load_force, load_tracks
+from dempath_diagnose.library.packed import QUANTUM_M, export_library
+from dempath_diagnose.library.store import Library
 
 from .conftest import SCENE
 from .test_hidden import case_files

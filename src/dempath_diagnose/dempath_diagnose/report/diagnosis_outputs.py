@@ -10,9 +10,9 @@ from typing import Any
 import numpy as np
 
 from dempath.errors import OutputError
-from dempath_diagnose.decision import ModelFit
-from dempath_diagnose.diagnose import Diagnosis, sentences
-from dempath_diagnose.statistics import AXES
+from dempath_diagnose.decision.diagnosis import Diagnosis, sentences
+from dempath_diagnose.decision.statistics import AXES
+from dempath_diagnose.decision.verdict import ModelFit
 
 EDGE_NOTE_P = 0.05  # fits this probable get a note when they sit at the range edge
 
@@ -87,7 +87,7 @@ def write_outputs(d: Diagnosis, out: Path, extra: dict[str, Any] | None = None) 
         out.mkdir(parents=True, exist_ok=True)
         data = to_json(d, extra)
         (out / 'diagnosis.json').write_text(json.dumps(data, indent=2))
-        from dempath_diagnose.plots import plot_all
+        from dempath_diagnose.report.diagnosis_plots import plot_all
 
         plots = plot_all(d, out)
         write_xlsx(d, data, out / 'diagnosis.xlsx')

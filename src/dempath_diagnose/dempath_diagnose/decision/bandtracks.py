@@ -1,13 +1,15 @@
 """A model band as dempath_compare tracks, and the paper's Table 7 of a band against a measurement.
 
-A *band* is a model's library runs over packing seeds (:class:`~.records.PassRecord`). A
-measured marker's model counterparts are the particles whose start lies in the candidate cube
-around its measured start (:func:`~.statistics.cube_members`, the paper's Cube candidates, any
-layout), in every run of the band; each becomes a :class:`dempath_compare.records.Track` tagged
-with the marker's number, so that dempath_compare scores each marker against its own candidates
-only (``Pairing.MARKER``) and builds the paper's Table 7 (per marker MAE, RMSE, range and
-nRMSE over the N best candidates; Kuře & Kuřetová 2025) and its mean nRMSE. The diagnosis
-reports it for the baseline band (``error_before``); the recalibration, for the recalibrated one.
+A *band* is a model's library runs over packing seeds
+(:class:`~dempath_diagnose.records.PassRecord`). A measured marker's model counterparts are
+the particles whose start lies in the candidate cube around its measured start
+(:func:`~dempath_diagnose.library.counterparts.cube_members`, the paper's Cube candidates,
+any layout), in every run of the band; each becomes a
+:class:`dempath_compare.records.Track` tagged with the marker's number, so that dempath_compare
+scores each marker against its own candidates only (``Pairing.MARKER``) and builds the paper's
+Table 7 (per marker MAE, RMSE, range and nRMSE over the N best candidates; Kuře & Kuřetová 2025)
+and its mean nRMSE. The diagnosis reports it for the baseline band (``error_before``); the
+recalibration, for the recalibrated one.
 """
 
 from __future__ import annotations
@@ -18,8 +20,8 @@ from typing import Any
 
 import numpy as np
 
+from dempath_diagnose.library.counterparts import cube_members
 from dempath_diagnose.records import F64, Measurement, PassRecord
-from dempath_diagnose.statistics import cube_members
 
 TOP_N = 10  # best candidates per marker in Table 7 (the paper's N)
 MEASURED_GROUP = 'measured'

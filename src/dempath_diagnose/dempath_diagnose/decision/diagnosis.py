@@ -3,7 +3,7 @@
 The steps: the layout from the measured start positions (:func:`statistics.build_layout`), the
 emulator of the library for that layout, the measured statistics, the decision, and the
 per-marker / per-group breakdown of the discrepancy against the baseline's seed spread. No
-simulation runs here (the library is built before, :mod:`dempath_diagnose.library`).
+simulation runs here (the library is built before, :mod:`dempath_diagnose.library.store`).
 """
 
 from __future__ import annotations
@@ -17,14 +17,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dempath.errors import DempathError
-from dempath_diagnose.bandtracks import band_table7
-from dempath_diagnose.decision import Decision, decide
-from dempath_diagnose.emulator import Allowance, Emulator, build_emulator
+from dempath_diagnose.decision.bandtracks import band_table7
+from dempath_diagnose.decision.emulator import Allowance, Emulator, build_emulator
+from dempath_diagnose.decision.measure import check_force_scale
+from dempath_diagnose.decision.statistics import AXES, Layout, build_layout, measured_statistics
+from dempath_diagnose.decision.verdict import Decision, decide
 from dempath_diagnose.errors import MeasurementError
-from dempath_diagnose.library import Library
-from dempath_diagnose.measure import check_force_scale
+from dempath_diagnose.library.store import Library
 from dempath_diagnose.records import F64, Measurement
-from dempath_diagnose.statistics import AXES, Layout, build_layout, measured_statistics
 
 COVERAGE_SLACK_S = 0.02  # the measurement may end this much after the library's last frame [s]
 
@@ -61,7 +61,7 @@ class Diagnosis:
         wall_s: Time taken [s].
         simulations: Library runs the diagnosis rests on.
         table7: The paper's Table 7 of the baseline band against the measured markers
-            (:func:`~dempath_diagnose.bandtracks.band_table7`).
+            (:func:`~dempath_diagnose.decision.bandtracks.band_table7`).
     """
 
     decision: Decision
@@ -130,7 +130,7 @@ def _inside_region(meas: Measurement, library: Library) -> Measurement:
     as per-marker faults: their model counterparts are not in the file)."""
     from dataclasses import replace
 
-    from dempath_diagnose.packed import outside_region
+    from dempath_diagnose.library.packed import outside_region
 
     assert library.region is not None
     out = outside_region(library.region, meas.start, meas.markers.tolist())

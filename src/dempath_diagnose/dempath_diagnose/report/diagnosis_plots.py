@@ -6,9 +6,9 @@ from pathlib import Path
 
 import numpy as np
 
-from dempath_diagnose.diagnose import Diagnosis
+from dempath_diagnose.decision.diagnosis import Diagnosis
+from dempath_diagnose.decision.statistics import AXES
 from dempath_diagnose.records import F64
-from dempath_diagnose.statistics import AXES
 
 BAND_SD = 2.0  # the model band is the baseline mean +- this many seed spreads
 

@@ -1,5 +1,5 @@
 """Outputs of ``dempath recalibrate``: the new scene, recalibration.json, diagnosis.json's
-additions, the figures and recalibration.md (:mod:`dempath_diagnose.recal_report`).
+additions, the figures and recalibration.md (:mod:`dempath_diagnose.report.recalibration_figures`).
 
 Written in that order and each file atomically where it matters (diagnosis.json), so an
 interrupted or failed recalibration still leaves the best scene so far and what was computed.
@@ -12,8 +12,8 @@ from pathlib import Path
 from typing import Any
 
 from dempath.errors import OutputError
-from dempath_diagnose.recalibrate import Recalibration
-from dempath_diagnose.simulate import SceneSpec, scene_candidates, write_scene
+from dempath_diagnose.library.simulator import SceneSpec, scene_candidates, write_scene
+from dempath_diagnose.recalibration.loop import Recalibration
 
 STOPS = {'floor': 'the error reached the floor (no longer above what the true model gives '
                   'over packing seeds)',
@@ -83,7 +83,7 @@ def write_all(r: Recalibration, scene: SceneSpec, out: Path, extra: dict[str, An
 
     ``extra`` adds keys (``tried``, ``paper``); ``figures`` names figures already written.
     """
-    from dempath_diagnose.recal_report import markdown, plot_steps
+    from dempath_diagnose.report.recalibration_figures import markdown, plot_steps
 
     write_scene_of(r, scene, out)
     try:

@@ -18,9 +18,10 @@ from typing import Any
 
 import numpy as np
 
-from dempath_diagnose.recalibrate import Recalibration
+from dempath_diagnose.decision.statistics import Layout
+from dempath_diagnose.library.counterparts import cube_members
+from dempath_diagnose.recalibration.loop import Recalibration
 from dempath_diagnose.records import F64, Measurement, PassRecord
-from dempath_diagnose.statistics import Layout, cube_members
 
 MAX_MARKERS = 4  # markers shown in trajectories.png (those the model missed most)
 BAND = (10.0, 90.0)  # percentiles of the model band

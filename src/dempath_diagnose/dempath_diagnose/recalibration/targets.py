@@ -17,8 +17,8 @@ import sys
 from collections.abc import Sequence
 from typing import Any
 
-from dempath_diagnose.decision import Decision
-from dempath_diagnose.emulator import CandidateEmulator
+from dempath_diagnose.decision.emulator import CandidateEmulator
+from dempath_diagnose.decision.verdict import Decision
 from dempath_diagnose.errors import DiagnosisError
 
 MAX_TRIED = 3  # candidates tried in turn after an inconclusive diagnosis

@@ -6,7 +6,7 @@ by ``dempath_compare`` (:func:`~dempath_compare.pipeline.compare_tracks`,
 :func:`~dempath_compare.summary.build_table7`) on the model runs of the scene before (the library's
 baseline runs on the evaluation's seeds) and after (the recalibration's runs at the fitted
 strengths on the same seeds: paired). A model trajectory is a particle starting in the marker's
-cube (the paper's Cube candidates, :func:`~dempath_diagnose.statistics.cube_members`).
+cube (the paper's Cube candidates, :func:`~dempath_diagnose.library.counterparts.cube_members`).
 
 The floor is what the true model itself gives on these metrics over packing seeds: each baseline
 seed in turn plays the measurement (for every marker, the particle starting nearest the marker's
@@ -24,8 +24,9 @@ from typing import Any
 
 import numpy as np
 
+from dempath_diagnose.decision.statistics import Layout
+from dempath_diagnose.library.counterparts import cube_members
 from dempath_diagnose.records import F64, Measurement, PassRecord
-from dempath_diagnose.statistics import Layout, cube_members
 
 TOP_N = 10  # the paper's N best model trajectories per marker
 

@@ -9,7 +9,7 @@ difference.
 
 :func:`dask_executor` runs the tasks on a Dask client and tells a lost scheduler (futures
 cancelled, the connection closed) from a failed run: the first raises
-:class:`~dempath_diagnose.recalibrate.SweepLostError` (the loop stops, what is stored is kept),
+:class:`.loop.SweepLostError` (the loop stops, what is stored is kept),
 the second :class:`~dempath_diagnose.errors.ClusterError` (that candidate is scored as failed).
 """
 
@@ -22,12 +22,12 @@ from typing import Any
 
 import numpy as np
 
-from dempath_diagnose.emulator import CandidateEmulator, Emulator
+from dempath_diagnose.decision.emulator import CandidateEmulator, Emulator
+from dempath_diagnose.decision.statistics import Layout, model_statistics
 from dempath_diagnose.errors import ClusterError, DiagnosisError
-from dempath_diagnose.library import Library, LibrarySpec, LibraryTask, RunSpec
-from dempath_diagnose.recalibrate import SweepLostError
+from dempath_diagnose.library.store import Library, LibrarySpec, LibraryTask, RunSpec
+from dempath_diagnose.recalibration.loop import SweepLostError
 from dempath_diagnose.records import F64, PassRecord
-from dempath_diagnose.statistics import Layout, model_statistics
 
 Executor = Callable[[Sequence[Callable[[], Any]], Callable[[int], None]], None]
 RETRIES = 2  # attempts after a worker died (a failed run fails the same way again)

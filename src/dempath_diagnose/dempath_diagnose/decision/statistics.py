@@ -19,7 +19,7 @@ and with distance from the tool: a bias that also scales an effect's response (o
 ``reduced_1ms``, hidden tool speeds of x1.5 and x0.7 were fitted at 1.58 and 0.61). The
 measured marker is one particle, so its scatter about that plane (``sampling_cov``, divided by
 the markers in the group squared) is part of the prediction's uncertainty, beside the spread
-over packing seeds (see :mod:`dempath_diagnose.emulator`). Cubes with fewer than
+over packing seeds (see :mod:`dempath_diagnose.decision.emulator`). Cubes with fewer than
 ``FIELD_MIN_MEMBERS`` particles fall back to the mean.
 """
 
@@ -30,13 +30,11 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from dempath_diagnose.library.counterparts import cube_members
 from dempath_diagnose.records import F64, Measurement, PassRecord
 
 AXES = ('lateral_out', 'vertical', 'forward')
 SAMPLES_PER_WINDOW = 6  # interpolation points per window for the time-averages
-MIN_CUBE_MEMBERS = 3  # fewer model particles in a cube: the cube is grown
-CUBE_GROWTH = (1.0, 1.5, 2.0)  # factors tried on the cube size
-NEAREST_FALLBACK = 8  # particles taken when even the grown cube is empty
 FIELD_MIN_MEMBERS = 12  # particles a cube needs for the plane (4 coefficients) to be read
 
 
@@ -208,24 +206,6 @@ class ModelStatistics:
     features: F64
     feature_var: F64
     members: NDArray[np.int64]
-
-
-def cube_members(start: F64, marker_starts: F64, cube: tuple[float, float, float],
-                 ) -> list[NDArray[np.intp]]:
-    """Indices of the particles whose start lies in the cube around each marker start."""
-    half = np.asarray(cube) / 2.0
-    finite = np.flatnonzero(np.isfinite(start).all(1))
-    out = []
-    for p in marker_starts:
-        for factor in CUBE_GROWTH:
-            inside = np.flatnonzero(np.all(np.abs(start - p) <= half * factor, axis=1))
-            if len(inside) >= MIN_CUBE_MEMBERS:
-                break
-        else:  # the model's bed lies elsewhere (e.g. a lower surface): the nearest particles
-            dist = np.linalg.norm(start[finite] - p, axis=1)
-            inside = finite[np.argsort(dist)[:NEAREST_FALLBACK]]
-        out.append(inside)
-    return out
 
 
 def model_statistics(rec: PassRecord, layout: Layout, cube: tuple[float, float, float],

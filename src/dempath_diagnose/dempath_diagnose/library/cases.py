@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from dempath_diagnose.simulate import CasePass, SceneSpec, pass_travel_s, run_case
+from dempath_diagnose.library.simulator import CasePass, SceneSpec, pass_travel_s, run_case
 
 
 @dataclass(frozen=True)

@@ -37,7 +37,7 @@ from numpy.typing import NDArray
 from scipy import stats
 from scipy.special import logsumexp
 
-from dempath_diagnose.emulator import CandidateEmulator, Emulator
+from dempath_diagnose.decision.emulator import CandidateEmulator, Emulator
 from dempath_diagnose.records import F64
 from dempath_sim.effects.candidates import LOG_SCALE
 
@@ -108,7 +108,7 @@ class Decision:
     separators: list[str] = field(default_factory=list)
 
 
-def _gauss_logpdf(r: F64, cov: F64) -> tuple[float, float]:
+def gauss_logpdf(r: F64, cov: F64) -> tuple[float, float]:
     """(log N(r; 0, cov), r^T cov^-1 r) via Cholesky."""
     chol = np.linalg.cholesky(cov)
     z = np.linalg.solve(chol, r)
@@ -126,7 +126,7 @@ def sigma_of(d2: float, k: int) -> float:
 def fit_baseline(emu: Emulator, y: F64, obs: NDArray[np.bool_], cov: F64) -> ModelFit:
     """The baseline model's fit."""
     r = y - emu.mu0[obs]
-    logp, d2 = _gauss_logpdf(r, cov[np.ix_(obs, obs)])
+    logp, d2 = gauss_logpdf(r, cov[np.ix_(obs, obs)])
     return ModelFit('baseline', 'baseline', logp, sigma_of(d2, int(obs.sum())), np.nan,
                     np.nan, np.nan, emu.mu0.copy(), np.diag(cov).copy(), d2)
 
@@ -144,8 +144,8 @@ def fit_candidate(emu: Emulator, cand: CandidateEmulator, y: F64, obs: NDArray[n
     for i in range(GRID):
         r = y - (emu.mu0 + diffs[i])[obs]
         total = sub + np.diag(dvar[i][obs])
-        logps[i], d2s[i] = _gauss_logpdf(r, total)
-        shift2[i] = _gauss_logpdf(diffs[i][obs], total)[1]
+        logps[i], d2s[i] = gauss_logpdf(r, total)
+        shift2[i] = gauss_logpdf(diffs[i][obs], total)[1]
     null = shift2 <= NULL_SD**2
     w = np.exp(logps - logsumexp(logps))
     u = np.log(xs) if cand.candidate.name in LOG_SCALE else xs

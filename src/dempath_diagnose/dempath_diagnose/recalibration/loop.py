@@ -1,10 +1,10 @@
 """The recalibration loop: fit the named candidate, confirm with real runs, stop at the floor.
 
 The candidate's strength (and, with ``--also``, existing parameters refitted beside it) is
-searched on the diagnosis' emulator (:mod:`dempath_diagnose.recal_search`: a bounded scalar
+searched on the diagnosis' emulator (:mod:`dempath_diagnose.recalibration.search`: a bounded scalar
 search for one strength, CMA-ES for several), then confirmed by a real evaluation at the
 proposed strengths. Each real evaluation runs on the library's packing seeds and is *paired*
-with the library's baseline runs on the same seeds (:mod:`dempath_diagnose.recal_runs`), so the
+with the library's baseline runs on the same seeds (:mod:`.evaluations`), so the
 chaos of a few packings cancels and does not steer the fit. After each real evaluation the
 emulator is corrected by the observed bias (real minus emulated statistics at those strengths,
 Kennedy & O'Hagan's discrepancy in its simplest, constant form) and the search runs again.
@@ -26,12 +26,12 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from scipy.stats import chi2
 
-from dempath_diagnose.decision import fit_candidate
-from dempath_diagnose.emulator import CandidateEmulator
+from dempath_diagnose.decision.emulator import CandidateEmulator
+from dempath_diagnose.decision.verdict import fit_candidate
 from dempath_diagnose.errors import DiagnosisError
-from dempath_diagnose.objective import Floor, Objective
-from dempath_diagnose.recal_progress import Callback, Progress, State
-from dempath_diagnose.recal_search import emulated_d2, laplace_sd, propose
+from dempath_diagnose.recalibration.objective import Floor, Objective
+from dempath_diagnose.recalibration.progress import Callback, Progress, State
+from dempath_diagnose.recalibration.search import emulated_d2, laplace_sd, propose
 from dempath_diagnose.records import F64
 
 SIGNIFICANT_CHANGE = 0.95  # a fit of n strengths must lower d^2 by chi^2_n's quantile to count

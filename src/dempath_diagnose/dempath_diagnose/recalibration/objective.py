@@ -2,11 +2,11 @@
 
 The error of a model at strength x is the Mahalanobis distance d^2(x) of the measured group
 statistics from the model's prediction under the diagnosis' covariance (seed + one-particle
-sampling + measurement noise + model-discrepancy allowance, plus the emulator's own variance):
-the likelihood of :mod:`dempath_diagnose.decision`, not a new one. What the true model itself
-gives over packing seeds is d^2 ~ chi^2_k (k observed statistics): the floor is its mean k and
-its band the central 95 % of chi^2_k. An error is *significantly above the floor* when d^2
-exceeds the 95 % quantile. No simulation runs here.
+sampling + measurement noise + model-discrepancy allowance, plus the emulator's own variance): the
+likelihood of :mod:`~dempath_diagnose.decision.verdict`, not a new one. What the true model itself
+gives over packing seeds is d^2 ~ chi^2_k (k observed statistics): the floor is its mean k and its
+band the central 95 % of chi^2_k. An error is *significantly above the floor* when d^2 exceeds the
+95 % quantile. No simulation runs here.
 """
 
 from __future__ import annotations
@@ -17,8 +17,8 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import stats
 
-from dempath_diagnose.decision import _gauss_logpdf
-from dempath_diagnose.emulator import CandidateEmulator, Emulator
+from dempath_diagnose.decision.emulator import CandidateEmulator, Emulator
+from dempath_diagnose.decision.verdict import gauss_logpdf
 from dempath_diagnose.records import F64
 
 SIGNIFICANT = 0.95  # chi^2 quantile above which an error is significantly above the floor
@@ -80,7 +80,7 @@ class Objective:
         r = self.y - prediction[obs]
         if not np.all(np.isfinite(r)):
             return float('inf')
-        return _gauss_logpdf(r, sub)[1]
+        return gauss_logpdf(r, sub)[1]
 
     def baseline(self) -> float:
         """d^2 of the user's model as it is (the error before)."""

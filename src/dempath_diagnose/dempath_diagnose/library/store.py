@@ -7,7 +7,7 @@ force (:class:`~dempath_diagnose.records.PassRecord`), so a new marker layout or
 served without new runs.
 
 On disk: ``<root>/<scene>-<key>/`` with ``design.json`` and ``runs/<label>-s<seed>.npz``; the key
-hashes the scene's physics (:func:`~dempath_diagnose.simulate.physics_key`) and the design, so a
+hashes the scene's physics (:func:`.simulator.physics_key`) and the design, so a
 changed scene gets a new library (the old one is reported as stale). Every finished run is saved
 at once (atomically): an interrupted build resumes where it stopped.
 """
@@ -27,8 +27,7 @@ from typing import Any
 
 from dempath.errors import DempathError
 from dempath_diagnose.errors import LibraryError
-from dempath_diagnose.records import PassRecord
-from dempath_diagnose.simulate import (
+from dempath_diagnose.library.simulator import (
     LIBRARY_CANDIDATES,
     Candidate,
     SceneSpec,
@@ -38,6 +37,7 @@ from dempath_diagnose.simulate import (
     run_pass,
     scene_candidates,
 )
+from dempath_diagnose.records import PassRecord
 from dempath_sim.effects.candidates import (
     EFFECT_FACTORS,
     LOG_FACTORS,
@@ -208,7 +208,7 @@ def build_library(scene: SceneSpec, spec: LibrarySpec, root: Path | None = None,
         scene: The user's model (baseline).
         spec: The design.
         root: Library root (``default_cache_root()`` if None).
-        executor: Runs the tasks (serial here; :mod:`dempath_diagnose.sweep` for Dask).
+        executor: Runs the tasks (serial here; :mod:`dempath_diagnose.library.sweep` for Dask).
         cache_dir: Packing cache (dempath_sim's default if None).
         on_done: Called with (runs finished, runs to do) after each run.
     """
@@ -323,8 +323,8 @@ class Library:
 
     @classmethod
     def load_packed(cls, path: Path) -> Library:
-        """Read a library packed by :func:`~dempath_diagnose.packed.export_library`."""
-        from dempath_diagnose.packed import load_packed
+        """Read a library packed by :func:`~dempath_diagnose.library.packed.export_library`."""
+        from dempath_diagnose.library.packed import load_packed
 
         data, records = load_packed(path)
         candidates, runs = _design_of(data)

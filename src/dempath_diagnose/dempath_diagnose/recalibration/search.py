@@ -23,8 +23,8 @@ from collections.abc import Sequence
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from dempath_diagnose.emulator import CandidateEmulator
-from dempath_diagnose.objective import Objective
+from dempath_diagnose.decision.emulator import CandidateEmulator
+from dempath_diagnose.recalibration.objective import Objective
 from dempath_diagnose.records import F64
 from dempath_sim.effects.candidates import LOG_SCALE
 

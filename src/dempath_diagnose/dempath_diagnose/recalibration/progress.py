@@ -1,8 +1,8 @@
 """Progress of a running recalibration: one record per iteration, handed to callbacks.
 
-The loop (:mod:`dempath_diagnose.recalibrate`) emits a :class:`Progress` through a plain
+The loop (:mod:`dempath_diagnose.recalibration.loop`) emits a :class:`Progress` through a plain
 callback; the command line prints it with an ETA, and ``--publish-progress`` also hands it to
-the progress node (``dempath_diagnose.nodes.recal_progress``), which publishes
+the progress node (``dempath_diagnose.nodes.progress_publisher``), which publishes
 ``dempath_msgs/RecalibrationProgress`` for Foxglove and the recorder. No ROS here.
 """
 

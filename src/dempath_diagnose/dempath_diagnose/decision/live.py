@@ -15,11 +15,11 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from dempath_diagnose.diagnose import CaseGeometry, Diagnosis, diagnose
-from dempath_diagnose.emulator import Allowance
+from dempath_diagnose.decision.diagnosis import CaseGeometry, Diagnosis, diagnose
+from dempath_diagnose.decision.emulator import Allowance
+from dempath_diagnose.decision.measure import COMMON_STEP_S, track_problem
 from dempath_diagnose.errors import MeasurementError
-from dempath_diagnose.library import Library
-from dempath_diagnose.measure import COMMON_STEP_S, track_problem
+from dempath_diagnose.library.store import Library
 from dempath_diagnose.records import F64, Measurement
 
 
@@ -107,7 +107,7 @@ def build_live(scene: str, library: Path, n_windows: int = 4, noise_m: float = 0
     Raises:
         LibraryError: The library is missing or incomplete (build it with ``dempath diagnose``).
     """
-    from dempath_diagnose.simulate import load_scene, tool_geometry
+    from dempath_diagnose.library.simulator import load_scene, tool_geometry
 
     spec = load_scene(scene)
     tool_x, half_width, cube = tool_geometry(spec)

@@ -20,10 +20,15 @@ from dempath.errors import DempathError
 from dempath_diagnose.cli import _parser as diagnose_parser
 from dempath_diagnose.cli import diagnosis_of
 from dempath_diagnose.errors import DiagnosisError
-from dempath_diagnose.library import serial_executor
-from dempath_diagnose.recal_progress import Callback, fan_out, printer
-from dempath_diagnose.recal_targets import also_candidates, budgets, named, targets
-from dempath_diagnose.recalibrate import Recalibration, check_strength, recalibrate, unchanged
+from dempath_diagnose.library.store import serial_executor
+from dempath_diagnose.recalibration.loop import (
+    Recalibration,
+    check_strength,
+    recalibrate,
+    unchanged,
+)
+from dempath_diagnose.recalibration.progress import Callback, fan_out, printer
+from dempath_diagnose.recalibration.targets import also_candidates, budgets, named, targets
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -49,8 +54,8 @@ def _executor(args: argparse.Namespace, stack: ExitStack) -> Any:
         return serial_executor
     import logging
 
-    from dempath_diagnose.recal_runs import dask_executor
-    from dempath_diagnose.sweep import DaskSweep
+    from dempath_diagnose.library.sweep import DaskSweep
+    from dempath_diagnose.recalibration.evaluations import dask_executor
 
     # A lost scheduler is reported in one line of ours; the client's own reconnect traceback
     # would bury it (restored when the command ends).
@@ -63,7 +68,7 @@ def _executor(args: argparse.Namespace, stack: ExitStack) -> Any:
 def _callback(args: argparse.Namespace, stack: ExitStack) -> Callback:
     callbacks = [printer()]
     if args.publish_progress:
-        from dempath_diagnose.nodes.recal_progress import progress_publisher
+        from dempath_diagnose.nodes.progress_publisher import progress_publisher
 
         callbacks.append(stack.enter_context(progress_publisher(args.out.name)))
     return fan_out(callbacks)
@@ -71,10 +76,10 @@ def _callback(args: argparse.Namespace, stack: ExitStack) -> Callback:
 
 def run(args: argparse.Namespace) -> dict[str, Any]:
     """The whole command; returns recalibration.json's content."""
-    from dempath_diagnose.objective import Objective
-    from dempath_diagnose.recal_runs import RealEvaluator
-    from dempath_diagnose.report import write_outputs
-    from dempath_diagnose.simulate import tool_geometry
+    from dempath_diagnose.library.simulator import tool_geometry
+    from dempath_diagnose.recalibration.evaluations import RealEvaluator
+    from dempath_diagnose.recalibration.objective import Objective
+    from dempath_diagnose.report.diagnosis_outputs import write_outputs
 
     if args.budget <= 0:
         raise DiagnosisError(f'--budget {args.budget}: must be a positive number of simulations')
@@ -118,7 +123,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
 def _write(results: list[tuple[Recalibration, Any]], scene: Any, library: Any, d: Any,
            cube: tuple[float, float, float], args: argparse.Namespace) -> dict[str, Any]:
     """Write the best result (the scene first), its paper metrics and figures."""
-    from dempath_diagnose.recal_outputs import write_all, write_scene_of
+    from dempath_diagnose.report.recalibration_outputs import write_all, write_scene_of
 
     best, evaluate = min(results, key=lambda re: re[0].after)
     write_scene_of(best, scene, args.out)
@@ -132,9 +137,13 @@ def _write(results: list[tuple[Recalibration, Any]], scene: Any, library: Any, d
             if down else ''
     figures: tuple[str, ...] = ()
     if evaluate is not None:
-        from dempath_diagnose.recal_figures import paper_and_trajectories
+        from dempath_diagnose.cli import _origin
+        from dempath_diagnose.decision.measure import load_tracks
+        from dempath_diagnose.report.recalibration_paper import paper_and_trajectories
 
-        paper, figures = paper_and_trajectories(best, evaluate, library, d, cube, args)
+        meas = load_tracks(args.measured, _origin(args.origin))
+        paper, figures = paper_and_trajectories(best, evaluate, library, d, cube, meas,
+                                                args.noise, args.out)
         extra['paper'] = paper
     return write_all(best, scene, args.out, extra, figures)
 

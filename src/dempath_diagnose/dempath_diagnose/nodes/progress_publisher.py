@@ -1,10 +1,10 @@
 """Recalibration progress node: publishes each iteration of a running recalibration.
 
 ``dempath recalibrate --publish-progress`` starts it beside the loop; the loop hands it each
-:class:`~dempath_diagnose.recal_progress.Progress` (through a plain callback, the core imports
-no ROS) and it publishes ``dempath_msgs/RecalibrationProgress`` on ``/diagnosis/recalibration``
-(transient local: a late Foxglove panel or recorder still gets the last one). The recorder
-(``dempath record``, every topic under ``/diagnosis``) records it to MCAP.
+:class:`~dempath_diagnose.recalibration.progress.Progress` (through a plain callback, the core
+imports no ROS) and it publishes ``dempath_msgs/RecalibrationProgress`` on
+``/diagnosis/recalibration`` (transient local: a late Foxglove panel or recorder still gets the
+last one). The recorder (``dempath record``, every topic under ``/diagnosis``) records it to MCAP.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Header
 
-from dempath_diagnose.recal_progress import Callback, Progress
+from dempath_diagnose.recalibration.progress import Callback, Progress
 from dempath_msgs.msg import RecalibrationProgress
 
 TOPIC = '/diagnosis/recalibration'

@@ -4,7 +4,7 @@ A library folder keeps every particle near the surface of every run (any layout 
 a user who knows where the markers start (a lab's grid, the demo's field twin) needs only the
 particles around those starts. :func:`export_library` keeps, per run, the particles whose start
 lies within ``margin_m`` of the candidate cube around any given marker start (or inside a box
-given by the user), plus whatever :func:`~.statistics.cube_members` would take for those starts
+given by the user), plus whatever :func:`.counterparts.cube_members` would take for those starts
 (a grown cube, the nearest particles), so that a diagnosis of those markers finds the very same
 model counterparts in the file as in the folder.
 
@@ -12,7 +12,7 @@ Displacements from the start are quantised to ``QUANTUM_M`` (0.05 mm at most off
 camera pair's 1.5 mm noise), differenced over time and stored as int16, which deflate packs
 well (a particle at rest is a run of zeros); starts, tool pose and force stay float32. NaN
 (a particle that left the domain) is a packed bit mask. The design (candidates, runs) and the
-region travel in the file; :func:`load_packed` gives records that :class:`~.library.Library`
+region travel in the file; :func:`load_packed` gives records that :class:`.store.Library`
 diagnoses from exactly as from the folder.
 """
 
@@ -29,8 +29,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dempath_diagnose.errors import LibraryError
+from dempath_diagnose.library.counterparts import cube_members
 from dempath_diagnose.records import F64, PassRecord
-from dempath_diagnose.statistics import cube_members
 
 FORMAT = 'dempath-library-packed-1'
 QUANTUM_M = 1e-4  # displacement quantum [m]: rounding error at most half of it
@@ -99,7 +99,7 @@ def _unpack_record(data: Any, k: int) -> PassRecord:
 def export_library(library: Any, path: Path, cube: tuple[float, float, float],
                    starts: F64 | None = None, margin_m: float = DEFAULT_MARGIN_M,
                    box: F64 | None = None) -> dict[str, Any]:
-    """Pack ``library`` (a :class:`~.library.Library`) for a marker region into ``path``.
+    """Pack ``library`` (a :class:`.store.Library`) for a marker region into ``path``.
 
     Args:
         library: The built library.

@@ -10,7 +10,7 @@ axis for log-scale effects). Calibrated uncertainties give z of mean about 0 and
 an RMS well above 1 means over-confident strengths, a mean away from 0 a biased fit.
 
 This is the check that found the cube-mean counterpart's bias (hidden tool speeds fitted too
-far from the scene's value; :mod:`dempath_diagnose.statistics`). Its limits: the left-out runs
+far from the scene's value; :mod:`.statistics`). Its limits: the left-out runs
 share the library's bed preparation and engine, so it measures chaos and the emulator, not a
 lab's or another engine's systematic difference (the discrepancy allowance covers those), and
 the emulator is built from one seed fewer than a diagnosis uses. No simulation runs here.
@@ -23,11 +23,11 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from dempath_diagnose.decision import fit_candidate
-from dempath_diagnose.emulator import Allowance, build_emulator
-from dempath_diagnose.library import Library
+from dempath_diagnose.decision.emulator import Allowance, build_emulator
+from dempath_diagnose.decision.statistics import Layout, build_layout, measured_statistics
+from dempath_diagnose.decision.verdict import fit_candidate
+from dempath_diagnose.library.store import Library
 from dempath_diagnose.records import F64, Measurement, PassRecord
-from dempath_diagnose.statistics import Layout, build_layout, measured_statistics
 from dempath_sim.effects.candidates import LOG_SCALE
 
 

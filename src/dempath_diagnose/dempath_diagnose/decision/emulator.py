@@ -25,10 +25,10 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from dempath_diagnose.library import Library
+from dempath_diagnose.decision.statistics import Layout, model_statistics
+from dempath_diagnose.library.simulator import Candidate
+from dempath_diagnose.library.store import Library
 from dempath_diagnose.records import F64
-from dempath_diagnose.simulate import Candidate
-from dempath_diagnose.statistics import Layout, model_statistics
 from dempath_sim.effects.candidates import LOG_SCALE
 
 EXTEND = 0.25  # the prior range reaches this fraction of the library's span beyond it
