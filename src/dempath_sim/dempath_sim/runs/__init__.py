@@ -1,15 +1,16 @@
 """Runs: a scene filled, its markers picked, the tool driven and recorded, on either backend.
 
 `backend.py` holds the one call shape (`Backend.run(scene, options) -> SimResult`), `physics.py`
-the scene -> engine-parameter build both backends use, `fill.py` the pour, settle and packing
-cache, `markers.py` the marker and candidate choice, `results.py` the `SimResult` record and
-`native.py` the run on dempath's engine. The LIGGGHTS backend is `dempath_sim.liggghts`.
+the scene -> engine-parameter build both backends use, `bed/` the bed's preparation (pour, settle,
+packing cache and file, tool placement; one entry point, `bed.fill_bed`), `markers.py` the marker
+and candidate choice, `results.py` the `SimResult` record and `native.py` the run on dempath's
+engine. The LIGGGHTS backend is `dempath_sim.liggghts`.
 """
 
 from __future__ import annotations
 
 from dempath_sim.runs.backend import Backend, Frame, Progress, RunOptions
-from dempath_sim.runs.fill import FillReport, fill_bed, packing_key
+from dempath_sim.runs.bed import FillReport, fill_bed, packing_key
 from dempath_sim.runs.markers import (
     ROLE_BED,
     ROLE_CANDIDATE,

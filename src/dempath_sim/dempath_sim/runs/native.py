@@ -5,8 +5,8 @@
 the other on any backend (the engine already uses every core). Steps: build the engine parameters
 from the scene's physics model; fill the bin or read the cached packing; pick markers and
 candidates; insert the tool at its depth (``tool.placement``: the particles overlapping its closed
-mesh are removed, or those in its bounding box, see ``runs.placement``); re-settle the bed with the
-tool in place and the run's own physics for ``tool.settle_s`` (so that the pass starts with the
+mesh are removed, or those in its bounding box, see ``runs.bed.placement``); re-settle the bed with
+the tool in place and the run's own physics for ``tool.settle_s`` (so that the pass starts with the
 contact history of a bed at rest against the tool, as a LIGGGHTS deck's re-settle does, also when
 the packing came from the cache or was poured with the scene file's physics); then drive the tool
 with the profile in the same engine and record the tracked particles, the tool pose, force and
@@ -29,10 +29,10 @@ from dempath_sim.effects import PhysicsModel
 from dempath_sim.engine import Engine, SimParams, SimState, ToolPose, TriangleMesh
 from dempath_sim.errors import RunStoppedError, SimulationError
 from dempath_sim.runs.backend import Backend, Frame, Progress, RunOptions
-from dempath_sim.runs.fill import FillReport, fill_bed
+from dempath_sim.runs.bed import FillReport, fill_bed, place_tool, tool_start
+from dempath_sim.runs.bed.placement import carve_tool_slot
 from dempath_sim.runs.markers import MarkerSelection, select_markers
 from dempath_sim.runs.physics import TOOL, bin_walls, build_params
-from dempath_sim.runs.placement import carve_tool_slot, place_tool, tool_start
 from dempath_sim.runs.results import Recorder, SimResult
 from dempath_sim.scene.profiles import ToolPath
 from dempath_sim.scene.spec import SceneSpec
