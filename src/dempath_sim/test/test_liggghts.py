@@ -15,6 +15,7 @@ from dempath_sim.liggghts.dumps import frames_by_id, read_dump, read_print
 from dempath_sim.liggghts.errors import DumpError, LiggghtsNotFoundError, LiggghtsRunError
 from dempath_sim.liggghts.install import LiggghtsInstall, ensure_liggghts, find_liggghts
 from dempath_sim.liggghts.runner import run_deck
+from dempath_sim.runs.identity import run_identity
 from dempath_sim.scene import bundled_scene
 from dempath_sim.scene.profiles import SpeedProfile, ToolPath
 
@@ -165,6 +166,8 @@ def test_tiny_scene_runs_end_to_end_on_liggghts(liggghts: LiggghtsInstall, tmp_p
     fill = result.meta['fill']
     assert 0.4 < fill['solid_fraction'] < 0.7
     assert abs(fill['surface_height_m']) < 0.03
+    identity = run_identity(scene).as_meta()  # the same identity as a native run of the scene
+    assert {k: result.meta[k] for k in identity} == identity
 
 
 @pytest.mark.liggghts

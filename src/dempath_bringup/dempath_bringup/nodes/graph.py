@@ -258,7 +258,8 @@ def run_graph(spec: GraphSpec, note: Callable[[str], None] = lambda text: None) 
             logger_class(name).set_level(WARN)
         recon = harness.start(ReconstructorNode, method=spec.method,
                               calibration_file=str(spec.calibration))
-        comparer = harness.start(ComparerNode, experiment=spec.experiment)
+        comparer = harness.start(ComparerNode, experiment=spec.experiment,
+                                 identity_from_names=True)  # as stages.named_identity
         recorder = harness.start(RecorderNode, output=str(spec.output), topics=graph_topics())
         if not recorder.recording:
             msg = f'{spec.output}: the recorder cannot write the bag'

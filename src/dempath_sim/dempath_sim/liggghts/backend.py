@@ -34,6 +34,7 @@ from dempath_sim.runs.bed.fill import fill_bed
 from dempath_sim.runs.bed.measure import measure
 from dempath_sim.runs.bed.placement import removal_mask
 from dempath_sim.runs.bed.pour import pour, target_solid_fraction
+from dempath_sim.runs.identity import run_identity
 from dempath_sim.runs.markers import select_markers
 from dempath_sim.runs.physics import PARTICLES, build_params
 from dempath_sim.runs.results import SimResult
@@ -327,7 +328,7 @@ def _result(workdir: Path, stage: dk.ToolStage, ids: NDArray[np.int64],
     force[k[ok]] = tool[ok, 1:]
     force[0, 6:] = stage.path.start_position_m
     radius_of = dict(zip(bed.ids.tolist(), bed.radii.tolist(), strict=True))
-    meta = {'engine': 'liggghts', 'scene': scene.name, 'seed': scene.seed,
+    meta = {**run_identity(scene).as_meta(), 'engine': 'liggghts',
             'fill': bed.report, 'dt_s': stage.dt, 'nprocs': run.nprocs,
             'fill_loop_time_s': bed.run.loop_time_s, 'pass_loop_time_s': run.loop_time_s,
             'workdir': str(workdir)}

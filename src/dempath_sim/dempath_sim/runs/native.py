@@ -31,6 +31,7 @@ from dempath_sim.errors import RunStoppedError, SimulationError
 from dempath_sim.runs.backend import Backend, Frame, Progress, RunOptions
 from dempath_sim.runs.bed import FillReport, fill_bed, place_tool, tool_start
 from dempath_sim.runs.bed.placement import carve_tool_slot
+from dempath_sim.runs.identity import run_id, run_identity
 from dempath_sim.runs.markers import MarkerSelection, select_markers
 from dempath_sim.runs.physics import TOOL, bin_walls, build_params
 from dempath_sim.runs.results import Recorder, SimResult
@@ -52,15 +53,6 @@ def _with_run_masses(state: SimState, params: SimParams) -> SimState:
     fresh.angular_velocities[:] = state.angular_velocities
     fresh.extra = dict(state.extra)
     return fresh
-
-
-def run_id(scene: SceneSpec) -> str:
-    """Label of one run: scene name, seed and a short hash of the effect settings."""
-    import hashlib
-    import json
-
-    text = json.dumps(scene.to_dict()['effects'], sort_keys=True)
-    return f'{scene.name}-s{scene.seed}-{hashlib.sha256(text.encode()).hexdigest()[:8]}'
 
 
 @dataclass
@@ -213,7 +205,7 @@ def run_scene(scene: SceneSpec, options: RunOptions | None = None) -> SimResult:
     t_drive = time.monotonic()
     state = drive_tool(drive, state, options)
     meta: dict[str, Any] = {
-        'run_id': run_id(scene), 'scene': scene.name, 'source': scene.source, 'seed': scene.seed,
+        **run_identity(scene).as_meta(), 'engine': 'dempath', 'source': scene.source,
         'effects': scene.to_dict()['effects'], 'fill': asdict(report),
         'dt_s': drive.engine.dt, 'n_particles': state.n,
         'removed_particles': drive.engine.removed_count, 'end_time_s': drive.end_time_s,
