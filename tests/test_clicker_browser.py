@@ -24,6 +24,7 @@ import numpy as np
 import pytest
 
 from dempath.browser import BrowserNotFoundError, headless_chromium
+from dempath.nodes.pytest_plugin import require_component
 from dempath_recon.clicker.clicks import ClickBounds, ClickStore
 from dempath_recon.clicker.frames import open_frames
 from dempath_recon.clicker.server import ClickServer, ClickSession
@@ -83,11 +84,11 @@ def session(tmp_path: Path) -> Iterator[ClickServer]:
 
 @pytest.fixture
 def browser(tmp_path: Path) -> Iterator[Any]:
-    """A headless Chromium (installed through apt when missing and allowed, else skip)."""
+    """A headless Chromium (apt-installed when missing and allowed, else the test fails)."""
     try:
         driver = headless_chromium(1500, 600, download_dir=tmp_path / 'downloads')
     except BrowserNotFoundError as err:
-        pytest.skip(str(err))
+        require_component('chromium', err)
     yield driver
     driver.quit()
 

@@ -140,8 +140,9 @@ def _write(results: list[tuple[Recalibration, Any]], scene: Any, library: Any, d
 
 
 def recalibrate_main(argv: Sequence[str] | None = None) -> int:
-    """``dempath recalibrate``; 0, or 1 after one ``error: <input>: <problem>`` line.
+    """``dempath recalibrate``: fit the missing effect's strength against the measurement.
 
+    Returns 0, or 1 after one ``error: <input>: <problem>`` line.
     A lost scheduler gives its error line after the outputs (best scene so far) are written.
     """
     args = _parser().parse_args(argv)

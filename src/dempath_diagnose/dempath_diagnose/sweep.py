@@ -14,12 +14,14 @@ from collections.abc import Callable, Sequence
 from types import TracebackType
 from typing import Any
 
+from dempath.daskprobe import SchedulerProbeError, check_dask_scheduler
 from dempath_diagnose.errors import ClusterError
 
 logger = logging.getLogger(__name__)
 
 RETRIES = 3  # attempts after a worker died or a task failed
 CONNECT_TIMEOUT_S = 10.0  # waiting for a scheduler given by address [s]
+PROBE_TIMEOUT_S = 5.0  # waiting for a Dask handshake from that address [s]
 MAX_LOCAL_WORKERS = 2  # more processes than this only add memory on small machines
 
 
@@ -71,6 +73,10 @@ class DaskSweep:
         from distributed import Client, LocalCluster
 
         if self.scheduler:
+            try:  # within seconds, not a hang or an exabyte allocation on a wrong address
+                check_dask_scheduler(self.scheduler, min(self.timeout_s, PROBE_TIMEOUT_S))
+            except SchedulerProbeError as err:
+                raise ClusterError(str(err)) from None
             try:
                 with dask.config.set({'distributed.comm.timeouts.connect': self.timeout_s}):
                     self.client = Client(self.scheduler, timeout=self.timeout_s)

@@ -166,3 +166,23 @@ def test_local_cluster_starts_tasks_in_the_order_given_with_the_engine_environme
     assert starts == sorted(starts)
     threads = local_layout(workers=1)[1]
     assert {(r[1], r[2]) for r in reports} == {('-', str(threads))}
+
+
+def test_address_of_an_http_server_is_refused_at_once() -> None:
+    """--scheduler pointing at an HTTP server: ClusterError naming it (the client used to hang)."""
+    import http.server
+    import threading
+
+    from dempath_diagnose.errors import ClusterError
+
+    server = http.server.ThreadingHTTPServer(('127.0.0.1', 0),
+                                             http.server.SimpleHTTPRequestHandler)
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    address = f'tcp://127.0.0.1:{server.server_address[1]}'
+    try:
+        with pytest.raises(ClusterError, match=f'{address}: not a Dask scheduler'), \
+                DaskSweep(address, timeout_s=1.0):
+            pass
+    finally:
+        server.shutdown()
+        server.server_close()

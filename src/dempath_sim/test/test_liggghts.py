@@ -7,11 +7,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from dempath.dumpio import frames_by_id, read_dump, read_print
 from dempath_sim.engine.materials import Interaction, Material
 from dempath_sim.engine.params import SimParams
 from dempath_sim.liggghts import commands as cmd
 from dempath_sim.liggghts.deck import fill_plan, layer_templates, primes_from, velocity_expression
-from dempath_sim.liggghts.dumps import frames_by_id, read_dump, read_print
 from dempath_sim.liggghts.errors import DumpError, LiggghtsNotFoundError, LiggghtsRunError
 from dempath_sim.liggghts.install import LiggghtsInstall, ensure_liggghts, find_liggghts
 from dempath_sim.liggghts.runner import run_deck

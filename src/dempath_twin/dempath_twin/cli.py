@@ -43,8 +43,11 @@ def rig_main(argv: list[str]) -> int:
 
 
 def twin_main(argv: list[str]) -> int:
-    """``dempath twin field OUT ...`` (clicked field twin) or ``dempath twin render SOURCE --out
-    BAG ...`` (rendered field recording, :func:`dempath_twin.render.bag.render_main`)."""
+    """``dempath twin field|render ...``: make a field twin (clicked points or rendered images).
+
+    ``dempath twin field OUT ...`` (clicked field twin) or ``dempath twin render SOURCE --out
+    BAG ...`` (rendered field recording, :func:`dempath_twin.render.bag.render_main`).
+    """
     from dempath_twin.field.demo_bag import make_field_twin
 
     if argv[:1] == ['render']:

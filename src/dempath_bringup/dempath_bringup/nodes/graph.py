@@ -15,9 +15,10 @@ outputs against the field twin's truth.
 
 from __future__ import annotations
 
+import logging
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -185,8 +186,8 @@ def _play_images(harness: Any, recorder: Any, spec: GraphSpec, detectors: dict[s
                            topics=list(images.values()) + infos, wait_for_subscribers=1)
     last = [-1, time.monotonic()]
 
-    def detected(cam: str) -> int:
-        return int(detectors[cam].core.counts[cam].frames)
+    def detected(cam: str) -> int:  # skipped frames included: the demo must not wait for them
+        return int(detectors[cam].handled_frames())
 
     def done() -> bool:
         points = _received(recorder, topics.MARKER_POINTS)
@@ -252,6 +253,8 @@ def run_graph(spec: GraphSpec, note: Callable[[str], None] = lambda text: None) 
     from dempath_recon.nodes.reconstructor import ReconstructorNode
 
     start = time.monotonic()
+    if spec.detect:
+        spec = fitted_calibration(spec, note)
     with RosHarness() as harness:
         logger_class = type(harness.probe.get_logger())  # type: ignore[no-untyped-call]  # rcutils logger
         for name in QUIET_NODES:
@@ -281,6 +284,48 @@ def run_graph(spec: GraphSpec, note: Callable[[str], None] = lambda text: None) 
     return GraphResult(spec.output, received, pixel_frames, run_id, frames, scores, markers,
                        summary, time.monotonic() - start, recon.reconstructor,
                        comparer.last_result, detection, play_s, sim_s)
+
+
+def recording_sizes(bag: Path) -> dict[str, tuple[int, int]]:
+    """{camera: (width, height) px} of the first compressed image of each camera in ``bag``."""
+    import cv2
+
+    from dempath import topics
+    from dempath.bagio import open_bag
+
+    wanted = {topics.camera_topic(topics.IMAGE_COMPRESSED, c): c for c in topics.CAMERAS}
+    sizes: dict[str, tuple[int, int]] = {}
+    with open_bag(bag) as reader:
+        names = [t for t in wanted if t in reader.topics]
+        for raw in reader.messages(names):
+            cam = wanted[raw.topic]
+            if cam in sizes:
+                if len(sizes) == len(names):
+                    break
+                continue
+            image = cv2.imdecode(np.asarray(reader.deserialize(raw).data, np.uint8),
+                                 cv2.IMREAD_GRAYSCALE)
+            if image is not None:
+                sizes[cam] = (int(image.shape[1]), int(image.shape[0]))
+    return sizes
+
+
+def fitted_calibration(spec: GraphSpec, note: Callable[[str], None]) -> GraphSpec:
+    """``spec`` with a calibration that fits the recording's image size: the same one, or one
+    scaled to a recording of the same aspect ratio (saved beside the output bag and said);
+    CalibrationError (one line naming both sizes) for another aspect ratio."""
+    from dempath_calib.camera import StereoCalibration
+    from dempath_calib.resize import fit_to_images
+
+    calib = StereoCalibration.load(spec.calibration)
+    fitted, notes = fit_to_images(calib, recording_sizes(spec.field_bag), str(spec.field_bag))
+    if not notes:
+        return spec
+    path = fitted.save(spec.output.parent / f'{spec.output.name}.calibration_scaled.yaml')
+    for line in notes:
+        logging.getLogger(__name__).warning('%s: %s', spec.field_bag, line)
+        note(line)
+    return replace(spec, calibration=path)
 
 
 def recorded_scores(bag: Path) -> tuple[int, int]:

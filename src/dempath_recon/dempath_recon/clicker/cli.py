@@ -87,9 +87,11 @@ def parser() -> argparse.ArgumentParser:
 
 
 def click_main(argv: list[str]) -> int:
-    """Serve the clicker until Ctrl-C; bad input gives one ``error:`` line and 1."""
+    """``dempath click SOURCE``: click markers in a bag or frame folder in the browser.
+
+    Serves the clicker until Ctrl-C; bad input gives one ``error:`` line and 1.
+    """
     args = parser().parse_args(argv)
-    logging.basicConfig(level=logging.WARNING, format='%(message)s')
     try:
         if args.fps <= 0:
             msg = f'--fps: must be positive, got {args.fps}'

@@ -330,7 +330,8 @@ def _train(model: nn.Module, X: FloatArray, y: FloatArray, settings: TrainSettin
         log.epoch_s.append(time.perf_counter() - start)
         log.epoch_cpu_s.append(time.process_time() - cpu_start)
         log.epoch_load.append(os.getloadavg()[0])
-        logger.info('epoch %d: loss %.3g, validation %s, %.1f s', epoch, log.loss_curve[-1],
+        logger.info('epoch %d/%d: loss %.3g, validation %s, %.1f s', epoch, settings.epochs,
+                    log.loss_curve[-1],
                     f'{log.validation_curve[-1]:.3g}' if n_val else 'none', log.epoch_s[-1])
         log.best_epoch = epoch  # without validation rows every epoch counts, the last is kept
         if best is not None and best.stop_after(model, log.validation_curve[-1], epoch):

@@ -10,6 +10,10 @@ A reconstructor has ``fit(X (n, 4) px, y (n, 3) m, calibration=...) -> self`` an
 - ``dlt_residual``: triangulation plus a small network learning its residual;
 - ``mlp``: the paper's 2048-1024-512 network (a trained one for the twin rig ships with the
   package, ``dempath_recon.methods.shipped``).
+
+The two learned methods need torch, an optional dependency (the extra ``mlp``,
+``requirements-mlp.txt``); it is imported only when one of them is asked for, and its absence is
+one clear :class:`ReconstructionError` line (:func:`learned_class`).
 """
 
 from __future__ import annotations
@@ -21,8 +25,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dempath_recon.errors import ModelFileError, ReconstructionError
-from dempath_recon.methods.mlp import MLPReconstructor
-from dempath_recon.methods.residual import ResidualReconstructor
 from dempath_recon.methods.triangulate import DLTTriangulator
 
 FloatArray = NDArray[np.float64]
@@ -41,6 +43,30 @@ class Reconstructor(Protocol):
         """Pixels (n, 4) px -> points (n, 3) m."""
 
 
+TORCH_HINT = ("pip install 'torch' (dempath_recon's extra 'mlp'; in this repository: "
+              'requirements-mlp.txt, installed by make setup)')
+
+
+def learned_class(method: str) -> Any:
+    """The estimator class of a learned method (``mlp``, ``dlt_residual``), importing torch.
+
+    Raises:
+        ReconstructionError: torch, an optional dependency, is not installed.
+    """
+    try:
+        if method == 'mlp':
+            from dempath_recon.methods.mlp import MLPReconstructor
+
+            return MLPReconstructor
+        from dempath_recon.methods.residual import ResidualReconstructor
+    except ImportError as err:
+        if (err.name or '').split('.')[0] != 'torch':
+            raise
+        msg = f'method: {method!r} needs torch, which is not installed: {TORCH_HINT}'
+        raise ReconstructionError(msg) from err
+    return ResidualReconstructor
+
+
 def make_reconstructor(method: str, **params: Any) -> Any:
     """A new, unfitted reconstructor for ``method`` with hyperparameters ``params``.
 
@@ -51,10 +77,8 @@ def make_reconstructor(method: str, **params: Any) -> Any:
         return DLTTriangulator(refine=False)
     if method == 'dlt_refined':
         return DLTTriangulator(refine=True)
-    if method == 'dlt_residual':
-        return ResidualReconstructor(**params)
-    if method == 'mlp':
-        return MLPReconstructor(**params)
+    if method in ('dlt_residual', 'mlp'):
+        return learned_class(method)(**params)
     msg = f'method: unknown {method!r}; known: {", ".join(METHODS)}'
     raise ReconstructionError(msg)
 
@@ -95,6 +119,7 @@ def load_reconstructor(method: str, calibration_file: str = '', model_file: str 
             raise ReconstructionError(msg)
         return make_reconstructor(method).fit(calibration=load_calibration(calibration_file))
     if method == 'mlp' and not model_file:
+        learned_class(method)  # torch is there, or one clear line
         from dempath_recon.methods.shipped import load_shipped_mlp
 
         return load_shipped_mlp(device)
@@ -102,7 +127,6 @@ def load_reconstructor(method: str, calibration_file: str = '', model_file: str 
         if not model_file:
             msg = f'model_file: method {method!r} needs a trained model file'
             raise ReconstructionError(msg)
-        cls = MLPReconstructor if method == 'mlp' else ResidualReconstructor
-        return cls.load(model_file, device=device)
+        return learned_class(method).load(model_file, device=device)
     msg = f'method: unknown {method!r}; known: {", ".join(METHODS)}'
     raise ReconstructionError(msg)

@@ -107,8 +107,10 @@ class StereoMarkerTracker:
         try:
             det = self.detector.detect_jpeg(jpeg)
         except ImageDecodeError as err:
+            index = counts.frames + counts.undecodable + counts.out_of_order  # of this camera
             counts.undecodable += 1
-            msg = f'{camera} frame at {stamp_s:.6f} s: {err}; skipped'
+            msg = (f'{camera} frame {index} at {stamp_s:.6f} s: {err}; skipped (undecodable '
+                   f'frames so far: {counts.undecodable})')
             LOG.warning(msg)
             return PixelFrame(camera, stamp_s, np.zeros(0, np.int32), np.zeros((0, 2)),
                               np.zeros(0), (msg,))

@@ -4,7 +4,7 @@ Both backends (the native engine and LIGGGHTS) write these fields into ``SimResu
 so into ``dempath simulate``'s ``summary.json`` and ``result.npz``); the comparison
 (``dempath_compare.runinfo``) reads them instead of parsing file or run names:
 
-- ``run_id``: ``<scene>-s<seed>-<hash of the effect settings>``, a readable label;
+- ``run_id``: ``<scene>-s<seed>-<hash of the whole scene>``, a readable label;
 - ``scene``: the scene's name;
 - ``scene_key``: a hash of the set-up (bin, layers, tool and its speed profile, markers, fill,
   output, numerics; the tool's STL and a packing file by their content, not their path), without
@@ -37,15 +37,32 @@ def _digest(payload: object, chars: int) -> str:
 
 
 def _file_digest(path: str | Path | None) -> str | None:
-    """Content hash of a file the scene names (the tool's STL, a packing), None for none."""
+    """sha256 of a file the scene names (hex, 16 chars; 'missing' when it cannot be read), None
+    for no file."""
     if path is None:
         return None
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()[:KEY_CHARS]
+    try:
+        return hashlib.sha256(Path(path).read_bytes()).hexdigest()[:KEY_CHARS]
+    except OSError:
+        return 'missing'
 
 
 def run_id(scene: SceneSpec) -> str:
-    """Label of one run: scene name, seed and a short hash of the effect settings."""
-    text = json.dumps(scene.to_dict()['effects'], sort_keys=True)
+    """Label of one run: scene name, seed and a short hash of everything that changes the run.
+
+    The hash covers the whole scene record (effects and the bed's effects, bin, layers,
+    materials, tool and profile, markers, fill, output cadence, numerics such as the time step)
+    and the bytes of the files it names (the tool's STL, a ``fill.packing``) in place of their
+    paths, so that two runs with the same id are the same run; the scene's name (the id's
+    prefix), description and path are left out.
+    """
+    record = scene.to_dict()
+    for label in ('name', 'source', 'description'):
+        record.pop(label, None)
+    record['tool']['mesh'] = _file_digest(scene.tool.mesh)  # the bytes, not where they lie
+    if scene.fill.packing is not None:
+        record['fill']['packing'] = _file_digest(scene.fill.packing)
+    text = json.dumps(record, sort_keys=True, default=str)
     return f'{scene.name}-s{scene.seed}-{hashlib.sha256(text.encode()).hexdigest()[:8]}'
 
 

@@ -41,6 +41,8 @@ class SimResult:
         snapshot_times: (ns,) times of the full-bed snapshots [s].
         snapshot_ids: (N,) ids of every bed particle at the start.
         snapshot_positions: (ns, N, 3) float32 positions [m]; NaN when removed.
+        snapshot_radii: (N,) radii [m] of the bed particles (empty for a result written
+            before they were recorded, or by a backend without snapshots).
         meta: Scene name, seed, effects, fill report, timings (JSON-serialisable).
     """
 
@@ -58,6 +60,7 @@ class SimResult:
     snapshot_ids: NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, np.int64))
     snapshot_positions: NDArray[np.float32] = field(
         default_factory=lambda: np.zeros((0, 0, 3), np.float32))
+    snapshot_radii: F64 = field(default_factory=lambda: np.zeros(0))
     meta: dict[str, Any] = field(default_factory=dict)
 
     @property
@@ -94,7 +97,7 @@ class SimResult:
     def load_npz(cls, path: str | Path) -> SimResult:
         """Read a result written by :meth:`save_npz`."""
         with np.load(path, allow_pickle=False) as data:
-            arrays = {k: data[k] for k in _ARRAYS}
+            arrays = {k: data[k] for k in _ARRAYS if k in data.files or k not in _OPTIONAL}
             meta = json.loads(str(data['meta']))
         return cls(**arrays, meta=meta)
 
@@ -122,7 +125,8 @@ class SimResult:
 
 _ARRAYS = ('times', 'ids', 'roles', 'marker_ids', 'radii', 'positions', 'velocities',
            'tool_position', 'tool_force', 'tool_torque', 'snapshot_times', 'snapshot_ids',
-           'snapshot_positions')
+           'snapshot_positions', 'snapshot_radii')
+_OPTIONAL = ('snapshot_radii',)  # absent from results written before it was recorded
 
 
 def _write_csv(path: str | Path, header: tuple[str, ...], rows: Any) -> None:
@@ -143,12 +147,15 @@ class Recorder:
     Args:
         ids: (n,) tracked particle ids; roles, marker_ids and radii alike (n,).
         bed_ids: (N,) ids of every particle for the snapshots.
+        bed_radii: (N,) their radii [m] (for VTK output); empty when unknown.
     """
 
     def __init__(self, ids: NDArray[np.int64], roles: NDArray[np.uint8],
-                 marker_ids: NDArray[np.int32], radii: F64, bed_ids: NDArray[np.int64]) -> None:
+                 marker_ids: NDArray[np.int32], radii: F64, bed_ids: NDArray[np.int64],
+                 bed_radii: F64 | None = None) -> None:
         self.ids, self.roles, self.marker_ids, self.radii = ids, roles, marker_ids, radii
         self.bed_ids = bed_ids
+        self.bed_radii = np.zeros(0) if bed_radii is None else np.asarray(bed_radii, float)
         self.frames: list[tuple[float, F64, F64, F64, F64, F64]] = []
         self.snapshots: list[tuple[float, NDArray[np.float32]]] = []
 
@@ -194,4 +201,5 @@ class Recorder:
             tool_position=stack(3, (nt, 3)), tool_force=stack(4, (nt, 3)),
             tool_torque=stack(5, (nt, 3)),
             snapshot_times=np.array([s[0] for s in self.snapshots], dtype=np.float64),
-            snapshot_ids=self.bed_ids, snapshot_positions=snaps, meta=meta)
+            snapshot_ids=self.bed_ids, snapshot_positions=snaps, snapshot_radii=self.bed_radii,
+            meta=meta)

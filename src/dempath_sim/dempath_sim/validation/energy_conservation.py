@@ -15,10 +15,10 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from dempath.dumpio import read_dump
 from dempath_sim.engine import Interaction, SimParams, box_walls
 from dempath_sim.engine.materials import pair_properties
 from dempath_sim.liggghts import commands as cmd
-from dempath_sim.liggghts.dumps import read_dump
 from dempath_sim.validation import cases
 
 F64 = NDArray[np.float64]

@@ -14,6 +14,7 @@ import hashlib
 import json
 import logging
 import os
+import zipfile
 from dataclasses import asdict, replace
 from pathlib import Path
 from typing import Any
@@ -87,9 +88,10 @@ def packing_key(scene: SceneSpec, model: PhysicsModel) -> str:
 
 
 def save_cached(path: Path, state: SimState, report: FillReport) -> None:
-    """Write a settled bed and its report to ``path`` (atomically: a temporary file, renamed)."""
+    """Write the packing beside its final name and rename it into place (atomic: a killed run
+    leaves no half-written entry; concurrent writers each use their own temporary file)."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix('.tmp.npz')
+    tmp = path.with_name(f'.{path.stem}.{os.getpid()}.tmp.npz')
     np.savez_compressed(tmp, positions=state.positions, velocities=state.velocities,
                         angular_velocities=state.angular_velocities, radii=state.radii,
                         ids=state.ids, layer=state.extra.get('layer', np.zeros(state.n)),
@@ -97,14 +99,32 @@ def save_cached(path: Path, state: SimState, report: FillReport) -> None:
     tmp.replace(path)
 
 
-def load_cached(path: Path, params: SimParams) -> tuple[SimState, FillReport]:
-    """A cached bed (state as settled, masses from ``params``) and its report."""
-    with np.load(path, allow_pickle=False) as data:
-        state = SimState.from_spheres(data['positions'], data['radii'], PARTICLES, params,
-                                      velocities=data['velocities'], ids=data['ids'])
-        state.angular_velocities[:] = data['angular_velocities']
-        state.extra['layer'] = data['layer'].astype(np.int32)
-        fields: dict[str, Any] = json.loads(str(data['report']))
-    fields['from_cache'] = True
+# What a damaged cache entry raises on reading: truncated or empty zip (BadZipFile, EOFError),
+# a missing array (KeyError), wrong shapes or JSON (ValueError, TypeError), unreadable (OSError).
+_DAMAGED = (zipfile.BadZipFile, EOFError, KeyError, ValueError, TypeError, OSError)
+
+
+def load_cached(path: Path, params: SimParams) -> tuple[SimState, FillReport] | None:
+    """The cached packing, or None when the entry is damaged: it is then named in a warning,
+    set aside as ``<name>.corrupt`` (when the cache is writable) and the bed is poured again."""
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            state = SimState.from_spheres(data['positions'], data['radii'], PARTICLES, params,
+                                          velocities=data['velocities'], ids=data['ids'])
+            state.angular_velocities[:] = data['angular_velocities']
+            state.extra['layer'] = data['layer'].astype(np.int32)
+            fields: dict[str, Any] = json.loads(str(data['report']))
+        fields['from_cache'] = True
+        report = FillReport(**fields)
+    except _DAMAGED as err:
+        aside = path.with_name(path.name + '.corrupt')
+        try:
+            path.replace(aside)
+            where = f'set aside as {aside.name}'
+        except OSError:
+            where = 'left in place (read-only)'
+        logger.warning('fill: cached packing %s is damaged (%s: %s); %s, pouring the bed again',
+                       path, type(err).__name__, err, where)
+        return None
     logger.info('fill: packing %s read from the cache', path.name)
-    return state, FillReport(**fields)
+    return state, report

@@ -158,8 +158,9 @@ def fill_bed(scene: SceneSpec, model: PhysicsModel, params: SimParams,
     path = (cache_dir or default_cache_dir()) / f'{key}.npz'
     if scene.fill.cache:
         for found_path in (path, bundled_packing_dir() / f'{key}.npz'):
-            if found_path.is_file():
-                return load_cached(found_path, params)
+            cached = load_cached(found_path, params) if found_path.is_file() else None
+            if cached is not None:
+                return cached
     state, report = pour_to_target(scene, model, params, key, progress)
     state.time, state.step = 0.0, 0
     if scene.fill.cache:

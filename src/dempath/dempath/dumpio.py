@@ -1,5 +1,9 @@
 """Read LIGGGHTS text dumps (``dump custom``) and ``fix print`` files into arrays.
 
+A file format, like the bags of :mod:`dempath.bagio`: it lives on the ground so that both the
+simulator (which drives LIGGGHTS) and the comparison (which reads a user's LIGGGHTS model) use
+one parser without the comparison importing the simulator.
+
 A dump is a sequence of frames::
 
     ITEM: TIMESTEP / <step> / ITEM: NUMBER OF ATOMS / <n> / ITEM: BOX BOUNDS ... (3 lines) /
@@ -18,7 +22,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from dempath_sim.liggghts.errors import DumpError
+from dempath.errors import DumpError
 
 F64 = NDArray[np.float64]
 
