@@ -40,7 +40,7 @@ PARAMETERS = (
     ('pairing', 'auto', 'auto, all, marker or cube'),
     ('identity_from_names', False, 'tool speed and seed from experiment and run names'),
     ('experiment', 'experiment', 'name of the measured experiment (group)'),
-    ('frame_id', 'world', 'frame of the published MarkerArray'),
+    ('frame_id', 'field', 'frame of the published MarkerArray (the measurement frame)'),
 )
 COMPARE_KEYS = ('top_n', 'sp', 'rest_samples', 'z_weight', 'rank_by', 'matching', 'pairing',
                 'identity_from_names')

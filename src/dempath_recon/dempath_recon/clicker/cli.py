@@ -2,7 +2,10 @@
 
 Opens the frames, resumes the click file if it exists (``--out``, default ``clicks.csv``),
 merges ``--import`` files, and serves the page on 127.0.0.1 until Ctrl-C. Every click is saved
-at once; ``dempath_clicker`` (a node) publishes the file as ``dempath_msgs/PixelPoints``.
+at once; ``dempath_clicker`` (a node) publishes the file as ``dempath_msgs/PixelPoints``. One
+session holds the click file (a second one on the same file is refused). The page's address,
+printed here, carries the session token; binding another address than loopback needs
+``--allow-remote``, warns, and prints the address other machines reach.
 """
 
 from __future__ import annotations
@@ -13,9 +16,15 @@ import logging
 import sys
 from pathlib import Path
 
-from dempath_recon.clicker.clicks import ClickBounds, ClickStore, parse_markers, read_clicks_text
+from dempath_recon.clicker.clicks import (
+    ClickBounds,
+    ClickStore,
+    click_file_lock,
+    parse_markers,
+    read_clicks_text,
+)
 from dempath_recon.clicker.frames import open_frames
-from dempath_recon.clicker.server import ClickServer, ClickSession, Detection
+from dempath_recon.clicker.server import ClickServer, ClickSession, Detection, is_loopback
 from dempath_recon.errors import ClickError
 
 LOG = logging.getLogger(__name__)
@@ -78,6 +87,9 @@ def parser() -> argparse.ArgumentParser:
                    help="the session's click file, resumed if it exists (default clicks.csv)")
     p.add_argument('--port', type=int, default=8765, help='port (0: any free one)')
     p.add_argument('--host', default='127.0.0.1', help='address to bind (default localhost)')
+    p.add_argument('--allow-remote', action='store_true',
+                   help='allow a --host other than loopback (other machines can then reach '
+                        'the images and, with the printed address, change the clicks)')
     p.add_argument('--markers', default='1-15', help="marker numbers (default the paper's 1-15)")
     p.add_argument('--fps', type=float, default=50.0, help='frame rate of a folder [1/s]')
     p.add_argument('--detections', help='CSV frame,camera,marker,x,y[,confidence] to overlay')
@@ -92,12 +104,16 @@ def click_main(argv: list[str]) -> int:
     Serves the clicker until Ctrl-C; bad input gives one ``error:`` line and 1.
     """
     args = parser().parse_args(argv)
+    if not is_loopback(args.host) and not args.allow_remote:
+        print(f'error: --host {args.host}: serves beyond this machine; add --allow-remote to do '
+              'it on purpose', file=sys.stderr)
+        return 1
     try:
         if args.fps <= 0:
             msg = f'--fps: must be positive, got {args.fps}'
             raise ValueError(msg)
-        session = make_session(args)
-        server = ClickServer(session, args.host, args.port)
+        with click_file_lock(Path(args.out).resolve()):
+            return serve(args)
     except (ClickError, ValueError) as err:
         print('error: ' + ' '.join(str(err).split()), file=sys.stderr)
         return 1
@@ -105,7 +121,17 @@ def click_main(argv: list[str]) -> int:
         print(f'error: {args.host}:{args.port}: cannot serve ({err.strerror or err})',
               file=sys.stderr)
         return 1
-    print(f'clicker at {server.url} (Ctrl-C to stop; every click is saved at once)')
+
+
+def serve(args: argparse.Namespace) -> int:
+    """Open the session and serve it until Ctrl-C (the click file is held by the caller)."""
+    session = make_session(args)
+    server = ClickServer(session, args.host, args.port)
+    if not is_loopback(args.host):
+        print(f'warning: --host {args.host}: the clicker is reachable from other machines; '
+              'anyone who reaches the port sees the images, and anyone with the address below '
+              '(it carries the session token) can change the clicks', file=sys.stderr)
+    print(f'clicker at {server.url} (Ctrl-C to stop; every click is saved at once)', flush=True)
     try:
         server.serve_forever()
     except KeyboardInterrupt:

@@ -18,13 +18,15 @@ files (format assumed, the paper does not print it: see the function).
 
 from __future__ import annotations
 
+import contextlib
 import csv
+import fcntl
 import io
 import os
 import re
 import tempfile
 import threading
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import NamedTuple
@@ -103,6 +105,43 @@ def parse_markers(text: str) -> frozenset[int]:
         first, last = int(match[1]), int(match[2] or match[1])
         numbers.update(range(first, last + 1))
     return frozenset(numbers)
+
+
+@contextlib.contextmanager
+def click_file_lock(path: Path) -> Iterator[None]:
+    """Hold the click file for one session: a second session on the same file would save over
+    the first one's clicks (the last writer wins), so it is refused instead.
+
+    The lock is ``fcntl.flock`` on ``.<name>.lock`` beside the file (released when the process
+    ends, also when it is killed).
+
+    Raises:
+        ClickError: Another session holds the file (names its process), or no lock file can be
+            made in the folder.
+    """
+    lock = path.with_name(f'.{path.name}.lock')
+    try:
+        handle = lock.open('a+', encoding='utf-8')
+    except OSError as err:
+        msg = f'{path}: cannot lock the click file ({err.strerror or err})'
+        raise ClickError(msg) from err
+    with handle:
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            handle.seek(0)
+            owner = handle.read().strip() or 'another process'
+            msg = (f'{path}: another dempath click session ({owner}) is using this click file; '
+                   'stop it first or give another --out')
+            raise ClickError(msg) from None
+        handle.seek(0)
+        handle.truncate()
+        handle.write(f'pid {os.getpid()}\n')
+        handle.flush()
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
 
 
 def atomic_write_text(path: Path, text: str) -> None:

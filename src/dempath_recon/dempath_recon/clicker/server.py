@@ -11,8 +11,12 @@ Frames and cameras are integer indices into the session's :class:`FrameSet`. Eve
 gets 404 (403 for a path climbing out with ``..``) and one log line. A POST must carry the
 session's random token in ``X-Clicker-Token`` (a page of another site cannot send that header
 without a CORS preflight, which this server never grants) and a ``Host`` naming this server
-(against DNS rebinding). The only file written is the session's click file, atomically, after
-every change (:class:`dempath_recon.clicker.clicks.ClickStore`).
+(against DNS rebinding). The token is never served: it is printed on the terminal in the page's
+address fragment (``#token=...``, which browsers do not send), so a client that forges a
+``Host`` header cannot read it. A malformed body (not a JSON object, numbers out of range, a
+non-numeric ``Content-Length``) is answered 400 with one line; a connection idle for
+``IDLE_TIMEOUT_S`` is closed. The only file written is the session's click file, atomically,
+after every change (:class:`dempath_recon.clicker.clicks.ClickStore`).
 """
 
 from __future__ import annotations
@@ -38,6 +42,8 @@ STATIC = {'/': ('index.html', 'text/html; charset=utf-8'),
           '/clicker.css': ('clicker.css', 'text/css; charset=utf-8')}
 Detection = tuple[int, float, float, float]  # marker (-1: none), x, y [px], confidence
 MAX_BODY = 16 * 1024 * 1024  # largest POST body (an imported CSV) [bytes]
+IDLE_TIMEOUT_S = 30.0  # a connection that sends nothing for this long is closed [s]
+LOOPBACK = ('127.0.0.1', 'localhost', '::1')
 
 
 @dataclass
@@ -91,6 +97,7 @@ class ClickHandler(BaseHTTPRequestHandler):
 
     server: ClickServer
     server_version = 'dempath-clicker'
+    timeout = IDLE_TIMEOUT_S  # socket timeout: idle (or slow-loris) connections are closed
 
     def log_message(self, format: str, *args: Any) -> None:
         """Route the access log to logging (debug) instead of stderr."""
@@ -145,7 +152,7 @@ class ClickHandler(BaseHTTPRequestHandler):
         if path in STATIC:
             name, kind = STATIC[path]
             text = resources.files('dempath_recon.clicker').joinpath('web', name).read_text()
-            self.send_text(HTTPStatus.OK, text.replace('@TOKEN@', self.session.token), kind)
+            self.send_text(HTTPStatus.OK, text, kind)
         elif path == '/api/session':
             self.send_json(self.session.summary())
         elif path == '/api/export':
@@ -192,17 +199,26 @@ class ClickHandler(BaseHTTPRequestHandler):
                                       self.session.token):
             self.refuse(HTTPStatus.FORBIDDEN, 'missing or wrong session token')
             return
-        length = int(self.headers.get('Content-Length') or 0)
-        if not 0 <= length <= MAX_BODY:
+        text = self.headers.get('Content-Length') or '0'
+        length = int(text) if text.isdigit() else -1
+        if length < 0:
+            self.close_connection = True  # the body's end is unknown: nothing more to read
+            self.refuse(HTTPStatus.BAD_REQUEST, f'Content-Length {text!r} is not a byte count')
+            return
+        if length > MAX_BODY:
+            self.close_connection = True
             self.refuse(HTTPStatus.REQUEST_ENTITY_TOO_LARGE, f'body of {length} bytes')
             return
         try:
             body = json.loads(self.rfile.read(length) or b'{}')
+            if not isinstance(body, dict):
+                msg = f'{path}: the body must be a JSON object, got {type(body).__name__}'
+                raise ClickError(msg)
             self.send_json(self.change(path, body))
         except ClickError as err:
             LOG.warning('%s', err)
             self.send_json({'error': f'error: {err}'}, HTTPStatus.BAD_REQUEST)
-        except (ValueError, KeyError, TypeError, IndexError) as err:
+        except (ValueError, KeyError, TypeError, IndexError, OverflowError) as err:
             self.send_json({'error': f'error: {path}: bad request ({err})'},
                            HTTPStatus.BAD_REQUEST)
 
@@ -240,11 +256,34 @@ class ClickServer(ThreadingHTTPServer):
         self.session = session
         bound = self.server_address[1]
         names = {host, 'localhost', '127.0.0.1', '[::1]'}
+        if host in ('0.0.0.0', '::'):
+            names.add(reachable_address())
         self.hosts = {f'{name}:{bound}' for name in names} | names
         self.port = int(bound)
 
     @property
     def url(self) -> str:
-        """The page's address."""
+        """The page's address with the session token in its fragment (print it, never serve
+        it); for a server bound to every interface, the address others reach it at."""
         host = str(self.server_address[0])
-        return f'http://{host if host != "0.0.0.0" else "127.0.0.1"}:{self.port}/'
+        if host in ('0.0.0.0', '::'):
+            host = reachable_address()
+        return f'http://{host}:{self.port}/#token={self.session.token}'
+
+
+def is_loopback(host: str) -> bool:
+    """Whether binding ``host`` keeps the server on this machine."""
+    return host in LOOPBACK or host.startswith('127.')
+
+
+def reachable_address() -> str:
+    """This machine's address on its default route (what another machine would use), or
+    127.0.0.1 when it has none. No packet is sent: a UDP socket only picks its route."""
+    import socket
+
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
+        try:
+            probe.connect(('192.0.2.1', 9))  # TEST-NET-1: never routed, only looked up
+            return str(probe.getsockname()[0])
+        except OSError:
+            return '127.0.0.1'

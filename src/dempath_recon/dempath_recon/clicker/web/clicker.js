@@ -3,7 +3,16 @@
 // A view maps canvas CSS pixels to image coordinates: x = ox + cx / s - 0.5.
 'use strict';
 
-const TOKEN = document.querySelector('meta[name="clicker-token"]').content;
+// The session token comes in the address's fragment (#token=...), printed on the terminal
+// only: a fragment is never sent to the server, and the page never contains the token.
+const TOKEN = (() => {
+  const given = new URLSearchParams(location.hash.slice(1)).get('token');
+  if (given) {
+    sessionStorage.setItem('clicker-token', given);
+    history.replaceState(null, '', location.pathname + location.search);
+  }
+  return given || sessionStorage.getItem('clicker-token') || '';
+})();
 const COLOURS = ['#ff5050', '#50ff50', '#50a0ff', '#ffd030', '#ff50ff', '#50ffff', '#ff9040',
                  '#b080ff', '#a0ff60', '#ff80b0', '#40ffb0', '#ffffff', '#c0c040', '#40c0c0',
                  '#c08040'];
