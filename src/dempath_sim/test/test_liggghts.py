@@ -166,8 +166,10 @@ def test_tiny_scene_runs_end_to_end_on_liggghts(liggghts: LiggghtsInstall, tmp_p
     fill = result.meta['fill']
     assert 0.4 < fill['solid_fraction'] < 0.7
     assert abs(fill['surface_height_m']) < 0.03
-    identity = run_identity(scene).as_meta()  # the same identity as a native run of the scene
+    identity = run_identity(scene).as_meta()  # a native run's identity; the run id names the
+    del identity['run_id']  # engine ('<scene>-s<seed>-liggghts')
     assert {k: result.meta[k] for k in identity} == identity
+    assert result.meta['run_id'] == f'tiny-s{scene.seed}-liggghts'
 
 
 @pytest.mark.liggghts
