@@ -62,6 +62,9 @@ class Diagnosis:
         simulations: Library runs the diagnosis rests on.
         table7: The paper's Table 7 of the baseline band against the measured markers
             (:func:`~dempath_diagnose.bandtracks.band_table7`).
+        adaptive: What simulations beyond the library were run and why (``--budget``;
+            :meth:`~dempath_diagnose.adaptive.AdaptiveResult.to_dict`), empty when none were
+            allowed.
     """
 
     decision: Decision
@@ -76,6 +79,7 @@ class Diagnosis:
     wall_s: float = 0.0
     simulations: int = 0
     table7: dict[str, Any] = field(default_factory=dict)
+    adaptive: dict[str, Any] = field(default_factory=dict)
 
     @property
     def floor(self) -> F64:

@@ -101,7 +101,8 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
             cands = [emus[name], *also]
             evaluate = RealEvaluator(scene, library, spec, d.emulator, d.layout, cube, cands,
                                      args.out, executor, args.seeds_per_eval,
-                                     args.packing_cache)
+                                     args.packing_cache,
+                                     None if args.scheduler and not args.serial else 'same')
             if len(todo) > 1:
                 print(f'inconclusive: trying {name} ({budget} simulations)', file=sys.stderr)
             results.append((recalibrate(objective, cands, evaluate, budget,

@@ -124,17 +124,40 @@ def markdown(d: Diagnosis, data: dict[str, Any], plots: list[str]) -> str:
                          'uncertainty is larger than shown. A library run at a stronger '
                          'setting (`--strengths`) or a recalibration settles it.')
     lines += ['', *edges] if edges else []
+    lines += adaptive_lines(data.get('adaptive'))
     t7 = d.table7
     if t7.get('markdown'):
-        lines += ['', f'## Error before (the paper\'s Table 7: the model\'s {t7["model_runs"]} '
-                  f'baseline runs, the {t7["top_n"]} best Cube candidates per marker)', '',
-                  t7['markdown'].rstrip()]
+        band = (f'your model run {t7["model"]}' if t7.get('model')
+                else f'the model\'s {t7["model_runs"]} baseline runs')
+        lines += ['', f'## Error before (the paper\'s Table 7: {band}, the {t7["top_n"]} best '
+                  'Cube candidates per marker)', '', t7['markdown'].rstrip()]
     elif t7.get('error'):
         lines += ['', f'Table 7 could not be computed: {t7["error"]}']
     lines += ['', f'Simulations used: {data["simulations"]}; wall time {data["wall_s"]:.1f} s.',
               '']
     lines += [f'![{p}]({p})' for p in plots]
     return '\n'.join(lines) + '\n'
+
+
+def adaptive_lines(adaptive: dict[str, Any] | None) -> list[str]:
+    """report.md's section on the simulations run beyond the library (``--budget``): what was
+    run and why, and how the probabilities moved."""
+    if not adaptive:
+        return []
+    lines = ['', f'## Simulations beyond the library ({adaptive["extra_simulations"]} of a '
+             f'budget of {adaptive["budget"]})', '',
+             f'Verdict on the library alone: {adaptive["verdict_before"]}.', '']
+    for k, step in enumerate(adaptive['steps'], 1):
+        for run in step['runs']:
+            lines.append(f'{k}. {run["candidate"]} at {run["strength"]:.4g} '
+                         f'({run["why"].replace("_", " ")}): {run["reason"]}.')
+        moved = ', '.join(f'{name} {step["before"].get(name, 0.0):.2f} -> {p:.2f}'
+                          for name, p in step['after'].items()
+                          if max(p, step['before'].get(name, 0.0)) >= 0.05)
+        lines.append(f'   {step["simulations"]} runs; verdict {step["verdict_before"]} -> '
+                     f'{step["verdict_after"]}; probabilities {moved}.')
+    lines += ['', f'Stopped: {adaptive["stop"]}.']
+    return lines
 
 
 def write_xlsx(d: Diagnosis, data: dict[str, Any], path: Path) -> None:
