@@ -105,7 +105,7 @@ def diagnose(meas: Measurement, library: Library, geometry: CaseGeometry,
         meas = _inside_region(meas, library)
     stop = float(first.meta.get('tool_stop_s', cover))
     layout = build_layout(meas.markers, meas.start, geometry.tool_x_m,
-                          geometry.axis_half_width_m, end, stop, n_windows)
+                          geometry.axis_half_width_m, end, stop, n_windows, measured=meas)
     emu = build_emulator(library, layout, geometry.cube_m)
     y, features = measured_statistics(meas, layout)
     force = emu.is_force()
