@@ -74,6 +74,7 @@ def to_json(d: Diagnosis, extra: dict[str, Any] | None = None) -> dict[str, Any]
         'groups': {g.name: [int(d.layout.markers[i]) for i in g.members] for g in d.layout.groups},
         'windows_s': d.layout.windows.tolist(),
         'markers_in_windows': markers_in_windows(d.layout),
+        'headline': _finite(d.headline),
         'marker_problems': {str(k): v for k, v in d.problems.items()},
         'simulations': d.simulations,
         'wall_s': round(d.wall_s, 3),
@@ -122,6 +123,10 @@ def markdown(d: Diagnosis, data: dict[str, Any], plots: list[str]) -> str:
               f'{", ".join(v["left_out"])}; counted where measured'
               for m, v in data['markers_in_windows'].items() if v['left_out']]
     lines += [f'- marker {m}: left out ({why})' for m, why in data['marker_problems'].items()]
+    if d.headline.get('value_mm') is not None:
+        from dempath_diagnose.headline.stage import headline_sentence
+
+        lines += ['', headline_sentence(d.headline, 'of the model as it is').capitalize() + '.']
     lines.append('')
     if data['remaining']:
         lines += ['Not ruled out: ' + ', '.join(data['remaining']) + '.', '']
