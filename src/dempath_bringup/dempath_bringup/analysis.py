@@ -235,7 +235,7 @@ def after_stage(ctx: DemoContext) -> str:
     if simulate_main(argv) != 0:
         msg = f'{scene}: the recalibrated model failed (dempath simulate {" ".join(argv)})'
         raise DempathError(msg)
-    result = compare_paths(ctx.results['graph'].bag, out)
+    result = compare_paths(ctx.results['graph'].bag, after_model_source(out))
     table = build_table7(result)
     ctx.results.update(compare_after=result, table7_after=table)
     before = ctx.results['table7'].mean_nrmse
@@ -245,6 +245,17 @@ def after_stage(ctx: DemoContext) -> str:
     beside = (f" (floor {floor['mean_nrmse_pct']:.2f} +- {floor['mean_nrmse_sd_pct']:.2f} %: "
               'the true model over packing seeds)' if floor else '')
     return f'mean nRMSE of this recording {means}{beside}\n{out}'
+
+
+def after_model_source(run: Path) -> Path:
+    """The model side of the 'after' comparison of a ``dempath simulate`` run folder.
+
+    Its ``model.csv`` tags every tracked particle with its marker, so each marker is ranked
+    against its own Cube candidates (the N best of them, as the 'before' bag's model); the
+    folder itself would add ``markers.csv`` (one particle per marker: every marker's N was 1)
+    and ``tool.csv``.
+    """
+    return run / 'model.csv'
 
 
 def report_stage(ctx: DemoContext) -> str:
