@@ -279,7 +279,11 @@ def report_stage(ctx: DemoContext) -> str:
         'iterations': copy_figure(ctx.out / 'recalibration' / 'recalibration.png', folder,
                                   'error_vs_iteration.png'),
         'recal_trajectories': copy_figure(ctx.out / 'recalibration' / 'trajectories.png',
-                                          folder, 'recalibration_trajectories.png')}
+                                          folder, 'recalibration_trajectories.png'),
+        'headline': copy_figure(ctx.out / 'recalibration' / 'headline.png', folder,
+                                'headline.png'),
+        'statistics': copy_figure(ctx.out / 'diagnosis' / 'statistics.png', folder,
+                                  'statistics.png')}
     drawn = None if ctx.clicked else figures.frame_with_detections(
         ctx.field_bag, graph.bag, folder / 'detections.png')
     figs['detections'] = drawn.name if drawn is not None else None

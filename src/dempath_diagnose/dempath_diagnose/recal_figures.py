@@ -35,7 +35,11 @@ def paper_and_trajectories(best: Recalibration, evaluate: Any, library: Any, d: 
                                   args.noise)
     fig = plot_trajectories(meas, d.layout, cube, [r for _, r in before],
                             [r for _, r in after], args.out / 'trajectories.png')
-    return paper, (fig,)
+    from dempath_diagnose.headline.plots import plot_headline
+
+    head = plot_headline([(k, paper['headline'][k]) for k in ('before', 'after')],
+                         args.out / 'headline.png')
+    return paper, (fig, head)
 
 
 def headlines(meas: Any, before: list[PassRecord], after: list[PassRecord],
