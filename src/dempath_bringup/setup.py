@@ -17,7 +17,13 @@ setup(
         ('share/ament_index/resource_index/packages', [f'resource/{PACKAGE}']),
         (f'share/{PACKAGE}', ['package.xml']),
     ],
-    install_requires=['setuptools'],
+    # PyPI names of the third-party imports; package.xml holds their rosdep keys
+    install_requires=[
+        'numpy',
+        'opencv-contrib-python-headless',
+        'matplotlib',
+        'rich',
+    ],
     zip_safe=False,
     maintainer='dempath developers',
     maintainer_email='dempath@users.noreply.github.com',

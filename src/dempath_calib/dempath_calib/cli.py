@@ -11,8 +11,6 @@ from collections.abc import Iterator
 from dataclasses import replace
 from itertools import chain
 
-from tqdm import tqdm
-
 from dempath.errors import DempathError
 from dempath_calib.board import CALISCOPE_BOARD, PAPER_BOARD, BoardKind, BoardSpec
 from dempath_calib.calibrator import CalibrationConfig, Calibrator
@@ -117,11 +115,16 @@ def calibrate_main(argv: list[str]) -> int:
 def _collect(cal: Calibrator, first: Frame, frames: Iterator[Frame], total: int,
              every: int) -> None:
     """Feed every ``every``-th image per camera to the calibrator with a progress bar."""
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
+
     counts = [0, 0]
-    with tqdm(total=total, unit='img', desc='detecting') as bar:
+    columns = (TextColumn('detecting'), BarColumn(), MofNCompleteColumn(),
+               TextColumn('{task.fields[state]}'))
+    with Progress(*columns, console=Console(stderr=True), transient=True) as bar:
+        task = bar.add_task('detecting', total=total, state='')
         for cam, stamp, image in chain([first], frames):
             if counts[cam] % every == 0:
                 cal.add_image(cam, stamp, image)
             counts[cam] += 1
-            bar.update(1)
-            bar.set_postfix_str(cal.progress().line(), refresh=False)
+            bar.update(task, advance=1, state=cal.progress().line())
