@@ -206,6 +206,12 @@ def recalibration_lines(data: dict[str, Any]) -> list[str]:
         lines.append(f"mean nRMSE (Table 7, the library's seeds) {pb['mean_nrmse_pct']:.2f} -> "
                      f"{pa['mean_nrmse_pct']:.2f} % (floor {fl['mean_nrmse_pct']:.2f} +- "
                      f"{fl['mean_nrmse_sd_pct']:.2f} %)")
+        head = paper.get('headline') or {}
+        if all((head.get(k) or {}).get('value_mm') is not None for k in ('before', 'after')):
+            from dempath_diagnose.headline.stage import headline_sentence
+
+            lines += [headline_sentence(head['before'], 'before'),
+                      headline_sentence(head['after'], 'after')]
     return lines
 
 
