@@ -162,8 +162,8 @@ def truth_error(ctx: DemoContext, bag: Path) -> tuple[float, float, float] | Non
 
 def compare_stage(ctx: DemoContext) -> str:
     """Offline comparison outputs from the recorded bag, checked against the node's scores."""
+    from dempath_compare.comparison_folder import write_outputs
     from dempath_compare.pipeline import compare_paths
-    from dempath_compare.report import write_outputs
     from dempath_compare.summary import build_table7
 
     graph = ctx.results['graph']

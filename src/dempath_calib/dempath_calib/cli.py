@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import logging
 import sys
 from collections.abc import Iterator
 from dataclasses import replace
@@ -16,6 +15,7 @@ from dempath_calib.board import CALISCOPE_BOARD, PAPER_BOARD, BoardKind, BoardSp
 from dempath_calib.calibrator import CalibrationConfig, Calibrator
 from dempath_calib.errors import CalibrationError
 from dempath_calib.intrinsics import DistortionModel
+from dempath_calib.opencv_check import require_charuco_opencv
 from dempath_calib.outputs import save_result
 from dempath_calib.sources import Frame, open_source
 
@@ -87,8 +87,9 @@ def _config(args: argparse.Namespace, size: tuple[int, int]) -> CalibrationConfi
 def calibrate_main(argv: list[str]) -> int:
     """``dempath calibrate INPUT... --out DIR``: calibrate and write the output files."""
     args = calibrate_parser().parse_args(argv)
-    logging.basicConfig(level=logging.INFO, format='%(levelname)s %(name)s: %(message)s')
     try:
+        if BOARDS[args.board].kind is BoardKind.CHARUCO:
+            require_charuco_opencv()
         source = open_source(args.inputs, args.fps, args.timestamps)
         frames = source.frames()
         first = next(frames, None)
@@ -108,6 +109,7 @@ def calibrate_main(argv: list[str]) -> int:
                       'views': rep['views'], 'offset_s': rep.get('offset_s'),
                       'corner_spacing_mm': rep['corner_spacing'].get('mean_mm'),
                       'point_set_size': rep['point_set_size'],
+                      'undecodable_images': len(getattr(source, 'undecodable', ())),
                       'outputs': [str(p) for p in paths.values()]}))
     return 0
 

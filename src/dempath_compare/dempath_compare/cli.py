@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import logging
 import sys
 from pathlib import Path
 from typing import NoReturn
@@ -75,12 +74,11 @@ def print_ranking(result: CompareResult, top: int) -> None:
 
 def compare_main(argv: list[str]) -> int:
     """``dempath compare MEASURED MODEL --out DIR``: score model against measured trajectories."""
+    from dempath_compare.comparison_folder import write_outputs
     from dempath_compare.foreign import load_mapping
     from dempath_compare.pipeline import compare_paths, problems
-    from dempath_compare.report import write_outputs
 
     args = build_parser().parse_args(argv)
-    logging.basicConfig(level=logging.WARNING, format='%(levelname)s %(name)s: %(message)s')
     try:
         config = CompareConfig(top_n=args.top, sp=args.sp, z_weight=args.z_weight,
                                rank_by=args.rank_by, matching=args.matching,

@@ -26,6 +26,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from dempath.errors import OutputError
+from dempath.outputs import check_output_folder
 from dempath_compare.errors import InputError
 from dempath_compare.records import MEASURED, MODEL, Track
 from dempath_compare.runinfo import run_info
@@ -175,6 +177,10 @@ def load_source(path: str | Path, kind: str,
 
         tracks = load_bag(path, kind)
     elif path.is_dir():
+        try:
+            check_output_folder(path, 'summary.json')
+        except OutputError as err:
+            raise InputError(str(err)) from err
         meta = run_metadata(path) if kind == MODEL else None
         tracks = [t for f in csv_files(path, kind) for t in load_csv(f, kind, meta)]
     elif path.suffix.lower() == '.csv':

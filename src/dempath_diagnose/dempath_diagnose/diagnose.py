@@ -64,6 +64,9 @@ class Diagnosis:
             (:func:`~dempath_diagnose.bandtracks.band_table7`).
         headline: The headline error of the baseline beside its like-for-like floor
             (:func:`~dempath_diagnose.headline.stage.headline_entry`).
+        adaptive: What simulations beyond the library were run and why (``--budget``;
+            :meth:`~dempath_diagnose.adaptive.AdaptiveResult.to_dict`), empty when none were
+            allowed.
     """
 
     decision: Decision
@@ -79,6 +82,7 @@ class Diagnosis:
     simulations: int = 0
     table7: dict[str, Any] = field(default_factory=dict)
     headline: dict[str, Any] = field(default_factory=dict)
+    adaptive: dict[str, Any] = field(default_factory=dict)
 
     @property
     def floor(self) -> F64:

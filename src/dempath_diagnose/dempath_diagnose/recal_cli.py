@@ -101,7 +101,8 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
             cands = [emus[name], *also]
             evaluate = RealEvaluator(scene, library, spec, d.emulator, d.layout, cube, cands,
                                      args.out, executor, args.seeds_per_eval,
-                                     args.packing_cache)
+                                     args.packing_cache,
+                                     None if args.scheduler and not args.serial else 'same')
             if len(todo) > 1:
                 print(f'inconclusive: trying {name} ({budget} simulations)', file=sys.stderr)
             results.append((recalibrate(objective, cands, evaluate, budget,
@@ -140,8 +141,9 @@ def _write(results: list[tuple[Recalibration, Any]], scene: Any, library: Any, d
 
 
 def recalibrate_main(argv: Sequence[str] | None = None) -> int:
-    """``dempath recalibrate``; 0, or 1 after one ``error: <input>: <problem>`` line.
+    """``dempath recalibrate``: fit the missing effect's strength against the measurement.
 
+    Returns 0, or 1 after one ``error: <input>: <problem>`` line.
     A lost scheduler gives its error line after the outputs (best scene so far) are written.
     """
     args = _parser().parse_args(argv)

@@ -151,6 +151,7 @@ def markdown(d: Diagnosis, data: dict[str, Any], plots: list[str]) -> str:
                          'uncertainty is larger than shown. A library run at a stronger '
                          'setting (`--strengths`) or a recalibration settles it.')
     lines += ['', *edges] if edges else []
+    lines += adaptive_lines(data.get('adaptive'))
     t7 = d.table7
     if t7.get('markdown'):
         lines += ['', f'## Error before (the paper\'s Table 7: the model\'s {t7["model_runs"]} '
@@ -162,6 +163,27 @@ def markdown(d: Diagnosis, data: dict[str, Any], plots: list[str]) -> str:
               '']
     lines += [f'![{p}]({p})' for p in plots]
     return '\n'.join(lines) + '\n'
+
+
+def adaptive_lines(adaptive: dict[str, Any] | None) -> list[str]:
+    """report.md's section on the simulations run beyond the library (``--budget``): what was
+    run and why, and how the probabilities moved."""
+    if not adaptive:
+        return []
+    lines = ['', f'## Simulations beyond the library ({adaptive["extra_simulations"]} of a '
+             f'budget of {adaptive["budget"]})', '',
+             f'Verdict on the library alone: {adaptive["verdict_before"]}.', '']
+    for k, step in enumerate(adaptive['steps'], 1):
+        for run in step['runs']:
+            lines.append(f'{k}. {run["candidate"]} at {run["strength"]:.4g} '
+                         f'({run["why"].replace("_", " ")}): {run["reason"]}.')
+        moved = ', '.join(f'{name} {step["before"].get(name, 0.0):.2f} -> {p:.2f}'
+                          for name, p in step['after'].items()
+                          if max(p, step['before'].get(name, 0.0)) >= 0.05)
+        lines.append(f'   {step["simulations"]} runs; verdict {step["verdict_before"]} -> '
+                     f'{step["verdict_after"]}; probabilities {moved}.')
+    lines += ['', f'Stopped: {adaptive["stop"]}.']
+    return lines
 
 
 def write_xlsx(d: Diagnosis, data: dict[str, Any], path: Path) -> None:

@@ -71,6 +71,7 @@ def test_detector_node_publishes_numbered_points_and_counts(ros_harness, rig, tm
         assert np.abs(uv - truth[k]).max() < 0.6
     assert len(got[1].marker_ids) == 0
     assert node.core.report()['cam_side']['undecodable'] == 1
+    assert node.handled_frames() == 3  # the demo waits for this count; the corrupt one is in it
 
 
 def test_detector_node_numbers_the_grid_of_its_scene(ros_harness, rig, tmp_path) -> None:

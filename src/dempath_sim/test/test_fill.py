@@ -125,3 +125,34 @@ def test_bundled_packing_matches_reduced_scenes() -> None:
         key = packing_key(scene, scene.physics_model())
         assert (bundled_packing_dir() / f'{key}.npz').is_file(), (
             f'{name}: no bundled packing {key}.npz; rebuild it (data/packings/README.md)')
+
+
+@pytest.mark.parametrize('damage', ['truncated', 'empty', 'no_report'])
+def test_damaged_cache_entry_is_named_set_aside_and_replaced(
+        tmp_path: Path, caplog: pytest.LogCaptureFixture, damage: str) -> None:
+    """A truncated, empty or incomplete cached packing is named in a warning, moved to
+    ``<name>.corrupt`` and the bed comes from elsewhere (here the shipped packing) instead of
+    every run of the scene failing with BadZipFile until the file is deleted by hand."""
+    import logging
+
+    from dempath_sim.runs.fill import bundled_packing_dir
+
+    scene = bundled_scene('reduced_1ms')
+    model = scene.physics_model()
+    params = build_params(scene, model)
+    key = packing_key(scene, model)
+    good = (bundled_packing_dir() / f'{key}.npz').read_bytes()
+    entry = tmp_path / f'{key}.npz'
+    if damage == 'truncated':
+        entry.write_bytes(good[:len(good) // 2])
+    elif damage == 'empty':
+        entry.write_bytes(b'')
+    else:
+        with np.load(bundled_packing_dir() / f'{key}.npz') as data:
+            np.savez(entry, **{k: data[k] for k in data.files if k != 'report'})
+    with caplog.at_level(logging.WARNING, logger='dempath_sim.runs.fill'):
+        state, report = fill_bed(scene, model, params, tmp_path)
+    assert report.from_cache and state.n > 1000
+    assert not entry.exists() and (tmp_path / f'{key}.npz.corrupt').is_file()
+    assert any(str(entry) in r.getMessage() and 'damaged' in r.getMessage()
+               for r in caplog.records)

@@ -221,12 +221,17 @@ class DetectorNode(Node):
         self.pub.publish(out)
         self.counts['published'] += 1
 
+    def handled_frames(self) -> int:
+        """Frames the worker has finished with, skipped ones (undecodable, out of order,
+        failed) included: whoever waits for the detector waits for this count."""
+        c = self.core.counts[self.camera]
+        return int(c.frames + c.undecodable + c.out_of_order + self.counts['failed'])
+
     def figures(self) -> dict[str, int | float]:
         """Every count of this camera (what ``/diagnostics`` carries)."""
         core = {k: v for k, v in self.core.report()[self.camera].items() if k != 'gaps_s'}
         core['gap_frames'] = core.pop('dropped')
-        processed = (core['frames'] + core['undecodable'] + core['out_of_order']
-                     + self.counts['failed'])
+        processed = self.handled_frames()
         return {**self.counts, 'missing_in': self.stride.missing,
                 'processed': processed, 'skipped': self.stride.skipped,
                 'stride': self.stride.stride, 'most_stride': self.stride.most_stride,

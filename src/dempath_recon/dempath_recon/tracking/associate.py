@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import linear_sum_assignment
 
-from dempath_recon.triangulate import Camera, undistort_normalized
+from dempath_recon.methods.triangulate import Camera, undistort_normalized
 
 LOG = logging.getLogger(__name__)
 FloatArray = NDArray[np.float64]

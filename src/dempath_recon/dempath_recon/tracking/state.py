@@ -18,11 +18,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from dempath_recon.methods.triangulate import Camera
 from dempath_recon.tracking.associate import MarkerPositions, back_project, depth
 from dempath_recon.tracking.linker import UNNUMBERED, MarkerTracker
 from dempath_recon.tracking.records import CameraCounts, StereoTrackConfig
 from dempath_recon.tracking.release import ReleaseQueue
-from dempath_recon.triangulate import Camera
 
 FloatArray = NDArray[np.float64]
 RECENT_S = 0.05  # the other camera's position of a marker counts for numbering this long [s]

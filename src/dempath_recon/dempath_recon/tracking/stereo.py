@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from dempath_recon.methods.triangulate import Camera
 from dempath_recon.tracking.detect import Detections, ImageDecodeError, MarkerDetector
 from dempath_recon.tracking.numbering import number_all_by_grid, number_new
 from dempath_recon.tracking.pair_checks import verify
@@ -46,7 +47,6 @@ from dempath_recon.tracking.state import (
     unnumbered_tracks,
 )
 from dempath_recon.tracking.trajectories import marker_histories, triangulate_tracks
-from dempath_recon.triangulate import Camera
 
 __all__ = ['CameraCounts', 'PixelFrame', 'StereoMarkerTracker', 'StereoTrackConfig',
            'marker_histories', 'track_bag', 'triangulate_tracks']
@@ -107,8 +107,10 @@ class StereoMarkerTracker:
         try:
             det = self.detector.detect_jpeg(jpeg)
         except ImageDecodeError as err:
+            index = counts.frames + counts.undecodable + counts.out_of_order  # of this camera
             counts.undecodable += 1
-            msg = f'{camera} frame at {stamp_s:.6f} s: {err}; skipped'
+            msg = (f'{camera} frame {index} at {stamp_s:.6f} s: {err}; skipped (undecodable '
+                   f'frames so far: {counts.undecodable})')
             LOG.warning(msg)
             return PixelFrame(camera, stamp_s, np.zeros(0, np.int32), np.zeros((0, 2)),
                               np.zeros(0), (msg,))

@@ -11,8 +11,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from dempath_recon.methods.triangulate import Camera, triangulate_points
 from dempath_recon.tracking.records import PixelFrame
-from dempath_recon.triangulate import Camera, triangulate_points
 
 FloatArray = NDArray[np.float64]
 

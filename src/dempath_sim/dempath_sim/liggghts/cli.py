@@ -15,7 +15,7 @@ from dempath.errors import DempathError
 
 
 def liggghts_main(argv: list[str]) -> int:
-    """Entry point of ``dempath liggghts``; returns the exit status."""
+    """``dempath liggghts SCENE``: run a scene on LIGGGHTS 3.8, same outputs as dempath."""
     parser = argparse.ArgumentParser(prog='dempath liggghts', description=__doc__)
     parser.add_argument('scene', help='scene YAML file or builtin:NAME')
     parser.add_argument('--out', type=Path, default=Path('liggghts_run'), help='output dir')

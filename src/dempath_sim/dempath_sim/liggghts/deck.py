@@ -302,6 +302,11 @@ def velocity_expression(path: ToolPath) -> str:
     return f'{acc}+{steady}+{dec}'
 
 
+def _stopped(expression: str, stop_s: float) -> str:
+    """``expression`` (of ``v_t``) set to 0 from ``stop_s`` on (infinite: unchanged)."""
+    return expression if math.isinf(stop_s) else f'({expression})*(v_t<{cmd.fmt(stop_s)})'
+
+
 def group_lines(name: str, ids: Sequence[int] | NDArray[np.int64],
                 per_line: int = 200) -> list[str]:
     """``group NAME id ...`` split over several lines (a group adds up)."""
@@ -333,6 +338,8 @@ class ToolStage:
         read: The command that loads the bed (the fill's restart, or a data file).
         settle_steps: Steps of re-settle with the tool standing at its start before the pass
             (``tool.settle_s``; builds the contact history, as dempath's run does).
+        stop_s: Pass time [s] from which the tool stands still (the bed is followed after the
+            travel, ``RunOptions.follow_s``); infinite: the profile's own end.
     """
 
     path: ToolPath
@@ -345,6 +352,7 @@ class ToolStage:
     snapshot_every: int
     read: str = f'read_data {BED_DATA}'
     settle_steps: int = 0
+    stop_s: float = math.inf
 
 
 def tool_deck(scene: SceneSpec, params: SimParams, stage: ToolStage,
@@ -365,7 +373,7 @@ def tool_deck(scene: SceneSpec, params: SimParams, stage: ToolStage,
               f'{" ".join(tip)}', cmd.mesh_wall('toolwall', params, ['tool']),
               *([f'run {stage.settle_steps}'] if stage.settle_steps else []),
               f'variable t equal (step-{stage.start_step})*dt',
-              f'variable vz equal {velocity_expression(stage.path)}',
+              f'variable vz equal {_stopped(velocity_expression(stage.path), stage.stop_s)}',
               'variable zero equal 0',
               'fix mv all move/mesh mesh tool linear/variable v_zero v_zero v_vz',
               *group_lines('tracked', stage.tracked_ids),

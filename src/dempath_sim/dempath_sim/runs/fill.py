@@ -34,6 +34,7 @@ import json
 import logging
 import math
 import os
+import zipfile
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
@@ -340,8 +341,9 @@ def fill_bed(scene: SceneSpec, model: PhysicsModel, params: SimParams,
     path = (cache_dir or default_cache_dir()) / f'{key}.npz'
     if scene.fill.cache:
         for found_path in (path, bundled_packing_dir() / f'{key}.npz'):
-            if found_path.is_file():
-                return _load_cached(found_path, params)
+            cached = _load_cached(found_path, params) if found_path.is_file() else None
+            if cached is not None:
+                return cached
     state, report = pour_to_target(scene, model, params, key, progress)
     state.time, state.step = 0.0, 0
     if scene.fill.cache:
@@ -350,8 +352,10 @@ def fill_bed(scene: SceneSpec, model: PhysicsModel, params: SimParams,
 
 
 def _save_cached(path: Path, state: SimState, report: FillReport) -> None:
+    """Write the packing beside its final name and rename it into place (atomic: a killed run
+    leaves no half-written entry; concurrent writers each use their own temporary file)."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix('.tmp.npz')
+    tmp = path.with_name(f'.{path.stem}.{os.getpid()}.tmp.npz')
     np.savez_compressed(tmp, positions=state.positions, velocities=state.velocities,
                         angular_velocities=state.angular_velocities, radii=state.radii,
                         ids=state.ids, layer=state.extra.get('layer', np.zeros(state.n)),
@@ -359,13 +363,32 @@ def _save_cached(path: Path, state: SimState, report: FillReport) -> None:
     tmp.replace(path)
 
 
-def _load_cached(path: Path, params: SimParams) -> tuple[SimState, FillReport]:
-    with np.load(path, allow_pickle=False) as data:
-        state = SimState.from_spheres(data['positions'], data['radii'], PARTICLES, params,
-                                      velocities=data['velocities'], ids=data['ids'])
-        state.angular_velocities[:] = data['angular_velocities']
-        state.extra['layer'] = data['layer'].astype(np.int32)
-        fields: dict[str, Any] = json.loads(str(data['report']))
-    fields['from_cache'] = True
+# What a damaged cache entry raises on reading: truncated or empty zip (BadZipFile, EOFError),
+# a missing array (KeyError), wrong shapes or JSON (ValueError, TypeError), unreadable (OSError).
+_DAMAGED = (zipfile.BadZipFile, EOFError, KeyError, ValueError, TypeError, OSError)
+
+
+def _load_cached(path: Path, params: SimParams) -> tuple[SimState, FillReport] | None:
+    """The cached packing, or None when the entry is damaged: it is then named in a warning,
+    set aside as ``<name>.corrupt`` (when the cache is writable) and the bed is poured again."""
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            state = SimState.from_spheres(data['positions'], data['radii'], PARTICLES, params,
+                                          velocities=data['velocities'], ids=data['ids'])
+            state.angular_velocities[:] = data['angular_velocities']
+            state.extra['layer'] = data['layer'].astype(np.int32)
+            fields: dict[str, Any] = json.loads(str(data['report']))
+        fields['from_cache'] = True
+        report = FillReport(**fields)
+    except _DAMAGED as err:
+        aside = path.with_name(path.name + '.corrupt')
+        try:
+            path.replace(aside)
+            where = f'set aside as {aside.name}'
+        except OSError:
+            where = 'left in place (read-only)'
+        logger.warning('fill: cached packing %s is damaged (%s: %s); %s, pouring the bed again',
+                       path, type(err).__name__, err, where)
+        return None
     logger.info('fill: packing %s read from the cache', path.name)
-    return state, FillReport(**fields)
+    return state, report

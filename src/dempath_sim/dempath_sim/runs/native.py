@@ -21,9 +21,11 @@ import math
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from dempath_sim.effects import PhysicsModel
 from dempath_sim.engine import Engine, SimParams, SimState, ToolPose, TriangleMesh
@@ -55,12 +57,35 @@ def _with_run_masses(state: SimState, params: SimParams) -> SimState:
 
 
 def run_id(scene: SceneSpec) -> str:
-    """Label of one run: scene name, seed and a short hash of the effect settings."""
+    """Label of one run: scene name, seed and a short hash of everything that changes the run.
+
+    The hash covers the whole scene record (effects and the bed's effects, bin, layers,
+    materials, tool and profile, markers, fill, output cadence, numerics such as the time step)
+    and the bytes of the files it names (the tool's STL, a ``fill.packing``) in place of their
+    paths, so that two runs with the same id are the same run; the scene's name (the id's
+    prefix), description and path are left out.
+    """
     import hashlib
     import json
 
-    text = json.dumps(scene.to_dict()['effects'], sort_keys=True)
+    record = scene.to_dict()
+    for label in ('name', 'source', 'description'):
+        record.pop(label, None)
+    record['tool']['mesh'] = _file_digest(scene.tool.mesh)  # the bytes, not where they lie
+    if scene.fill.packing is not None:
+        record['fill']['packing'] = _file_digest(scene.fill.packing)
+    text = json.dumps(record, sort_keys=True, default=str)
     return f'{scene.name}-s{scene.seed}-{hashlib.sha256(text.encode()).hexdigest()[:8]}'
+
+
+def _file_digest(path: Path) -> str:
+    """sha256 of a file's bytes (hex, 16 chars), or 'missing' when it cannot be read."""
+    import hashlib
+
+    try:
+        return hashlib.sha256(Path(path).read_bytes()).hexdigest()[:16]
+    except OSError:
+        return 'missing'
 
 
 @dataclass
@@ -223,7 +248,39 @@ def run_scene(scene: SceneSpec, options: RunOptions | None = None) -> SimResult:
         'pass_start_springs': springs, 'bed_physics': scene.fill.physics,
         'drive_wall_s': time.monotonic() - t_drive,
         'grid_points': drive.selection.grid_points.tolist()}
-    return drive.recorder.result(meta)
+    result = drive.recorder.result(meta)
+    meta['warnings'] = run_warnings(result.tool_force, report)
+    for warning in meta['warnings']:
+        logger.warning('%s: %s', scene.name, warning)
+    return result
+
+
+SPARSE_SOLID_FRACTION = 0.3  # a settled bed of spheres holds 0.55-0.64; below this it is no bed
+SHALLOW_FRACTION = 0.5  # a surface lower than this fraction of the bed thickness: no bed
+
+
+def run_warnings(tool_force: NDArray[np.float64], report: FillReport) -> list[str]:
+    """What makes a finished run's answer meaningless although it ran: a bed far too sparse to
+    be a settled soil (e.g. a packing file of a hundred spheres) or a tool that met no particle
+    (draft 0 N over the whole pass).
+
+    Args:
+        tool_force: (nt, 3) force on the tool [N].
+        report: The fill report of the bed.
+    """
+    warnings = []
+    depth = -report.floor_y_m  # nominal bed thickness: the surface is at Y = 0
+    shallow = report.surface_height_m - report.floor_y_m < (1.0 - SHALLOW_FRACTION) * depth
+    if report.solid_fraction < SPARSE_SOLID_FRACTION or shallow:
+        warnings.append(f'the bed ({report.source}) holds {report.n_particles} particles at solid '
+                        f'fraction {report.solid_fraction:.3f} with its surface '
+                        f'{-report.surface_height_m * 1e3:.0f} mm below the nominal one; a '
+                        'settled bed holds 0.55-0.64 up to the surface, so this is not the soil '
+                        'the scene describes')
+    if not np.any(np.abs(tool_force) > 0.0):
+        warnings.append('the tool met no particle: the draft force is 0 N over the whole pass '
+                        '(check the bed, the tool depth and its start)')
+    return warnings
 
 
 @dataclass(frozen=True)
@@ -257,4 +314,5 @@ def run_batch(scene: SceneSpec, variants: Sequence[Variant], seeds: Sequence[int
 
 
 __all__ = ['NativeBackend', 'RunStoppedError', 'SimulationError', 'Variant', 'carve_tool_slot',
-           'pass_start_springs', 'resettle', 'run_batch', 'run_id', 'run_scene', 'tool_start']
+           'pass_start_springs', 'resettle', 'run_batch', 'run_id', 'run_scene', 'run_warnings',
+           'tool_start']
