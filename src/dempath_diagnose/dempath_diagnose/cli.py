@@ -73,6 +73,12 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument('--discrepancy-force', type=float, default=Allowance.discrepancy_force_rel,
                    help='relative model-discrepancy allowance on the draft force')
     p.add_argument('--serial', action='store_true', help='run the library here, without Dask')
+    p.add_argument('--model', type=Path,
+                   help="the paper's Table 7 against this model run of yours instead of the "
+                        "library's baseline band: dempath CSV, a LIGGGHTS dump or a mapped "
+                        'EDEM/Rocky CSV (with --model-map)')
+    p.add_argument('--model-map', type=Path, metavar='YAML',
+                   help='how to read --model: columns, units, axes (docs/compare.md)')
     p.add_argument('--backend', choices=BACKENDS, default='dempath',
                    help="engine of the library's runs (liggghts: LIGGGHTS 3.8 from the same "
                         'settled beds)')
@@ -265,7 +271,23 @@ def diagnosis_of(args: argparse.Namespace,
     result.simulations = len(library.runs)
     if getattr(args, 'extra_budget', 0) > 0:
         result, library = spend_budget(args, scene, spec, library, result, again)
+    if args.model is not None:
+        result.table7 = own_model_table7(args, meas, cube)
     return scene, spec, library, allowance, result
+
+
+def own_model_table7(args: argparse.Namespace, meas: Measurement,
+                     cube: tuple[float, float, float]) -> dict[str, Any]:
+    """The paper's Table 7 of the user's own model run (``--model``, read as dempath compare
+    reads a model) against the measured markers: each marker's Cube candidates in that run."""
+    from dempath_compare.foreign import load_mapping
+    from dempath_compare.loaders import MODEL, load_source
+    from dempath_diagnose.bandtracks import band_table7, model_record
+
+    mapping = load_mapping(args.model_map) if args.model_map is not None else None
+    record = model_record(load_source(args.model, MODEL, mapping))
+    table = band_table7(meas, [record], cube, [args.model.stem])
+    return {**table, 'model': str(args.model)}
 
 
 def spend_budget(args: argparse.Namespace, scene: SceneSpec, spec: LibrarySpec,

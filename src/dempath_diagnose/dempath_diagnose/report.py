@@ -154,9 +154,10 @@ def markdown(d: Diagnosis, data: dict[str, Any], plots: list[str]) -> str:
     lines += adaptive_lines(data.get('adaptive'))
     t7 = d.table7
     if t7.get('markdown'):
-        lines += ['', f'## Error before (the paper\'s Table 7: the model\'s {t7["model_runs"]} '
-                  f'baseline runs, the {t7["top_n"]} best Cube candidates per marker)', '',
-                  t7['markdown'].rstrip()]
+        band = (f'your model run {t7["model"]}' if t7.get('model')
+                else f'the model\'s {t7["model_runs"]} baseline runs')
+        lines += ['', f'## Error before (the paper\'s Table 7: {band}, the {t7["top_n"]} best '
+                  'Cube candidates per marker)', '', t7['markdown'].rstrip()]
     elif t7.get('error'):
         lines += ['', f'Table 7 could not be computed: {t7["error"]}']
     lines += ['', f'Simulations used: {data["simulations"]}; wall time {data["wall_s"]:.1f} s.',
