@@ -5,7 +5,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 PKGS := dempath dempath_calib dempath_recon dempath_sim dempath_compare dempath_twin dempath_diagnose dempath_bringup
 MSG_FILES := $(wildcard src/dempath_msgs/msg/*.msg) src/dempath_msgs/CMakeLists.txt src/dempath_msgs/pyproject.toml
-PKG_FILES := $(foreach p,$(PKGS),src/$(p)/setup.py)
+PKG_FILES := $(foreach p,$(PKGS),src/$(p)/setup.py src/$(p)/setup.cfg)
 
 # ROS discovery stays on this machine unless the user deploys across machines and overrides it.
 export ROS_AUTOMATIC_DISCOVERY_RANGE ?= LOCALHOST
@@ -27,10 +27,14 @@ bench: $(VENV)/.installed
 
 setup: $(VENV)/.installed
 
-$(VENV)/.deps: requirements.txt requirements-build.txt constraints.txt
+# Runtime (requirements.txt), the optional MLP (requirements-mlp.txt: torch, which tests and the
+# MLP's bench need), tests and lint (requirements-dev.txt), the msgs build (requirements-build.txt)
+REQS := requirements.txt requirements-mlp.txt requirements-dev.txt requirements-build.txt
+
+$(VENV)/.deps: $(REQS) constraints.txt
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --disable-pip-version-check \
-	  -r requirements.txt -r requirements-build.txt -c constraints.txt
+	  $(foreach r,$(REQS),-r $(r)) -c constraints.txt
 	touch $@
 
 $(VENV)/.msgs: $(VENV)/.deps $(MSG_FILES)

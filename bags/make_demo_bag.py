@@ -1,6 +1,6 @@
 """Make ``bags/demo_two_cams``: a small synthetic two-camera recording of 15 moving markers.
 
-SYNTHETIC DATA, made by ``dempath_twin.twocams.write_two_cams_bag`` (what it holds: that
+SYNTHETIC DATA, made by ``dempath_twin.field.two_cams.write_two_cams_bag`` (what it holds: that
 module's docstring). Usage: ``.venv/bin/python bags/make_demo_bag.py [OUT_DIR]``.
 """
 
@@ -9,7 +9,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from dempath_twin.twocams import write_two_cams_bag
+from dempath_twin.field.two_cams import write_two_cams_bag
 
 
 def main(argv: list[str]) -> int:

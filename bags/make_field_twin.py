@@ -1,8 +1,8 @@
 """Make ``bags/field_twin_<scene>``: the demo's synthetic field recording (the "measurement").
 
-SYNTHETIC DATA, made by ``dempath_twin.fieldbag.make_field_twin`` (what it holds: that module's
-docstring and docs/demo.md). This script only picks the default output beside itself; the same
-is ``dempath twin field OUT --scene NAME``.
+SYNTHETIC DATA, made by ``dempath_twin.field.demo_bag.make_field_twin`` (what it holds: that
+module's docstring and docs/demo.md). This script only picks the default output beside itself; the
+same is ``dempath twin field OUT --scene NAME``.
 
 Usage::
 

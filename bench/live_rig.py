@@ -98,7 +98,7 @@ def error_figures(points: list[Any], xyz: list[dict[int, Any]], period: int,
 
 def detect_ms(rig: Any, jpeg: list[bytes]) -> float:
     """Detection and tracking of one frame alone [ms] (no ROS)."""
-    from dempath_recon.stereo_track import StereoMarkerTracker
+    from dempath_recon.tracking.stereo import StereoMarkerTracker
 
     core = StereoMarkerTracker({c.name: c for c in rig.cameras})
     core.update('cam_side', 0.0, jpeg[0])  # compiles and warms up

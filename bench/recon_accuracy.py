@@ -1,13 +1,14 @@
 """Benchmark of pixel-to-3D reconstruction on the digital twin (issue #5 targets).
 
 A paper-size calibration point set (94,939 board-corner samples, 0.2 px corner noise) comes from
-``dempath_twin.views.synthetic_point_set`` (true board corners projected through ``paper_rig``);
-4,149 rows are held out as in the paper. Every method is fitted on the other 90,790 rows with no
-access to the true cameras (the triangulation methods resect them from the training rows), then
-scored on the held-out rows: mean / SD / max 3D error [mm], R2 per axis, training wall time and
-throughput. The paper's network is trained with dempath's recipe (standardised, AdamW, one-cycle,
-10 epochs; ``--mlp-recipe paper`` for the published one, ``--mlp-epochs`` to change the epochs);
-its figures (and those of the shipped float16 file as loaded) are in ``mlp`` of the JSON line.
+``dempath_twin.board.recording.synthetic_point_set`` (true board corners projected through
+``paper_rig``); 4,149 rows are held out as in the paper. Every method is fitted on the other 90,790
+rows with no access to the true cameras (the triangulation methods resect them from the training
+rows), then scored on the held-out rows: mean / SD / max 3D error [mm], R2 per axis, training wall
+time and throughput. The paper's network is trained with dempath's recipe (standardised, AdamW,
+one-cycle, 10 epochs; ``--mlp-recipe paper`` for the published one, ``--mlp-epochs`` to change the
+epochs); its figures (and those of the shipped float16 file as loaded) are in ``mlp`` of the JSON
+line.
 Clicking noise of 2.36 / 2.75 px (the paper's) is then propagated and the coverage of the
 published 1-sigma is checked.
 
@@ -36,9 +37,7 @@ import numpy as np
 import torch
 
 from dempath_calib.camera import CameraModel
-from dempath_recon.methods import make_reconstructor
-from dempath_recon.mlp import PAPER_RECIPE
-from dempath_recon.report import (
+from dempath_recon.methods.evaluation import (
     PAPER_TABLE5,
     best_method,
     evaluate,
@@ -46,10 +45,12 @@ from dempath_recon.report import (
     holdout_split,
     write_report,
 )
-from dempath_recon.triangulate import DLTTriangulator
-from dempath_recon.uncertainty import CLICK_SIGMA_PX, coverage, propagate
+from dempath_recon.methods.mlp import PAPER_RECIPE
+from dempath_recon.methods.registry import make_reconstructor
+from dempath_recon.methods.triangulate import DLTTriangulator
+from dempath_recon.methods.uncertainty import CLICK_SIGMA_PX, coverage, propagate
+from dempath_twin.board.recording import synthetic_point_set
 from dempath_twin.rig import paper_rig
-from dempath_twin.views import synthetic_point_set
 
 N_SAMPLES = 94_939  # the paper's point set size
 TARGET_MEAN_MM, TARGET_MAX_MM, TARGET_TRAIN_S, TARGET_PPS = 0.5, 3.0, 120.0, 100_000
@@ -129,8 +130,8 @@ def mlp_figures(m: Any, row: Any, te: tuple[np.ndarray, np.ndarray],
            'load_avg_mean': float(np.mean(m.epoch_load_)),
            'points_per_s': row.points_per_s, 'torch_threads': torch.get_num_threads()}
     if args.seed == 0 and args.noise_px == 0.2:  # the shipped file's data and split
-        from dempath_recon.report import error_metrics
-        from dempath_recon.shipped import load_shipped_mlp
+        from dempath_recon.methods.evaluation import error_metrics
+        from dempath_recon.methods.shipped import load_shipped_mlp
 
         shipped = error_metrics(load_shipped_mlp().predict(te[0]), te[1])
         out['shipped_as_loaded'] = {k: shipped[k] for k in ('mean_mm', 'sd_mm', 'max_mm', 'r2')}

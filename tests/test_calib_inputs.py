@@ -14,9 +14,9 @@ from dempath_calib.camera import StereoCalibration
 from dempath_calib.cli import calibrate_main
 from dempath_calib.errors import InputSourceError
 from dempath_calib.sources import BagSource, FolderSource, open_source, read_timestamps_csv
-from dempath_twin.calibbag import write_twin_videos
+from dempath_twin.board.bag import write_twin_videos
+from dempath_twin.board.recording import calibration_poses, render_views
 from dempath_twin.rig import paper_rig
-from dempath_twin.views import calibration_poses, render_views
 
 ROOT = Path(__file__).resolve().parents[1]
 SHIPPED = ROOT / 'bags' / 'calib_twin_small'

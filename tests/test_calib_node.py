@@ -14,8 +14,8 @@ from std_srvs.srv import Trigger
 
 from dempath import topics
 from dempath_calib.nodes.calibrator import CalibratorNode
+from dempath_twin.board.recording import calibration_poses, render_views
 from dempath_twin.rig import paper_rig
-from dempath_twin.views import calibration_poses, render_views
 
 pytestmark = pytest.mark.usefixtures('strict_numpy')  # as the dempath_calib tests ran
 

@@ -25,8 +25,8 @@ from dempath_calib.pairing import DetectionStream
 from dempath_calib.rigidity import board_rigidity, frame_epipolar_errors, fundamental_matrix
 from dempath_calib.syncmotion import board_trajectory, motion_offset
 from dempath_calib.verify import relative_pose
+from dempath_twin.board.recording import calibration_poses, project_views, smooth_poses
 from dempath_twin.rig import paper_rig
-from dempath_twin.views import calibration_poses, project_views, smooth_poses
 
 NOISE_PX = 0.2
 BAG = Path(__file__).resolve().parents[1] / 'bags' / 'calib_twin_small'

@@ -17,8 +17,8 @@ from dempath_calib.errors import DegenerateViewsError, NotEnoughViewsError
 from dempath_calib.intrinsics import calibrate_intrinsics
 from dempath_calib.pairing import DetectionStream, pair_frames
 from dempath_calib.verify import compare_to_truth
+from dempath_twin.board.recording import calibration_poses, project_views, smooth_poses
 from dempath_twin.rig import paper_rig
-from dempath_twin.views import calibration_poses, project_views, smooth_poses
 
 pytestmark = pytest.mark.usefixtures('strict_numpy')  # as the dempath_calib tests ran
 
@@ -147,7 +147,7 @@ def test_collector_drops_oldest_and_counts() -> None:
 
 def test_synthetic_point_set_noise() -> None:
     """The paper-size point set has the asked size and exactly the asked pixel noise."""
-    from dempath_twin.views import synthetic_point_set
+    from dempath_twin.board.recording import synthetic_point_set
     ps = synthetic_point_set(5000, noise_px=0.2, seed=2)
     rig = paper_rig()
     assert len(ps) == 5000 and len(np.unique(ps.view)) > 200

@@ -26,7 +26,7 @@ from dempath_calib.camerainfo import read_camera_info
 from dempath_calib.cli import calibrate_main
 from dempath_calib.pointset import load_point_set
 from dempath_calib.verify import compare_to_truth
-from dempath_twin.calibbag import truth_path, write_calibration_bag
+from dempath_twin.board.bag import truth_path, write_calibration_bag
 from dempath_twin.cli import rig_main
 from dempath_twin.rig import paper_rig
 

@@ -1,7 +1,7 @@
 """The clicker used as a person would: a real headless Chromium clicks rendered markers.
 
 Frames with shaded spheres at known sub-pixel centres (a folder of two cameras, two frames) are
-served by ``dempath_recon.clickserver``; selenium selects marker numbers, zooms with the mouse
+served by ``dempath_recon.clicker.server``; selenium selects marker numbers, zooms with the mouse
 wheel around each marker, clicks its centre, undoes a wrong click, steps to the next frame,
 accepts a detection, and downloads the CSV through the page's Export link. The exported centres
 must match the rendered ones within 0.5 px. ``DEMPATH_SCREENSHOTS=1`` keeps the page's
@@ -24,9 +24,10 @@ import numpy as np
 import pytest
 
 from dempath.browser import BrowserNotFoundError, headless_chromium
-from dempath_recon.clickframes import open_frames
-from dempath_recon.clicks import ClickBounds, ClickStore
-from dempath_recon.clickserver import ClickServer, ClickSession
+from dempath.nodes.pytest_plugin import require_component
+from dempath_recon.clicker.clicks import ClickBounds, ClickStore
+from dempath_recon.clicker.frames import open_frames
+from dempath_recon.clicker.server import ClickServer, ClickSession
 
 WIDTH, HEIGHT = 960, 540
 RADIUS_PX = 6.0
@@ -83,11 +84,11 @@ def session(tmp_path: Path) -> Iterator[ClickServer]:
 
 @pytest.fixture
 def browser(tmp_path: Path) -> Iterator[Any]:
-    """A headless Chromium (installed through apt when missing and allowed, else skip)."""
+    """A headless Chromium (apt-installed when missing and allowed, else the test fails)."""
     try:
         driver = headless_chromium(1500, 600, download_dir=tmp_path / 'downloads')
     except BrowserNotFoundError as err:
-        pytest.skip(str(err))
+        require_component('chromium', err)
     yield driver
     driver.quit()
 

@@ -51,9 +51,9 @@ class Clicker:
         while 'clicker at' not in line:
             line = self.proc.stdout.readline()
             assert line, f'no server: {self.proc.stderr.read() if self.proc.stderr else ""}'
+        self.line = line
         self.port = int(re.search(r':(\d+)/', line)[1])  # type: ignore[index]
-        page = self.request('GET', '/')[1]
-        self.token = re.search(r'name="clicker-token" content="([^"]+)"', page)[1]  # type: ignore
+        self.token = re.search(r'#token=([\w-]+)', line)[1]  # type: ignore[index]
 
     def request(self, method: str, path: str, body: object = None,
                 headers: dict[str, str] | None = None) -> tuple[int, str]:
@@ -129,7 +129,7 @@ def test_only_the_click_file_is_writable(clicker: Clicker, tmp_path: Path) -> No
     assert json.loads(body)['error'] == ('error: .._.._x.csv: line 2: marker 99 is not one of '
                                          'the markers 1-15')
     assert not (tmp_path / 'clicks.csv').exists()
-    assert sorted(p.name for p in tmp_path.iterdir()) == ['frames']
+    assert sorted(p.name for p in tmp_path.iterdir()) == ['.clicks.csv.lock', 'frames']
 
 
 def test_import_export_and_resume(frames: Path, tmp_path: Path) -> None:
@@ -168,3 +168,95 @@ def test_bad_sources_give_one_line(tmp_path: Path) -> None:
         f'error: {tmp_path}/c.csv: line 2: point (50, 5) px is outside the 40x30 image of '
         f'{tmp_path.name}']
     assert done.stderr.count('error:') == 1 and done.stderr.startswith('warning: ')
+
+
+def test_token_is_never_served(clicker: Clicker) -> None:
+    """The token is in the printed address's fragment only: no page or API answer holds it,
+    whatever Host the client claims (it used to be in the page for Host: 127.0.0.1:PORT)."""
+    assert '#token=' in clicker.line
+    for path in ('/', '/clicker.js', '/api/session', '/api/frame/0'):
+        for host in (f'127.0.0.1:{clicker.port}', f'localhost:{clicker.port}'):
+            status, body = clicker.request('GET', path, headers={'Host': host})
+            assert status == 200 and clicker.token not in body, path
+
+
+def test_remote_host_needs_its_flag_and_warns(frames: Path, tmp_path: Path) -> None:
+    """--host 0.0.0.0 alone is refused; with --allow-remote it warns and prints the address
+    other machines use (not 127.0.0.1)."""
+    done = subprocess.run([DEMPATH, 'click', str(frames), '--host', '0.0.0.0', '--port', '0'],
+                          capture_output=True, text=True, check=False, cwd=tmp_path)
+    assert done.returncode == 1
+    assert done.stderr.strip().splitlines() == [
+        'error: --host 0.0.0.0: serves beyond this machine; add --allow-remote to do it on '
+        'purpose']
+    from dempath_recon.clicker.server import reachable_address
+
+    remote = Clicker([str(frames), '--host', '0.0.0.0', '--allow-remote'], tmp_path)
+    assert f'http://{reachable_address()}:{remote.port}/#token=' in remote.line
+    err = remote.stop()
+    assert err.startswith('warning: --host 0.0.0.0: the clicker is reachable from other machines')
+
+
+def test_second_session_on_one_click_file_is_refused(clicker: Clicker, frames: Path,
+                                                     tmp_path: Path) -> None:
+    """Two sessions on one click file used to lose clicks (last writer wins): the second is
+    refused with one line naming the first one's process."""
+    done = subprocess.run([DEMPATH, 'click', str(frames), '--out', 'clicks.csv', '--port', '0'],
+                          capture_output=True, text=True, check=False, cwd=tmp_path)
+    assert done.returncode == 1
+    lines = done.stderr.strip().splitlines()
+    assert len(lines) == 1 and 'another dempath click session (pid ' in lines[0]
+    assert clicker.post('/api/click', {'frame': 0, 'camera': 0, 'marker': 1, 'x': 5.0,
+                                       'y': 5.0})[0] == 200
+
+
+def raw_post(clicker: Clicker, body: bytes, length: str) -> tuple[int, str]:
+    """A POST with the token and a hand-made Content-Length."""
+    conn = http.client.HTTPConnection('127.0.0.1', clicker.port, timeout=10)
+    conn.putrequest('POST', '/api/click')
+    for name, value in (('X-Clicker-Token', clicker.token), ('Content-Length', length),
+                        ('Content-Type', 'application/json')):
+        conn.putheader(name, value)
+    conn.endheaders(body)
+    reply = conn.getresponse()
+    result = reply.status, reply.read().decode(errors='replace')
+    conn.close()
+    return result
+
+
+def test_malformed_bodies_are_400_without_a_traceback(clicker: Clicker) -> None:
+    """A JSON list, frame 1e999 and Content-Length abc: 400 with one line each, and the server
+    goes on (they used to drop the connection with a traceback on the server)."""
+    for body, length in ((b'[1, 2]', '6'), (b'{"frame": 1e999, "camera": 0, "marker": 1, '
+                                             b'"x": 1, "y": 1}', None),
+                         (b'{}', 'abc')):
+        status, text = raw_post(clicker, body, length or str(len(body)))
+        assert status == 400 and 'error' in text, (body, text)
+    assert clicker.post('/api/click', {'frame': 0, 'camera': 0, 'marker': 1, 'x': 5.0,
+                                       'y': 5.0})[0] == 200
+    err = clicker.stop()
+    assert 'Traceback' not in err
+
+
+def test_idle_connection_is_closed(frames: Path, tmp_path: Path,
+                                   monkeypatch: pytest.MonkeyPatch) -> None:
+    """A client that connects and sends nothing is disconnected after the idle timeout."""
+    import socket
+    import threading
+
+    from dempath_recon.clicker import server as server_module
+    from dempath_recon.clicker.clicks import ClickBounds, ClickStore
+    from dempath_recon.clicker.frames import open_frames
+
+    monkeypatch.setattr(server_module.ClickHandler, 'timeout', 0.5)
+    opened = open_frames(frames)
+    store = ClickStore(tmp_path / 'c.csv', ClickBounds(len(opened.frames), opened.sizes,
+                                                       frozenset(range(1, 16))))
+    server = server_module.ClickServer(server_module.ClickSession(opened, store), port=0)
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    try:
+        with socket.create_connection(('127.0.0.1', server.port), timeout=20) as idle:
+            assert idle.recv(1) == b''  # closed by the server, not by our own timeout
+    finally:
+        server.shutdown()
+        server.server_close()

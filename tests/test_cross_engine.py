@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from dempath.nodes.pytest_plugin import require_component
 from dempath_sim.liggghts.errors import LiggghtsNotFoundError
 from dempath_sim.liggghts.install import LiggghtsInstall, ensure_liggghts
 from dempath_sim.scene import bundled_scene
@@ -21,11 +22,11 @@ from dempath_sim.validation.cross_engine import (
 
 @pytest.fixture(scope='module')
 def liggghts() -> LiggghtsInstall:
-    """LIGGGHTS 3.8 (Debian package), installed through apt-get when root; skip otherwise."""
+    """LIGGGHTS 3.8 (Debian package), installed by apt-get when root; else the test fails."""
     try:
         return ensure_liggghts(install=True)
     except LiggghtsNotFoundError as err:
-        pytest.skip(f'LIGGGHTS unavailable: {err}')
+        require_component('liggghts', err)
 
 
 def test_same_physics_sets_dynamic_to_static_friction() -> None:

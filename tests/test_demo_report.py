@@ -23,6 +23,7 @@ from typing import Any
 import pytest
 
 from dempath.browser import BrowserNotFoundError, headless_chromium
+from dempath.nodes.pytest_plugin import require_component
 from dempath_bringup.demo import demo_main
 from dempath_diagnose.cli import diagnose_main
 
@@ -110,11 +111,11 @@ def test_demo_without_library_says_so_and_goes_on(tmp_path: Path,
 
 @pytest.fixture
 def browser() -> Iterator[Any]:
-    """A headless Chromium (installed through apt when missing and allowed, else skip)."""
+    """A headless Chromium (apt-installed when missing and allowed, else the test fails)."""
     try:
         driver = headless_chromium(1280, 2400)
     except BrowserNotFoundError as err:
-        pytest.skip(str(err))
+        require_component('chromium', err)
     yield driver
     driver.quit()
 

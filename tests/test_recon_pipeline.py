@@ -7,10 +7,10 @@ import pytest
 
 from dempath_calib.board import PAPER_BOARD
 from dempath_calib.calibrator import CalibrationConfig, calibrate_detections
-from dempath_recon.residual import ResidualReconstructor
-from dempath_recon.triangulate import DLTTriangulator
+from dempath_recon.methods.residual import ResidualReconstructor
+from dempath_recon.methods.triangulate import DLTTriangulator
+from dempath_twin.board.recording import calibration_poses, synthetic_point_set
 from dempath_twin.rig import paper_rig
-from dempath_twin.views import calibration_poses, synthetic_point_set
 
 
 @pytest.fixture(scope='module')

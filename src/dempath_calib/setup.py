@@ -14,7 +14,14 @@ setup(
         ('share/ament_index/resource_index/packages', [f'resource/{PACKAGE}']),
         (f'share/{PACKAGE}', ['package.xml']),
     ],
-    install_requires=['setuptools'],
+    # PyPI names of the third-party imports; package.xml holds their rosdep keys
+    install_requires=[
+        'numpy',
+        'scipy',
+        'opencv-contrib-python-headless',
+        'pyyaml',
+        'rich',
+    ],
     zip_safe=False,
     maintainer='dempath developers',
     maintainer_email='dempath@users.noreply.github.com',

@@ -12,12 +12,21 @@ setup(
     name=PACKAGE,
     version='0.1.0',
     packages=find_packages(exclude=['test']),
-    package_data={PACKAGE: ['py.typed', 'clicker_web/*', 'data/*.pt', 'data/*.json']},
+    package_data={PACKAGE: ['py.typed', 'clicker/web/*', 'data/*.pt', 'data/*.json']},
     data_files=[
         ('share/ament_index/resource_index/packages', [f'resource/{PACKAGE}']),
         (f'share/{PACKAGE}', ['package.xml']),
     ],
-    install_requires=['setuptools'],
+    # PyPI names of the third-party imports; package.xml holds their rosdep keys
+    install_requires=[
+        'numpy',
+        'scipy',
+        'opencv-contrib-python-headless',
+        'pillow',
+        'matplotlib',
+        'simplejpeg',
+    ],
+    extras_require={'mlp': ['torch']},  # the paper's MLP reconstructor (optional)
     zip_safe=False,
     maintainer='dempath developers',
     maintainer_email='dempath@users.noreply.github.com',
@@ -34,7 +43,7 @@ setup(
             'reconstruct = dempath_recon.cli:reconstruct_main',
             'recon-train = dempath_recon.cli:train_main',
             'recon-report = dempath_recon.cli:report_main',
-            'click = dempath_recon.clickcli:click_main',
+            'click = dempath_recon.clicker.cli:click_main',
         ],
     },
 )

@@ -16,7 +16,16 @@ setup(
         ('share/ament_index/resource_index/packages', [f'resource/{PACKAGE}']),
         (f'share/{PACKAGE}', ['package.xml']),
     ],
-    install_requires=['setuptools'],
+    # PyPI names of the third-party imports; package.xml holds their rosdep keys
+    install_requires=[
+        'numpy',
+        'scipy',
+        'numba',
+        'matplotlib',
+        'pyyaml',
+        'rich',
+        'meshio',
+    ],
     zip_safe=False,
     maintainer='dempath developers',
     maintainer_email='dempath@users.noreply.github.com',

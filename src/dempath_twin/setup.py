@@ -17,7 +17,15 @@ setup(
         ('share/ament_index/resource_index/packages', [f'resource/{PACKAGE}']),
         (f'share/{PACKAGE}', ['package.xml']),
     ],
-    install_requires=['setuptools'],
+    # PyPI names of the third-party imports; package.xml holds their rosdep keys
+    install_requires=[
+        'numpy',
+        'numba',
+        'opencv-contrib-python-headless',
+        'pyyaml',
+        'rosbags',
+    ],
+    extras_require={'mlp': ['torch']},  # the paper's MLP reconstructor (optional)
     zip_safe=False,
     maintainer='dempath developers',
     maintainer_email='dempath@users.noreply.github.com',

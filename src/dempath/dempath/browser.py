@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from dempath.aptinstall import apt_install, can_install
+from dempath.aptinstall import apt_install, apt_lock, can_install
 from dempath.errors import DempathError
 
 LOG = logging.getLogger(__name__)
@@ -58,11 +58,13 @@ def ensure_chromium(install: bool = True, timeout_s: float = 900.0) -> Chromium:
     if not can_install():
         msg = f'chromium: not installed and this process cannot install it; run {INSTALL_HINT!r}'
         raise BrowserNotFoundError(msg)
-    failure = apt_install(APT_PACKAGES, timeout_s)
-    if failure:
-        msg = f'chromium: {failure}'
-        raise BrowserNotFoundError(msg)
-    found = find_chromium()
+    with apt_lock():  # another process may be installing it right now: wait, look again
+        found = find_chromium()
+        failure = None if found else apt_install(APT_PACKAGES, timeout_s)
+        if failure:
+            msg = f'chromium: {failure}'
+            raise BrowserNotFoundError(msg)
+        found = found or find_chromium()
     if found is None:
         msg = f'chromium: installed {", ".join(APT_PACKAGES)} but chromedriver is not on PATH'
         raise BrowserNotFoundError(msg)

@@ -13,3 +13,7 @@ class BagError(DempathError):
 
 class OutputError(DempathError):
     """An output location cannot be written."""
+
+
+class DumpError(DempathError):
+    """A DEM text dump or print file cannot be read (missing, truncated, wrong columns)."""

@@ -130,6 +130,9 @@ class CornerDetector:
         self.board = board
         self._charuco: Any = None
         if board.kind is BoardKind.CHARUCO:
+            from dempath_calib.opencv_check import require_charuco_opencv
+
+            require_charuco_opencv()
             params = cv2.aruco.DetectorParameters()
             params.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_NONE
             charuco_params = cv2.aruco.CharucoParameters()

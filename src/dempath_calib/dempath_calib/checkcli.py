@@ -47,7 +47,7 @@ def calib_check_parser() -> argparse.ArgumentParser:
 
 
 def calib_check_main(argv: list[str]) -> int:
-    """Board rigidity and epipolar error of calibrations on a recording (rich tables or JSON)."""
+    """``dempath calib-check``: board rigidity and epipolar error of calibrations."""
     args = calib_check_parser().parse_args(argv)
     try:
         board = board_from_args(args)

@@ -5,19 +5,17 @@ from __future__ import annotations
 
 import argparse
 import json
-import logging
 import sys
 from collections.abc import Iterator
 from dataclasses import replace
 from itertools import chain
-
-from tqdm import tqdm
 
 from dempath.errors import DempathError
 from dempath_calib.board import CALISCOPE_BOARD, PAPER_BOARD, BoardKind, BoardSpec
 from dempath_calib.calibrator import CalibrationConfig, Calibrator
 from dempath_calib.errors import CalibrationError
 from dempath_calib.intrinsics import DistortionModel
+from dempath_calib.opencv_check import require_charuco_opencv
 from dempath_calib.outputs import save_result
 from dempath_calib.sources import Frame, open_source
 
@@ -89,8 +87,9 @@ def _config(args: argparse.Namespace, size: tuple[int, int]) -> CalibrationConfi
 def calibrate_main(argv: list[str]) -> int:
     """``dempath calibrate INPUT... --out DIR``: calibrate and write the output files."""
     args = calibrate_parser().parse_args(argv)
-    logging.basicConfig(level=logging.INFO, format='%(levelname)s %(name)s: %(message)s')
     try:
+        if BOARDS[args.board].kind is BoardKind.CHARUCO:
+            require_charuco_opencv()
         source = open_source(args.inputs, args.fps, args.timestamps)
         frames = source.frames()
         first = next(frames, None)
@@ -110,6 +109,7 @@ def calibrate_main(argv: list[str]) -> int:
                       'views': rep['views'], 'offset_s': rep.get('offset_s'),
                       'corner_spacing_mm': rep['corner_spacing'].get('mean_mm'),
                       'point_set_size': rep['point_set_size'],
+                      'undecodable_images': len(getattr(source, 'undecodable', ())),
                       'outputs': [str(p) for p in paths.values()]}))
     return 0
 
@@ -117,11 +117,16 @@ def calibrate_main(argv: list[str]) -> int:
 def _collect(cal: Calibrator, first: Frame, frames: Iterator[Frame], total: int,
              every: int) -> None:
     """Feed every ``every``-th image per camera to the calibrator with a progress bar."""
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
+
     counts = [0, 0]
-    with tqdm(total=total, unit='img', desc='detecting') as bar:
+    columns = (TextColumn('detecting'), BarColumn(), MofNCompleteColumn(),
+               TextColumn('{task.fields[state]}'))
+    with Progress(*columns, console=Console(stderr=True), transient=True) as bar:
+        task = bar.add_task('detecting', total=total, state='')
         for cam, stamp, image in chain([first], frames):
             if counts[cam] % every == 0:
                 cal.add_image(cam, stamp, image)
             counts[cam] += 1
-            bar.update(1)
-            bar.set_postfix_str(cal.progress().line(), refresh=False)
+            bar.update(task, advance=1, state=cal.progress().line())

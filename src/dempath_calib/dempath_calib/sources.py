@@ -11,7 +11,7 @@ from __future__ import annotations
 import csv
 import logging
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import cv2
@@ -54,10 +54,16 @@ def decode_image(msgtype: str, msg: object, where: str) -> NDArray[np.uint8]:
 
 @dataclass(frozen=True)
 class BagSource:
-    """Both cameras' image topics of a bag (compressed preferred when both exist)."""
+    """Both cameras' image topics of a bag (compressed preferred when both exist).
+
+    A frame that cannot be decoded (a damaged JPEG) is named in a warning (topic, stamp, index
+    on its topic), listed in ``undecodable`` and skipped, and the rest of the bag is used; only
+    a bag none of whose images decodes is an error.
+    """
 
     path: Path
     cameras: tuple[str, str] = topics.CAMERAS
+    undecodable: list[str] = field(default_factory=list, compare=False, hash=False)
 
     def topics(self) -> list[str]:
         """The two image topics used, side first."""
@@ -83,15 +89,31 @@ class BagSource:
     def frames(self) -> Iterator[Frame]:
         """Yield ``(camera, stamp_s, grey image)`` in bag order."""
         names = self.topics()
+        index = dict.fromkeys(names, -1)
+        decoded = 0
         try:
             with open_bag(self.path, names) as bag:
                 for raw in bag.messages(names):
                     msg = bag.deserialize(raw)
                     stamp = msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec
-                    yield names.index(raw.topic), stamp or raw.log_time_ns * 1e-9, \
-                        decode_image(raw.msgtype, msg, f'{self.path}:{raw.topic}')
+                    stamp = stamp or raw.log_time_ns * 1e-9
+                    index[raw.topic] += 1
+                    where = f'{self.path}:{raw.topic} image {index[raw.topic]} at {stamp:.6f} s'
+                    try:
+                        image = decode_image(raw.msgtype, msg, where)
+                    except InputSourceError as err:
+                        self.undecodable.append(str(err))
+                        LOG.warning('%s; skipped (%d undecodable so far)', err,
+                                    len(self.undecodable))
+                        continue
+                    decoded += 1
+                    yield names.index(raw.topic), stamp, image
         except BagError as err:
             raise InputSourceError(str(err)) from err
+        if self.undecodable and not decoded:
+            msg = (f'{self.path}: none of its {len(self.undecodable)} images can be decoded '
+                   f'(first: {self.undecodable[0]})')
+            raise InputSourceError(msg)
 
 
 @dataclass(frozen=True)

@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 import argparse
-import logging
 import sys
+from pathlib import Path
 from typing import NoReturn
 
 from dempath.errors import DempathError
@@ -42,7 +42,14 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument('--rest-samples', type=int, default=5, help='rest-phase samples [5]')
     parser.add_argument('--dtw-engine', choices=['kernel', 'dtaidistance'], default='kernel',
                         help='source of the DTW distances (identical numbers) [kernel]')
+    parser.add_argument('--identity-from-names', action='store_true',
+                        help='tool speed and seed from names (experiment_1p5ms, '
+                             '<scene>-s<seed>-<hash>) where no run metadata say them')
     parser.add_argument('--no-plots', action='store_true', help='skip the PNG figures')
+    parser.add_argument('--model-map', type=Path, metavar='YAML',
+                        help='how to read a foreign model export: a LIGGGHTS dump (its time '
+                             'step) or an EDEM/Rocky CSV (columns, units, axes); see '
+                             'docs/compare.md')
     return parser
 
 
@@ -70,18 +77,20 @@ def print_ranking(result: CompareResult, top: int) -> None:
 
 def compare_main(argv: list[str]) -> int:
     """``dempath compare MEASURED MODEL --out DIR``: score model against measured trajectories."""
+    from dempath_compare.comparison_folder import write_outputs
+    from dempath_compare.foreign import load_mapping
     from dempath_compare.pipeline import compare_paths, problems
-    from dempath_compare.report import write_outputs
 
     args = build_parser().parse_args(argv)
-    logging.basicConfig(level=logging.WARNING, format='%(levelname)s %(name)s: %(message)s')
     try:
         config = CompareConfig(top_n=args.top, sp=args.sp, z_weight=args.z_weight,
                                rank_by=args.rank_by, matching=args.matching,
                                pairing=args.pairing, range_kind=args.range_kind,
                                trim_y_drop=args.trim_y_drop, rest_samples=args.rest_samples,
-                               dtw_engine=args.dtw_engine)
-        result = compare_paths(args.measured, args.model, config)
+                               dtw_engine=args.dtw_engine,
+                               identity_from_names=args.identity_from_names)
+        model_map = load_mapping(args.model_map) if args.model_map else None
+        result = compare_paths(args.measured, args.model, config, model_map)
         print_ranking(result, args.top)
         outputs = write_outputs(result, args.out, plots=not args.no_plots)
     except DempathError as err:

@@ -19,16 +19,21 @@ import csv
 import json
 import logging
 import re
-from collections.abc import Iterable
+from collections.abc import Collection, Iterable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from dempath.errors import OutputError
+from dempath.outputs import check_output_folder
 from dempath_compare.errors import InputError
 from dempath_compare.records import MEASURED, MODEL, Track
 from dempath_compare.runinfo import run_info
+
+if TYPE_CHECKING:
+    from dempath_compare.foreign import ExportMapping
 
 log = logging.getLogger(__name__)
 
@@ -37,8 +42,16 @@ ALIASES = {'time': 't', 't_s': 't', 'marker_id': 'marker', 'particle_id': 'id',
            'x_m': 'x', 'y_m': 'y', 'z_m': 'z'}
 
 
-def read_csv_columns(path: Path) -> dict[str, NDArray[np.float64]]:
-    """Columns of a CSV file by lower-case header name, as float arrays (blank -> NaN)."""
+def read_csv_columns(path: Path, aliases: bool = True,
+                     wanted: Collection[str] | None = None) -> dict[str, NDArray[np.float64]]:
+    """Columns of a CSV file by lower-case header name, as float arrays (blank -> NaN).
+
+    Args:
+        path: The CSV file.
+        aliases: Map dempath's alias names (``time``, ``x_m``...) to ``t``, ``x``...; a
+            mapped foreign export keeps its own names.
+        wanted: Only these (lower-case) columns are parsed (others may hold text); all when None.
+    """
     try:
         with path.open(newline='') as handle:
             rows = list(csv.reader(handle))
@@ -49,29 +62,33 @@ def read_csv_columns(path: Path) -> dict[str, NDArray[np.float64]]:
     if not rows:
         msg = f'{path}: empty CSV file'
         raise InputError(msg)
-    header = [ALIASES.get(h.strip().lower(), h.strip().lower()) for h in rows[0]]
+    names = [h.strip().lower() for h in rows[0]]
+    header = [ALIASES.get(h, h) for h in names] if aliases else names
     width = len(header)
     if any(len(r) != width for r in rows[1:]):
         bad = next(i for i, r in enumerate(rows[1:], 2) if len(r) != width)
         msg = f'{path}: line {bad} has a different number of fields than the header'
         raise InputError(msg)
+    keep = [k for k, name in enumerate(header) if wanted is None or name in wanted]
     try:
-        data = np.array([[float(c) if c.strip() else np.nan for c in r] for r in rows[1:]],
-                        dtype=np.float64).reshape(len(rows) - 1, width)
+        data = np.array([[float(r[k]) if r[k].strip() else np.nan for k in keep]
+                         for r in rows[1:]], dtype=np.float64).reshape(len(rows) - 1, len(keep))
     except ValueError as err:
         msg = f'{path}: non-numeric value ({err})'
         raise InputError(msg) from err
-    return {name: data[:, k] for k, name in enumerate(header)}
+    return {header[k]: data[:, j] for j, k in enumerate(keep)}
 
 
-def load_csv(path: str | Path, kind: str, meta: dict[str, Any] | None = None) -> list[Track]:
+def load_csv(path: str | Path, kind: str, meta: dict[str, Any] | None = None,
+             from_names: bool = False) -> list[Track]:
     """Tracks of one CSV file.
 
     Args:
         path: CSV file in one of the module's shapes.
         kind: ``MEASURED`` or ``MODEL`` (decides whether ``marker`` or ``id`` names a track).
-        meta: run metadata (a ``dempath simulate`` summary.json) for the speed, run id and
-            seed; without it they come from the file name (:mod:`dempath_compare.runinfo`).
+        meta: run metadata (a ``dempath simulate`` summary.json) for the speed, run id, seed,
+            scene and physics keys (:mod:`dempath_compare.runinfo`).
+        from_names: what the metadata do not say from the file name (speed, seed).
 
     Raises:
         InputError: unreadable file, missing columns, non-integer ids.
@@ -90,7 +107,7 @@ def load_csv(path: str | Path, kind: str, meta: dict[str, Any] | None = None) ->
         idents = np.full(n_rows, _number_in_name(path), dtype=np.int64)
     markers = _integers(path, 'marker', cols['marker']) if 'marker' in cols else None
     xyz = np.stack([cols['x'], cols['y'], cols['z']], axis=1)
-    info = run_info(path.stem, meta)
+    info = run_info(path.stem, meta, from_names)
     tracks = []
     for ident in dict.fromkeys(idents.tolist()):
         rows = np.flatnonzero(idents == ident)
@@ -140,25 +157,39 @@ def is_bag(path: Path) -> bool:
         path.suffix.lower() in {'.mcap', '.db3'}
 
 
-def load_source(path: str | Path, kind: str) -> list[Track]:
-    """Tracks of ``kind`` from a CSV file, a folder of CSV files or a bag.
+def load_source(path: str | Path, kind: str, mapping: ExportMapping | None = None,
+                from_names: bool = False) -> list[Track]:
+    """Tracks of ``kind`` from a CSV file, a folder of CSV files, a bag or (model side) a
+    foreign export: a LIGGGHTS dump or a CSV read through ``mapping`` (:mod:`.foreign`).
+
+    A model folder's ``summary.json`` (run metadata) gives its tracks' identity; ``from_names``
+    fills what no metadata say from the names (``CompareConfig.identity_from_names``).
 
     Raises:
         InputError: missing path, empty folder, unreadable file, nothing of ``kind`` found.
     """
+    from dempath_compare.foreign import load_foreign
+
     path = Path(path)
     if not path.exists():
         msg = f'{path}: no such file or folder'
         raise InputError(msg)
-    if is_bag(path):
+    foreign = load_foreign(path, mapping) if kind == MODEL else None
+    if foreign is not None:
+        tracks = foreign
+    elif is_bag(path):
         from dempath_compare.bagload import load_bag
 
-        tracks = load_bag(path, kind)
+        tracks = load_bag(path, kind, from_names)
     elif path.is_dir():
+        try:
+            check_output_folder(path, 'summary.json')
+        except OutputError as err:
+            raise InputError(str(err)) from err
         meta = run_metadata(path) if kind == MODEL else None
-        tracks = [t for f in csv_files(path, kind) for t in load_csv(f, kind, meta)]
+        tracks = [t for f in csv_files(path, kind) for t in load_csv(f, kind, meta, from_names)]
     elif path.suffix.lower() == '.csv':
-        tracks = load_csv(path, kind)
+        tracks = load_csv(path, kind, None, from_names)
     else:
         msg = f'{path}: not a CSV file, folder of CSV files or bag'
         raise InputError(msg)

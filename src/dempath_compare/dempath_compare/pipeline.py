@@ -7,6 +7,7 @@ from pathlib import Path
 from typing import NamedTuple
 
 from dempath_compare.config import CompareConfig
+from dempath_compare.foreign import ExportMapping
 from dempath_compare.loaders import load_source
 from dempath_compare.preprocess import prepare_set
 from dempath_compare.records import MEASURED, MODEL, Track
@@ -37,13 +38,23 @@ def compare_tracks(measured: Sequence[Track], model: Sequence[Track],
 
 
 def compare_paths(measured: str | Path, model: str | Path,
-                  config: CompareConfig | None = None) -> CompareResult:
+                  config: CompareConfig | None = None,
+                  model_map: ExportMapping | None = None) -> CompareResult:
     """Load both sides (CSV file, CSV folder or bag each) and compare them.
+
+    Args:
+        measured: The measured source.
+        model: The model source; also a LIGGGHTS dump or a foreign CSV export read through
+            ``model_map`` (:mod:`dempath_compare.foreign`).
+        config: The comparison settings (defaults when None).
+        model_map: How to read a foreign model export.
 
     Raises:
         InputError: a source is missing, empty or unreadable.
     """
-    return compare_tracks(load_source(measured, MEASURED), load_source(model, MODEL), config)
+    names = (config or CompareConfig()).identity_from_names
+    return compare_tracks(load_source(measured, MEASURED, from_names=names),
+                          load_source(model, MODEL, model_map, names), config)
 
 
 def problems(result: CompareResult) -> list[Problem]:

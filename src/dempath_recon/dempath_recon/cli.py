@@ -17,11 +17,15 @@ from numpy.typing import NDArray
 
 from dempath.errors import DempathError
 from dempath_recon.errors import ModelFileError, ReconstructionError
-from dempath_recon.methods import METHODS, load_calibration, load_reconstructor, make_reconstructor
-from dempath_recon.mlp import PAPER_RECIPE
-from dempath_recon.report import evaluate, holdout_split, write_report
-from dempath_recon.shipped import RIG_NOTE
-from dempath_recon.uncertainty import CLICK_SIGMA_PX, propagate, sigma_from_covariance
+from dempath_recon.methods.evaluation import evaluate, holdout_split, write_report
+from dempath_recon.methods.registry import (
+    METHODS,
+    learned_class,
+    load_calibration,
+    load_reconstructor,
+    make_reconstructor,
+)
+from dempath_recon.methods.uncertainty import CLICK_SIGMA_PX, propagate, sigma_from_covariance
 
 logger = logging.getLogger(__name__)
 PIXEL_COLUMNS = ('xs', 'ys', 'xf', 'yf')
@@ -51,6 +55,9 @@ def _learned_params(args: argparse.Namespace, method: str) -> dict[str, Any]:
     params: dict[str, Any] = {'random_state': args.seed, 'device': args.device}
     if method == 'mlp':
         if args.mlp_recipe == 'paper':
+            learned_class(method)  # torch is there, or one clear line
+            from dempath_recon.methods.mlp import PAPER_RECIPE
+
             params.update(PAPER_RECIPE)
         params['hidden_sizes'] = _hidden(args.mlp_hidden)
         if args.mlp_epochs is not None:
@@ -139,6 +146,8 @@ def reconstruct_main(argv: list[str]) -> int:
         rows, pixels = _read_pixels_csv(args.pixels)
         est = load_reconstructor(args.method, args.calibration, args.model, args.device)
         if args.method == 'mlp' and not args.model:
+            from dempath_recon.methods.shipped import RIG_NOTE
+
             print(f'mlp: the shipped network, {RIG_NOTE}', file=sys.stderr)
         xyz = est.predict(pixels)
         sx, sy = (float(v) for v in args.sigma_px.split(',')) if args.sigma_px else CLICK_SIGMA_PX

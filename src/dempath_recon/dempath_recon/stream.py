@@ -17,10 +17,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dempath.sync import StampSync
-from dempath_recon.methods import METHODS, load_calibration, load_reconstructor
+from dempath_recon.methods.registry import METHODS, load_calibration, load_reconstructor
+from dempath_recon.methods.triangulate import reprojection_errors, split_views
+from dempath_recon.methods.uncertainty import CLICK_SIGMA_PX, propagate, sigma_from_covariance
 from dempath_recon.pairing import PairedFrame, PixelFrame, match_ids
-from dempath_recon.triangulate import reprojection_errors, split_views
-from dempath_recon.uncertainty import CLICK_SIGMA_PX, propagate, sigma_from_covariance
 
 FloatArray = NDArray[np.float64]
 logger = logging.getLogger(__name__)
@@ -35,7 +35,7 @@ class StreamConfig:
     """Settings of the reconstruction node (validated on construction).
 
     Attributes:
-        method: one of ``dempath_recon.methods.METHODS``.
+        method: one of ``dempath_recon.methods.registry.METHODS``.
         calibration_file: stereo YAML (needed by the triangulation methods; optional otherwise,
             where it gives image sizes and reprojection errors).
         model_file: trained model (needed by ``mlp`` and ``dlt_residual``).

@@ -7,8 +7,8 @@ import pytest
 
 from dempath_calib.camera import StereoCalibration
 from dempath_calib.pointset import PointSet
+from dempath_twin.board.recording import synthetic_point_set
 from dempath_twin.rig import paper_rig
-from dempath_twin.views import synthetic_point_set
 
 
 @pytest.fixture(scope='session')

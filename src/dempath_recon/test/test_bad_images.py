@@ -12,8 +12,8 @@ sys.path.insert(0, str(Path(__file__).parent))
 from spots import spot_image
 from test_detect_track import half_size
 
-from dempath_recon.associate import MarkerGrid
-from dempath_recon.stereo_track import StereoMarkerTracker, triangulate_tracks
+from dempath_recon.tracking.associate import MarkerGrid
+from dempath_recon.tracking.stereo import StereoMarkerTracker, triangulate_tracks
 
 N = 12
 DT = 0.02

@@ -9,9 +9,7 @@ import numpy as np
 import pytest
 
 from dempath.bagio import make_typestore, write_bag
-from dempath_recon.clickframes import open_frames
-from dempath_recon.clickplay import click_frames, frame_stamps
-from dempath_recon.clicks import (
+from dempath_recon.clicker.clicks import (
     Click,
     ClickBounds,
     ClickStore,
@@ -19,6 +17,8 @@ from dempath_recon.clicks import (
     parse_markers,
     read_clicks_text,
 )
+from dempath_recon.clicker.frames import open_frames
+from dempath_recon.clicker.playback import click_frames, frame_stamps
 from dempath_recon.errors import ClickError
 
 BOUNDS = ClickBounds(10, {'cam_side': (640, 480), 'cam_front': (640, 480)},

@@ -12,16 +12,16 @@ import pytest
 sys.path.insert(0, str(Path(__file__).parent))
 from spots import spot_image
 
-from dempath_recon.associate import MarkerGrid, epipolar_distance, number_by_grid
-from dempath_recon.detect import (
+from dempath_recon.tracking.associate import MarkerGrid, epipolar_distance, number_by_grid
+from dempath_recon.tracking.detect import (
     Detections,
     DetectorConfig,
     ImageDecodeError,
     MarkerDetector,
     decode_jpeg,
 )
-from dempath_recon.stereo_track import StereoMarkerTracker, triangulate_tracks
-from dempath_recon.track import MarkerTracker, track_sequence
+from dempath_recon.tracking.linker import MarkerTracker, track_sequence
+from dempath_recon.tracking.stereo import StereoMarkerTracker, triangulate_tracks
 
 SHAPE = (240, 320)
 
@@ -96,7 +96,7 @@ class WholeFrameDetector(MarkerDetector):
     """The detector with its chroma computed over the whole frame (the reference)."""
 
     def _window(self, image: np.ndarray) -> tuple[int, int, np.ndarray]:
-        from dempath_recon.detect import chroma
+        from dempath_recon.tracking.detect import chroma
 
         return 0, 0, chroma(image)
 

@@ -18,9 +18,9 @@ from spots import spot_image
 from dempath import topics
 from dempath_calib.camera import StereoCalibration
 from dempath_msgs.msg import PixelPoints
-from dempath_recon.associate import MarkerGrid
 from dempath_recon.errors import ReconstructionError
 from dempath_recon.nodes.detector import DetectorNode
+from dempath_recon.tracking.associate import MarkerGrid
 
 
 def half(cam):
@@ -71,6 +71,7 @@ def test_detector_node_publishes_numbered_points_and_counts(ros_harness, rig, tm
         assert np.abs(uv - truth[k]).max() < 0.6
     assert len(got[1].marker_ids) == 0
     assert node.core.report()['cam_side']['undecodable'] == 1
+    assert node.handled_frames() == 3  # the demo waits for this count; the corrupt one is in it
 
 
 def test_detector_node_numbers_the_grid_of_its_scene(ros_harness, rig, tmp_path) -> None:

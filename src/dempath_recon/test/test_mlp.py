@@ -8,9 +8,9 @@ import torch
 from torch import nn
 
 from dempath_recon.errors import ModelFileError, NotFittedError
-from dempath_recon.mlp import PAPER_RECIPE, MLPReconstructor
-from dempath_recon.report import PAPER_TABLE5
-from dempath_recon.residual import ResidualReconstructor
+from dempath_recon.methods.evaluation import PAPER_TABLE5
+from dempath_recon.methods.mlp import PAPER_RECIPE, MLPReconstructor
+from dempath_recon.methods.residual import ResidualReconstructor
 
 
 @pytest.fixture(scope='module')

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from dempath_recon.report import (
+from dempath_recon.methods.evaluation import (
     PAPER_TABLE5,
     MethodResult,
     best_method,

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dempath_recon.residual import ResidualReconstructor
-from dempath_recon.triangulate import DLTTriangulator
+from dempath_recon.methods.residual import ResidualReconstructor
+from dempath_recon.methods.triangulate import DLTTriangulator
 
 
 @pytest.fixture(scope='module')

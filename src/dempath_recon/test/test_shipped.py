@@ -11,10 +11,10 @@ import torch
 
 from dempath_calib.pointset import PointSet
 from dempath_recon.cli import reconstruct_main
-from dempath_recon.methods import load_reconstructor
-from dempath_recon.mlp import MLPReconstructor
-from dempath_recon.shipped import SHIPPED_MODEL, load_shipped_mlp
-from dempath_twin.views import synthetic_point_set
+from dempath_recon.methods.mlp import MLPReconstructor
+from dempath_recon.methods.registry import load_reconstructor
+from dempath_recon.methods.shipped import SHIPPED_MODEL, load_shipped_mlp
+from dempath_twin.board.recording import synthetic_point_set
 
 MEAN_MM, MAX_MM = 0.5, 5.0  # the targets for the held-out rows of the twin
 

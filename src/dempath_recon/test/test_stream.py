@@ -90,7 +90,7 @@ def test_config_and_files_are_checked(tmp_path) -> None:
 
 def test_stream_with_a_learned_model_file(rig, points, tmp_path) -> None:
     """dlt_residual from its model file: markers within 0.1 mm, sigma from the generic Jacobian."""
-    from dempath_recon.residual import ResidualReconstructor
+    from dempath_recon.methods.residual import ResidualReconstructor
 
     model = ResidualReconstructor(epochs=2, random_state=0, device='cpu').fit(
         points.pixels[:1000], points.xyz[:1000], calibration=rig).save(tmp_path / 'res.pt')

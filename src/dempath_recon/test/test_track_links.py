@@ -11,10 +11,10 @@ from pathlib import Path
 
 import numpy as np
 
-from dempath_recon.associate import MarkerGrid
-from dempath_recon.detect import Detections
-from dempath_recon.stereo_track import StereoTrackConfig
-from dempath_recon.track import MarkerTracker
+from dempath_recon.tracking.associate import MarkerGrid
+from dempath_recon.tracking.detect import Detections
+from dempath_recon.tracking.linker import MarkerTracker
+from dempath_recon.tracking.stereo import StereoTrackConfig
 
 sys.path.insert(0, str(Path(__file__).parent))
 from test_association import GRID, intruder, numbers_at, run

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from dempath_recon.errors import NotFittedError, PixelInputError, ReconstructionError
-from dempath_recon.resection import resect_stereo
-from dempath_recon.triangulate import (
+from dempath_recon.methods.resection import resect_stereo
+from dempath_recon.methods.triangulate import (
     DLTTriangulator,
     project_points,
     project_with_jacobian,

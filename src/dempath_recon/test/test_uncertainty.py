@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dempath_recon.triangulate import DLTTriangulator
-from dempath_recon.uncertainty import (
+from dempath_recon.methods.triangulate import DLTTriangulator
+from dempath_recon.methods.uncertainty import (
     CLICK_SIGMA_PX,
     coverage,
     jacobian_covariance,

@@ -2,9 +2,11 @@
 
 ``dempath simulate SCENE [--out DIR] [--seed N] [--effect EFFECT.PARAM=VALUE ...] [--off EFFECT]``
 fills (or reads the cached packing), drives the tool with a progress bar showing simulated time
-and the real-time factor, and writes ``model.csv`` (t,id,x,y,z), ``markers.csv``
-(t,marker,x,y,z), ``tool.csv``, ``result.npz`` and ``summary.json`` to DIR. SCENE is a scene
-file or the name of a shipped scene (``tiny``, ``reduced_1ms``, ... or ``builtin:tiny``).
+and the real-time factor, and writes ``model.csv`` (t,id,marker,x,y,z), ``markers.csv``
+(t,marker,x,y,z), ``tool.csv``, ``result.npz`` and ``summary.json`` to DIR; with ``--vtk`` also
+the bed snapshots (with radii) and the tool per snapshot as VTK for ParaView (DIR/vtk, see
+:mod:`dempath_sim.runs.vtk`). SCENE is a scene file or the name of a shipped scene (``tiny``,
+``reduced_1ms``, ... or ``builtin:tiny``).
 
 ``dempath effects [SCENE] [--json]`` prints every effect with its parameters, units, ranges and
 defaults, and, with a scene, whether each is on and the scene's values.
@@ -19,9 +21,14 @@ from pathlib import Path
 from typing import Any
 
 from dempath.errors import DempathError
+from dempath.outputs import staged_output
 from dempath_sim.effects import effect_table
-from dempath_sim.runs import Progress, RunOptions, run_scene
+from dempath_sim.engine import TriangleMesh
+from dempath_sim.runs import Progress, RunOptions, SimResult, run_scene
+from dempath_sim.runs.vtk import VtkOutput, write_vtk
 from dempath_sim.scene import SceneError, SceneSpec, parse_overrides, resolve_scene
+
+SUMMARY = 'summary.json'  # the run's manifest, written last
 
 
 def _error_line(scene: str, err: Exception) -> str:
@@ -42,6 +49,9 @@ def _simulate_parser() -> argparse.ArgumentParser:
     p.add_argument('--on', action='append', default=[], metavar='EFFECT',
                    help='switch an effect on with its scene/default values; repeatable')
     p.add_argument('--cache-dir', type=Path, help='packing cache directory')
+    p.add_argument('--vtk', action='store_true',
+                   help='also write the bed snapshots (with radii) and the tool per snapshot as '
+                        'VTK for ParaView (DIR/vtk/bed.pvd, tool.pvd)')
     p.add_argument('--quiet', action='store_true', help='no progress bar')
     return p
 
@@ -68,6 +78,34 @@ def _progress_bar(quiet: bool) -> tuple[Any, Any]:
     return bar, update
 
 
+def write_run_folder(result: SimResult, out: Path, tool: Any = None,
+                     ) -> tuple[dict[str, Any], VtkOutput | None]:
+    """Write a run's outputs whole into ``out`` (staged beside it and installed at the end, with
+    ``summary.json`` last as the manifest readers check); with ``tool`` ((n, 3, 3) triangles
+    [m]) also the VTK series in ``out/vtk``. Returns the summary and the VTK outputs."""
+    summary = {**result.meta, 'outputs': str(out),
+               'max_draft_force_n': float(max(result.draft_force(), default=0.0))}
+    vtk = None
+    with staged_output(out, SUMMARY) as stage:
+        result.write_model_csv(stage / 'model.csv')
+        result.write_marker_csv(stage / 'markers.csv')
+        result.write_tool_csv(stage / 'tool.csv')
+        result.save_npz(stage / 'result.npz')
+        if tool is not None:
+            vtk = write_vtk(result, tool, stage / 'vtk')
+        (stage / SUMMARY).write_text(json.dumps(summary, indent=2), encoding='utf-8')
+    if vtk is not None:  # the paths where the files now are
+        vtk = VtkOutput(_moved(vtk.bed_series, stage, out), _moved(vtk.tool_series, stage, out),
+                        tuple(_moved(p, stage, out) for p in vtk.bed_files),
+                        tuple(_moved(p, stage, out) for p in vtk.tool_files))
+    return summary, vtk
+
+
+def _moved(path: Path, stage: Path, out: Path) -> Path:
+    """Where a file written under the staging folder lies once installed in ``out``."""
+    return out / path.relative_to(stage)
+
+
 def simulate_main(argv: list[str]) -> int:
     """``dempath simulate SCENE --out DIR``: run a scene offline with a progress bar."""
     args = _simulate_parser().parse_args(argv)
@@ -75,7 +113,6 @@ def simulate_main(argv: list[str]) -> int:
         scene = resolve_scene(args.scene).with_overrides(
             parse_overrides(args.effect), off=args.off, on=args.on, seed=args.seed)
         out = args.out or Path(f'sim_{scene.name}_s{scene.seed}')
-        out.mkdir(parents=True, exist_ok=True)
         bar, update = _progress_bar(args.quiet)
         options = RunOptions(cache_dir=args.cache_dir, progress=update)
         if bar is not None:
@@ -83,13 +120,11 @@ def simulate_main(argv: list[str]) -> int:
                 result = run_scene(scene, options)
         else:
             result = run_scene(scene, options)
-        result.write_model_csv(out / 'model.csv')
-        result.write_marker_csv(out / 'markers.csv')
-        result.write_tool_csv(out / 'tool.csv')
-        result.save_npz(out / 'result.npz')
-        summary = {**result.meta, 'outputs': str(out),
-                   'max_draft_force_n': float(max(result.draft_force(), default=0.0))}
-        (out / 'summary.json').write_text(json.dumps(summary, indent=2))
+        tool = (TriangleMesh.from_stl(scene.tool.mesh, scale=scene.tool.scale).triangles
+                if args.vtk else None)
+        summary, vtk = write_run_folder(result, out, tool)
+        if vtk is not None:
+            print(f'VTK: {vtk.bed_series} and {vtk.tool_series} ({len(vtk.bed_files)} frames)')
     except (DempathError, OSError) as err:
         print(_error_line(args.scene, err), file=sys.stderr)
         return 1

@@ -18,7 +18,7 @@ def test_simulate_writes_outputs(tmp_path: Path, tmp_path_factory: pytest.TempPa
     out = tmp_path / 'out'
     cache = Path(tmp_path_factory.getbasetemp()) / 'packings'
     code = simulate_main(['tiny', '--out', str(out), '--cache-dir', str(cache), '--quiet',
-                          '--effect', 'tool_friction.static_friction=0.5'])
+                          '--effect', 'tool_friction.static_friction=0.5', '--vtk'])
     assert code == 0, capsys.readouterr().err
     for name in ('model.csv', 'markers.csv', 'tool.csv', 'result.npz', 'summary.json'):
         assert (out / name).is_file(), name
@@ -29,6 +29,38 @@ def test_simulate_writes_outputs(tmp_path: Path, tmp_path_factory: pytest.TempPa
     markers = np.loadtxt(out / 'markers.csv', delimiter=',', skiprows=1)
     assert set(markers[:, 1].astype(int)) == set(range(1, 16))
     assert 'particles' in capsys.readouterr().out
+    _check_vtk(out / 'vtk', result)
+
+
+def _check_vtk(folder: Path, result: SimResult) -> None:
+    """The VTK series holds every snapshot's bed with its radii and the tool where it was."""
+    import xml.etree.ElementTree as ET
+
+    import meshio
+
+    from dempath_sim.engine import TriangleMesh
+    from dempath_sim.runs.vtk import tool_position_at
+    from dempath_sim.scene import resolve_scene
+
+    steps = ET.parse(folder / 'bed.pvd').getroot().findall('./Collection/DataSet')
+    assert len(result.snapshot_times) >= 2
+    assert [float(s.get('timestep', 'nan')) for s in steps] == pytest.approx(
+        result.snapshot_times.tolist())
+    last = len(steps) - 1
+    bed = meshio.read(folder / steps[last].get('file', ''))
+    snap = result.snapshot_positions[last].astype(np.float64)
+    keep = np.isfinite(snap).all(axis=1)
+    assert len(result.snapshot_radii) == len(result.snapshot_ids) > 0
+    np.testing.assert_allclose(bed.points, snap[keep], rtol=1e-6)
+    np.testing.assert_allclose(bed.point_data['radius'], result.snapshot_radii[keep])
+    np.testing.assert_array_equal(bed.point_data['id'], result.snapshot_ids[keep])
+    scene = resolve_scene('tiny')
+    tris = TriangleMesh.from_stl(scene.tool.mesh, scale=scene.tool.scale).triangles
+    tool = meshio.read(folder / f'tool_{last:04d}.vtu')
+    at = tool_position_at(result, result.snapshot_times[last:])[0]
+    np.testing.assert_allclose(tool.points, tris.reshape(-1, 3) + at, atol=1e-9)
+    assert tool.cells_dict['triangle'].shape == (len(tris), 3)
+    assert at[2] > result.tool_position[0, 2] + 0.01  # the tool has moved along Z
 
 
 @pytest.mark.parametrize(('argv', 'needle'), [

@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 from numpy.typing import NDArray
 
+from dempath.dumpio import read_dump
 from dempath_sim.engine import Engine
 from dempath_sim.engine.materials import Interaction, Material
 from dempath_sim.engine.params import SimParams
@@ -25,7 +26,6 @@ from dempath_sim.engine.state import SimState
 from dempath_sim.engine.walls import Plane
 from dempath_sim.liggghts import commands as cmd
 from dempath_sim.liggghts.deck import write_data
-from dempath_sim.liggghts.dumps import read_dump
 from dempath_sim.liggghts.install import LiggghtsInstall
 from dempath_sim.liggghts.runner import run_deck
 

@@ -126,6 +126,10 @@ def test_missing_file_and_bad_yaml(tmp_path: Path) -> None:
     bad.write_text('name: [unclosed\n')
     with pytest.raises(SceneError, match='not valid YAML'):
         load_scene(bad)
+    latin = tmp_path / 'latin1.yaml'
+    latin.write_bytes('name: caf\xe9\n'.encode('latin-1'))  # not UTF-8: was a traceback
+    with pytest.raises(SceneError, match=r'latin1.yaml: not a UTF-8 text file \(byte 0xe9'):
+        load_scene(latin)
 
 
 def test_overrides_switch_and_set() -> None:

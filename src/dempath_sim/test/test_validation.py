@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 from dempath_sim.liggghts.install import LiggghtsInstall
-from dempath_sim.validation.energy import EnergyCase, energy_dempath, energy_liggghts
+from dempath_sim.validation.energy_conservation import EnergyCase, energy_dempath, energy_liggghts
 from dempath_sim.validation.hertz import contact_time, damped_impact, sphere_pair
 from dempath_sim.validation.impact import ImpactCase, impact_dempath, impact_liggghts
 from dempath_sim.validation.incline import InclineCase, incline_dempath, incline_liggghts

@@ -11,7 +11,7 @@ from pathlib import Path
 import yaml  # type: ignore[import-untyped]
 
 from dempath.errors import DempathError
-from dempath_twin.calibbag import truth_path, write_calibration_bag
+from dempath_twin.board.bag import truth_path, write_calibration_bag
 from dempath_twin.rig import paper_rig
 
 
@@ -43,12 +43,15 @@ def rig_main(argv: list[str]) -> int:
 
 
 def twin_main(argv: list[str]) -> int:
-    """``dempath twin field OUT ...`` (clicked field twin) or ``dempath twin render SOURCE --out
-    BAG ...`` (rendered field recording, :func:`dempath_twin.field_bag.render_main`)."""
-    from dempath_twin.fieldbag import make_field_twin
+    """``dempath twin field|render ...``: make a field twin (clicked points or rendered images).
+
+    ``dempath twin field OUT ...`` (clicked field twin) or ``dempath twin render SOURCE --out
+    BAG ...`` (rendered field recording, :func:`dempath_twin.render.bag.render_main`).
+    """
+    from dempath_twin.field.demo_bag import make_field_twin
 
     if argv[:1] == ['render']:
-        from dempath_twin.field_bag import render_main
+        from dempath_twin.render.bag import render_main
 
         return render_main(argv[1:])
 

@@ -1,7 +1,8 @@
 """Image messages of the synthetic recordings: stamped headers and JPEG CompressedImage.
 
-The calibration bag (``calibbag``) and the field twin (``field``) write camera images the same
-way; this is that one way. Messages are rosbags objects built from a typestore's ``types``.
+The calibration bag (``board.bag``) and the field twins (``field``, ``render``) write camera
+images the same way; this is that one way. Messages are rosbags objects built from a
+typestore's ``types``.
 """
 
 from __future__ import annotations

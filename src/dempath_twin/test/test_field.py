@@ -10,8 +10,8 @@ import pytest
 
 from dempath import topics
 from dempath.bagio import make_typestore, open_bag, write_bag
-from dempath_twin import field as ft
 from dempath_twin.errors import TwinError
+from dempath_twin.field import markers as ft
 from dempath_twin.rig import paper_rig
 
 

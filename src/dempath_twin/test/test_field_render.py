@@ -8,10 +8,15 @@ import numpy as np
 import pytest
 
 from dempath.bagio import open_bag
-from dempath_twin.bed_source import BedRecord
-from dempath_twin.field_bag import write_field_recording
-from dempath_twin.field_record import FieldScene, RecordingConfig, lighting, render_frame
-from dempath_twin.field_render import FieldCamera, Look, scaled_camera
+from dempath_twin.render.bag import write_field_recording
+from dempath_twin.render.bed_source import BedRecord
+from dempath_twin.render.camera_frame import FieldCamera, Look, scaled_camera
+from dempath_twin.render.recording import (
+    FieldScene,
+    RecordingConfig,
+    lighting,
+    render_frame,
+)
 from dempath_twin.rig import paper_rig
 
 R = 0.006  # grain radius [m]
@@ -86,7 +91,7 @@ def test_recording_bag_and_truth(tmp_path) -> None:
 
 def test_tool_triangles_are_depth_tested_and_cast_shadows() -> None:
     """A steel triangle in front of a grain hides it; the triangle shadows what lies under it."""
-    from dempath_twin.field_render import Scene3D, ShadowMap
+    from dempath_twin.render.camera_frame import Scene3D, ShadowMap
 
     cam = FieldCamera(scaled_camera(paper_rig().side, 0.25), Look(supersample=1))
     tri = np.array([[[0.05, -0.05, -0.05], [0.05, -0.05, 0.05], [0.05, 0.08, 0.0]]])

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 
 from dempath_calib.board import PAPER_BOARD, BoardKind, CornerDetector
-from dempath_twin.render import BoardRenderer, FrameConditions, board_texture
+from dempath_twin.board.recording import calibration_poses, surface_pose
+from dempath_twin.board.renderer import BoardRenderer, FrameConditions, board_texture
 from dempath_twin.rig import paper_rig
-from dempath_twin.views import calibration_poses, surface_pose
 
 # Tolerances: mean detection bias below 0.05 px, RMS below 0.3 px on rendered views.
 MAX_BIAS_PX = 0.05

@@ -15,9 +15,10 @@ outputs against the field twin's truth.
 
 from __future__ import annotations
 
+import logging
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -145,7 +146,8 @@ def graph_topics() -> list[str]:
     names = [topics.camera_topic(t, c) for t in per_camera for c in topics.CAMERAS]
     names += [topics.MARKER_POINTS, topics.MARKER_VIZ, topics.SIM_STATES, topics.SIM_TOOL_FORCE,
               topics.SIM_TOOL_POSE, topics.SIM_RUN_EVENTS, topics.SIM_VIZ, topics.COMPARE_SCORES,
-              topics.COMPARE_VIZ, topics.PLAYER_EVENTS, topics.DIAGNOSTICS]
+              topics.COMPARE_VIZ, topics.PLAYER_EVENTS, topics.DIAGNOSTICS,
+              topics.SIM_TOOL_WRENCH, topics.SIM_CLOUD]
     return names
 
 
@@ -185,8 +187,8 @@ def _play_images(harness: Any, recorder: Any, spec: GraphSpec, detectors: dict[s
                            topics=list(images.values()) + infos, wait_for_subscribers=1)
     last = [-1, time.monotonic()]
 
-    def detected(cam: str) -> int:
-        return int(detectors[cam].core.counts[cam].frames)
+    def detected(cam: str) -> int:  # skipped frames included: the demo must not wait for them
+        return int(detectors[cam].handled_frames())
 
     def done() -> bool:
         points = _received(recorder, topics.MARKER_POINTS)
@@ -248,18 +250,25 @@ def run_graph(spec: GraphSpec, note: Callable[[str], None] = lambda text: None) 
     """
     from dempath.nodes.harness import RosHarness
     from dempath.nodes.recorder import RecorderNode
+    from dempath_bringup.frames import write_graph_frames
     from dempath_compare.nodes.comparer import ComparerNode
     from dempath_recon.nodes.reconstructor import ReconstructorNode
 
     start = time.monotonic()
+    if spec.detect:
+        spec = fitted_calibration(spec, note)
     with RosHarness() as harness:
         logger_class = type(harness.probe.get_logger())  # type: ignore[no-untyped-call]  # rcutils logger
         for name in QUIET_NODES:
             logger_class(name).set_level(WARN)
         recon = harness.start(ReconstructorNode, method=spec.method,
                               calibration_file=str(spec.calibration))
-        comparer = harness.start(ComparerNode, experiment=spec.experiment)
-        recorder = harness.start(RecorderNode, output=str(spec.output), topics=graph_topics())
+        comparer = harness.start(ComparerNode, experiment=spec.experiment,
+                                 identity_from_names=True)  # as stages.named_identity
+        frames = write_graph_frames(spec.output.with_name(f'{spec.output.name}.frames.yaml'),
+                                    spec.calibration, spec.scene)  # /tf_static of the bag
+        recorder = harness.start(RecorderNode, output=str(spec.output), topics=graph_topics(),
+                                 frames_file=str(frames))
         if not recorder.recording:
             msg = f'{spec.output}: the recorder cannot write the bag'
             raise DempathError(msg)
@@ -282,6 +291,48 @@ def run_graph(spec: GraphSpec, note: Callable[[str], None] = lambda text: None) 
                        comparer.last_result, detection, play_s, sim_s)
 
 
+def recording_sizes(bag: Path) -> dict[str, tuple[int, int]]:
+    """{camera: (width, height) px} of the first compressed image of each camera in ``bag``."""
+    import cv2
+
+    from dempath import topics
+    from dempath.bagio import open_bag
+
+    wanted = {topics.camera_topic(topics.IMAGE_COMPRESSED, c): c for c in topics.CAMERAS}
+    sizes: dict[str, tuple[int, int]] = {}
+    with open_bag(bag) as reader:
+        names = [t for t in wanted if t in reader.topics]
+        for raw in reader.messages(names):
+            cam = wanted[raw.topic]
+            if cam in sizes:
+                if len(sizes) == len(names):
+                    break
+                continue
+            image = cv2.imdecode(np.asarray(reader.deserialize(raw).data, np.uint8),
+                                 cv2.IMREAD_GRAYSCALE)
+            if image is not None:
+                sizes[cam] = (int(image.shape[1]), int(image.shape[0]))
+    return sizes
+
+
+def fitted_calibration(spec: GraphSpec, note: Callable[[str], None]) -> GraphSpec:
+    """``spec`` with a calibration that fits the recording's image size: the same one, or one
+    scaled to a recording of the same aspect ratio (saved beside the output bag and said);
+    CalibrationError (one line naming both sizes) for another aspect ratio."""
+    from dempath_calib.camera import StereoCalibration
+    from dempath_calib.resize import fit_to_images
+
+    calib = StereoCalibration.load(spec.calibration)
+    fitted, notes = fit_to_images(calib, recording_sizes(spec.field_bag), str(spec.field_bag))
+    if not notes:
+        return spec
+    path = fitted.save(spec.output.parent / f'{spec.output.name}.calibration_scaled.yaml')
+    for line in notes:
+        logging.getLogger(__name__).warning('%s: %s', spec.field_bag, line)
+        note(line)
+    return replace(spec, calibration=path)
+
+
 def recorded_scores(bag: Path) -> tuple[int, int]:
     """(valid scores, markers with a valid score) in the bag's TrajectoryScoreArray messages."""
     from dempath import topics
@@ -301,7 +352,7 @@ def field_truth_error(bag: Path, truth_csv: Path) -> tuple[float, float, float]:
     """(mean, max, RMS) mm distance of the recorded MarkerPoints3D from the field twin's truth."""
     from dempath import topics
     from dempath.bagio import open_bag
-    from dempath_twin.field import START_NS, read_marker_csv
+    from dempath_twin.field.markers import START_NS, read_marker_csv
 
     truth = read_marker_csv(truth_csv)
     frame = {round(t * 1e4): k for k, t in enumerate(truth.times)}

@@ -150,7 +150,7 @@ def pass_travel_s(scene: SceneSpec, overrides: dict[str, float]) -> float:
 
 def run_pass(scene: SceneSpec, seed: int, overrides: dict[str, float], *,
              until_s: float = 0.0, frame_s: float = 0.02, keep_depth_m: float = 0.04,
-             cache_dir: Path | None = None) -> PassRecord:
+             cache_dir: Path | None = None, backend: str = 'dempath') -> PassRecord:
     """One model pass of ``scene`` with ``overrides`` on the baseline bed of ``seed``.
 
     Args:
@@ -162,6 +162,8 @@ def run_pass(scene: SceneSpec, seed: int, overrides: dict[str, float], *,
         frame_s: Interval of the whole-bed frames kept [s].
         keep_depth_m: Particles whose start lies this far below the surface or higher are kept.
         cache_dir: Packing cache (dempath_sim's default if None).
+        backend: ``dempath`` (its own engine) or ``liggghts`` (LIGGGHTS 3.8 from the same
+            settled bed, ``fill: shared_packing``, re-settled with the run's physics).
 
     Raises:
         DiagnosisError: The simulation failed (message from dempath_sim).
@@ -174,11 +176,26 @@ def run_pass(scene: SceneSpec, seed: int, overrides: dict[str, float], *,
     base = replace(base, output=output)
     try:
         changed = base.with_overrides(overrides) if overrides else base
-        result = run_scene(changed, RunOptions(cache_dir=cache_dir, follow_s=follow_s))
+        options = RunOptions(cache_dir=cache_dir, follow_s=follow_s)
+        result = (run_scene(changed, options) if backend == 'dempath'
+                  else _run_liggghts(changed, options))
     except (DempathError, ValueError) as err:
         msg = f'{scene.name} seed {seed} {overrides or "baseline"}: {err}'
         raise DiagnosisError(msg) from err
     return _record(result, keep_depth_m, overrides, seed)
+
+
+BACKENDS = ('dempath', 'liggghts')
+
+
+def _run_liggghts(scene: SceneSpec, options: Any) -> Any:
+    """``scene`` on LIGGGHTS from dempath's settled bed of its seed, in a temporary folder."""
+    import tempfile
+
+    from dempath_sim.liggghts import LiggghtsBackend
+
+    with tempfile.TemporaryDirectory(prefix='dempath-liggghts-') as work:
+        return LiggghtsBackend(work, fill='shared_packing').run(scene, options)
 
 
 def tool_geometry(scene: SceneSpec) -> tuple[float, float, tuple[float, float, float]]:
@@ -211,7 +228,8 @@ class CasePass:
 
 
 def run_case(scene: SceneSpec, seed: int, overrides: dict[str, float], *, follow_s: float = 0.0,
-             cache_dir: Path | None = None, own_pour: bool = False) -> CasePass:
+             cache_dir: Path | None = None, own_pour: bool = False,
+             backend: str = 'dempath') -> CasePass:
     """A hidden-effect case: ``scene`` with ``overrides`` on a seed the library never used.
 
     By default the case's bed is poured with the scene file's physics on its own seed and
@@ -219,6 +237,8 @@ def run_case(scene: SceneSpec, seed: int, overrides: dict[str, float], *, follow
     With ``own_pour`` the bed is poured with the case's own physics (``fill.physics: run``), a
     set-up the library never used (one more pour per case; the tiny scene's strongly cohesive
     pours do not settle within its fill time, and such a bed still sinks during the pass).
+    ``backend='liggghts'`` runs the pass on LIGGGHTS from the same settled bed (a LIGGGHTS
+    user's measurement stand-in).
     """
     from dempath_sim.runs import RunOptions, run_scene
 
@@ -227,7 +247,9 @@ def run_case(scene: SceneSpec, seed: int, overrides: dict[str, float], *, follow
         changed = base.with_overrides(overrides) if overrides else base
         if own_pour:
             changed = replace(changed, fill=replace(changed.fill, physics='run'))
-        result = run_scene(changed, RunOptions(cache_dir=cache_dir, follow_s=follow_s))
+        options = RunOptions(cache_dir=cache_dir, follow_s=follow_s)
+        result = (run_scene(changed, options) if backend == 'dempath'
+                  else _run_liggghts(changed, options))
     except (DempathError, ValueError) as err:
         raise DiagnosisError(f'case {overrides or "control"} seed {seed}: {err}') from err
     numbers = result.marker_numbers
@@ -245,7 +267,7 @@ def ensure_bed(scene: SceneSpec, cache_dir: Path | None = None) -> bool:
     differences; each run then re-settles it against the tool with its own physics
     (``tool.settle_s``), as LIGGGHTS users re-settle a saved bed.
     """
-    from dempath_sim.runs.fill import default_cache_dir, fill_bed, packing_key
+    from dempath_sim.runs.bed import default_cache_dir, fill_bed, packing_key
     from dempath_sim.runs.physics import build_params
 
     model = scene.bed_model()
@@ -276,6 +298,7 @@ def _record(result: Any, keep_depth_m: float, overrides: dict[str, float],
 
 
 __all__ = [
+    'BACKENDS',
     'LIBRARY_CANDIDATES',
     'Candidate',
     'CasePass',

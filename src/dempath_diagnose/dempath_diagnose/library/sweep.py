@@ -1,9 +1,12 @@
 """Simulation sweeps through Dask: a local cluster sized for the machine, or a scheduler address.
 
-Each task runs one library pass and stores it itself (atomically), so a finished run is never
-lost; a task whose worker dies is retried on another worker (``RETRIES``) and skips the run if
-its first attempt had already stored it. Local workers get ``NUMBA_NUM_THREADS`` so that
-workers x numba threads = cores (the engine's kernels are numba-parallel).
+Each task runs one library pass and returns its record through its future; the client stores it
+(atomically) as it arrives, so a finished run is never lost and a worker needs no access to the
+client's folders. A task whose worker dies is retried on another worker (``RETRIES``); a run
+that fails for a reason that would fail it again returns the failure as its value
+(:class:`~dempath_diagnose.library.store.RunFailure`) and is not retried. Local workers get
+``NUMBA_NUM_THREADS`` so that workers x numba threads = cores (the engine's kernels are
+numba-parallel).
 """
 
 from __future__ import annotations
@@ -14,12 +17,14 @@ from collections.abc import Callable, Sequence
 from types import TracebackType
 from typing import Any
 
+from dempath.daskprobe import SchedulerProbeError, check_dask_scheduler
 from dempath_diagnose.errors import ClusterError
 
 logger = logging.getLogger(__name__)
 
 RETRIES = 3  # attempts after a worker died or a task failed
 CONNECT_TIMEOUT_S = 10.0  # waiting for a scheduler given by address [s]
+PROBE_TIMEOUT_S = 5.0  # waiting for a Dask handshake from that address [s]
 MAX_LOCAL_WORKERS = 2  # more processes than this only add memory on small machines
 
 
@@ -71,6 +76,10 @@ class DaskSweep:
         from distributed import Client, LocalCluster
 
         if self.scheduler:
+            try:  # within seconds, not a hang or an exabyte allocation on a wrong address
+                check_dask_scheduler(self.scheduler, min(self.timeout_s, PROBE_TIMEOUT_S))
+            except SchedulerProbeError as err:
+                raise ClusterError(str(err)) from None
             try:
                 with dask.config.set({'distributed.comm.timeouts.connect': self.timeout_s}):
                     self.client = Client(self.scheduler, timeout=self.timeout_s)
@@ -94,9 +103,14 @@ class DaskSweep:
         if self.cluster is not None:
             self.cluster.close()
 
-    def run(self, tasks: Sequence[Callable[[], Any]], done: Callable[[int], None]) -> None:
-        """Run every task (retried on failure), started in the order given; ``done(k)`` as each
-        finishes.
+    @property
+    def remote(self) -> bool:
+        """Whether the workers may be on other machines (a scheduler given by address)."""
+        return bool(self.scheduler)
+
+    def run(self, tasks: Sequence[Callable[[], Any]], done: Callable[[int, Any], None]) -> None:
+        """Run every task (retried when its worker dies), started in the order given;
+        ``done(k, value)`` with what each returned, as each finishes.
 
         Raises:
             ClusterError: A task failed on every attempt (its message names the run).
@@ -114,6 +128,7 @@ class DaskSweep:
             if future.status == 'error':
                 failed.append(f'{tasks[k]!r:.80}: {future.exception()}')
             else:
-                done(k)
+                done(k, future.result())
+                future.release()  # the record is stored: the worker may drop it
         if failed:
             raise ClusterError(f'{len(failed)} runs failed: {failed[0]}')

@@ -20,7 +20,7 @@ from dempath.nodes.msgtypes import reliable_qos
 from dempath.nodes.spin import run_node
 from dempath.nodes.subscribers import subscribed
 from dempath_msgs.msg import PixelPoints, RunEvent
-from dempath_recon.clickplay import ClickerConfig, ClickFrame, load_click_frames
+from dempath_recon.clicker.playback import ClickerConfig, ClickFrame, load_click_frames
 from dempath_recon.nodes.convert import s_to_stamp
 
 PARAMETERS: tuple[tuple[str, Any, str], ...] = (

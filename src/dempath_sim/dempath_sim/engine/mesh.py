@@ -10,7 +10,9 @@ Ericson, Real-Time Collision Detection (2005), 5.1.5.
 
 from __future__ import annotations
 
+import logging
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -23,6 +25,11 @@ from dempath_sim.engine.stl import read_stl
 from dempath_sim.errors import GeometryError
 
 MAX_GRID_CELLS = 2_000_000  # the triangle grid is coarsened beyond this
+GRID_CHUNK = 50_000  # triangles binned per compiled call (progress and Ctrl-C between calls)
+# Above this many triangles the run slows noticeably (contact search, carve); say so.
+SLOW_TRIANGLES = 200_000
+GridProgress = Callable[[int, int], None]  # (triangles binned, total)
+logger = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -91,9 +98,20 @@ class TriangleGrid:
         return grid.lo, grid.cell, grid.dims, grid.cell_start, grid.cell_tris
 
 
-def build_triangle_grid(mesh: TriangleMesh, margin: float) -> TriangleGrid:
-    """Bin the triangles into cells of edge about 2 margin, each box grown by margin [m]."""
+def build_triangle_grid(mesh: TriangleMesh, margin: float,
+                        progress: GridProgress | None = None) -> TriangleGrid:
+    """Bin the triangles into cells of edge about 2 margin, each box grown by margin [m].
+
+    The binning runs compiled, in chunks of ``GRID_CHUNK`` triangles, so that a mesh of millions
+    of triangles takes seconds, ``progress`` (triangles done, total) is called between chunks
+    and Ctrl-C (KeyboardInterrupt) stops it between chunks. Above ``SLOW_TRIANGLES`` a warning
+    says that every step of the run will be slower.
+    """
     tris = mesh.triangles
+    if len(tris) > SLOW_TRIANGLES:
+        logger.warning('tool mesh %s has %d triangles (more than %d): the contact search and '
+                       'the carve slow down with it; a coarser mesh of the same shape is as '
+                       'accurate at the particle scale', mesh.name, len(tris), SLOW_TRIANGLES)
     tlo = tris.min(axis=1) - margin
     thi = tris.max(axis=1) + margin
     lo = tlo.min(axis=0)
@@ -104,17 +122,17 @@ def build_triangle_grid(mesh: TriangleMesh, margin: float) -> TriangleGrid:
     dims = (np.floor(extent / cell) + 1).astype(np.int64)
     c_lo = np.clip(np.floor((tlo - lo) / cell).astype(np.int64), 0, dims - 1)
     c_hi = np.clip(np.floor((thi - lo) / cell).astype(np.int64), 0, dims - 1)
-    cells: list[NDArray[np.int64]] = []
-    owners: list[NDArray[np.int64]] = []
     reach = margin + 0.5 * math.sqrt(3.0) * cell  # a cell centre farther away cannot matter
-    for t in range(len(tris)):
-        ax = [np.arange(c_lo[t, d], c_hi[t, d] + 1) for d in range(3)]
-        gx, gy, gz = np.meshgrid(*ax, indexing='ij')
-        centres = lo + (np.stack([gx, gy, gz], axis=-1).reshape(-1, 3) + 0.5) * cell
-        near = cells_near_triangle(centres, tris[t], reach)
-        ids = ((gx * dims[1] + gy) * dims[2] + gz).ravel()[near]
+    cells: list[NDArray[np.int64]] = []
+    owners: list[NDArray[np.int32]] = []
+    for first in range(0, len(tris), GRID_CHUNK):
+        chunk = slice(first, min(first + GRID_CHUNK, len(tris)))
+        ids, tri_ids = _bin_triangles(tris[chunk], c_lo[chunk], c_hi[chunk], lo, cell, dims,
+                                      reach, first)
         cells.append(ids)
-        owners.append(np.full(len(ids), t))
+        owners.append(tri_ids)
+        if progress is not None:
+            progress(chunk.stop, len(tris))
     cell_ids = np.concatenate(cells)
     tri_ids = np.concatenate(owners)
     order = np.argsort(cell_ids, kind='stable')
@@ -123,6 +141,44 @@ def build_triangle_grid(mesh: TriangleMesh, margin: float) -> TriangleGrid:
     np.add.at(start, cell_ids + 1, 1)
     np.cumsum(start, out=start)
     return TriangleGrid(lo, float(cell), dims, start, tri_ids[order].astype(np.int32))
+
+
+@njit(cache=True)
+def _near_cells(tri, c_lo, c_hi, lo, cell, dims, reach, out):  # pragma: no cover - compiled
+    """Write the ids of the cells of box c_lo..c_hi whose centre lies within reach of the
+    triangle into out (when given, else only count); return how many there are."""
+    n = 0
+    for gx in range(c_lo[0], c_hi[0] + 1):
+        for gy in range(c_lo[1], c_hi[1] + 1):
+            for gz in range(c_lo[2], c_hi[2] + 1):
+                cx = lo[0] + (gx + 0.5) * cell
+                cy = lo[1] + (gy + 0.5) * cell
+                cz = lo[2] + (gz + 0.5) * cell
+                qx, qy, qz = closest_point_triangle(cx, cy, cz, tri)
+                if (cx - qx) ** 2 + (cy - qy) ** 2 + (cz - qz) ** 2 <= reach * reach:
+                    if out.shape[0] > 0:
+                        out[n] = (gx * dims[1] + gy) * dims[2] + gz
+                    n += 1
+    return n
+
+
+@njit(cache=True)
+def _bin_triangles(tris, c_lo, c_hi, lo, cell, dims, reach, first):  # pragma: no cover
+    """(cell ids, triangle ids) of every (cell, triangle) pair within reach, triangle order;
+    two passes (count, then fill) so that nothing grows in a Python list."""
+    none = np.zeros(0, np.int64)
+    counts = np.zeros(tris.shape[0], np.int64)
+    for t in range(tris.shape[0]):
+        counts[t] = _near_cells(tris[t], c_lo[t], c_hi[t], lo, cell, dims, reach, none)
+    offsets = np.zeros(tris.shape[0] + 1, np.int64)
+    offsets[1:] = np.cumsum(counts)
+    ids = np.empty(offsets[-1], np.int64)
+    owners = np.empty(offsets[-1], np.int32)
+    for t in range(tris.shape[0]):
+        _near_cells(tris[t], c_lo[t], c_hi[t], lo, cell, dims, reach,
+                    ids[offsets[t]:offsets[t + 1]])
+        owners[offsets[t]:offsets[t + 1]] = first + t
+    return ids, owners
 
 
 # LIGGGHTS 3.8 takes two faces as coplanar when |n_a . n_b| >= 1 - 1e-5 (its mesh `curvature`
@@ -198,17 +254,6 @@ def closest_point_triangle(px, py, pz, tri):  # pragma: no cover - compiled
     v = vb * denom
     w = vc * denom
     return (ax + abx * v + acx * w, ay + aby * v + acy * w, az + abz * v + acz * w)
-
-
-@njit(cache=True)
-def cells_near_triangle(centres, tri, reach):  # pragma: no cover - compiled
-    """(m,) bool: which points of centres (m, 3) lie within reach of the triangle (3, 3)."""
-    out = np.zeros(centres.shape[0], np.bool_)
-    for k in range(centres.shape[0]):
-        qx, qy, qz = closest_point_triangle(centres[k, 0], centres[k, 1], centres[k, 2], tri)
-        d2 = (centres[k, 0] - qx) ** 2 + (centres[k, 1] - qy) ** 2 + (centres[k, 2] - qz) ** 2
-        out[k] = d2 <= reach * reach
-    return out
 
 
 def closest_point_triangle_numpy(p: NDArray[np.float64],

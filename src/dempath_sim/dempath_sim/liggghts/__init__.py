@@ -2,8 +2,9 @@
 
 Modules: ``install`` (find / apt-install LIGGGHTS), ``runner`` (run a deck, one-line errors),
 ``commands`` (deck building blocks shared by scenes and validation cases), ``deck`` (scene ->
-deck), ``dumps`` (dump and force files -> arrays), ``backend`` (`LiggghtsBackend`, the
-`dempath_sim.runs.Backend` on LIGGGHTS: scene -> SimResult).
+deck), ``backend`` (`LiggghtsBackend`, the
+`dempath_sim.runs.Backend` on LIGGGHTS: scene -> SimResult). Dump and print files are read by
+:mod:`dempath.dumpio` (on the ground, so that the comparison reads them too).
 """
 
 from __future__ import annotations

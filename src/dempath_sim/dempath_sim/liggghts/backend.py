@@ -11,12 +11,14 @@ from __future__ import annotations
 
 import logging
 import math
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
 
+from dempath.dumpio import frames_by_id, read_dump, read_print
 from dempath_sim.effects import PhysicsModel
 from dempath_sim.engine.mesh import TriangleMesh
 from dempath_sim.engine.params import SimParams
@@ -26,16 +28,16 @@ from dempath_sim.engine.timestep import rayleigh_time_step
 from dempath_sim.errors import RunStoppedError, SceneError
 from dempath_sim.liggghts import deck as dk
 from dempath_sim.liggghts.commands import write_ascii_stl
-from dempath_sim.liggghts.dumps import frames_by_id, read_dump, read_print
 from dempath_sim.liggghts.errors import DeckError
 from dempath_sim.liggghts.runner import RunOutput, run_deck
 from dempath_sim.runs.backend import RunOptions
-from dempath_sim.runs.bed_measure import measure
-from dempath_sim.runs.fill import fill_bed
+from dempath_sim.runs.bed.fill import fill_bed
+from dempath_sim.runs.bed.measure import measure
+from dempath_sim.runs.bed.placement import removal_mask
+from dempath_sim.runs.bed.pour import pour, target_solid_fraction
+from dempath_sim.runs.identity import run_identity
 from dempath_sim.runs.markers import select_markers
 from dempath_sim.runs.physics import PARTICLES, build_params
-from dempath_sim.runs.placement import removal_mask
-from dempath_sim.runs.pour import pour, target_solid_fraction
 from dempath_sim.runs.results import SimResult
 from dempath_sim.scene.profiles import ToolPath
 from dempath_sim.scene.spec import SceneSpec
@@ -167,7 +169,7 @@ def fill_liggghts(scene: SceneSpec, workdir: Path, nprocs: int = 1,
 def slot_ids(bed: SettledBed, triangles: NDArray[np.float64], placement: str = 'slot',
              name: str = 'tool') -> NDArray[np.int64]:
     """Ids of the particles the tool (world ``triangles``) displaces at its start, by dempath's
-    rule for ``placement`` (``runs.placement``: carve or bounding-box slot)."""
+    rule for ``placement`` (``runs.bed.placement``: carve or bounding-box slot)."""
     mesh = TriangleMesh(np.asarray(triangles, dtype=np.float64), name=name)
     return bed.ids[removal_mask(bed.positions, bed.radii, mesh, (0.0, 0.0, 0.0), placement)]
 
@@ -227,9 +229,9 @@ class LiggghtsBackend:
         nprocs: MPI processes.
         friction: Which dempath friction coefficient LIGGGHTS uses ('static' or 'dynamic').
         fill: How LIGGGHTS gets its bed. ``'shared_pour'``: it settles dempath's loose pour of
-            the seed (``runs.fill.pour``) with its own physics; ``'insert_pack'``: it pours its
+            the seed (``runs.bed.pour``) with its own physics; ``'insert_pack'``: it pours its
             own loose bed with ``fix insert/pack``; ``'shared_packing'``: it starts from
-            dempath's settled packing (``runs.fill.fill_bed`` with ``options.cache_dir``;
+            dempath's settled packing (``runs.bed.fill_bed`` with ``options.cache_dir``;
             tracked ids are then dempath ids + 1).
 
     Raises:
@@ -251,9 +253,11 @@ class LiggghtsBackend:
         self.friction, self.fill = friction, fill
 
     def run(self, scene: SceneSpec, options: RunOptions | None = None) -> SimResult:
-        """Run ``scene`` on LIGGGHTS. Of ``options`` it uses ``cache_dir`` (shared_packing)
-        and ``stop`` (checked before the fill and before the pass); LIGGGHTS runs as a
-        subprocess, so there are no frames and no progress.
+        """Run ``scene`` on LIGGGHTS. Of ``options`` it uses ``cache_dir`` (shared_packing),
+        ``follow_s`` (the tool stands still after its travel while the bed is followed) and
+        ``stop`` (checked before the fill and before the pass); LIGGGHTS runs as a
+        subprocess, so there are no frames and no progress. The whole bed is dumped every
+        ``output.snapshot_interval_s`` (``snapshot_*`` of the result, with the radii).
 
         Raises:
             LiggghtsNotFoundError: LIGGGHTS or mpirun missing.
@@ -303,20 +307,22 @@ def _run_scene(scene: SceneSpec, workdir: Path, nprocs: int, friction: str,
     dt = bed.report['dt_s']
     every = round(scene.output.interval_s / dt)
     snap = round(scene.output.snapshot_interval_s / dt)
-    duration = path.time_to_travel(scene.tool.travel_m)
-    stage = dk.ToolStage(path, ids, 0, slot, duration, dt, every, snap,
-                         settle_steps=round(scene.tool.settle_s / dt))
+    travel = path.time_to_travel(scene.tool.travel_m)
+    stop = travel if options.follow_s > 0 else math.inf
+    stage = dk.ToolStage(path, ids, 0, slot, travel + options.follow_s, dt, every, snap,
+                         settle_steps=round(scene.tool.settle_s / dt), stop_s=stop)
     params = build_params(scene, model)
     (workdir / 'in.tool').write_text(dk.tool_deck(scene, params, stage, friction))
     _check_stop(options, 'pass')
+    t0 = time.monotonic()
     run = run_deck(workdir / 'in.tool', nprocs=nprocs)
-    return _result(workdir, stage, ids, roles, marker_ids, bed, run, scene)
+    meta = {'end_time_s': travel, 'drive_wall_s': time.monotonic() - t0}
+    return _result(workdir, stage, ids, roles, marker_ids, bed, run, scene, meta)
 
 
 def _result(workdir: Path, stage: dk.ToolStage, ids: NDArray[np.int64],
             roles: NDArray[np.uint8], marker_ids: NDArray[np.int32], bed: SettledBed,
-            run: RunOutput,
-            scene: SceneSpec) -> SimResult:
+            run: RunOutput, scene: SceneSpec, extra: dict[str, float]) -> SimResult:
     frames = read_dump(workdir / dk.TRACKED_DUMP)
     data = frames_by_id(frames, ids, ('x', 'y', 'z', 'vx', 'vy', 'vz'))
     times = (np.array([f.step for f in frames], dtype=np.float64) - stage.start_step) * stage.dt
@@ -327,12 +333,27 @@ def _result(workdir: Path, stage: dk.ToolStage, ids: NDArray[np.int64],
     force[k[ok]] = tool[ok, 1:]
     force[0, 6:] = stage.path.start_position_m
     radius_of = dict(zip(bed.ids.tolist(), bed.radii.tolist(), strict=True))
-    meta = {'engine': 'liggghts', 'scene': scene.name, 'seed': scene.seed,
+    meta = {**run_identity(scene).as_meta(), 'engine': 'liggghts',
             'fill': bed.report, 'dt_s': stage.dt, 'nprocs': run.nprocs,
             'fill_loop_time_s': bed.run.loop_time_s, 'pass_loop_time_s': run.loop_time_s,
-            'workdir': str(workdir)}
+            'workdir': str(workdir), 'run_id': f'{scene.name}-s{scene.seed}-liggghts', **extra}
+    snap_times, snaps = _snapshots(workdir, stage, bed.ids)
     return SimResult(times=times, ids=ids, roles=roles, marker_ids=marker_ids,
                      radii=np.array([radius_of[int(i)] for i in ids]),
                      positions=data[..., :3], velocities=data[..., 3:],
                      tool_position=force[:, 6:9], tool_force=force[:, 0:3],
-                     tool_torque=force[:, 3:6], meta=meta)
+                     tool_torque=force[:, 3:6], snapshot_times=snap_times,
+                     snapshot_ids=bed.ids.astype(np.int64), snapshot_positions=snaps,
+                     snapshot_radii=bed.radii.astype(np.float64), meta=meta)
+
+
+def _snapshots(workdir: Path, stage: dk.ToolStage, bed_ids: NDArray[np.int64],
+               ) -> tuple[NDArray[np.float64], NDArray[np.float32]]:
+    """(ns,) times [s] and (ns, N, 3) float32 positions of the whole-bed dump (NaN where a
+    particle is gone: the tool's slot, lost from the box); empty without snapshots."""
+    path = workdir / dk.SNAPSHOT_DUMP
+    if not stage.snapshot_every or not path.is_file():
+        return np.zeros(0), np.zeros((0, len(bed_ids), 3), np.float32)
+    frames = read_dump(path)
+    times = (np.array([f.step for f in frames], np.float64) - stage.start_step) * stage.dt
+    return times, frames_by_id(frames, bed_ids, ('x', 'y', 'z')).astype(np.float32)

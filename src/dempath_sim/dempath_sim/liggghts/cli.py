@@ -1,7 +1,7 @@
 """``dempath liggghts SCENE``: run a scene on LIGGGHTS 3.8 and write the same outputs as dempath.
 
 Writes to ``--out``: the decks, logs and dumps, ``result.npz`` (SimResult), ``markers.csv``
-(t,marker,x,y,z), ``model.csv`` (t,id,x,y,z) and ``tool.csv``. ``--install`` apt-installs
+(t,marker,x,y,z), ``model.csv`` (t,id,marker,x,y,z) and ``tool.csv``. ``--install`` apt-installs
 LIGGGHTS when it is missing (root only).
 """
 
@@ -15,7 +15,7 @@ from dempath.errors import DempathError
 
 
 def liggghts_main(argv: list[str]) -> int:
-    """Entry point of ``dempath liggghts``; returns the exit status."""
+    """``dempath liggghts SCENE``: run a scene on LIGGGHTS 3.8, same outputs as dempath."""
     parser = argparse.ArgumentParser(prog='dempath liggghts', description=__doc__)
     parser.add_argument('scene', help='scene YAML file or builtin:NAME')
     parser.add_argument('--out', type=Path, default=Path('liggghts_run'), help='output dir')

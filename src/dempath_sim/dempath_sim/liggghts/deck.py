@@ -49,7 +49,7 @@ POUR_DATA = 'pour.data'
 POUR_DUMP = 'pour.dump'  # the loose bed as LIGGGHTS read it
 INSERT_SOLID_FRACTION = 0.2  # loose random packing insert/pack reaches in one go
 DISCRETE_BINS = 5  # templates approximating a uniform size distribution
-SETTLE_CHECK_S = 0.02  # as dempath_sim.runs.fill
+SETTLE_CHECK_S = 0.02  # as dempath_sim.runs.bed.settle
 SPLIT = '* 1 *'  # MPI grid: split X and Z only (bed below, empty tool space above)
 MIN_SETTLE_S = 0.1
 
@@ -201,10 +201,10 @@ def _insert_lines(scene: SceneSpec, plan: FillPlan) -> list[str]:
 
 def settle_lines(scene: SceneSpec, dt: float, stage: int, until_s: float,
                  start_s: float = 0.0, offset: int = 0) -> list[str]:
-    """One settle stage, as ``dempath_sim.runs.fill.settle``: runs of ``SETTLE_CHECK_S`` until the
-    fastest particle is slower than ``fill.settle_speed_m_s`` after at least ``MIN_SETTLE_S``,
-    or until the step of ``until_s`` [s]; ``start_s`` [s] is the nominal start of the stage
-    (the step count of each run is fixed, the stage's start step is read in the deck);
+    """One settle stage, as ``dempath_sim.runs.bed.settle.settle``: runs of ``SETTLE_CHECK_S``
+    until the fastest particle is slower than ``fill.settle_speed_m_s`` after at least
+    ``MIN_SETTLE_S``, or until the step of ``until_s`` [s]; ``start_s`` [s] is the nominal start of
+    the stage (the step count of each run is fixed, the stage's start step is read in the deck);
     ``offset`` is the step at which the pour starts (time 0 of the settle)."""
     chunk = max(1, round(SETTLE_CHECK_S / dt))
     min_chunks = math.ceil(MIN_SETTLE_S / (chunk * dt) - 1e-9)
@@ -302,6 +302,11 @@ def velocity_expression(path: ToolPath) -> str:
     return f'{acc}+{steady}+{dec}'
 
 
+def _stopped(expression: str, stop_s: float) -> str:
+    """``expression`` (of ``v_t``) set to 0 from ``stop_s`` on (infinite: unchanged)."""
+    return expression if math.isinf(stop_s) else f'({expression})*(v_t<{cmd.fmt(stop_s)})'
+
+
 def group_lines(name: str, ids: Sequence[int] | NDArray[np.int64],
                 per_line: int = 200) -> list[str]:
     """``group NAME id ...`` split over several lines (a group adds up)."""
@@ -333,6 +338,8 @@ class ToolStage:
         read: The command that loads the bed (the fill's restart, or a data file).
         settle_steps: Steps of re-settle with the tool standing at its start before the pass
             (``tool.settle_s``; builds the contact history, as dempath's run does).
+        stop_s: Pass time [s] from which the tool stands still (the bed is followed after the
+            travel, ``RunOptions.follow_s``); infinite: the profile's own end.
     """
 
     path: ToolPath
@@ -345,6 +352,7 @@ class ToolStage:
     snapshot_every: int
     read: str = f'read_data {BED_DATA}'
     settle_steps: int = 0
+    stop_s: float = math.inf
 
 
 def tool_deck(scene: SceneSpec, params: SimParams, stage: ToolStage,
@@ -365,7 +373,7 @@ def tool_deck(scene: SceneSpec, params: SimParams, stage: ToolStage,
               f'{" ".join(tip)}', cmd.mesh_wall('toolwall', params, ['tool']),
               *([f'run {stage.settle_steps}'] if stage.settle_steps else []),
               f'variable t equal (step-{stage.start_step})*dt',
-              f'variable vz equal {velocity_expression(stage.path)}',
+              f'variable vz equal {_stopped(velocity_expression(stage.path), stage.stop_s)}',
               'variable zero equal 0',
               'fix mv all move/mesh mesh tool linear/variable v_zero v_zero v_vz',
               *group_lines('tracked', stage.tracked_ids),

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dempath.errors import DempathError
+from dempath.errors import DempathError, DumpError
 
 
 class LiggghtsError(DempathError):
@@ -21,5 +21,5 @@ class DeckError(LiggghtsError):
     """A scene cannot be written as a LIGGGHTS deck (unsupported effect or value)."""
 
 
-class DumpError(LiggghtsError):
-    """A LIGGGHTS dump or force file cannot be read (missing, truncated, wrong columns)."""
+__all__ = ['DeckError', 'DumpError', 'LiggghtsError', 'LiggghtsNotFoundError',
+           'LiggghtsRunError']

@@ -13,7 +13,7 @@ import os
 import shutil
 from dataclasses import dataclass
 
-from dempath.aptinstall import apt_install
+from dempath.aptinstall import apt_install, apt_lock
 from dempath_sim.liggghts.errors import LiggghtsNotFoundError
 
 logger = logging.getLogger(__name__)
@@ -87,8 +87,11 @@ def ensure_liggghts(binary: str | None = None, install: bool = True) -> Liggghts
     """
     found = find_liggghts(binary)
     if found is None and install and binary is None:
-        install_liggghts()
-        found = find_liggghts()
+        with apt_lock():  # another process may be installing it right now: wait, look again
+            found = find_liggghts()
+            if found is None:
+                install_liggghts()
+                found = find_liggghts()
     if found is None:
         name = binary or 'liggghts'
         msg = f'{name}: LIGGGHTS executable not found on PATH; run {INSTALL_HINT!r}'

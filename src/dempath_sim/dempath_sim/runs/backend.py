@@ -79,7 +79,7 @@ class RunOptions:
         stop: Set it to stop the run early: during the drive the result holds the frames so
             far; during the fill `RunStoppedError` is raised at the next settling check.
         follow_s: Time to go on recording after the tool has stopped at the end of its travel
-            (the bed still moves) [s]; the tool stays where it stopped. Native backend only.
+            (the bed still moves) [s]; the tool stays where it stopped. Both backends.
     """
 
     cache_dir: Path | None = None

@@ -5,8 +5,8 @@
 the other on any backend (the engine already uses every core). Steps: build the engine parameters
 from the scene's physics model; fill the bin or read the cached packing; pick markers and
 candidates; insert the tool at its depth (``tool.placement``: the particles overlapping its closed
-mesh are removed, or those in its bounding box, see ``runs.placement``); re-settle the bed with the
-tool in place and the run's own physics for ``tool.settle_s`` (so that the pass starts with the
+mesh are removed, or those in its bounding box, see ``runs.bed.placement``); re-settle the bed with
+the tool in place and the run's own physics for ``tool.settle_s`` (so that the pass starts with the
 contact history of a bed at rest against the tool, as a LIGGGHTS deck's re-settle does, also when
 the packing came from the cache or was poured with the scene file's physics); then drive the tool
 with the profile in the same engine and record the tracked particles, the tool pose, force and
@@ -24,15 +24,17 @@ from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from dempath_sim.effects import PhysicsModel
 from dempath_sim.engine import Engine, SimParams, SimState, ToolPose, TriangleMesh
 from dempath_sim.errors import RunStoppedError, SimulationError
 from dempath_sim.runs.backend import Backend, Frame, Progress, RunOptions
-from dempath_sim.runs.fill import FillReport, fill_bed
+from dempath_sim.runs.bed import FillReport, fill_bed, place_tool, tool_start
+from dempath_sim.runs.bed.placement import carve_tool_slot
+from dempath_sim.runs.identity import run_id, run_identity
 from dempath_sim.runs.markers import MarkerSelection, select_markers
 from dempath_sim.runs.physics import TOOL, bin_walls, build_params
-from dempath_sim.runs.placement import carve_tool_slot, place_tool, tool_start
 from dempath_sim.runs.results import Recorder, SimResult
 from dempath_sim.scene.profiles import ToolPath
 from dempath_sim.scene.spec import SceneSpec
@@ -52,15 +54,6 @@ def _with_run_masses(state: SimState, params: SimParams) -> SimState:
     fresh.angular_velocities[:] = state.angular_velocities
     fresh.extra = dict(state.extra)
     return fresh
-
-
-def run_id(scene: SceneSpec) -> str:
-    """Label of one run: scene name, seed and a short hash of the effect settings."""
-    import hashlib
-    import json
-
-    text = json.dumps(scene.to_dict()['effects'], sort_keys=True)
-    return f'{scene.name}-s{scene.seed}-{hashlib.sha256(text.encode()).hexdigest()[:8]}'
 
 
 @dataclass
@@ -118,9 +111,9 @@ def _prepare_drive(scene: SceneSpec, params: SimParams, model: PhysicsModel, sta
     dt = float(engine.dt or 0.0)
     steps = max(1, round(scene.output.interval_s / dt))
     per_snap = max(1, round(scene.output.snapshot_interval_s / (steps * dt)))
-    drive = _Drive(engine, path, Recorder(ids, roles, marker_ids, radii, state.ids.copy()),
-                   selection, path.time_to_travel(scene.tool.travel_m), steps, per_snap,
-                   removed_by_tool=removed)
+    recorder = Recorder(ids, roles, marker_ids, radii, state.ids.copy(), state.radii.copy())
+    drive = _Drive(engine, path, recorder, selection, path.time_to_travel(scene.tool.travel_m),
+                   steps, per_snap, removed_by_tool=removed)
     return drive, state
 
 
@@ -213,7 +206,7 @@ def run_scene(scene: SceneSpec, options: RunOptions | None = None) -> SimResult:
     t_drive = time.monotonic()
     state = drive_tool(drive, state, options)
     meta: dict[str, Any] = {
-        'run_id': run_id(scene), 'scene': scene.name, 'source': scene.source, 'seed': scene.seed,
+        **run_identity(scene).as_meta(), 'engine': 'dempath', 'source': scene.source,
         'effects': scene.to_dict()['effects'], 'fill': asdict(report),
         'dt_s': drive.engine.dt, 'n_particles': state.n,
         'removed_particles': drive.engine.removed_count, 'end_time_s': drive.end_time_s,
@@ -223,7 +216,39 @@ def run_scene(scene: SceneSpec, options: RunOptions | None = None) -> SimResult:
         'pass_start_springs': springs, 'bed_physics': scene.fill.physics,
         'drive_wall_s': time.monotonic() - t_drive,
         'grid_points': drive.selection.grid_points.tolist()}
-    return drive.recorder.result(meta)
+    result = drive.recorder.result(meta)
+    meta['warnings'] = run_warnings(result.tool_force, report)
+    for warning in meta['warnings']:
+        logger.warning('%s: %s', scene.name, warning)
+    return result
+
+
+SPARSE_SOLID_FRACTION = 0.3  # a settled bed of spheres holds 0.55-0.64; below this it is no bed
+SHALLOW_FRACTION = 0.5  # a surface lower than this fraction of the bed thickness: no bed
+
+
+def run_warnings(tool_force: NDArray[np.float64], report: FillReport) -> list[str]:
+    """What makes a finished run's answer meaningless although it ran: a bed far too sparse to
+    be a settled soil (e.g. a packing file of a hundred spheres) or a tool that met no particle
+    (draft 0 N over the whole pass).
+
+    Args:
+        tool_force: (nt, 3) force on the tool [N].
+        report: The fill report of the bed.
+    """
+    warnings = []
+    depth = -report.floor_y_m  # nominal bed thickness: the surface is at Y = 0
+    shallow = report.surface_height_m - report.floor_y_m < (1.0 - SHALLOW_FRACTION) * depth
+    if report.solid_fraction < SPARSE_SOLID_FRACTION or shallow:
+        warnings.append(f'the bed ({report.source}) holds {report.n_particles} particles at solid '
+                        f'fraction {report.solid_fraction:.3f} with its surface '
+                        f'{-report.surface_height_m * 1e3:.0f} mm below the nominal one; a '
+                        'settled bed holds 0.55-0.64 up to the surface, so this is not the soil '
+                        'the scene describes')
+    if not np.any(np.abs(tool_force) > 0.0):
+        warnings.append('the tool met no particle: the draft force is 0 N over the whole pass '
+                        '(check the bed, the tool depth and its start)')
+    return warnings
 
 
 @dataclass(frozen=True)
@@ -257,4 +282,5 @@ def run_batch(scene: SceneSpec, variants: Sequence[Variant], seeds: Sequence[int
 
 
 __all__ = ['NativeBackend', 'RunStoppedError', 'SimulationError', 'Variant', 'carve_tool_slot',
-           'pass_start_springs', 'resettle', 'run_batch', 'run_id', 'run_scene', 'tool_start']
+           'pass_start_springs', 'resettle', 'run_batch', 'run_id', 'run_scene', 'run_warnings',
+           'tool_start']

@@ -2,7 +2,7 @@
 
 :class:`Recorder` is the streaming side (one call per output time, as the node uses it) and
 :class:`SimResult` the batch record that ``run_scene`` returns; CSV export writes the model shape
-``t,id,x,y,z`` and the measured-trajectory shape ``t,marker,x,y,z`` (metres, seconds) that
+``t,id,marker,x,y,z`` and the measured-trajectory shape ``t,marker,x,y,z`` (metres, seconds) that
 dempath_compare reads. Units SI, world frame of the paper (X lateral, Y up, Z travel).
 """
 
@@ -41,6 +41,8 @@ class SimResult:
         snapshot_times: (ns,) times of the full-bed snapshots [s].
         snapshot_ids: (N,) ids of every bed particle at the start.
         snapshot_positions: (ns, N, 3) float32 positions [m]; NaN when removed.
+        snapshot_radii: (N,) radii [m] of the bed particles (empty for a result written
+            before they were recorded, or by a backend without snapshots).
         meta: Scene name, seed, effects, fill report, timings (JSON-serialisable).
     """
 
@@ -58,6 +60,7 @@ class SimResult:
     snapshot_ids: NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, np.int64))
     snapshot_positions: NDArray[np.float32] = field(
         default_factory=lambda: np.zeros((0, 0, 3), np.float32))
+    snapshot_radii: F64 = field(default_factory=lambda: np.zeros(0))
     meta: dict[str, Any] = field(default_factory=dict)
 
     @property
@@ -94,16 +97,19 @@ class SimResult:
     def load_npz(cls, path: str | Path) -> SimResult:
         """Read a result written by :meth:`save_npz`."""
         with np.load(path, allow_pickle=False) as data:
-            arrays = {k: data[k] for k in _ARRAYS}
+            arrays = {k: data[k] for k in _ARRAYS if k in data.files or k not in _OPTIONAL}
             meta = json.loads(str(data['meta']))
         return cls(**arrays, meta=meta)
 
     def write_model_csv(self, path: str | Path, roles: tuple[int, ...] = (0, 1)) -> None:
-        """CSV ``t,id,x,y,z`` of the tracked particles with the given roles (NaN rows skipped)."""
+        """CSV ``t,id,marker,x,y,z`` of the tracked particles with the given roles (NaN rows
+        skipped); ``marker`` is the marker a particle stands for or is a Cube candidate of, so
+        that a comparison ranks each marker's own candidates (the paper's N best of the cube),
+        not one particle per marker."""
         cols = np.flatnonzero(np.isin(self.roles, roles))
-        rows = ((t, int(self.ids[c]), *self.positions[i, c]) for i, t in enumerate(self.times)
-                for c in cols)
-        _write_csv(path, ('t', 'id', 'x', 'y', 'z'), rows)
+        rows = ((t, int(self.ids[c]), int(self.marker_ids[c]), *self.positions[i, c])
+                for i, t in enumerate(self.times) for c in cols)
+        _write_csv(path, ('t', 'id', 'marker', 'x', 'y', 'z'), rows)
 
     def write_marker_csv(self, path: str | Path) -> None:
         """CSV ``t,marker,x,y,z`` of the marker particles, the measured-trajectory shape."""
@@ -122,7 +128,8 @@ class SimResult:
 
 _ARRAYS = ('times', 'ids', 'roles', 'marker_ids', 'radii', 'positions', 'velocities',
            'tool_position', 'tool_force', 'tool_torque', 'snapshot_times', 'snapshot_ids',
-           'snapshot_positions')
+           'snapshot_positions', 'snapshot_radii')
+_OPTIONAL = ('snapshot_radii',)  # absent from results written before it was recorded
 
 
 def _write_csv(path: str | Path, header: tuple[str, ...], rows: Any) -> None:
@@ -143,12 +150,15 @@ class Recorder:
     Args:
         ids: (n,) tracked particle ids; roles, marker_ids and radii alike (n,).
         bed_ids: (N,) ids of every particle for the snapshots.
+        bed_radii: (N,) their radii [m] (for VTK output); empty when unknown.
     """
 
     def __init__(self, ids: NDArray[np.int64], roles: NDArray[np.uint8],
-                 marker_ids: NDArray[np.int32], radii: F64, bed_ids: NDArray[np.int64]) -> None:
+                 marker_ids: NDArray[np.int32], radii: F64, bed_ids: NDArray[np.int64],
+                 bed_radii: F64 | None = None) -> None:
         self.ids, self.roles, self.marker_ids, self.radii = ids, roles, marker_ids, radii
         self.bed_ids = bed_ids
+        self.bed_radii = np.zeros(0) if bed_radii is None else np.asarray(bed_radii, float)
         self.frames: list[tuple[float, F64, F64, F64, F64, F64]] = []
         self.snapshots: list[tuple[float, NDArray[np.float32]]] = []
 
@@ -194,4 +204,5 @@ class Recorder:
             tool_position=stack(3, (nt, 3)), tool_force=stack(4, (nt, 3)),
             tool_torque=stack(5, (nt, 3)),
             snapshot_times=np.array([s[0] for s in self.snapshots], dtype=np.float64),
-            snapshot_ids=self.bed_ids, snapshot_positions=snaps, meta=meta)
+            snapshot_ids=self.bed_ids, snapshot_positions=snaps, snapshot_radii=self.bed_radii,
+            meta=meta)

@@ -303,6 +303,9 @@ def load_scene(path: str | Path) -> SceneSpec:
         data = yaml.safe_load(file.read_text(encoding='utf-8'))
     except OSError as err:
         raise SceneError(f'{file}: cannot read scene file ({err.strerror})') from err
+    except UnicodeDecodeError as err:
+        raise SceneError(f'{file}: not a UTF-8 text file (byte 0x{err.object[err.start]:02x} '
+                         f'at offset {err.start}); save the scene as UTF-8') from None
     except yaml.YAMLError as err:
         raise SceneError(f'{file}: not valid YAML ({err})') from err
     return scene_from_dict(data, str(file), file.resolve().parent)

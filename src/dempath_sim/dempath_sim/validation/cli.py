@@ -37,7 +37,7 @@ def _repose_overrides(items: list[str]) -> dict[str, float]:
 
 
 def validate_main(argv: list[str]) -> int:
-    """Entry point of ``dempath validate``; returns the exit status."""
+    """``dempath validate``: the physics validation report, dempath beside LIGGGHTS."""
     parser = argparse.ArgumentParser(prog='dempath validate', description=__doc__)
     parser.add_argument('--out', type=Path, default=Path('validation_report'))
     parser.add_argument('--no-liggghts', action='store_true', help='dempath only')
@@ -75,12 +75,11 @@ def validate_main(argv: list[str]) -> int:
         print(f'error: --cases: {args.cases!r}: expected a subset of {",".join(CASES)}',
               file=sys.stderr)
         return 1
-    logging.basicConfig(level=logging.INFO, format='%(message)s')
     from dempath_sim.liggghts.errors import LiggghtsNotFoundError
     from dempath_sim.liggghts.install import ensure_liggghts
     from dempath_sim.scene import load_scene
     from dempath_sim.validation.cross_engine import run_cross_engine
-    from dempath_sim.validation.report import write_report
+    from dempath_sim.validation.validation_report import write_report
 
     use_liggghts = not args.no_liggghts
     try:

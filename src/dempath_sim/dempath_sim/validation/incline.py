@@ -22,9 +22,9 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from dempath.dumpio import read_print
 from dempath_sim.engine import Interaction, SimParams
 from dempath_sim.liggghts import commands as cmd
-from dempath_sim.liggghts.dumps import read_print
 from dempath_sim.validation import cases
 
 G = 9.81

@@ -37,9 +37,9 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from dempath.dumpio import read_dump
 from dempath_sim.engine import Interaction, SimParams, ToolPose, TriangleMesh
 from dempath_sim.liggghts import commands as cmd
-from dempath_sim.liggghts.dumps import read_dump
 from dempath_sim.validation import cases
 
 F64 = NDArray[np.float64]

@@ -1,0 +1,245 @@
+"""Watch the error fall, on the library's own runs: one hidden-effect case, before and after.
+
+A case is a library run (a candidate at one of its strengths, or the baseline: a control) on one
+packing seed L that plays the measurement (per marker the particle nearest the marker start,
+the cameras' noise, every sample of the pass: :func:`~.samples.played_measurement`). The rest
+is what a user's pass goes through, with the library of the other seeds only:
+
+1. the diagnosis on the group statistics of the *fit markers* (the held-out markers are left
+   out), markers only (no force), every candidate fitted on the emulator's 121-point strength
+   grid (the same budget for every candidate);
+2. the headline error (:mod:`.score`) of the measurement against the model *before* (the
+   baseline on the other seeds), *after* the true candidate's fit and after the best wrong
+   candidate's fit (the one with the lowest d^2 at its best strength), each model on the
+   other seeds at its fitted strength (:mod:`.ensemble`), each beside its own floor band
+   (:mod:`.floor`: that model on every seed playing the measurement with the same samples,
+   pools of as many seeds);
+3. the same on the held-out markers alone;
+4. the paper's Table 7 (mean nRMSE over the N best cube candidates, N = 10) before and after
+   the true fit, with the same markers, samples, pools and N, and its floor band likewise.
+
+No simulation runs; the models at fitted strengths are the library's paired runs interpolated.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from dempath_diagnose.decision.bandtracks import band_table7
+from dempath_diagnose.decision.emulator import Allowance, build_emulator
+from dempath_diagnose.decision.statistics import build_layout, measured_statistics
+from dempath_diagnose.decision.verdict import decide, fit_candidate
+from dempath_diagnose.headline.ensemble import emulated_run
+from dempath_diagnose.headline.floor import FloorBand, below_reason, floor_band, headline_figure
+from dempath_diagnose.headline.samples import MarkerSamples, played_measurement
+from dempath_diagnose.headline.score import headline_error
+from dempath_diagnose.library.store import Library
+from dempath_diagnose.records import F64, Measurement, PassRecord
+
+NAMED = ('effect_missing', 'parameter_off')
+TABLE7_RANKS = 2  # particles per marker start taking turns in Table 7's floor (it is dearer)
+
+
+@dataclass(frozen=True)
+class FallCase:
+    """One hidden-effect case.
+
+    Attributes:
+        name: Label of the case.
+        candidate: The hidden candidate ('' for a control).
+        strength: Its strength (the library's).
+        seed: The packing seed that plays the measurement.
+    """
+
+    name: str
+    candidate: str
+    strength: float
+    seed: int
+
+
+@dataclass(frozen=True)
+class FallSetup:
+    """What every case shares.
+
+    Attributes:
+        markers: (m,) marker numbers; starts: (m, 3) their starts [m].
+        held_out: Marker numbers left out of the fit and scored apart.
+        tool_x_m, axis_half_width_m, cube_m: The scene's geometry (diagnosis' CaseGeometry).
+        allowance: Noise and discrepancy allowance of the diagnosis.
+        n_windows: Time windows of the group statistics.
+    """
+
+    markers: F64
+    starts: F64
+    held_out: tuple[int, ...]
+    tool_x_m: float
+    axis_half_width_m: float
+    cube_m: tuple[float, float, float]
+    allowance: Allowance = field(default_factory=Allowance)
+    n_windows: int = 4
+
+
+def fold(library: Library, seed: int) -> Library:
+    """The library without packing seed ``seed``."""
+    keep = [r for r in library.runs if r.seed != seed]
+    return Library(library.folder, library.candidates, keep,
+                   {r.filename: library.records[r.filename] for r in keep}, library.region)
+
+
+def model_runs(library: Library, candidate: str, strength: float,
+               seeds: Sequence[int]) -> list[PassRecord]:
+    """The model (candidate at strength) on ``seeds``."""
+    return [emulated_run(library, candidate, strength, s) for s in seeds]
+
+
+FloorCache = dict[tuple[Any, ...], FloorBand]
+
+
+def scored(meas: Measurement, samples: MarkerSamples, library: Library, candidate: str,
+           strength: float, seed: int, setup: FallSetup,
+           cache: FloorCache | None = None) -> dict[str, Any]:
+    """The headline error of one model against ``meas`` beside its like-for-like floor band
+    (``cache``: floor bands already computed, by model and samples)."""
+    seeds = library.seeds()
+    pool = model_runs(library, candidate, strength, [s for s in seeds if s != seed])
+    value = headline_error(meas, [pool], setup.cube_m).value
+    key = ('headline', candidate, strength, _samples_key(samples))
+    band = (cache or {}).get(key) or floor_band(
+        samples, model_runs(library, candidate, strength, seeds),
+        headline_figure(setup.cube_m), setup.allowance.noise_m, len(pool))
+    if cache is not None:
+        cache[key] = band
+    return _placed(value, band, 'the headline error', 1e3)
+
+
+def _samples_key(samples: MarkerSamples) -> tuple[Any, ...]:
+    return (tuple(samples.markers.tolist()), samples.starts.tobytes(), samples.times.tobytes(),
+            samples.present.tobytes())
+
+
+def table7(meas: Measurement, samples: MarkerSamples, library: Library, candidate: str,
+           strength: float, seed: int, setup: FallSetup,
+           cache: FloorCache | None = None) -> dict[str, Any]:
+    """The paper's mean nRMSE [%] of one model, like for like with its floor band."""
+    seeds = library.seeds()
+    pool = model_runs(library, candidate, strength, [s for s in seeds if s != seed])
+    table = band_table7(meas, pool, setup.cube_m)
+
+    def figure(m: Measurement, p: Sequence[PassRecord]) -> float:
+        return float(band_table7(m, p, setup.cube_m)['mean_nrmse_pct'])
+
+    key = ('table7', candidate, strength, _samples_key(samples))
+    band = (cache or {}).get(key) or floor_band(
+        samples, model_runs(library, candidate, strength, seeds), figure,
+        setup.allowance.noise_m, len(pool), ranks=TABLE7_RANKS)
+    if cache is not None:
+        cache[key] = band
+    out = _placed(float(table['mean_nrmse_pct']), band, 'the mean nRMSE', 1.0)
+    out['n_best'] = {str(r['marker']): r['n_best'] for r in table['rows']}
+    out['markers'] = len(table['rows'])
+    return out
+
+
+def _placed(value: float, band: FloorBand, name: str, scale: float) -> dict[str, Any]:
+    place = band.place(value)
+    return {'value': value * scale, 'floor': band.to_json(scale), 'place': place,
+            'why_below': below_reason(place, name)}
+
+
+def run_case(library: Library, case: FallCase, setup: FallSetup, with_table7: bool = True,
+             cache: FloorCache | None = None) -> dict[str, Any]:
+    """Everything of one case (see the module docstring), JSON-ready (mm, %)."""
+    rng = np.random.default_rng(case.seed)
+    truth = emulated_run(library, case.candidate, case.strength, case.seed)
+    times = np.round(np.arange(0.0, float(truth.times[-1]) + 1e-9, 0.005), 6)
+    times = times[times <= float(library.records[library.runs[0].filename].times[-1])]
+    samples = MarkerSamples(setup.markers.astype(np.int64), setup.starts, times,
+                            np.ones((len(times), len(setup.markers)), bool))
+    meas = played_measurement(truth, samples, 0, setup.allowance.noise_m, rng)
+    held = np.isin(samples.markers, setup.held_out)
+    fit_meas = Measurement(meas.markers[~held], meas.times, meas.positions[:, ~held])
+    decision, fits = _diagnose(library, fit_meas, case.seed, setup)
+    true_fit = next((f for f in fits if f.name == case.candidate), None)
+    wrong = min((f for f in fits if f.name != case.candidate), key=lambda f: f.chi2)
+    out: dict[str, Any] = {
+        'case': case.name, 'candidate': case.candidate, 'strength': case.strength,
+        'seed': case.seed, 'verdict': decision.verdict,
+        'top': decision.ranking[0].name, 'top_probability': decision.ranking[0].probability,
+        'd2_before': decision.baseline.chi2, 'fit_markers': len(fit_meas.markers),
+        'window_s': [float(times[0]), float(times[-1])],
+        'markers': [int(m) for m in samples.markers], 'held_out': list(setup.held_out)}
+    parts = {'all': (meas, samples), 'held_out': (_only(meas, held), samples.subset(held))}
+    models = {'before': ('', 0.0)}
+    if true_fit is not None:
+        models['after_true'] = (case.candidate, true_fit.strength)
+        out['true_fit'] = {'strength': true_fit.strength, 'sd': true_fit.strength_sd,
+                           'd2': true_fit.chi2}
+    models['after_wrong'] = (wrong.name, wrong.strength)
+    out['wrong_fit'] = {'candidate': wrong.name, 'strength': wrong.strength, 'd2': wrong.chi2}
+    for part, (m, s) in parts.items():
+        out[part] = {key: scored(m, s, library, c, x, case.seed, setup, cache)
+                     for key, (c, x) in models.items()}
+    if with_table7:
+        out['table7'] = {key: table7(meas, samples, library, c, x, case.seed, setup, cache)
+                         for key, (c, x) in models.items() if key != 'after_wrong'}
+    return out
+
+
+def _only(meas: Measurement, keep: NDArray[np.bool_]) -> Measurement:
+    return Measurement(meas.markers[keep], meas.times, meas.positions[:, keep])
+
+
+def _diagnose(library: Library, meas: Measurement, seed: int,
+              setup: FallSetup) -> tuple[Any, list[Any]]:
+    """The decision and every candidate's fit on the library without ``seed`` (no force)."""
+    lib = fold(library, seed)
+    first = lib.records[lib.runs[0].filename]
+    end = float(meas.times[-1])
+    layout = build_layout(meas.markers, meas.start, setup.tool_x_m, setup.axis_half_width_m,
+                          end, float(first.meta.get('tool_stop_s', end)), setup.n_windows)
+    emu = build_emulator(lib, layout, setup.cube_m)
+    y, _ = measured_statistics(meas, layout)
+    observed = ~emu.is_force()
+    finite = np.isfinite(y)
+    idx = np.flatnonzero(observed)
+    observed[idx[~finite]] = False
+    y = y[finite]
+    cov = emu.fixed_cov(setup.allowance, layout)
+    fits = [fit_candidate(emu, c, y, observed, cov) for c in emu.candidates]
+    return decide(emu, y, observed, cov), fits
+
+
+def summary(results: Sequence[dict[str, Any]], table7_like_for_like: bool) -> dict[str, Any]:
+    """The bench's figures over every case (see bench/error_fall.py)."""
+    effects = [r for r in results if r['candidate']]
+    controls = [r for r in results if not r['candidate']]
+    seen = [r for r in effects if r['all']['before']['place'] == 'above']
+    true_in = [r for r in seen if r['all']['after_true']['place'] != 'above']
+    wrong_in = [r for r in seen if r['all']['after_wrong']['place'] != 'above']
+    held_fell = [r for r in seen if r['held_out']['after_true']['value']
+                 < r['held_out']['before']['value']]
+    t7 = [r for r in effects if 'table7' in r]
+    t7_fell = [r for r in t7 if r['table7']['after_true']['value']
+               < r['table7']['before']['value'] - 1e-9]
+    return {'cases': len(results), 'effect_cases': len(effects),
+            'effect_seen': len(seen), 'true_fit_in_floor': len(true_in),
+            'wrong_fit_in_floor': len(wrong_in),
+            'control_moved': sum(r['verdict'] in NAMED for r in controls),
+            'controls': len(controls), 'held_out_fell': len(held_fell),
+            'table7_like_for_like': table7_like_for_like,
+            'table7_fell': len(t7_fell), 'table7_cases': len(t7),
+            'not_seen': sorted({r['case'] for r in effects if r not in seen}),
+            'true_fit_above_floor': sorted(f"{r['case']}@{r['seed']}" for r in seen
+                                           if r not in true_in),
+            'wrong_fit_in_floor_cases': sorted(f"{r['case']}@{r['seed']}" for r in wrong_in)}
+
+
+def finite(value: float) -> float | None:
+    """JSON-safe number."""
+    return value if math.isfinite(value) else None

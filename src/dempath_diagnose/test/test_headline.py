@@ -1,0 +1,109 @@
+"""The headline error, its like-for-like floor and the error fall on the shipped library."""
+
+from __future__ import annotations
+
+from importlib.resources import files
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from dempath_diagnose.headline.ensemble import emulated_run
+from dempath_diagnose.headline.fall import FallCase, FallSetup, run_case
+from dempath_diagnose.headline.floor import floor_band, headline_figure
+from dempath_diagnose.headline.samples import MarkerSamples, played_measurement
+from dempath_diagnose.headline.score import headline_error
+from dempath_diagnose.library.simulator import load_scene, tool_geometry
+from dempath_diagnose.library.store import Library
+from dempath_diagnose.records import PassRecord
+
+CUBE = (0.045, 0.03, 0.03)
+
+
+@pytest.fixture(scope='module')
+def shipped() -> Library:
+    """The packed reduced_1ms library shipped with the package (45 real runs)."""
+    path = Path(str(files('dempath_diagnose'))) / 'data' / 'libraries' / \
+        'reduced_1ms_library.npz'
+    return Library.load(path)
+
+
+def _bed(rng: np.random.Generator, shift: float, n: int = 60) -> PassRecord:
+    """A synthetic run: particles near (0, 0, 0) drifting +Z with scatter, ``shift`` extra."""
+    times = np.linspace(0.0, 0.4, 21)
+    start = rng.uniform(-0.01, 0.01, (n, 3))
+    speed = 0.05 + shift + rng.normal(0.0, 0.01, n)
+    pos = start[None] + np.zeros((len(times), n, 3))
+    pos[..., 2] += times[:, None] * speed[None]
+    return PassRecord(times, np.arange(n), pos.astype(np.float32), np.zeros((len(times), 3)),
+                      times, np.zeros((len(times), 3)))
+
+
+def test_energy_score_prefers_the_true_distribution() -> None:
+    """A draw of the model scores better against it than against a model that drifts faster."""
+    rng = np.random.default_rng(3)
+    truth = [_bed(rng, 0.0) for _ in range(3)]
+    wrong = [_bed(rng, 0.04) for _ in range(2)]
+    samples = MarkerSamples(np.array([1]), np.zeros((1, 3)), np.linspace(0.0, 0.4, 41),
+                            np.ones((41, 1), bool))
+    meas = played_measurement(truth[2], samples, 0, 0.0005, rng)
+    right = headline_error(meas, [truth[:2]], CUBE).value
+    assert right < headline_error(meas, [wrong], CUBE).value
+    with pytest.raises(ValueError, match='one size'):
+        headline_error(meas, [truth[:2], truth[:1]], CUBE)
+
+
+def test_played_measurement_has_the_measured_samples(shipped: Library) -> None:
+    """A model run playing the measurement is NaN exactly where the real marker was unseen."""
+    rec = emulated_run(shipped, '', 0.0, 1001)
+    starts = np.array(shipped.region['starts'])[:4]
+    times = np.arange(0.0, 0.6, 0.005)
+    present = np.ones((len(times), 4), bool)
+    present[times > 0.28, 1] = False  # marker 2 lost at 0.28 s
+    present[times < 0.1, 3] = False  # marker 4 found late
+    samples = MarkerSamples(np.arange(1, 5), starts, times, present)
+    meas = played_measurement(rec, samples, 1, 0.0015, np.random.default_rng(0))
+    assert np.array_equal(np.isfinite(meas.positions).all(2), present)
+    assert np.allclose(meas.times, times)
+
+
+def test_floor_pools_are_as_large_as_the_figure(shipped: Library) -> None:
+    """The floor uses pools of the figure's size and refuses when the seeds cannot give it."""
+    model = [emulated_run(shipped, '', 0.0, s) for s in shipped.seeds()]
+    starts = np.array(shipped.region['starts'])[:3]
+    times = np.arange(0.0, 0.5, 0.01)
+    samples = MarkerSamples(np.arange(1, 4), starts, times, np.ones((len(times), 3), bool))
+    band = floor_band(samples, model, headline_figure(CUBE), 0.0015, pool_seeds=2, ranks=2)
+    assert band.pool_seeds == 2 and len(band.samples) == 6
+    assert band.low <= band.median <= band.high
+    with pytest.raises(ValueError, match='needs 4'):
+        floor_band(samples, model, headline_figure(CUBE), 0.0015, pool_seeds=3)
+
+
+def test_emulated_run_at_a_library_strength_is_that_run(shipped: Library) -> None:
+    """At a strength the library ran, the emulated model is the library's run (same ids)."""
+    run = next(r for r in shipped.runs if r.candidate == 'cohesion' and r.seed == 1002
+               and r.strength == 1e5)
+    rec = shipped.records[run.filename]
+    emu = emulated_run(shipped, 'cohesion', 1e5, 1002)
+    order = np.argsort(rec.ids)
+    idx = order[np.searchsorted(rec.ids[order], emu.ids)]
+    assert np.allclose(emu.positions, rec.positions[:, idx], atol=1e-6, equal_nan=True)
+
+
+def test_strong_cohesion_falls_into_its_floor_and_a_wrong_fit_does_not(
+        shipped: Library) -> None:
+    """Hidden cohesion 1e5 on seed 1001: the headline error starts above the baseline's floor
+    band, the true fit ends inside its own band, the best wrong candidate's fit does not; the
+    held-out markers fall too."""
+    tool_x, half, cube = tool_geometry(load_scene('reduced_1ms'))
+    starts = np.array(shipped.region['starts'])
+    setup = FallSetup(np.arange(1.0, 16.0), starts, (3, 8, 13), tool_x, half, cube)
+    res = run_case(shipped, FallCase('cohesion', 'cohesion', 1e5, 1001), setup,
+                   with_table7=False)
+    assert res['all']['before']['place'] == 'above'
+    assert res['all']['after_true']['place'] != 'above'
+    assert res['all']['after_wrong']['place'] == 'above'
+    held = res['held_out']
+    assert held['after_true']['value'] < held['before']['value']
+    assert res['window_s'][1] > 0.8  # the whole pass

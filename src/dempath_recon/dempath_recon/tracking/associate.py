@@ -1,0 +1,332 @@
+"""Giving each camera's tracks the scene's marker numbers: initial grid and epipolar geometry.
+
+The markers are laid in the paper's grid (rows x columns, 50 mm apart, numbered row by row, row
+0 on the tool axis; ``dempath_sim.scene.MarkerSpec``). In the first frame each camera's
+detections are matched one to one to the grid projected through the calibration: the grid's
+height above the calibration board and the markers' small offsets from their grid points are
+unknown, so the projected grid is first shifted by the image translation on which most grid
+points find a detection (a vote over all detection-minus-grid offsets), then
+``linear_sum_assignment`` links them inside a gate.
+
+A track that starts later (a marker that comes back where its lost track did not expect it) is
+numbered from the other camera: among the markers this camera has not seen in this frame, the
+one whose latest position in the other camera lies on this detection's epipolar line (within
+``epipolar_px``) and is the only such candidate. Distances to the epipolar line are measured in
+undistorted pixels (Hartley & Zisserman, Multiple View Geometry, 2nd ed., sec. 9.2).
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+from scipy.optimize import linear_sum_assignment
+
+from dempath_recon.methods.triangulate import Camera, undistort_normalized
+
+LOG = logging.getLogger(__name__)
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class MarkerGrid:
+    """The initial marker grid in the field frame (origin at the grid centre on the surface).
+
+    Attributes:
+        rows, columns: grid size (the paper: 3 x 5).
+        spacing_x_m, spacing_z_m: grid pitch [m] (the paper: 0.05).
+        side: +1 or -1, the side of the tool axis the further rows lie on (X direction).
+        layout_m: explicit grid points ((x, y, z), ...) [m] for markers 1..n, field frame;
+            when given it replaces the regular grid (e.g. a run's own grid points).
+    """
+
+    rows: int = 3
+    columns: int = 5
+    spacing_x_m: float = 0.05
+    spacing_z_m: float = 0.05
+    side: int = 1
+    layout_m: tuple[tuple[float, float, float], ...] = ()
+
+    def __post_init__(self) -> None:
+        checks = {'rows': self.rows >= 1, 'columns': self.columns >= 1,
+                  'spacing_x_m': 0 < self.spacing_x_m < 10,
+                  'spacing_z_m': 0 < self.spacing_z_m < 10, 'side': self.side in (1, -1)}
+        for name, ok in checks.items():
+            if not ok:
+                msg = f'{name}: out of range, got {getattr(self, name)!r}'
+                raise ValueError(msg)
+
+    @classmethod
+    def from_scene(cls, scene: str) -> MarkerGrid:
+        """The grid of a scene's ``markers:`` block (a scene file, or a shipped scene's name).
+
+        The scene places row r at ``X = x_m + r * side * spacing_x_m`` and column c at
+        ``Z = first_z_m + c * spacing_z_m``; the field frame's origin is the grid's centre, so
+        only the size, the pitches and the side carry over.
+
+        Raises:
+            ReconstructionError: the scene cannot be read (the message names it and the fault).
+        """
+        from dempath_recon.errors import ReconstructionError
+        from dempath_sim.errors import SceneError
+        from dempath_sim.scene.loader import resolve_scene
+
+        try:
+            spec = resolve_scene(scene).markers
+        except SceneError as err:
+            msg = f'scene {scene!r}: {err}'
+            raise ReconstructionError(msg) from err
+        return cls(rows=spec.rows, columns=spec.columns, spacing_x_m=spec.spacing_x_m,
+                   spacing_z_m=spec.spacing_z_m, side=spec.side)
+
+    def points(self) -> tuple[NDArray[np.int32], FloatArray]:
+        """Marker numbers (m,) and grid points (m, 3) m, numbered row by row from 1."""
+        if self.layout_m:
+            xyz = np.asarray(self.layout_m, np.float64).reshape(-1, 3)
+            return np.arange(1, len(xyz) + 1, dtype=np.int32), xyz
+        r, c = np.meshgrid(np.arange(self.rows), np.arange(self.columns), indexing='ij')
+        numbers = (r * self.columns + c + 1).ravel().astype(np.int32)
+        x = self.side * self.spacing_x_m * (r.ravel() - (self.rows - 1) / 2)
+        z = self.spacing_z_m * (c.ravel() - (self.columns - 1) / 2)
+        return numbers, np.column_stack([x, np.zeros_like(x), z])
+
+
+def number_by_grid(camera: Camera, uv: FloatArray, grid: MarkerGrid, gate_px: float = 12.0,
+                   ) -> tuple[NDArray[np.int32], FloatArray]:
+    """Marker number of each detection (n, 2) px by the projected grid (-1 = none, or unsure).
+
+    The projected grid is shifted by the image translation on which the grid points fit the
+    detections best (each grid point scores ``1 - (d / gate_px)^2`` for its nearest detection
+    within the gate, so the exact fit beats a fit shifted by one pitch where a camera sees the
+    rows only a few pixels apart), then refined by the mean residual and matched one to one. A
+    match is kept only when it is unambiguous: the detection's next-nearest grid point and the
+    grid point's next-nearest detection are both at least ``gate_px / 2`` farther than the
+    match. An unsure detection stays unnumbered (the other camera can number it later): a
+    wrong number is worse than none.
+
+    Returns:
+        ``(numbers (n,), grid_uv (m, 2))``: the numbers and the shifted projected grid [px].
+    """
+    numbers, xyz = grid.points()
+    proj = np.asarray(camera.project(xyz), np.float64)  # type: ignore[attr-defined]
+    out = np.full(len(uv), -1, np.int32)
+    if len(uv) == 0:
+        return out, proj
+    offsets = (uv[:, None, :] - proj[None, :, :]).reshape(-1, 2)
+    best, shift = -1.0, np.zeros(2, np.float64)
+    for off in offsets:
+        d = np.linalg.norm(proj[:, None, :] + off - uv[None, :, :], axis=2).min(axis=1)
+        score = float(np.clip(1.0 - (d / gate_px) ** 2, 0.0, None).sum())
+        if score > best:
+            best, shift = score, np.asarray(off, np.float64).reshape(2)
+    near = np.linalg.norm(proj[:, None, :] + shift - uv[None, :, :], axis=2)
+    inside = near[near.min(axis=1) < gate_px]
+    if len(inside):  # refine the shift by the mean residual of the matched points
+        shift = shift + np.mean(uv[inside.argmin(axis=1)] - (proj + shift)[near.min(axis=1)
+                                                                           < gate_px], axis=0)
+    cost = np.linalg.norm(proj[:, None, :] + shift - uv[None, :, :], axis=2)
+    rows, cols = linear_sum_assignment(np.where(cost < gate_px, cost, 1e9))
+    margin = gate_px / 2
+    for r, c in zip(rows, cols, strict=True):
+        if cost[r, c] >= gate_px:
+            continue
+        others_g = np.delete(cost[:, c], r)  # other grid points from this detection
+        others_d = np.delete(cost[r, :], c)  # other detections from this grid point
+        if (others_g >= cost[r, c] + margin).all() and (others_d >= cost[r, c] + margin).all():
+            out[c] = numbers[r]
+    return out, proj + shift
+
+
+def essential(cam_a: Camera, cam_b: Camera) -> FloatArray:
+    """(3, 3) essential matrix with ``x_b^T E x_a = 0`` for normalised points of the two."""
+    r_ab = cam_b.R @ cam_a.R.T
+    t_ab = cam_b.t - r_ab @ cam_a.t
+    tx = np.array([[0, -t_ab[2], t_ab[1]], [t_ab[2], 0, -t_ab[0]], [-t_ab[1], t_ab[0], 0]])
+    return np.asarray(tx @ r_ab, np.float64)
+
+
+def epipolar_distance(cam_a: Camera, cam_b: Camera, uv_a: FloatArray,
+                      uv_b: FloatArray) -> FloatArray:
+    """(n, k) distance [px of camera b] of points (k, 2) in b from the lines of (n, 2) in a."""
+    xa = undistort_normalized(cam_a, np.asarray(uv_a, np.float64).reshape(-1, 2))
+    xb = undistort_normalized(cam_b, np.asarray(uv_b, np.float64).reshape(-1, 2))
+    lines = np.column_stack([xa, np.ones(len(xa))]) @ essential(cam_a, cam_b).T  # (n, 3)
+    hb = np.column_stack([xb, np.ones(len(xb))])
+    num = np.abs(lines @ hb.T)
+    den = np.hypot(lines[:, 0], lines[:, 1])[:, None]
+    return np.asarray(num / np.maximum(den, 1e-12) * cam_b.K[0, 0], np.float64)
+
+
+def on_epipolar_line(cam_a: Camera, cam_b: Camera, uv_a: FloatArray,
+                     candidates: dict[int, FloatArray], epipolar_px: float = 4.0) -> list[int]:
+    """The markers of ``candidates`` (number -> (2,) px in b) on ``uv_a``'s epipolar line."""
+    if not candidates:
+        return []
+    nums = list(candidates)
+    d = epipolar_distance(cam_a, cam_b, uv_a[None], np.array([candidates[n] for n in nums]))[0]
+    return [int(nums[i]) for i in np.flatnonzero(d < epipolar_px)]
+
+
+def number_by_epipolar(cam_a: Camera, cam_b: Camera, uv_a: FloatArray,
+                       candidates: dict[int, FloatArray], epipolar_px: float = 4.0) -> int:
+    """The one marker of ``candidates`` (number -> (2,) px in b) on ``uv_a``'s epipolar line.
+
+    Returns -1 when none or more than one candidate lies within ``epipolar_px``.
+    """
+    close = on_epipolar_line(cam_a, cam_b, uv_a, candidates, epipolar_px)
+    return close[0] if len(close) == 1 else -1
+
+
+def triangulate_pairs(cam_a: Camera, cam_b: Camera, uv_a: FloatArray, uv_b: FloatArray,
+                      ) -> tuple[FloatArray, FloatArray]:
+    """3D points and epipolar distances of paired pixels.
+
+    Args:
+        cam_a, cam_b: the two cameras.
+        uv_a, uv_b: (k, 2) px, row i of both the same marker (by its numbers).
+
+    Returns:
+        ``(xyz (k, 3) m, epipolar (k,) px)``: the linear triangulation (world frame) and the
+        distance of each point in b from the epipolar line of its partner in a [px of b].
+    """
+    uv_a = np.asarray(uv_a, np.float64).reshape(-1, 2)
+    uv_b = np.asarray(uv_b, np.float64).reshape(-1, 2)
+    if len(uv_a) == 0:
+        return np.zeros((0, 3)), np.zeros(0)
+    xa, xb = undistort_normalized(cam_a, uv_a), undistort_normalized(cam_b, uv_b)
+    xyz = _two_view_linear(cam_a, cam_b, xa, xb)
+    lines = np.column_stack([xa, np.ones(len(xa))]) @ essential(cam_a, cam_b).T  # (k, 3)
+    num = np.abs((lines * np.column_stack([xb, np.ones(len(xb))])).sum(axis=1))
+    epi = num / np.maximum(np.hypot(lines[:, 0], lines[:, 1]), 1e-12) * cam_b.K[0, 0]
+    return np.asarray(xyz, np.float64), np.asarray(epi, np.float64)
+
+
+def depth(cam: Camera, xyz: FloatArray) -> float:
+    """Depth [m] of a world point (3,) along the camera's optical axis."""
+    return float((np.asarray(cam.R) @ np.asarray(xyz, np.float64) + np.asarray(cam.t))[2])
+
+
+def back_project(cam: Camera, uv: FloatArray, at_depth: float) -> FloatArray:
+    """The world point (3,) m on the line of sight through ``uv`` (2,) px at a depth [m]."""
+    xn = undistort_normalized(cam, np.asarray(uv, np.float64).reshape(1, 2))[0]
+    local = at_depth * np.array([xn[0], xn[1], 1.0])
+    return np.asarray(np.asarray(cam.R).T @ (local - np.asarray(cam.t)), np.float64)
+
+
+def project(cam: Camera, xyz: FloatArray) -> FloatArray:
+    """(k, 2) px of world points (k, 3) m in ``cam`` (lens distortion included)."""
+    rvec, _ = cv2.Rodrigues(np.asarray(cam.R, np.float64))
+    uv, _ = cv2.projectPoints(np.asarray(xyz, np.float64).reshape(-1, 1, 3), rvec,
+                              np.asarray(cam.t, np.float64), np.asarray(cam.K, np.float64),
+                              np.asarray(cam.dist, np.float64))
+    return np.asarray(uv.reshape(-1, 2), np.float64)
+
+
+def _two_view_linear(cam_a: Camera, cam_b: Camera, xa: FloatArray, xb: FloatArray,
+                     reweight: int = 1) -> FloatArray:
+    """(k, 3) m: the depth-reweighted linear triangulation of ``triangulate_points`` (no
+    refinement) for normalised pairs (k, 2) of two cameras, in a few small array operations
+    (the general n-camera form costs about a millisecond per call for a handful of pairs,
+    which is most of the tracking stage's time)."""
+    rows, rhs = [], []
+    for cam, x in ((cam_a, xa), (cam_b, xb)):
+        rot, t = np.asarray(cam.R, np.float64), np.asarray(cam.t, np.float64)
+        u, v = x[:, :1], x[:, 1:2]
+        rows += [u * rot[2] - rot[0], v * rot[2] - rot[1]]
+        rhs += [t[0] - u[:, 0] * t[2], t[1] - v[:, 0] * t[2]]
+    m, b = np.stack(rows, axis=1), np.stack(rhs, axis=1)  # (k, 4, 3), (k, 4)
+    depth_rows = np.array([np.asarray(cam_a.R)[2], np.asarray(cam_b.R)[2]])
+    depth_t = np.array([np.asarray(cam_a.t)[2], np.asarray(cam_b.t)[2]], np.float64)
+    weights = np.ones(b.shape)
+    sol = np.full((len(xa), 3), np.nan)
+    for _ in range(reweight + 1):
+        mw, bw = m * weights[:, :, None], b * weights
+        a = mw.transpose(0, 2, 1) @ mw
+        rhs_n = (mw.transpose(0, 2, 1) @ bw[:, :, None])[:, :, 0]
+        with np.errstate(all='ignore'):
+            det = np.linalg.det(a)
+            ok = np.abs(det) > 1e-300
+            sol[:] = np.nan
+            if ok.any():
+                sol[ok] = np.linalg.solve(a[ok], rhs_n[ok][:, :, None])[:, :, 0]
+        depth_ab = sol @ depth_rows.T + depth_t
+        weights = np.repeat(1.0 / np.maximum(np.abs(depth_ab), 1e-9), 2, axis=1)
+    return sol
+
+
+class MarkerPositions:
+    """Each marker's last accepted 3D position, and how far it can have moved since.
+
+    A marker cannot move faster than ``max_speed_m_s`` (the markers ride on sand pushed by the
+    tool); a pair of pixels whose triangulated point lies farther from the marker's last
+    accepted position than ``gate_m + max_speed_m_s * dt`` cannot be that marker in both
+    cameras: one of the two numbers is wrong. Markers never triangulated yet have no position
+    and are not gated.
+
+    Args:
+        gate_m: allowance for triangulation noise, the cameras' exposure offset and the
+            marker's size [m].
+        max_speed_m_s: fastest a marker moves [m/s].
+    """
+
+    HISTORY = 200  # accepted positions kept per marker (a few seconds at 50 FPS per camera)
+
+    def __init__(self, gate_m: float, max_speed_m_s: float) -> None:
+        self.gate_m = gate_m
+        self.max_speed_m_s = max_speed_m_s
+        self.known: dict[int, tuple[float, FloatArray]] = {}
+        self.history: dict[int, list[tuple[float, FloatArray]]] = {}  # the last HISTORY each
+
+    def distance(self, marker: int, stamp_s: float, xyz: FloatArray) -> tuple[float, float]:
+        """``(distance, allowed)`` [m] of ``xyz`` (3,) from the marker's last position."""
+        if marker not in self.known:
+            return 0.0, np.inf
+        t, ref = self.known[marker]
+        allowed = self.gate_m + self.max_speed_m_s * abs(stamp_s - t)
+        return float(np.linalg.norm(np.asarray(xyz) - ref)), allowed
+
+    def allows(self, marker: int, stamp_s: float, xyz: FloatArray) -> bool:
+        """Whether ``xyz`` (3,) m can be ``marker`` at ``stamp_s`` (always, if never seen)."""
+        dist, allowed = self.distance(marker, stamp_s, xyz)
+        return bool(np.isfinite(dist) and dist <= allowed)
+
+    def accept(self, marker: int, stamp_s: float, xyz: FloatArray) -> None:
+        """Record ``xyz`` (3,) m as the marker's position at ``stamp_s``."""
+        if np.isfinite(xyz).all():
+            self.known[marker] = (stamp_s, np.asarray(xyz, np.float64).copy())
+            past = self.history.setdefault(marker, [])
+            past.append(self.known[marker])
+            del past[:-self.HISTORY]
+
+    def carried(self, marker: int, stamp_s: float, near_s: float, recent_s: float,
+                anchor: tuple[float, FloatArray] | None = None, neighbours: int = 3,
+                ) -> FloatArray | None:
+        """Where the bed's motion has carried a marker not seen since its last position.
+
+        Its last accepted position, moved by the mean displacement, over the same interval, of
+        the ``neighbours`` markers nearest to it then that have a position within ``near_s``
+        of its last one and one at most ``recent_s`` old now (the bed moves as a continuum:
+        a covered marker goes where the markers around it go). A marker never accepted starts
+        from ``anchor`` ``(stamp s, (3,) m)`` if given. None when it has no position or no
+        such neighbour.
+        """
+        start = self.known.get(marker, anchor)
+        if start is None:
+            return None
+        t_m, x_m = start
+        moves = []
+        for n, past in self.history.items():
+            now = self.known[n]
+            if n == marker or stamp_s - now[0] > recent_s or now[0] <= t_m:
+                continue
+            then = min(past, key=lambda p: abs(p[0] - t_m))
+            if abs(then[0] - t_m) <= near_s:
+                moves.append((float(np.linalg.norm(then[1] - x_m)), now[1] - then[1]))
+        if not moves:
+            return None
+        moves.sort(key=lambda mv: mv[0])
+        return np.asarray(x_m + np.mean([mv[1] for mv in moves[:neighbours]], axis=0),
+                          np.float64)

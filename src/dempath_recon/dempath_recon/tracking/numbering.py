@@ -1,0 +1,136 @@
+"""The two-camera tracker's numbering of one camera's tracks: all at once by the marker grid
+(a camera's first frame that fits it), then each new track by the other camera's epipolar lines
+at a depth the marker can have reached, or, for a marker this camera never saw, by its fitted
+grid point.
+
+Functions on :class:`~dempath_recon.tracking.state.StereoState`; a number given here is taken
+back if a later pair contradicts it (:func:`~dempath_recon.tracking.pair_checks.verify`).
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+
+import numpy as np
+from numpy.typing import NDArray
+
+from dempath_recon.tracking.associate import number_by_grid, on_epipolar_line, triangulate_pairs
+from dempath_recon.tracking.linker import UNNUMBERED
+from dempath_recon.tracking.one_camera import grid_anchor, late_grid
+from dempath_recon.tracking.state import MAX_DEPTH_AGE_S, RECENT_S, StereoState, retire
+
+FloatArray = NDArray[np.float64]
+
+
+def number_all_by_grid(state: StereoState, camera: str, track_ids: NDArray[np.int64],
+                       uv: FloatArray, events: list[str]) -> NDArray[np.int32]:
+    """Number this camera's tracks by the projected grid, once enough detections fit it."""
+    numbers, grid_uv = number_by_grid(state.cameras[camera], uv, state.config.grid,
+                                      state.config.grid_gate_px)
+    need = min(state.config.min_grid_markers, len(state.config.grid.points()[0]))
+    found = int((numbers >= 0).sum())
+    if found < need:
+        events.append(f'{camera}: {found} of {len(uv)} detections fit the marker grid; '
+                      f'numbering waits for {need}')
+        return np.full(len(uv), UNNUMBERED, np.int32)
+    for tid, m in zip(track_ids, numbers, strict=True):
+        if m >= 0:
+            state.trackers[camera].number(int(tid), int(m))
+    state.grid_uv[camera] = dict(zip(state.config.grid.points()[0].tolist(), grid_uv,
+                                     strict=True))
+    state.grid_time[camera] = state.last_stamp[camera] or 0.0
+    events.append(f'{camera}: {found} of {len(uv)} detections numbered by the grid')
+    return numbers
+
+
+def number_new(state: StereoState, camera: str, track_ids: NDArray[np.int64],
+               markers: NDArray[np.int32], uv: FloatArray, stamp_s: float, events: list[str],
+               ) -> NDArray[np.int32]:
+    """Number unnumbered tracks from the other camera's recent markers, else by the grid.
+
+    A candidate marker must not have been seen by this camera since the track started (a
+    track that ran beside marker m's own track is not m), must lie on the track's epipolar
+    line, and the pair's 3D point must be one the marker can have reached; the track is
+    numbered only when exactly one candidate passes, and a candidate whose epipolar line
+    passes more than one unnumbered detection of this frame is no candidate. Failing that,
+    a marker this camera has never seen that appears alone at its fitted grid point takes
+    that number. Numbers given here are taken back if a later pair contradicts them
+    (:func:`~dempath_recon.tracking.pair_checks.verify`).
+    """
+    markers = markers.copy()
+    other = state.other(camera)
+    seen = {int(m) for m in markers if m >= 0}
+    starts = {t.track_id: t.history[0][0] for t in state.trackers[camera].tracks}
+    todo = np.flatnonzero(markers == UNNUMBERED)
+    recent = {m: p for m, (t, p) in state.latest[other].items()
+              if m not in seen and abs(t - stamp_s) <= RECENT_S}
+    lines = Counter(m for k in todo for m in on_epipolar_line(
+        state.cameras[camera], state.cameras[other], uv[k], recent, state.config.epipolar_px))
+    for k in todo:
+        tid = int(track_ids[k])
+        cands = {m: p for m, p in recent.items()
+                 if m not in seen and lines[m] == 1
+                 and (tid, m) not in state.refused[camera]
+                 and state.latest[camera].get(m, (-np.inf, None))[0] < starts.get(tid, 0.0)}
+        number = pick(state, camera, tid, uv[k], cands, stamp_s, events)
+        if number < 0 and starts.get(tid) == stamp_s:  # only a track's first frame
+            number = late_grid(state, camera, uv, k, seen)
+            if number >= 0:
+                state.counts[camera].numbered_by_grid_late += 1
+                events.append(f'{camera}: track {tid} numbered marker {number}: it appeared '
+                              'at its grid point, not seen by this camera before')
+        if number < 0:
+            state.counts[camera].unnumbered += 1
+            continue
+        retire(state, camera, number)
+        state.trackers[camera].number(tid, number)
+        state.late_numbered[camera].add(tid)
+        markers[k] = number
+        seen.add(number)
+    return markers
+
+
+def pick(state: StereoState, camera: str, track_id: int, uv: FloatArray,
+         candidates: dict[int, FloatArray], stamp_s: float, events: list[str]) -> int:
+    """The one candidate on the track's epipolar line at a depth the marker can be at.
+
+    Only markers with an accepted 3D position at most ``MAX_DEPTH_AGE_S`` old are
+    candidates (a line alone is ambiguous along its depth). A candidate on the line whose
+    3D point the marker cannot have reached is refused for this track for good: a later,
+    looser gate (the marker unseen for longer) must not overrule the tightest evidence,
+    which is the first.
+    """
+    other = state.other(camera)
+    close = on_epipolar_line(state.cameras[camera], state.cameras[other], uv, candidates,
+                             state.config.epipolar_px)
+    if not close:
+        return UNNUMBERED
+    xyz, _ = triangulate_pairs(state.cameras[camera], state.cameras[other],
+                               np.repeat(uv[None], len(close), 0),
+                               np.array([candidates[m] for m in close]))
+    fits = []
+    for m, x in zip(close, xyz, strict=True):
+        if m in state.positions.known:
+            if stamp_s - state.positions.known[m][0] > MAX_DEPTH_AGE_S:
+                continue  # no recent 3D point: nothing to check the depth along the line
+            dist, allowed = state.positions.distance(m, stamp_s, x)
+        else:  # never triangulated: its grid point, while that is recent and unseen here
+            anchor = grid_anchor(state, camera, m, stamp_s)
+            if anchor is None:
+                continue
+            dist = float(np.linalg.norm(x - anchor[0]))
+            allowed = anchor[1]
+        if dist <= allowed:
+            fits.append(m)
+            continue
+        state.refused[camera].add((track_id, m))
+        events.append(f'{camera}: track {track_id} is not marker {m}: on its epipolar line '
+                      f'but {1e3 * dist:.0f} mm from its last position (at most '
+                      f'{1e3 * allowed:.0f} mm)')
+    if len(fits) != 1:
+        return UNNUMBERED
+    state.counts[camera].numbered_by_epipolar += 1
+    events.append(f'{camera}: track {track_id} numbered marker {fits[0]} by the epipolar '
+                  'line')
+    return fits[0]
+

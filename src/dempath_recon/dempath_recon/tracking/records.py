@@ -1,0 +1,116 @@
+"""The records of the two-camera marker tracker: its settings, one camera frame's numbered
+pixels, and the counts of what happened to each camera's frames (the run report's rows).
+
+Kept apart from the tracker (:mod:`dempath_recon.tracking.stereo` re-exports them), so that
+the records stand below everything that uses them, ``trajectories`` included.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import NamedTuple
+
+import numpy as np
+from numpy.typing import NDArray
+
+from dempath_recon.tracking.associate import MarkerGrid
+from dempath_recon.tracking.detect import DetectorConfig
+from dempath_recon.tracking.linker import TrackerConfig
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class StereoTrackConfig:
+    """Settings of the two-camera marker pipeline.
+
+    Attributes:
+        detector: detector settings.
+        tracker: linker settings.
+        grid: the initial marker grid.
+        fps: nominal frame rate [1/s] (dropped frames are gaps above 1.5 periods).
+        epipolar_px: largest distance to the epipolar line for numbering a new track [px]; a
+            numbered pair farther than 3 times this from it is withheld.
+        min_grid_markers: detections that must fit the projected grid before a camera's
+            markers are numbered by it (frames with fewer wait for a later frame).
+        grid_gate_px: largest distance of a detection from its fitted grid point [px]; a
+            marker this camera has never seen that appears alone within it later (covered at
+            the start) takes that grid point's number.
+        position_gate_m: 3D allowance of a numbered pair around the marker's last accepted
+            position, for noise, the cameras' exposure offset and the marker's size [m].
+        doubt_link_px: a track that fails a check against the other camera loses its number
+            when one of its links since its last passed check missed the prediction by more
+            than this [px] (markers moving smoothly miss by a pixel or two).
+        max_speed_m_s: fastest a marker can move [m/s] (the tool's speed, 1 m/s in the
+            paper, with a margin: sand ahead of the tool does not outrun it by much).
+        number_delay_frames: frames of its camera a frame is held in
+            ``StereoMarkerTracker.release`` before it is given out; a point of a then
+            unnumbered track goes out with the number the track got within the delay (a
+            marker that comes back is often numbered a few frames later, when the other
+            camera sees it too). 0 gives every frame out as it is numbered on arrival (what
+            ``update`` returns, whatever this is).
+    """
+
+    detector: DetectorConfig = field(default_factory=DetectorConfig)
+    tracker: TrackerConfig = field(default_factory=TrackerConfig)
+    grid: MarkerGrid = field(default_factory=MarkerGrid)
+    fps: float = 50.0
+    epipolar_px: float = 4.0
+    min_grid_markers: int = 3
+    grid_gate_px: float = 12.0
+    position_gate_m: float = 0.01
+    doubt_link_px: float = 5.0
+    max_speed_m_s: float = 2.0
+    number_delay_frames: int = 5
+
+    def __post_init__(self) -> None:
+        for name in ('fps', 'epipolar_px', 'grid_gate_px', 'position_gate_m',
+                     'max_speed_m_s'):
+            if not getattr(self, name) > 0:
+                msg = f'{name}: must be > 0, got {getattr(self, name)!r}'
+                raise ValueError(msg)
+        if self.number_delay_frames < 0:
+            msg = f'number_delay_frames: must be >= 0, got {self.number_delay_frames!r}'
+            raise ValueError(msg)
+        if self.min_grid_markers < 1:
+            msg = f'min_grid_markers: must be >= 1, got {self.min_grid_markers!r}'
+            raise ValueError(msg)
+
+
+class PixelFrame(NamedTuple):
+    """Numbered marker pixels of one camera frame (what a PixelPoints message carries)."""
+
+    camera: str
+    stamp_s: float
+    markers: NDArray[np.int32]  # (k,) marker numbers, -1 not identified
+    uv: FloatArray  # (k, 2) px
+    confidence: FloatArray  # (k,)
+    events: tuple[str, ...]
+
+
+@dataclass
+class CameraCounts:
+    """What happened to one camera's frames (the run report's rows)."""
+
+    frames: int = 0
+    undecodable: int = 0
+    dropped: int = 0
+    out_of_order: int = 0
+    no_marker: int = 0
+    detected: int = 0
+    tracked: int = 0
+    lost: int = 0
+    reattached: int = 0
+    numbered_by_epipolar: int = 0
+    numbered_by_grid_late: int = 0
+    numbered_by_pair: int = 0
+    numbered_late: int = 0
+    unnumbered: int = 0
+    epipolar_conflicts: int = 0
+    position_conflicts: int = 0
+    motion_conflicts: int = 0
+    withheld: int = 0
+    unconfirmed: int = 0
+    confirmed_alone: int = 0
+    revoked: int = 0
+    gaps_s: list[tuple[float, float]] = field(default_factory=list)

@@ -1,0 +1,234 @@
+"""Markers from two cameras' images: detect, track, number, check, triangulate (stream, batch).
+
+:class:`StereoMarkerTracker` takes the frames of both cameras one at a time in arrival order
+(``update(camera, stamp, jpeg)``): it decodes and detects (``detect``), links to the camera's
+tracks (``linker``), numbers a camera's tracks by the marker grid once a frame fits it, and
+later new tracks by the other camera's epipolar lines or, for a marker that camera never saw,
+by its grid point (``associate``), or, for a marker back in both cameras while neither has it
+numbered, as a pair placed by the motion of its neighbours. Every numbered point is checked
+against the other camera's point of the same number (epipolar line, and a 3D point the marker
+can have reached since its last accepted position); a pair that fails is withheld, never
+given out as the marker. Every fault is counted: undecodable images, dropped frames (a stamp
+gap of more than 1.5 frame periods), frames out of stamp order, frames without any marker,
+lost and re-attached markers, withheld pairs. ``update`` returns each frame as numbered on
+arrival; ``release`` gives the frames out ``number_delay_frames`` later, with the numbers
+their new tracks got meanwhile. :func:`track_bag` is the batch form over a bag (``update``,
+``release``, ``flush``), and :func:`~dempath_recon.tracking.trajectories.triangulate_tracks`
+(re-exported here) turns the numbered pixel tracks into 3D trajectories.
+
+The tracker's parts live beside it in this room: its state, one record (``state``), the
+numbering of a camera's tracks by the grid and the epipolar lines (``numbering``), the checks on
+one camera's evidence (``one_camera``), the pair checks before anything is given out
+(``pair_checks``), the numbering of a marker back in both cameras as a pair
+(``pair_numbering``), the publication delay (``release``) and the records (``records``).
+"""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from dempath_recon.methods.triangulate import Camera
+from dempath_recon.tracking.detect import Detections, ImageDecodeError, MarkerDetector
+from dempath_recon.tracking.merge import StampMerge
+from dempath_recon.tracking.numbering import number_all_by_grid, number_new
+from dempath_recon.tracking.pair_checks import verify
+from dempath_recon.tracking.pair_numbering import number_pairs
+from dempath_recon.tracking.records import CameraCounts, PixelFrame, StereoTrackConfig
+from dempath_recon.tracking.release import HeldFrame, renumber
+from dempath_recon.tracking.state import (
+    Sighting,
+    StereoState,
+    forget_refusals,
+    report,
+    unnumbered_tracks,
+)
+from dempath_recon.tracking.trajectories import marker_histories, triangulate_tracks
+
+__all__ = ['CameraCounts', 'PixelFrame', 'StereoMarkerTracker', 'StereoTrackConfig',
+           'marker_histories', 'track_bag', 'triangulate_tracks']
+LOG = logging.getLogger(__name__)
+FloatArray = NDArray[np.float64]
+
+
+class StereoMarkerTracker:
+    """Streaming two-camera marker pipeline: a detector and the state record
+    (:class:`~dempath_recon.tracking.state.StereoState`), run frame by frame through the
+    numbering and the checks.
+
+    Args:
+        cameras: ``{name: camera}`` for the two cameras (calibrated, world frame).
+        config: pipeline settings.
+    """
+
+    def __init__(self, cameras: dict[str, Camera], config: StereoTrackConfig | None = None,
+                 ) -> None:
+        self.state = StereoState.start(cameras, config or StereoTrackConfig())
+        self.detector = MarkerDetector(self.state.config.detector)
+
+    @property
+    def cameras(self) -> dict[str, Camera]:
+        """``{name: camera}`` of the two cameras."""
+        return self.state.cameras
+
+    @property
+    def config(self) -> StereoTrackConfig:
+        """The pipeline's settings."""
+        return self.state.config
+
+    @property
+    def counts(self) -> dict[str, CameraCounts]:
+        """What happened to each camera's frames so far."""
+        return self.state.counts
+
+    def other(self, camera: str) -> str:
+        """The other camera's name."""
+        return self.state.other(camera)
+
+    def held(self) -> int:
+        """Frames held for the publication delay (``release``/``flush`` give them out)."""
+        return len(self.state.queue)
+
+    def report(self) -> dict[str, Any]:
+        """Counts per camera, and the stamp gaps where frames were missing."""
+        return report(self.state)
+
+    def note_other(self, camera: str, stamp_s: float, markers: NDArray[np.int32],
+                   uv: FloatArray) -> None:
+        """Numbered points of ``camera`` that another tracker gave out (a detector node hears
+        the other camera's ``pixel_points``): they become that camera's latest sightings, for
+        numbering by the epipolar line and the pair checks."""
+        latest: dict[int, Sighting] = self.state.latest[camera]
+        for m, p in zip(markers, uv, strict=True):
+            latest[int(m)] = (stamp_s, np.asarray(p, np.float64))
+
+    def update(self, camera: str, stamp_s: float, jpeg: bytes | NDArray[np.uint8]) -> PixelFrame:
+        """One compressed frame of ``camera``; never raises for bad images (counts them)."""
+        counts = self.counts[camera]
+        try:
+            det = self.detector.detect_jpeg(jpeg)
+        except ImageDecodeError as err:
+            index = counts.frames + counts.undecodable + counts.out_of_order  # of this camera
+            counts.undecodable += 1
+            msg = (f'{camera} frame {index} at {stamp_s:.6f} s: {err}; skipped (undecodable '
+                   f'frames so far: {counts.undecodable})')
+            LOG.warning(msg)
+            return PixelFrame(camera, stamp_s, np.zeros(0, np.int32), np.zeros((0, 2)),
+                              np.zeros(0), (msg,))
+        return self.update_detections(camera, stamp_s, det)
+
+    def update_image(self, camera: str, stamp_s: float, image: NDArray[np.uint8]) -> PixelFrame:
+        """One decoded BGR frame (full size) of ``camera``."""
+        return self.update_detections(camera, stamp_s, self.detector.detect(image))
+
+    def update_detections(self, camera: str, stamp_s: float, det: Detections) -> PixelFrame:
+        """One frame's detections of ``camera``: link, number, check against the other camera.
+
+        The returned frame's markers are -1 where a detection is not identified, or where its
+        number disagrees with the other camera (off the epipolar line, or a 3D point the
+        marker cannot have reached): such a point is withheld, never given out as the marker.
+        """
+        state = self.state
+        counts, tracker = state.counts[camera], state.trackers[camera]
+        last = state.last_stamp[camera]
+        if last is not None and stamp_s <= last:
+            counts.out_of_order += 1
+            msg = f'{camera} frame at {stamp_s:.6f} s is not after {last:.6f} s; skipped'
+            LOG.warning(msg)
+            return PixelFrame(camera, stamp_s, np.zeros(0, np.int32), np.zeros((0, 2)),
+                              np.zeros(0), (msg,))
+        events: list[str] = []
+        if last is not None and stamp_s - last > 1.5 / state.config.fps:
+            missed = round((stamp_s - last) * state.config.fps) - 1
+            counts.dropped += max(missed, 1)
+            counts.gaps_s.append((last, stamp_s))
+            events.append(f'{camera}: {max(missed, 1)} frame(s) missing before {stamp_s:.3f} s')
+        state.last_stamp[camera] = stamp_s
+        counts.frames += 1
+        counts.no_marker += int(len(det.uv) == 0)
+        before = (tracker.counts.lost, tracker.counts.reattached)
+        tf = tracker.update(stamp_s, det)
+        counts.detected += len(det.uv)
+        counts.lost += tracker.counts.lost - before[0]
+        counts.reattached += tracker.counts.reattached - before[1]
+        forget_refusals(state, camera, stamp_s)
+        markers = tf.markers
+        if camera not in state.grid_uv:
+            markers = number_all_by_grid(state, camera, tf.track_ids, tf.uv, events)
+        markers = number_new(state, camera, tf.track_ids, markers, tf.uv, stamp_s, events)
+        markers = number_pairs(state, camera, tf.track_ids, markers, tf.uv, stamp_s, events)
+        markers = verify(state, camera, tf.track_ids, markers, tf.uv, stamp_s, events)
+        free_mask = unnumbered_tracks(state, camera, tf.track_ids, markers)
+        free = np.flatnonzero(free_mask)
+        state.free[camera] = (stamp_s, tf.track_ids[free], tf.uv[free])
+        counts.tracked += int((markers >= 0).sum())
+        for m, p in zip(markers, tf.uv, strict=True):
+            if m >= 0:
+                state.latest[camera][int(m)] = (stamp_s, p)
+        frame = PixelFrame(camera, stamp_s, markers, tf.uv, tf.confidence,
+                           tuple(events) + tf.events)
+        state.queue.hold(frame, tf.track_ids, free_mask)
+        return frame
+
+    def release(self) -> list[PixelFrame]:
+        """The frames now ``number_delay_frames`` frames old in their camera, in arrival
+        order (with a delay of 0: the frame ``update`` just returned). Call it after every
+        ``update``: frames older than the delay are dropped at the next ``update`` (a caller
+        that only uses ``update``'s frames, like the detector node, holds nothing).
+
+        A point that was unnumbered on arrival because its track had no number goes out with
+        the number the track has now, if the track was given one since and kept its 2D links
+        in the meantime (no re-attachment after that frame, which could be another marker)
+        and no other point of the frame has that number. Held frames keep their stamps: the
+        delay only postpones them.
+        """
+        return [self._amend(h) for h in self.state.queue.due()]
+
+    def flush(self) -> list[PixelFrame]:
+        """All frames still held (end of a recording), with the numbers known now."""
+        return [self._amend(h) for h in self.state.queue.rest()]
+
+    def _amend(self, held: HeldFrame) -> PixelFrame:
+        state = self.state
+        frame, late = renumber(held, state.trackers[held.camera].tracks, state.config.fps)
+        state.counts[held.camera].numbered_late += late
+        return frame
+
+
+def track_bag(bag: Path, cameras: dict[str, Camera], config: StereoTrackConfig | None = None,
+              start_ns: int = 0) -> tuple[list[PixelFrame], dict[str, Any]]:
+    """Batch form over a bag's ``/<cam>/image_raw/compressed`` topics, the two cameras'
+    frames merged by stamp (:class:`~dempath_recon.tracking.merge.StampMerge`, as the detector
+    node does with ``lossless``), each camera's in bag order.
+
+    Args:
+        bag: the bag folder.
+        cameras: ``{name: camera}``; their names give the topics.
+        config: pipeline settings.
+        start_ns: ignore frames stamped before this (e.g. the calibration segment) [ns].
+    """
+    from dempath.bagio import open_bag
+
+    tracker = StereoMarkerTracker(cameras, config)
+    frames: list[PixelFrame] = []
+    topic_cam = {f'/{n}/image_raw/compressed': n for n in cameras}
+    merge: StampMerge[bytes] = StampMerge(cameras)
+    with open_bag(bag, list(topic_cam)) as reader:
+        for raw in reader.messages(list(topic_cam)):
+            msg = reader.deserialize(raw)
+            stamp = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
+            if stamp < start_ns:
+                continue
+            seconds = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9  # as the node
+            for cam, stamp_s, data in merge.push(topic_cam[raw.topic], seconds,
+                                                 bytes(msg.data)):
+                tracker.update(cam, stamp_s, data)
+                frames += tracker.release()
+    for cam, stamp_s, data in merge.rest():
+        tracker.update(cam, stamp_s, data)
+        frames += tracker.release()
+    return frames + tracker.flush(), tracker.report()

@@ -1,0 +1,73 @@
+"""Numbered pixel tracks of two cameras -> 3D marker trajectories (batch).
+
+:func:`triangulate_tracks` turns the numbered pixel frames of
+:class:`dempath_recon.tracking.stereo.StereoMarkerTracker` into 3D trajectories at the side
+camera's stamps, interpolating the other camera's track to each side stamp, because
+unsynchronised cameras expose at different instants (a few ms at 1 m/s is a few mm).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from dempath_recon.methods.triangulate import Camera, triangulate_points
+from dempath_recon.tracking.records import PixelFrame
+
+FloatArray = NDArray[np.float64]
+
+
+def marker_histories(frames: list[PixelFrame], camera: str,
+                     ) -> dict[int, tuple[FloatArray, FloatArray]]:
+    """``{marker: (times (k,) s, uv (k, 2) px)}`` of one camera's numbered points."""
+    out: dict[int, list[tuple[float, float, float]]] = {}
+    for f in frames:
+        if f.camera != camera:
+            continue
+        for m, p in zip(f.markers, f.uv, strict=True):
+            if m >= 0:
+                out.setdefault(int(m), []).append((f.stamp_s, float(p[0]), float(p[1])))
+    return {m: (np.array([r[0] for r in rows]), np.array([r[1:] for r in rows]))
+            for m, rows in out.items()}
+
+
+def _interpolate(hist: tuple[FloatArray, FloatArray], t: FloatArray, max_gap_s: float,
+                 ) -> FloatArray:
+    """(len(t), 2) px of a track at times t, NaN where no samples within ``max_gap_s`` bracket."""
+    times, uv = hist
+    out = np.full((len(t), 2), np.nan)
+    if len(times) < 2:
+        return out
+    k = np.searchsorted(times, t)
+    ok = (k > 0) & (k < len(times))
+    kk = np.clip(k, 1, len(times) - 1)
+    ok &= (times[kk] - times[kk - 1]) <= max_gap_s
+    for i in range(2):
+        out[ok, i] = np.interp(t[ok], times, uv[:, i])
+    return out
+
+
+def triangulate_tracks(frames: list[PixelFrame], cameras: dict[str, Camera], side: str,
+                       fps: float = 50.0) -> tuple[FloatArray, NDArray[np.int32], FloatArray]:
+    """3D trajectories at the ``side`` camera's stamps.
+
+    Returns:
+        ``(times (nt,) s, markers (m,), xyz (nt, m, 3) m)``, NaN where a marker is missing in
+        either camera (the other camera's track is interpolated to the side stamps over gaps
+        of at most 1.5 frame periods).
+    """
+    front = next(n for n in cameras if n != side)
+    hs, hf = marker_histories(frames, side), marker_histories(frames, front)
+    times = np.array(sorted({f.stamp_s for f in frames if f.camera == side}))
+    markers = np.array(sorted(set(hs) & set(hf)), np.int32)
+    xyz = np.full((len(times), len(markers), 3), np.nan)
+    for j, m in enumerate(markers):
+        us = np.full((len(times), 2), np.nan)
+        idx = np.searchsorted(times, hs[int(m)][0])
+        us[idx] = hs[int(m)][1]
+        uf = _interpolate(hf[int(m)], times, 1.5 / fps)
+        ok = np.isfinite(us).all(1) & np.isfinite(uf).all(1)
+        if ok.any():
+            views = np.stack([us[ok], uf[ok]])
+            xyz[ok, j] = triangulate_points([cameras[side], cameras[front]], views).xyz
+    return times, markers, xyz

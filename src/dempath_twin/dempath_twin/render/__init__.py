@@ -1,0 +1,7 @@
+"""Rendered field recordings: the whole simulated bed as the twin rig's cameras see it.
+
+``bed_source`` (every particle at the frame times), ``splat`` (z-buffered spheres and
+triangles, shadows), ``camera_frame`` (one camera's shaded, distorted colour frame),
+``recording`` (calibration segment plus the pass) and ``bag`` (the MCAP bag and
+``dempath twin render``).
+"""
