@@ -22,7 +22,7 @@ from dempath_diagnose.cli import diagnosis_of
 from dempath_diagnose.errors import DiagnosisError
 from dempath_diagnose.library import serial_executor
 from dempath_diagnose.recal_progress import Callback, fan_out, printer
-from dempath_diagnose.recal_targets import also_candidates, budgets, named, targets
+from dempath_diagnose.recal_targets import also_candidates, budgets, check_options, named, targets
 from dempath_diagnose.recalibrate import Recalibration, check_strength, recalibrate, unchanged
 
 
@@ -80,6 +80,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         raise DiagnosisError(f'--budget {args.budget}: must be a positive number of simulations')
     if args.seeds_per_eval <= 0:
         raise DiagnosisError(f'--seeds-per-eval {args.seeds_per_eval}: must be positive')
+    check_options(args)  # before the diagnosis is computed or written
     scene, spec, library, allowance, d = diagnosis_of(args)
     write_outputs(d, args.out, {'scene': scene.name, 'library': str(library.folder),
                                 'allowance': vars(allowance)})
