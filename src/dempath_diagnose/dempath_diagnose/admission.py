@@ -170,8 +170,8 @@ def thin_measurement(layout: Layout) -> str:
 
 
 def thin_decision(decision: Decision, layout: Layout) -> Decision:
-    """``decision`` made ``inconclusive`` (every model remaining, the reason first among what
-    would separate them) when the measurement is thin; unchanged otherwise."""
+    """``decision`` made ``inconclusive`` (every model remaining, the reason in its notes)
+    when the measurement is thin; unchanged otherwise."""
     from dataclasses import replace
 
     note = thin_measurement(layout)
@@ -179,7 +179,7 @@ def thin_decision(decision: Decision, layout: Layout) -> Decision:
         return decision
     remaining = [decision.baseline.name, *(f.name for f in decision.ranking)]
     return replace(decision, verdict='inconclusive', remaining=remaining,
-                   separators=[note, *decision.separators])
+                   notes=[*decision.notes, note])
 
 
 __all__ = ['MIN_MARKERS', 'PARTS', 'check_force_time_base', 'check_library_scene',

@@ -159,7 +159,7 @@ def test_one_marker_is_inconclusive_with_the_markers_it_needs(tmp_path: Path) ->
         verdicts[name] = json.loads((tmp_path / name / 'diagnosis.json').read_text())
     assert verdicts['all']['verdict'] == 'effect_missing'
     assert verdicts['one']['verdict'] == 'inconclusive'
-    assert verdicts['one']['would_separate'][0].startswith(
+    assert verdicts['one']['notes'][0].startswith(
         'thin measurement: 1 marker (1 on the tool axis, 0 beside it); naming an effect needs '
         'at least 3 markers')
 
