@@ -6,6 +6,12 @@ least every ``flush_period_s``, so that a SIGKILL loses at most that much. Nothi
 silently: per topic the recorder counts messages received, written, dropped (queue over budget,
 a write failure, lost in transport as the node reports it) and late (received more than
 ``late_threshold_s`` after they were sent; they are still written).
+
+Frames (:mod:`dempath.frames`): given a ``frames_file``, the bag starts with those static
+transforms on ``/tf_static``; given a ``tool_pose_topic``, every PoseStamped recorded there is
+also written as a ``/tf`` transform to the ``tool`` frame, with the pose's stamp. So every bag
+the recorder writes places the cameras, the tool and everything stamped in their frames in
+Foxglove, without tf2 in the process.
 """
 
 from __future__ import annotations
@@ -17,14 +23,22 @@ import time
 from dataclasses import dataclass, field
 from typing import Any
 
+import yaml
 from rosbags.typesys.store import Typestore
 
 from dempath.bagio import make_typestore, message_definition
-from dempath.errors import OutputError
+from dempath.errors import DempathError, OutputError
+from dempath.frames import TF, TF_STATIC, TF_TYPE, load_frames, pose_tf_cdr, tf_message
 from dempath.mcapbag import COMPRESSIONS, McapBagWriter
 from dempath.topics import is_dempath_topic
 
 LOG = logging.getLogger(__name__)
+_INFINITE = {'sec': 9223372036, 'nsec': 854775807}  # rmw's "infinite" duration
+LATCHED_QOS = yaml.safe_dump([{  # offered QoS of /tf_static in metadata.yaml (as tf2 offers)
+    'history': 'keep_last', 'depth': 1, 'reliability': 'reliable',
+    'durability': 'transient_local', 'deadline': _INFINITE, 'lifespan': _INFINITE,
+    'liveliness': 'automatic', 'liveliness_lease_duration': _INFINITE,
+    'avoid_ros_namespace_conventions': False}])
 
 
 @dataclass(frozen=True)
@@ -42,6 +56,10 @@ class RecorderConfig:
             dropped and counted.
         late_threshold_s: A message received this long after it was sent counts as late [s].
         report_period_s: How often the node logs the counts [s].
+        frames_file: Static transforms (YAML of :func:`dempath.frames.save_frames`) written to
+            ``/tf_static`` when the bag opens; '' for none.
+        tool_pose_topic: PoseStamped topic also written as ``/tf`` (its frame -> ``tool``);
+            '' for none.
     """
 
     output: str
@@ -53,6 +71,8 @@ class RecorderConfig:
     max_queue_bytes: int = 1 << 30
     late_threshold_s: float = 0.5
     report_period_s: float = 10.0
+    frames_file: str = ''
+    tool_pose_topic: str = ''
 
     def __post_init__(self) -> None:
         if not self.output:
@@ -119,10 +139,21 @@ class BagRecorder:
         Raises:
             OutputError: The output directory cannot be created or written.
         """
+        static = []
+        if self.config.frames_file:
+            try:
+                static = load_frames(self.config.frames_file)
+            except DempathError as err:
+                raise OutputError(str(err)) from err
         self._writer.open()
         self._store = self._store or make_typestore()
         self._thread = threading.Thread(target=self._run, name='bag-writer', daemon=True)
         self._thread.start()
+        if static:
+            now = time.time_ns()
+            self.add_topic(TF_STATIC, TF_TYPE, LATCHED_QOS)
+            self.submit(TF_STATIC, bytes(self._store.serialize_cdr(
+                tf_message(self._store, static, now), TF_TYPE)), now)
 
     def add_topic(self, topic: str, msgtype: str, offered_qos: str = '') -> None:
         """Start a topic (its schema is the full definition of ``msgtype`` when known)."""
@@ -162,7 +193,22 @@ class BagRecorder:
                 return False
             self._queued_bytes += len(data)
         self._queue.put(('msg', topic, data, log_time_ns, publish_time_ns, sequence))
+        if topic == self.config.tool_pose_topic and topic:
+            self._submit_tool_tf(data, log_time_ns)
         return True
+
+    def _submit_tool_tf(self, pose_cdr: bytes, log_time_ns: int) -> None:
+        """The tool's pose also as ``/tf`` (counted on that topic like any message)."""
+        assert self._store is not None
+        if TF not in self.stats:
+            self.add_topic(TF, TF_TYPE)
+        try:
+            data = pose_tf_cdr(self._store, pose_cdr)
+        except (ValueError, KeyError, IndexError) as err:  # rosbags' CDR errors are ValueErrors
+            LOG.warning('%s: a tool pose not written to /tf: %s', self.config.tool_pose_topic,
+                        err)
+            return
+        self.submit(TF, data, log_time_ns)
 
     def count_lost(self, topic: str, count: int) -> None:
         """Count messages the transport reports lost before they reached the recorder."""

@@ -15,6 +15,8 @@ MARKER_VIZ = '/markers/visualization'  # visualization_msgs/MarkerArray
 SIM_STATES = '/sim/particle_states'  # dempath_msgs/ParticleStates
 SIM_TOOL_FORCE = '/sim/tool_force'  # dempath_msgs/ToolForce
 SIM_TOOL_POSE = '/sim/tool_pose'  # geometry_msgs/PoseStamped
+SIM_TOOL_WRENCH = '/sim/tool_wrench'  # geometry_msgs/WrenchStamped (the force, standard type)
+SIM_CLOUD = '/sim/particles'  # sensor_msgs/PointCloud2: x, y, z, radius, marker_id
 SIM_RUN_EVENTS = '/sim/run_events'  # dempath_msgs/RunEvent
 SIM_VIZ = '/sim/visualization'  # visualization_msgs/MarkerArray
 

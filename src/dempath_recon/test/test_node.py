@@ -54,7 +54,7 @@ def test_node_publishes_points_sigma_and_markers(ros_harness, rig, tmp_path) -> 
         n = 2 if k == 1 else 4
         assert list(msg.marker_ids) == [11, 12, 13, 14][:n]
         assert np.abs(xyz - truth[k][:n]).max() < 1e-9
-        assert msg.method == 'dlt_refined' and msg.header.frame_id == 'world'
+        assert msg.method == 'dlt_refined' and msg.header.frame_id == 'field'
         assert all(0 < s < 0.01 for s in [*msg.sigma_x, *msg.sigma_y, *msg.sigma_z])
         assert len(viz[k].markers) == n
     assert node.stream.rejected == {REASON_NAN: 1, REASON_OUTSIDE[1]: 1}

@@ -6,7 +6,9 @@ keep their latched message). Every message is counted: received, written, droppe
 gaps, messages the middleware reports lost, over the writer's budget) and late; the counts are
 logged every ``report_period_s`` and as a summary when the node is destroyed, which finalises
 the bag (also on SIGINT/SIGTERM through ``main``). An unwritable output logs one error line
-and leaves the node idle, without disturbing other nodes in the process.
+and leaves the node idle, without disturbing other nodes in the process. Frames: the static
+transforms of ``frames_file`` on ``/tf_static`` and the tool's pose on ``/tf``
+(:mod:`dempath.recording`, docs/ros.md).
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ from dempath.errors import DempathError
 from dempath.nodes.msgtypes import import_message_class, offered_qos_yaml, subscription_qos
 from dempath.nodes.spin import run_node
 from dempath.recording import BagRecorder, RecorderConfig
+from dempath.topics import SIM_TOOL_POSE
 
 PARAMETERS = [
     ('output', '', 'bag directory to create'),
@@ -34,6 +37,10 @@ PARAMETERS = [
     ('max_queue_bytes', 1 << 30, 'budget of messages waiting for the writer [bytes]'),
     ('late_threshold_s', 0.5, 'received this long after sending counts as late [s]'),
     ('report_period_s', 10.0, 'how often the counts are logged [s]'),
+    ('frames_file', '', 'static transforms (YAML, dempath.frames) written to /tf_static; '
+                        "'': none"),
+    ('tool_pose_topic', SIM_TOOL_POSE, "PoseStamped topic also written as /tf to 'tool'; "
+                                       "'': none"),
 ]
 QUEUE_DEPTH = 100  # subscription history: about 2 s of two 50 FPS cameras
 

@@ -146,7 +146,8 @@ def graph_topics() -> list[str]:
     names = [topics.camera_topic(t, c) for t in per_camera for c in topics.CAMERAS]
     names += [topics.MARKER_POINTS, topics.MARKER_VIZ, topics.SIM_STATES, topics.SIM_TOOL_FORCE,
               topics.SIM_TOOL_POSE, topics.SIM_RUN_EVENTS, topics.SIM_VIZ, topics.COMPARE_SCORES,
-              topics.COMPARE_VIZ, topics.PLAYER_EVENTS, topics.DIAGNOSTICS]
+              topics.COMPARE_VIZ, topics.PLAYER_EVENTS, topics.DIAGNOSTICS,
+              topics.SIM_TOOL_WRENCH, topics.SIM_CLOUD]
     return names
 
 
@@ -249,6 +250,7 @@ def run_graph(spec: GraphSpec, note: Callable[[str], None] = lambda text: None) 
     """
     from dempath.nodes.harness import RosHarness
     from dempath.nodes.recorder import RecorderNode
+    from dempath_bringup.frames import write_graph_frames
     from dempath_compare.nodes.comparer import ComparerNode
     from dempath_recon.nodes.reconstructor import ReconstructorNode
 
@@ -262,7 +264,10 @@ def run_graph(spec: GraphSpec, note: Callable[[str], None] = lambda text: None) 
         recon = harness.start(ReconstructorNode, method=spec.method,
                               calibration_file=str(spec.calibration))
         comparer = harness.start(ComparerNode, experiment=spec.experiment)
-        recorder = harness.start(RecorderNode, output=str(spec.output), topics=graph_topics())
+        frames = write_graph_frames(spec.output.with_name(f'{spec.output.name}.frames.yaml'),
+                                    spec.calibration, spec.scene)  # /tf_static of the bag
+        recorder = harness.start(RecorderNode, output=str(spec.output), topics=graph_topics(),
+                                 frames_file=str(frames))
         if not recorder.recording:
             msg = f'{spec.output}: the recorder cannot write the bag'
             raise DempathError(msg)

@@ -39,7 +39,7 @@ PARAMETERS = (
     ('matching', 'dtw', 'nearest point among DTW-paired points (dtw) or all points (nearest)'),
     ('pairing', 'auto', 'auto, all, marker or cube'),
     ('experiment', 'experiment', 'name of the measured experiment (group)'),
-    ('frame_id', 'world', 'frame of the published MarkerArray'),
+    ('frame_id', 'field', 'frame of the published MarkerArray (the measurement frame)'),
 )
 COMPARE_KEYS = ('top_n', 'sp', 'rest_samples', 'z_weight', 'rank_by', 'matching', 'pairing')
 

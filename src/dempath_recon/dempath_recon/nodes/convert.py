@@ -12,7 +12,7 @@ from dempath_msgs.msg import MarkerPoints3D, PixelPoints
 from dempath_recon.pairing import PixelFrame
 from dempath_recon.stream import MarkerFrame3D
 
-WORLD_FRAME = 'world'
+FIELD_FRAME = 'field'  # the measurement's frame (calibration world: the board on the sand)
 MARKER_DIAMETER_M = 0.008  # the paper's clay markers, about 8 mm
 
 
@@ -37,7 +37,7 @@ def pixel_points_to_frame(msg: PixelPoints, camera: int) -> PixelFrame:
 def frame_to_marker_points(frame: MarkerFrame3D, method: str) -> MarkerPoints3D:
     """MarkerFrame3D -> dempath_msgs/MarkerPoints3D in the world frame."""
     msg = MarkerPoints3D()
-    msg.header = Header(stamp=s_to_stamp(frame.stamp_s), frame_id=WORLD_FRAME)
+    msg.header = Header(stamp=s_to_stamp(frame.stamp_s), frame_id=FIELD_FRAME)
     msg.method = method
     msg.marker_ids = [int(i) for i in frame.ids]
     msg.x, msg.y, msg.z = (frame.xyz[:, k].tolist() for k in range(3))
@@ -49,7 +49,7 @@ def frame_to_marker_points(frame: MarkerFrame3D, method: str) -> MarkerPoints3D:
 def frame_to_marker_array(frame: MarkerFrame3D) -> MarkerArray:
     """One sphere per marker (id = marker id) for Foxglove, sized by the 1-sigma ellipsoid."""
     out = MarkerArray()
-    header = Header(stamp=s_to_stamp(frame.stamp_s), frame_id=WORLD_FRAME)
+    header = Header(stamp=s_to_stamp(frame.stamp_s), frame_id=FIELD_FRAME)
     for mid, p, s in zip(frame.ids, frame.xyz, frame.sigma, strict=True):
         m = Marker(header=header, ns='dempath_markers', id=int(mid), type=Marker.SPHERE,
                    action=Marker.ADD)

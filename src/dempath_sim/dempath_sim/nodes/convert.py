@@ -4,20 +4,28 @@ from __future__ import annotations
 
 import numpy as np
 from builtin_interfaces.msg import Time
-from geometry_msgs.msg import Point, Pose, PoseStamped, Vector3
+from geometry_msgs.msg import Point, Pose, PoseStamped, Vector3, WrenchStamped
 from numpy.typing import NDArray
+from sensor_msgs.msg import PointCloud2, PointField
 from std_msgs.msg import ColorRGBA, Header
 from visualization_msgs.msg import Marker, MarkerArray
 
 from dempath_msgs.msg import ParticleStates, RunEvent, ToolForce
 from dempath_sim.runs import ROLE_MARKER, Frame
 
-FRAME_ID = 'world'  # the paper's frame: X lateral, Y up, Z travel
+FRAME_ID = 'scene'  # the paper's frame: X lateral, Y up, Z travel (under REP 103's world)
+TOOL_FRAME = 'tool'  # the tool's frame (dempath.frames): at its pose, axes of the scene
+# sensor_msgs/PointCloud2 of the streamed particles: x, y, z, radius [m] and marker id
+CLOUD_DTYPE = np.dtype([('x', '<f4'), ('y', '<f4'), ('z', '<f4'), ('radius', '<f4'),
+                        ('marker_id', '<i4')])
+CLOUD_FIELDS = (('x', 0, PointField.FLOAT32), ('y', 4, PointField.FLOAT32),
+                ('z', 8, PointField.FLOAT32), ('radius', 12, PointField.FLOAT32),
+                ('marker_id', 16, PointField.INT32))
 
 
-def header(stamp: Time) -> Header:
-    """A header in the world frame."""
-    return Header(stamp=stamp, frame_id=FRAME_ID)
+def header(stamp: Time, frame_id: str = FRAME_ID) -> Header:
+    """A header in the scene frame (or ``frame_id``)."""
+    return Header(stamp=stamp, frame_id=frame_id)
 
 
 def pose_of(position: NDArray[np.float64]) -> Pose:
@@ -53,6 +61,35 @@ def tool_force(frame: Frame, run_id: str, stamp: Time) -> ToolForce:
     msg.draft_force = float(-f[2])
     msg.tool_speed = float(frame.tool_velocity[2])
     return msg
+
+
+def tool_wrench(frame: Frame, stamp: Time) -> WrenchStamped:
+    """The force [N] and torque [N m] on the tool as the standard WrenchStamped, in the tool
+    frame (the scene's axes at the tool: the same components as ToolForce's wrench)."""
+    msg = WrenchStamped(header=header(stamp, TOOL_FRAME))
+    f, m = frame.tool_force, frame.tool_torque
+    msg.wrench.force = Vector3(x=float(f[0]), y=float(f[1]), z=float(f[2]))
+    msg.wrench.torque = Vector3(x=float(m[0]), y=float(m[1]), z=float(m[2]))
+    return msg
+
+
+def particle_cloud(frame: Frame, stamp: Time) -> PointCloud2:
+    """The streamed particles (markers and candidates) as a PointCloud2 with their radii.
+
+    Fields ``x, y, z, radius`` (float32, m) and ``marker_id`` (int32, 0: not a marker);
+    removed particles (NaN) are left out.
+    """
+    keep = np.isfinite(frame.positions).all(axis=1)
+    points = np.zeros(int(keep.sum()), CLOUD_DTYPE)
+    for k, axis in enumerate('xyz'):
+        points[axis] = frame.positions[keep, k]
+    points['radius'] = frame.radii[keep]
+    points['marker_id'] = frame.marker_ids[keep]
+    return PointCloud2(
+        header=header(stamp), height=1, width=len(points), is_bigendian=False,
+        point_step=CLOUD_DTYPE.itemsize, row_step=CLOUD_DTYPE.itemsize * len(points),
+        is_dense=True, data=points.tobytes(),
+        fields=[PointField(name=n, offset=o, datatype=d, count=1) for n, o, d in CLOUD_FIELDS])
 
 
 def tool_pose(frame: Frame, stamp: Time) -> PoseStamped:

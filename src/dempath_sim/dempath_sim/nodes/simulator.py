@@ -12,10 +12,11 @@ import threading
 import time
 from typing import Any
 
-from geometry_msgs.msg import PoseStamped
+from geometry_msgs.msg import PoseStamped, WrenchStamped
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile
+from sensor_msgs.msg import PointCloud2
 from visualization_msgs.msg import MarkerArray
 
 from dempath import topics
@@ -61,6 +62,9 @@ class SimulatorNode(Node):
         self.pub_events = self.create_publisher(RunEvent, topics.SIM_RUN_EVENTS, latched)
         # keep 50 as the other topics: with 5 a recorder behind under load lost frames
         self.pub_viz = self.create_publisher(MarkerArray, topics.SIM_VIZ, 50)
+        # the same in standard messages (docs/ros.md): the force, the particles with radii
+        self.pub_wrench = self.create_publisher(WrenchStamped, topics.SIM_TOOL_WRENCH, 50)
+        self.pub_cloud = self.create_publisher(PointCloud2, topics.SIM_CLOUD, 50)
         self.stop = threading.Event()
         self.run_id = self.config.scene
         self.frames = 0
@@ -103,6 +107,8 @@ class SimulatorNode(Node):
         self.pub_pose.publish(convert.tool_pose(frame, stamp))
         if self.frames % self.config.viz_every == 0:
             self.pub_viz.publish(convert.marker_array(frame, self.tool_triangles, stamp))
+            self.pub_cloud.publish(convert.particle_cloud(frame, stamp))
+        self.pub_wrench.publish(convert.tool_wrench(frame, stamp))
         self.frames += 1
 
     def _progress(self, p: Progress) -> None:
