@@ -285,23 +285,10 @@ def measured_variant(work: Path, name: str, keep: Callable[[list[str]], bool],
 
 def broken_library(work: Path, damage: str) -> Path:
     """The shipped library truncated, emptied or of an older layout."""
-    import numpy as np
+    sys.path.insert(0, str(ROOT / 'src/dempath_diagnose/test'))
+    from test_admission import damaged_library
 
-    path = work / f'library_{damage}.npz'
-    data = LIBRARY.read_bytes()
-    if damage == 'truncated':
-        path.write_bytes(data[:len(data) // 3])
-    elif damage == 'empty':
-        path.write_bytes(b'')
-    else:
-        with np.load(LIBRARY) as packed:
-            arrays = {k: packed[k] for k in packed.files}
-        design = json.loads(str(arrays['design']))
-        for c in design['candidates']:
-            del c['linked']
-        arrays['design'] = np.array(json.dumps(design))
-        np.savez(path, **arrays)
-    return path
+    return damaged_library(work / f'library_{damage}.npz', damage)
 
 
 def unrecovered_bag(work: Path) -> Path:
@@ -341,7 +328,7 @@ def diagnose_cases(work: Path) -> dict[str, Callable[[], Outcome]]:
         'diagnose: empty library': lambda: diagnose(
             work, 'diag_empty', library=broken_library(work, 'empty')),
         'diagnose: older library layout': lambda: diagnose(
-            work, 'diag_old', library=broken_library(work, 'older')),
+            work, 'diag_old', library=broken_library(work, 'older_layout')),
         'diagnose: CSV without marker column': lambda: diagnose(
             work, 'diag_nomarker', measured=measured_variant(work, 'nomarker', lambda c: True,
                                                              drop_marker_column=True)),

@@ -113,7 +113,7 @@ def physics_key(scene: SceneSpec) -> str:
 def scene_parts(scene: SceneSpec) -> dict[str, Any]:
     """The parts of a scene that change its passes (the record :func:`physics_key` hashes):
     its dict without name, description, seed, source and output, files by their content."""
-    data = scene.to_dict()
+    data: dict[str, Any] = scene.to_dict()
     for key in ('name', 'description', 'seed', 'source', 'output'):
         data.pop(key, None)
     data['tool']['mesh'] = _file_digest(scene.tool.mesh)

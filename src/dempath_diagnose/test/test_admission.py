@@ -53,13 +53,11 @@ def test_library_refused_for_other_physics(shipped: Library) -> None:
         shipped.check_scene(stiff)
 
 
-@pytest.mark.parametrize('damage', ['truncated', 'empty', 'older_layout', 'no_runs'])
-def test_broken_library_file_is_one_line(tmp_path: Path, damage: str) -> None:
-    """A truncated, empty or older-layout packed library: LibraryError naming the file
-    (BadZipFile, EOFError and KeyError tracebacks before)."""
+def damaged_library(path: Path, damage: str) -> Path:
+    """The shipped library written to ``path`` truncated, empty, of an older layout (no
+    ``linked`` in its candidates) or without a run's array."""
     import json
 
-    path = tmp_path / 'lib.npz'
     data = SHIPPED.read_bytes()
     if damage == 'truncated':
         path.write_bytes(data[:len(data) // 2])
@@ -76,6 +74,14 @@ def test_broken_library_file_is_one_line(tmp_path: Path, damage: str) -> None:
             del arrays['r3_steps']
         arrays['design'] = np.array(json.dumps(design))
         np.savez(path, **arrays)
+    return path
+
+
+@pytest.mark.parametrize('damage', ['truncated', 'empty', 'older_layout', 'no_runs'])
+def test_broken_library_file_is_one_line(tmp_path: Path, damage: str) -> None:
+    """A truncated, empty or older-layout packed library: LibraryError naming the file
+    (BadZipFile, EOFError and KeyError tracebacks before)."""
+    path = damaged_library(tmp_path / 'lib.npz', damage)
     with pytest.raises(LibraryError) as err:
         Library.load(path)
     assert str(err.value).startswith(f'{path}: ') and '\n' not in str(err.value)
