@@ -7,7 +7,8 @@ one line naming what differs:
   its physics key (:func:`~dempath_diagnose.simulate.physics_key`) and one key per part of the
   scene (bin, layers, materials, effects, tool, markers, fill, numerics); another scene or other
   physics is refused naming the parts that differ;
-- the measured markers must start inside the scene's bin (after ``--origin``);
+- the measured markers must start inside the scene's bin (after ``--origin``): a few outside are
+  left out and named, most outside is refused;
 - a force file's time base is checked as a marker file's is: no clock times, not
   milliseconds, no offset before the pass, and it must cover the measured pass;
 - a thin measurement (too few markers, or none on the tool axis or beside it) makes the verdict
@@ -20,6 +21,8 @@ import hashlib
 import json
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
+
+import numpy as np
 
 from dempath_diagnose.errors import LibraryError, MeasurementError
 from dempath_diagnose.records import F64, Measurement
@@ -83,23 +86,38 @@ def check_library_scene(library_path: Path, stored: dict[str, Any], scene: Scene
     raise LibraryError(msg)
 
 
-def check_markers_in_bin(source: Path, meas: Measurement, scene: SceneSpec) -> None:
-    """Refuse markers whose start lies outside the scene's bin (a wrong scene or --origin).
+def markers_in_bin(source: Path, meas: Measurement, scene: SceneSpec) -> Measurement:
+    """``meas`` without the markers that start outside the scene's bin (after ``--origin``).
+
+    A marker or two outside is a tracking fault of those markers: they are left out and named
+    in the measurement's problems. Most markers outside is a wrong scene or ``--origin``.
 
     Raises:
-        MeasurementError: One line naming the first marker outside and the bin.
+        MeasurementError: More than half the markers start outside the bin (one line naming
+            the first one and the bin).
     """
+    from dataclasses import replace
+
     half = scene.bin.width_x_m / 2 + BIN_SLACK_M
     floor, top = -scene.bed_thickness_m, scene.bin.height_y_m - scene.bed_thickness_m
-    for m, p in zip(meas.markers.tolist(), meas.start, strict=True):
-        inside = (abs(p[0]) <= half and -BIN_SLACK_M <= p[2] <= scene.bin.length_z_m +
-                  BIN_SLACK_M and floor - BIN_SLACK_M <= p[1] <= top + BIN_SLACK_M)
-        if not inside:
-            msg = (f'{source}: marker {m} starts at ({p[0]:.3f}, {p[1]:.3f}, {p[2]:.3f}) m, '
-                   f'outside the bin of scene {scene.name!r} (X +-{scene.bin.width_x_m / 2:g}, '
-                   f'Y {floor:g}..{top:g}, Z 0..{scene.bin.length_z_m:g} m); check --scene and '
-                   '--origin')
-            raise MeasurementError(msg)
+    p = meas.start
+    inside = ((np.abs(p[:, 0]) <= half) & (p[:, 2] >= -BIN_SLACK_M)
+              & (p[:, 2] <= scene.bin.length_z_m + BIN_SLACK_M)
+              & (p[:, 1] >= floor - BIN_SLACK_M) & (p[:, 1] <= top + BIN_SLACK_M))
+    if inside.all():
+        return meas
+    bin_text = (f'the bin of scene {scene.name!r} (X +-{scene.bin.width_x_m / 2:g}, Y '
+                f'{floor:g}..{top:g}, Z 0..{scene.bin.length_z_m:g} m)')
+    if 2 * int(inside.sum()) < len(inside):
+        k = int(np.flatnonzero(~inside)[0])
+        msg = (f'{source}: {int((~inside).sum())} of {len(inside)} markers start outside '
+               f'{bin_text}, marker {int(meas.markers[k])} at ({p[k, 0]:.3f}, {p[k, 1]:.3f}, '
+               f'{p[k, 2]:.3f}) m; check --scene and --origin')
+        raise MeasurementError(msg)
+    problems = {**meas.problems, **{int(m): f'starts outside {bin_text}'
+                                    for m in meas.markers[~inside]}}
+    return replace(meas, markers=meas.markers[inside], positions=meas.positions[:, inside],
+                   problems=problems)
 
 
 def check_force_time_base(source: Path, times: F64, meas_times: F64) -> None:
@@ -182,6 +200,14 @@ def thin_decision(decision: Decision, layout: Layout) -> Decision:
                    notes=[*decision.notes, note])
 
 
-__all__ = ['MIN_MARKERS', 'PARTS', 'check_force_time_base', 'check_library_scene',
-           'check_markers_in_bin', 'check_pass_times', 'scene_identity', 'thin_decision',
-           'thin_measurement']
+__all__ = [
+    'MIN_MARKERS',
+    'PARTS',
+    'check_force_time_base',
+    'check_library_scene',
+    'check_pass_times',
+    'markers_in_bin',
+    'scene_identity',
+    'thin_decision',
+    'thin_measurement',
+]

@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from dempath.errors import DempathError
-from dempath_diagnose.admission import check_force_time_base, check_markers_in_bin
+from dempath_diagnose.admission import check_force_time_base, markers_in_bin
 from dempath_diagnose.diagnose import CaseGeometry, Diagnosis, diagnose
 from dempath_diagnose.emulator import Allowance
 from dempath_diagnose.errors import DiagnosisError, MeasurementError
@@ -236,8 +236,7 @@ def diagnosis_of(args: argparse.Namespace,
     arguments (what ``dempath recalibrate`` builds on)."""
     origin = _origin(args.origin)
     scene = load_scene(args.scene)
-    meas = load_tracks(args.measured, origin)
-    check_markers_in_bin(args.measured, meas, scene)
+    meas = markers_in_bin(args.measured, load_tracks(args.measured, origin), scene)
     if meas.time_origin:
         print(f'{args.measured}: {meas.time_origin}', file=sys.stderr)
     for marker, problem in sorted(meas.problems.items()):

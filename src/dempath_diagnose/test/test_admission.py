@@ -10,8 +10,8 @@ import pytest
 
 from dempath_diagnose.admission import (
     check_force_time_base,
-    check_markers_in_bin,
     check_pass_times,
+    markers_in_bin,
 )
 from dempath_diagnose.errors import LibraryError, MeasurementError
 from dempath_diagnose.library import Library
@@ -94,13 +94,20 @@ def measurement(starts: np.ndarray) -> Measurement:
     return Measurement(np.arange(1, len(starts) + 1), times, positions)
 
 
-def test_markers_outside_the_bin_are_refused() -> None:
-    """The reduced scene's grid (Z 0.35-0.55 m) lies outside tiny's 0.22 m bin."""
+def test_markers_outside_the_bin_are_refused_or_left_out() -> None:
+    """The reduced scene's grid (Z 0.35-0.55 m) lies outside tiny's 0.22 m bin: refused. One
+    marker of tiny's own grid 0.3 m off: left out and named, the rest kept."""
     grid = np.array([[0.05 * r, 0.0, 0.35 + 0.05 * c] for r in range(3) for c in range(5)])
-    check_markers_in_bin(Path('m.csv'), measurement(grid), bundled_scene('reduced_1ms'))
-    with pytest.raises(MeasurementError, match=r"marker 1 starts at .* outside the bin of scene "
-                                               r"'tiny'"):
-        check_markers_in_bin(Path('m.csv'), measurement(grid), bundled_scene('tiny'))
+    kept = markers_in_bin(Path('m.csv'), measurement(grid), bundled_scene('reduced_1ms'))
+    assert len(kept.markers) == 15
+    with pytest.raises(MeasurementError, match=r"15 of 15 markers start outside the bin of "
+                                               r"scene 'tiny'"):
+        markers_in_bin(Path('m.csv'), measurement(grid), bundled_scene('tiny'))
+    small = np.array([[0.025 * r, 0.0, 0.08 + 0.025 * c] for r in range(3) for c in range(5)])
+    small[0, 0] += 0.3
+    kept = markers_in_bin(Path('m.csv'), measurement(small), bundled_scene('tiny'))
+    assert kept.markers.tolist() == list(range(2, 16))
+    assert kept.problems[1].startswith("starts outside the bin of scene 'tiny'")
 
 
 MEAS_T = np.arange(0.0, 0.6001, 0.005)
