@@ -72,6 +72,20 @@ def band_tracks(records: Sequence[PassRecord], markers: Sequence[int], starts: F
     return out
 
 
+def model_record(tracks: Sequence[Any]) -> PassRecord:
+    """A user's own model run (dempath_compare tracks: a LIGGGHTS dump, a mapped EDEM/Rocky
+    CSV, dempath's CSV) as one band run: every particle's positions on the union of the tracks'
+    times, NaN where a track has no sample; no tool force (Table 7 does not use it)."""
+    times = np.unique(np.concatenate([np.asarray(t.times, np.float64) for t in tracks]))
+    positions = np.full((len(times), len(tracks), 3), np.nan, np.float32)
+    for j, track in enumerate(tracks):
+        positions[np.searchsorted(times, track.times), j] = track.positions
+    zeros = np.zeros((len(times), 3))
+    return PassRecord(times=times, ids=np.array([t.ident for t in tracks], np.int64),
+                      positions=positions, tool_position=zeros, force_times=times,
+                      tool_force=zeros, meta={'seed': -1})
+
+
 def band_table7(meas: Measurement, records: Sequence[PassRecord],
                 cube: tuple[float, float, float], names: Sequence[str] = (),
                 top_n: int = TOP_N) -> dict[str, Any]:

@@ -59,7 +59,7 @@ def write_case(case: CasePass, folder: Path, noise_m: float = 0.0015, seed: int 
 
 def make_case(scene: SceneSpec, hidden: HiddenCase, folder: Path, *, until_s: float,
               noise_m: float = 0.0015, cache_dir: Path | None = None,
-              own_pour: bool = False) -> tuple[Path, Path]:
+              own_pour: bool = False, backend: str = 'dempath') -> tuple[Path, Path]:
     """Run ``hidden`` on ``scene`` and write it as a measurement of [0, ``until_s``] (a camera
     recording of fixed length; cached in ``folder``)."""
     markers, force = folder / 'markers.csv', folder / 'force.csv'
@@ -67,7 +67,7 @@ def make_case(scene: SceneSpec, hidden: HiddenCase, folder: Path, *, until_s: fl
         return markers, force
     follow = max(0.0, until_s - pass_travel_s(scene, hidden.overrides))
     case = run_case(scene, hidden.seed, hidden.overrides, follow_s=follow, cache_dir=cache_dir,
-                    own_pour=own_pour)
+                    own_pour=own_pour, backend=backend)
     keep = case.times <= until_s + 1e-9
     case = CasePass(case.times[keep], case.markers, case.positions[keep], case.force[keep])
     return write_case(case, folder, noise_m, seed=hidden.seed)

@@ -63,6 +63,11 @@ class Diagnosis:
         simulations: Library runs the diagnosis rests on.
         table7: The paper's Table 7 of the baseline band against the measured markers
             (:func:`~dempath_diagnose.bandtracks.band_table7`).
+        headline: The headline error of the baseline beside its like-for-like floor
+            (:func:`~dempath_diagnose.headline.stage.headline_entry`).
+        adaptive: What simulations beyond the library were run and why (``--budget``;
+            :meth:`~dempath_diagnose.adaptive.AdaptiveResult.to_dict`), empty when none were
+            allowed.
     """
 
     decision: Decision
@@ -77,6 +82,8 @@ class Diagnosis:
     wall_s: float = 0.0
     simulations: int = 0
     table7: dict[str, Any] = field(default_factory=dict)
+    headline: dict[str, Any] = field(default_factory=dict)
+    adaptive: dict[str, Any] = field(default_factory=dict)
 
     @property
     def floor(self) -> F64:
@@ -107,7 +114,7 @@ def diagnose(meas: Measurement, library: Library, geometry: CaseGeometry,
         meas = _inside_region(meas, library)
     stop = float(first.meta.get('tool_stop_s', cover))
     layout = build_layout(meas.markers, meas.start, geometry.tool_x_m,
-                          geometry.axis_half_width_m, end, stop, n_windows)
+                          geometry.axis_half_width_m, end, stop, n_windows, measured=meas)
     emu = build_emulator(library, layout, geometry.cube_m)
     y, features = measured_statistics(meas, layout)
     force = emu.is_force()
@@ -123,8 +130,22 @@ def diagnose(meas: Measurement, library: Library, geometry: CaseGeometry,
     decision = thin_decision(decide(emu, y, observed, cov), layout)
     err, z = _marker_map(emu, features, allowance)
     table7 = baseline_table7(meas, library, geometry.cube_m)
+    headline = baseline_headline(meas, library, geometry.cube_m, allowance.noise_m)
     return Diagnosis(decision, layout, emu, y, observed, cov, z, err, dict(meas.problems),
-                     time.monotonic() - t0, len(library.runs), table7)
+                     time.monotonic() - t0, len(library.runs), table7, headline)
+
+
+def baseline_headline(meas: Measurement, library: Library, cube: tuple[float, float, float],
+                      noise_m: float) -> dict[str, Any]:
+    """The headline error of the library's baseline beside its floor (``error`` instead when
+    it cannot be scored: fewer than two seeds, no marker with model candidates)."""
+    from dempath_diagnose.headline.stage import headline_entry
+
+    files = [f for runs in library.model_runs('').values() for f in runs]
+    try:
+        return headline_entry(meas, [library.records[f] for f in files], cube, noise_m)
+    except ValueError as err:
+        return {'error': str(err)}
 
 
 def _inside_region(meas: Measurement, library: Library) -> Measurement:

@@ -137,12 +137,13 @@ class Emulator:
         cov = self.seed_cov + self.sampling_cov
         diag = np.zeros(len(self.names))
         force = self.is_force()
-        group_size = {g.name: len(g.members) for g in layout.groups}
+        groups = {g.name: g for g in layout.groups}
         for i, name in enumerate(self.names):
             if force[i]:
                 diag[i] = (allowance.discrepancy_force_rel * abs(self.mu0[i])) ** 2
             else:
-                m = group_size[name.split(':')[0]]
+                group, _, window = name.split(':')
+                m = layout.group_count(groups[group], int(window.removeprefix('w')))
                 diag[i] = (allowance.noise_m**2 / m
                            + (allowance.discrepancy_m
                               + allowance.discrepancy_rel * abs(self.mu0[i])) ** 2)

@@ -78,7 +78,8 @@ def load_tracks(path: Path, origin: Sequence[float] = (0.0, 0.0, 0.0)) -> Measur
         msg = (f'{path}: markers move over {span:.0f} m; the values look like millimetres where '
                'metres are expected')
         raise MeasurementError(msg)
-    end = min(float(np.nanmax(t.times)) for t in good)
+    end = max(float(np.nanmax(t.times)) for t in good)  # the whole pass: a marker lost early
+    # counts where it was measured (statistics.window_presence), it never cuts the others
     check_pass_times(path, min(float(np.nanmin(t.times)) for t in good), end)
     times = np.arange(0.0, end + 1e-9, COMMON_STEP_S, dtype=np.float64)
     positions = np.full((len(times), len(good), 3), np.nan)

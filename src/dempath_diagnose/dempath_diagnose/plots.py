@@ -67,17 +67,22 @@ def plot_statistics(d: Diagnosis, path: Path) -> str:
 def plot_error_map(d: Diagnosis, path: Path) -> str:
     """Per-marker discrepancy in seed spreads over the marker layout (X-Z), one panel per axis."""
     import matplotlib.pyplot as plt
+    from matplotlib.colors import SymLogNorm
 
-    fig, axes = plt.subplots(1, 3, figsize=(12, 3.6), squeeze=False)
+    fig, axes = plt.subplots(1, 3, figsize=(12, 3.8), squeeze=False)
     z = np.nanmean(d.marker_z, axis=1)  # (m, 3) mean over the windows
     starts = d.layout.starts
+    top = max(4.0, float(np.nanmax(np.abs(z))) if np.isfinite(z).any() else 4.0)
+    # linear within +-2 sd, logarithmic beyond: z = 3 and z = 60 both keep a readable colour
+    norm = SymLogNorm(linthresh=2.0, vmin=-top, vmax=top, base=10)
     for k, ax in enumerate(axes.ravel()):
         sc = ax.scatter(starts[:, 2] * 1e3, starts[:, 0] * 1e3, c=z[:, k], cmap='coolwarm',
-                        vmin=-4, vmax=4, s=160, edgecolors='k')
+                        norm=norm, s=420, edgecolors='k')
         for i, m in enumerate(d.layout.markers):
-            ax.annotate(str(int(m)), (starts[i, 2] * 1e3, starts[i, 0] * 1e3), fontsize=7,
+            text = f'{int(m)}\n{z[i, k]:+.1f}' if np.isfinite(z[i, k]) else f'{int(m)}\n-'
+            ax.annotate(text, (starts[i, 2] * 1e3, starts[i, 0] * 1e3), fontsize=6,
                         ha='center', va='center')
-        ax.set_title(f'{AXES[k]}: measured - model [seed sd]')
+        ax.set_title(f'{AXES[k]}: measured - model [sd] (marker, z)', fontsize=9)
         ax.set_xlabel('Z start [mm]')
         ax.set_ylabel('X start [mm]')
         fig.colorbar(sc, ax=ax)

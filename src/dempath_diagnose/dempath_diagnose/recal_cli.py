@@ -102,7 +102,8 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
             cands = [emus[name], *also]
             evaluate = RealEvaluator(scene, library, spec, d.emulator, d.layout, cube, cands,
                                      args.out, executor, args.seeds_per_eval,
-                                     args.packing_cache)
+                                     args.packing_cache,
+                                     None if args.scheduler and not args.serial else 'same')
             if len(todo) > 1:
                 print(f'inconclusive: trying {name} ({budget} simulations)', file=sys.stderr)
             results.append((recalibrate(objective, cands, evaluate, budget,
@@ -162,6 +163,13 @@ def recalibrate_main(argv: Sequence[str] | None = None) -> int:
              f'{paper["floor"]["mean_nrmse_pct"]:.2f} %)') if paper else ''
     print(f'{data["effect"]}: {data["stop_reason"]}; error d^2 {data["error_before"]:.1f} -> '
           f'{data["error_after"]:.1f} (floor {data["floor"]["k"]}){nrmse}')
+    head = (paper or {}).get('headline', {})
+    if head.get('before', {}).get('value_mm') is not None and \
+            head.get('after', {}).get('value_mm') is not None:
+        from dempath_diagnose.headline.stage import headline_sentence
+
+        print(headline_sentence(head['before'], 'before'))
+        print(headline_sentence(head['after'], 'after'))
     if data['stop'] == 'scheduler_lost':
         print(f'error: {data["note"]}', file=sys.stderr)
         return 1

@@ -31,6 +31,27 @@ def paper_and_trajectories(best: Recalibration, evaluate: Any, library: Any, d: 
     floor = [(f, library.records[f]) for f in files]
     paper = before_after(meas, d.layout, cube, before, after, floor, args.noise)
     paper['after_is_before'] = not after
+    paper['headline'] = headlines(meas, [r for _, r in before], [r for _, r in after], cube,
+                                  args.noise)
     fig = plot_trajectories(meas, d.layout, cube, [r for _, r in before],
                             [r for _, r in after], args.out / 'trajectories.png')
-    return paper, (fig,)
+    from dempath_diagnose.headline.plots import plot_headline
+
+    head = plot_headline([(k, paper['headline'][k]) for k in ('before', 'after')],
+                         args.out / 'headline.png')
+    return paper, (fig, head)
+
+
+def headlines(meas: Any, before: list[PassRecord], after: list[PassRecord],
+              cube: tuple[float, float, float], noise_m: float) -> dict[str, Any]:
+    """The headline error before and after on the evaluations' seeds, each beside the floor of
+    its own model with the same markers, samples and pool size (:mod:`.headline.stage`)."""
+    from dempath_diagnose.headline.stage import headline_entry
+
+    out: dict[str, Any] = {}
+    for key, model in (('before', before), ('after', after or before)):
+        try:
+            out[key] = headline_entry(meas, model, cube, noise_m)
+        except ValueError as err:
+            out[key] = {'error': str(err)}
+    return out

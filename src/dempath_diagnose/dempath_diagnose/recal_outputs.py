@@ -112,6 +112,8 @@ def update_diagnosis(path: Path, data: dict[str, Any]) -> None:
                           'table7': paper['after']['markers'],
                           'table7_before': paper['before']['markers'],
                           'floor': paper['floor']}
+        if paper.get('headline'):
+            after['headline'] = paper['headline']
     diag['error_after'] = after
     diag.setdefault('recalibration', {})[data['effect']] = {
         'strengths': data['parameters'], 'stop': data['stop'], 'changed': data['changed'],

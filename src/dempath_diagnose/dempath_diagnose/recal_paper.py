@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from dempath_diagnose.headline.samples import MarkerSamples
 from dempath_diagnose.records import F64, Measurement, PassRecord
 from dempath_diagnose.statistics import Layout, cube_members
 
@@ -81,14 +82,14 @@ class PaperFloor:
                 'markers': [{'marker': m, 'nrmse_pct': v} for m, v in sorted(self.nrmse.items())]}
 
 
-def measured_tracks(meas: Measurement) -> list[Any]:
+def measured_tracks(meas: Measurement, label: str = 'measured') -> list[Any]:
     """One dempath_compare Track per measured marker (finite samples only)."""
     from dempath_compare.records import Track
 
     out = []
     for j, m in enumerate(meas.markers):
         ok = np.isfinite(meas.positions[:, j]).all(1)
-        out.append(Track(f'measured/marker{m}', 'measured', int(m), int(m), meas.times[ok],
+        out.append(Track(f'{label}/marker{m}', 'measured', int(m), int(m), meas.times[ok],
                          meas.positions[ok, j]))
     return out
 
@@ -128,39 +129,33 @@ def table7(measured: Sequence[Any], model: Sequence[Any],
                         table7_markdown(table))
 
 
-def nearest_tracks(rec: PassRecord, layout: Layout, noise_m: float = 0.0,
+def nearest_tracks(rec: PassRecord, samples: MarkerSamples, noise_m: float = 0.0,
                    seed: int = 0) -> list[Any]:
-    """A seed playing the measurement: per marker, the particle starting nearest it, with
-    Gaussian noise of ``noise_m`` per axis as the cameras add (it widens the trajectory range,
-    the nRMSE's normaliser, of markers that barely move: without it the floor is too high)."""
-    from dempath_compare.records import Track
+    """A seed playing the measurement like for like: per measured marker, the particle starting
+    nearest it, at the measured samples only (the same markers, the same window, NaN where the
+    real marker was not measured), with Gaussian noise of ``noise_m`` per axis as the cameras
+    add (it widens the trajectory range, the nRMSE's normaliser, of markers that barely move:
+    without it the floor is too high)."""
+    from dempath_diagnose.headline.samples import played_measurement
 
-    rng = np.random.default_rng(seed)
-    start = rec.start
-    finite = np.isfinite(start).all(1)
-    out = []
-    for m, p in zip(layout.markers, layout.starts, strict=True):
-        dist = np.where(finite, np.linalg.norm(start - p, axis=1), np.inf)
-        i = int(np.argmin(dist))
-        pos = np.asarray(rec.positions[:, i], np.float64) + rng.normal(
-            0.0, noise_m, (len(rec.times), 3))
-        ok = np.isfinite(pos).all(1)
-        out.append(Track(f'pseudo/marker{m}', 'measured', int(m), int(m), rec.times[ok],
-                         pos[ok]))
-    return out
+    meas = played_measurement(rec, samples, 0, noise_m, np.random.default_rng(seed))
+    return measured_tracks(meas, 'pseudo')
 
 
 def paper_floor(records: Sequence[tuple[str, PassRecord]], layout: Layout,
-                cube: tuple[float, float, float], noise_m: float = 0.0) -> PaperFloor:
+                cube: tuple[float, float, float], samples: MarkerSamples,
+                noise_m: float = 0.0) -> PaperFloor:
     """The floor on the paper's metrics (see the module docstring); needs two seeds or more.
 
-    ``noise_m``: the measurement noise per axis added to the seed playing the measurement [m].
+    ``samples``: the measured markers' samples, which the seed playing the measurement keeps
+    (the floor sees the markers, window and samples its figure sees); ``noise_m``: the
+    measurement noise per axis added to it [m].
     """
     means: list[float] = []
     per: dict[int, list[float]] = {}
     for k, (_, rec) in enumerate(records):
         others = [r for i, r in enumerate(records) if i != k]
-        t = table7(nearest_tracks(rec, layout, noise_m, k), model_tracks(others, layout, cube),
+        t = table7(nearest_tracks(rec, samples, noise_m, k), model_tracks(others, layout, cube),
                    [int(m) for m in layout.markers])
         means.append(t.mean_nrmse)
         for m, v in zip(t.markers, t.nrmse, strict=True):
@@ -184,7 +179,7 @@ def before_after(meas: Measurement, layout: Layout, cube: tuple[float, float, fl
     markers = [int(m) for m in layout.markers]
     b = table7(measured, model_tracks(before, layout, cube), markers)
     a = table7(measured, model_tracks(after, layout, cube), markers) if after else b
-    f = paper_floor(floor_runs, layout, cube, noise_m)
+    f = paper_floor(floor_runs, layout, cube, MarkerSamples.of(meas), noise_m)
     return {'before': b.to_json(), 'after': a.to_json(), 'floor': f.to_json(),
             'table7_before_md': b.markdown, 'table7_after_md': a.markdown,
             'top_n': TOP_N}

@@ -1,9 +1,10 @@
 """Real evaluations for the recalibration: the candidate at strengths on the library's seeds.
 
 Each evaluation runs the candidate (and the parameters refitted beside it) on the first ``n``
-packing seeds of the signature library (the same beds the library's baseline ran on; runs stored
-atomically under ``DIR/runs`` through the library's picklable task, so a retried or resumed run
-is never redone) and returns the statistics *paired* with the library's baseline on the same
+packing seeds of the signature library (the same beds the library's baseline ran on; the
+library's picklable task returns each record through the executor and it is stored atomically
+here under ``DIR/runs``, so a resumed run is never redone and a worker needs no access to DIR)
+and returns the statistics *paired* with the library's baseline on the same
 seeds: ``mu0 + (candidate_s - baseline_s)`` per seed s. Chaos of the packing cancels in the
 difference.
 
@@ -23,20 +24,21 @@ from typing import Any
 import numpy as np
 
 from dempath_diagnose.emulator import CandidateEmulator, Emulator
-from dempath_diagnose.errors import ClusterError, DiagnosisError
-from dempath_diagnose.library import Library, LibrarySpec, LibraryTask, RunSpec
+from dempath_diagnose.errors import ClusterError, DiagnosisError, LibraryError
+from dempath_diagnose.library import Library, LibrarySpec, LibraryTask, RunSpec, run_tasks
 from dempath_diagnose.recalibrate import SweepLostError
 from dempath_diagnose.records import F64, PassRecord
 from dempath_diagnose.statistics import Layout, model_statistics
+from dempath_sim.runs.portable import pack_scene
 
-Executor = Callable[[Sequence[Callable[[], Any]], Callable[[int], None]], None]
+Executor = Callable[[Sequence[Callable[[], Any]], Callable[[int, Any], None]], None]
 RETRIES = 2  # attempts after a worker died (a failed run fails the same way again)
 
 
 def dask_executor(client: Any) -> Executor:
     """An executor on a Dask ``client`` that raises SweepLostError when the scheduler goes."""
 
-    def run(tasks: Sequence[Callable[[], Any]], done: Callable[[int], None]) -> None:
+    def run(tasks: Sequence[Callable[[], Any]], done: Callable[[int, Any], None]) -> None:
         from distributed import as_completed
 
         if not tasks:
@@ -53,7 +55,7 @@ def dask_executor(client: Any) -> Executor:
                 if future.status == 'error':
                     failed.append(f'{future.exception()}')
                 else:
-                    done(futures[future])
+                    done(futures[future], future.result())
         except (OSError, TimeoutError) as err:
             msg = (f'Dask scheduler: lost mid-sweep ({type(err).__name__}: {err}); the runs '
                    'already stored are kept, a rerun with the same --out resumes')
@@ -88,6 +90,8 @@ class RealEvaluator:
     executor: Executor
     seeds: int = 2
     cache_dir: Path | None = None
+    worker_cache: Path | None | str = 'same'
+    backend: str = 'dempath'
     runs: dict[tuple[float, ...], list[Path]] = field(default_factory=dict)
 
     def run_specs(self, x: F64) -> list[RunSpec]:
@@ -103,11 +107,16 @@ class RealEvaluator:
     def __call__(self, x: F64) -> F64:
         runs = self.run_specs(x)
         paths = [self.folder / 'runs' / r.filename for r in runs]
-        tasks = [LibraryTask(self.scene, r, p, self.spec, self.cache_dir)
-                 for r, p in zip(runs, paths, strict=True)]
-        todo = [t for t, p in zip(tasks, paths, strict=True) if not p.is_file()]
-        (self.folder / 'runs').mkdir(parents=True, exist_ok=True)
-        self.executor(todo, lambda _k: None)
+        there = self.cache_dir if self.worker_cache == 'same' else self.worker_cache
+        assert not isinstance(there, str)
+        portable = {s: pack_scene(self.scene, (s,), self.cache_dir)
+                    for s in {r.seed for r in runs}}
+        todo = [LibraryTask(portable[r.seed], r, self.spec, there, self.backend)
+                for r, p in zip(runs, paths, strict=True) if not p.is_file()]
+        try:
+            run_tasks(self.executor, todo, self.folder / 'runs')
+        except LibraryError as err:
+            raise ClusterError(str(err)) from err
         missing = [p.name for p in paths if not p.is_file()]
         if missing:
             raise DiagnosisError(f'{missing[0]}: the run was not stored')

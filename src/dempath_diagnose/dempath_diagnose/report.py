@@ -12,7 +12,7 @@ import numpy as np
 from dempath.errors import OutputError
 from dempath_diagnose.decision import ModelFit
 from dempath_diagnose.diagnose import Diagnosis, sentences
-from dempath_diagnose.statistics import AXES
+from dempath_diagnose.statistics import AXES, Layout
 
 EDGE_NOTE_P = 0.05  # fits this probable get a note when they sit at the range edge
 
@@ -74,11 +74,26 @@ def to_json(d: Diagnosis, extra: dict[str, Any] | None = None) -> dict[str, Any]
         'notes': dec.notes,
         'groups': {g.name: [int(d.layout.markers[i]) for i in g.members] for g in d.layout.groups},
         'windows_s': d.layout.windows.tolist(),
+        'markers_in_windows': markers_in_windows(d.layout),
+        'headline': _finite(d.headline),
         'marker_problems': {str(k): v for k, v in d.problems.items()},
         'simulations': d.simulations,
         'wall_s': round(d.wall_s, 3),
     }
     out.update(extra or {})
+    return out
+
+
+def markers_in_windows(layout: Layout) -> dict[str, Any]:
+    """Per marker, the windows its statistics count in, and why any is left out."""
+    present = layout.presence()
+    out: dict[str, Any] = {}
+    for j, m in enumerate(layout.markers.tolist()):
+        missing = [k for k in range(len(layout.windows)) if not present[j, k]]
+        out[str(int(m))] = {
+            'windows': [k for k in range(len(layout.windows)) if present[j, k]],
+            'left_out': {f'w{k}': (f'not measured throughout {layout.windows[k, 0]:.2f}-'
+                                   f'{layout.windows[k, 1]:.2f} s') for k in missing}}
     return out
 
 
@@ -103,6 +118,18 @@ def markdown(d: Diagnosis, data: dict[str, Any], plots: list[str]) -> str:
     lines = [f'# Diagnosis: {data["verdict"]}', '']
     lines += [f'**Note:** {s}' for s in data.get('notes', [])] + [''] * bool(data.get('notes'))
     lines += [f'- {s}' for s in data['summary']] + ['']
+    w = d.layout.windows
+    lines += [f'The statistics cover the whole measured pass, {w[0, 0]:.2f}-{w[-1, 1]:.2f} s, '
+              f'in {len(w)} windows, on {len(d.layout.markers)} markers.']
+    lines += [f'- marker {m}: {", ".join(v["left_out"].values())}: left out of '
+              f'{", ".join(v["left_out"])}; counted where measured'
+              for m, v in data['markers_in_windows'].items() if v['left_out']]
+    lines += [f'- marker {m}: left out ({why})' for m, why in data['marker_problems'].items()]
+    if d.headline.get('value_mm') is not None:
+        from dempath_diagnose.headline.stage import headline_sentence
+
+        lines += ['', headline_sentence(d.headline, 'of the model as it is').capitalize() + '.']
+    lines.append('')
     if data['remaining']:
         lines += ['Not ruled out: ' + ', '.join(data['remaining']) + '.', '']
     for s in data['would_separate']:
@@ -126,17 +153,40 @@ def markdown(d: Diagnosis, data: dict[str, Any], plots: list[str]) -> str:
                          'uncertainty is larger than shown. A library run at a stronger '
                          'setting (`--strengths`) or a recalibration settles it.')
     lines += ['', *edges] if edges else []
+    lines += adaptive_lines(data.get('adaptive'))
     t7 = d.table7
     if t7.get('markdown'):
-        lines += ['', f'## Error before (the paper\'s Table 7: the model\'s {t7["model_runs"]} '
-                  f'baseline runs, the {t7["top_n"]} best Cube candidates per marker)', '',
-                  t7['markdown'].rstrip()]
+        band = (f'your model run {t7["model"]}' if t7.get('model')
+                else f'the model\'s {t7["model_runs"]} baseline runs')
+        lines += ['', f'## Error before (the paper\'s Table 7: {band}, the {t7["top_n"]} best '
+                  'Cube candidates per marker)', '', t7['markdown'].rstrip()]
     elif t7.get('error'):
         lines += ['', f'Table 7 could not be computed: {t7["error"]}']
     lines += ['', f'Simulations used: {data["simulations"]}; wall time {data["wall_s"]:.1f} s.',
               '']
     lines += [f'![{p}]({p})' for p in plots]
     return '\n'.join(lines) + '\n'
+
+
+def adaptive_lines(adaptive: dict[str, Any] | None) -> list[str]:
+    """report.md's section on the simulations run beyond the library (``--budget``): what was
+    run and why, and how the probabilities moved."""
+    if not adaptive:
+        return []
+    lines = ['', f'## Simulations beyond the library ({adaptive["extra_simulations"]} of a '
+             f'budget of {adaptive["budget"]})', '',
+             f'Verdict on the library alone: {adaptive["verdict_before"]}.', '']
+    for k, step in enumerate(adaptive['steps'], 1):
+        for run in step['runs']:
+            lines.append(f'{k}. {run["candidate"]} at {run["strength"]:.4g} '
+                         f'({run["why"].replace("_", " ")}): {run["reason"]}.')
+        moved = ', '.join(f'{name} {step["before"].get(name, 0.0):.2f} -> {p:.2f}'
+                          for name, p in step['after'].items()
+                          if max(p, step['before'].get(name, 0.0)) >= 0.05)
+        lines.append(f'   {step["simulations"]} runs; verdict {step["verdict_before"]} -> '
+                     f'{step["verdict_after"]}; probabilities {moved}.')
+    lines += ['', f'Stopped: {adaptive["stop"]}.']
+    return lines
 
 
 def write_xlsx(d: Diagnosis, data: dict[str, Any], path: Path) -> None:

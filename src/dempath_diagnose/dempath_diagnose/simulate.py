@@ -156,7 +156,7 @@ def pass_travel_s(scene: SceneSpec, overrides: dict[str, float]) -> float:
 
 def run_pass(scene: SceneSpec, seed: int, overrides: dict[str, float], *,
              until_s: float = 0.0, frame_s: float = 0.02, keep_depth_m: float = 0.04,
-             cache_dir: Path | None = None) -> PassRecord:
+             cache_dir: Path | None = None, backend: str = 'dempath') -> PassRecord:
     """One model pass of ``scene`` with ``overrides`` on the baseline bed of ``seed``.
 
     Args:
@@ -168,6 +168,8 @@ def run_pass(scene: SceneSpec, seed: int, overrides: dict[str, float], *,
         frame_s: Interval of the whole-bed frames kept [s].
         keep_depth_m: Particles whose start lies this far below the surface or higher are kept.
         cache_dir: Packing cache (dempath_sim's default if None).
+        backend: ``dempath`` (its own engine) or ``liggghts`` (LIGGGHTS 3.8 from the same
+            settled bed, ``fill: shared_packing``, re-settled with the run's physics).
 
     Raises:
         DiagnosisError: The simulation failed (message from dempath_sim).
@@ -180,11 +182,26 @@ def run_pass(scene: SceneSpec, seed: int, overrides: dict[str, float], *,
     base = replace(base, output=output)
     try:
         changed = base.with_overrides(overrides) if overrides else base
-        result = run_scene(changed, RunOptions(cache_dir=cache_dir, follow_s=follow_s))
+        options = RunOptions(cache_dir=cache_dir, follow_s=follow_s)
+        result = (run_scene(changed, options) if backend == 'dempath'
+                  else _run_liggghts(changed, options))
     except (DempathError, ValueError) as err:
         msg = f'{scene.name} seed {seed} {overrides or "baseline"}: {err}'
         raise DiagnosisError(msg) from err
     return _record(result, keep_depth_m, overrides, seed)
+
+
+BACKENDS = ('dempath', 'liggghts')
+
+
+def _run_liggghts(scene: SceneSpec, options: Any) -> Any:
+    """``scene`` on LIGGGHTS from dempath's settled bed of its seed, in a temporary folder."""
+    import tempfile
+
+    from dempath_sim.liggghts import LiggghtsBackend
+
+    with tempfile.TemporaryDirectory(prefix='dempath-liggghts-') as work:
+        return LiggghtsBackend(work, fill='shared_packing').run(scene, options)
 
 
 def tool_geometry(scene: SceneSpec) -> tuple[float, float, tuple[float, float, float]]:
@@ -217,7 +234,8 @@ class CasePass:
 
 
 def run_case(scene: SceneSpec, seed: int, overrides: dict[str, float], *, follow_s: float = 0.0,
-             cache_dir: Path | None = None, own_pour: bool = False) -> CasePass:
+             cache_dir: Path | None = None, own_pour: bool = False,
+             backend: str = 'dempath') -> CasePass:
     """A hidden-effect case: ``scene`` with ``overrides`` on a seed the library never used.
 
     By default the case's bed is poured with the scene file's physics on its own seed and
@@ -225,6 +243,8 @@ def run_case(scene: SceneSpec, seed: int, overrides: dict[str, float], *, follow
     With ``own_pour`` the bed is poured with the case's own physics (``fill.physics: run``), a
     set-up the library never used (one more pour per case; the tiny scene's strongly cohesive
     pours do not settle within its fill time, and such a bed still sinks during the pass).
+    ``backend='liggghts'`` runs the pass on LIGGGHTS from the same settled bed (a LIGGGHTS
+    user's measurement stand-in).
     """
     from dempath_sim.runs import RunOptions, run_scene
 
@@ -233,7 +253,9 @@ def run_case(scene: SceneSpec, seed: int, overrides: dict[str, float], *, follow
         changed = base.with_overrides(overrides) if overrides else base
         if own_pour:
             changed = replace(changed, fill=replace(changed.fill, physics='run'))
-        result = run_scene(changed, RunOptions(cache_dir=cache_dir, follow_s=follow_s))
+        options = RunOptions(cache_dir=cache_dir, follow_s=follow_s)
+        result = (run_scene(changed, options) if backend == 'dempath'
+                  else _run_liggghts(changed, options))
     except (DempathError, ValueError) as err:
         raise DiagnosisError(f'case {overrides or "control"} seed {seed}: {err}') from err
     numbers = result.marker_numbers
@@ -282,6 +304,7 @@ def _record(result: Any, keep_depth_m: float, overrides: dict[str, float],
 
 
 __all__ = [
+    'BACKENDS',
     'LIBRARY_CANDIDATES',
     'Candidate',
     'CasePass',

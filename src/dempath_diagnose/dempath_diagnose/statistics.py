@@ -66,6 +66,9 @@ class Layout:
         windows: (K, 2) start and end of each time window [s].
         sides: (m,) outward sign of each marker (0 on the axis: lateral is plain X).
         force_windows: Indices of the windows in which the tool still moves (force statistics).
+        present: (m, K) True where the marker was measured over the whole window (None: every
+            marker in every window). A group statistic averages the markers present in its
+            window, in the measurement and in the model alike.
     """
 
     markers: NDArray[np.int64]
@@ -74,6 +77,19 @@ class Layout:
     windows: F64
     sides: NDArray[np.int64]
     force_windows: tuple[int, ...] = ()
+    present: NDArray[np.bool_] | None = None
+
+    def presence(self) -> NDArray[np.bool_]:
+        """(m, K) presence of each marker in each window (all True when not given)."""
+        if self.present is None:
+            return np.ones((len(self.markers), len(self.windows)), bool)
+        return self.present
+
+    def group_count(self, group: Group, window: int) -> int:
+        """Markers of ``group`` present in ``window`` (the group's size when none is: the
+        model's statistic then stands for the whole group and the measured one is missing)."""
+        n = int(self.presence()[group.members, window].sum())
+        return n or len(group.members)
 
     def names(self, with_force: bool) -> list[str]:
         """Statistic names ``group:axis:wK`` (and ``force:draft:wK``), in vector order."""
@@ -90,7 +106,8 @@ class Layout:
 
 def build_layout(markers: NDArray[np.int64], starts: F64, tool_x_m: float,
                  axis_half_width_m: float, end_s: float, tool_stop_s: float,
-                 n_windows: int = 4, depth_band_m: float = 0.03) -> Layout:
+                 n_windows: int = 4, depth_band_m: float = 0.03,
+                 measured: Measurement | None = None) -> Layout:
     """Group the markers and cut ``[0, end_s]`` into ``n_windows`` windows.
 
     Args:
@@ -102,6 +119,8 @@ def build_layout(markers: NDArray[np.int64], starts: F64, tool_x_m: float,
         tool_stop_s: Time the tool stops [s] (force windows end there).
         n_windows: Number of time windows.
         depth_band_m: Markers deeper than the group's top by more than this form a deep group.
+        measured: The measurement, whose samples say which marker is present in which window
+            (None: every marker in every window).
     """
     dx = starts[:, 0] - tool_x_m
     sides = np.where(np.abs(dx) <= axis_half_width_m, 0, np.sign(dx)).astype(np.int64)
@@ -118,7 +137,22 @@ def build_layout(markers: NDArray[np.int64], starts: F64, tool_x_m: float,
     edges = np.linspace(0.0, end_s, n_windows + 1)
     windows = np.column_stack([edges[:-1], edges[1:]])
     force = tuple(k for k in range(n_windows) if windows[k, 0] < tool_stop_s)
-    return Layout(markers, starts, tuple(groups), windows, sides, force)
+    present = window_presence(measured, windows) if measured is not None else None
+    return Layout(markers, starts, tuple(groups), windows, sides, force, present)
+
+
+def window_presence(meas: Measurement, windows: F64) -> NDArray[np.bool_]:
+    """(m, K) True where a marker was measured over the whole window (every sample time of
+    the window's time-average lies between its first and last measured sample)."""
+    grid = _grid(windows)
+    out = np.zeros((len(meas.markers), len(windows)), bool)
+    for j in range(len(meas.markers)):
+        ok = np.flatnonzero(np.isfinite(meas.positions[:, j]).all(1))
+        if len(ok) < 2:
+            continue
+        first, last = meas.times[ok[0]], meas.times[ok[-1]]
+        out[j] = np.all((grid >= first - 1e-9) & (grid <= last + 1e-9), axis=1)
+    return out
 
 
 def _grid(windows: F64) -> F64:
@@ -151,14 +185,17 @@ def oriented(displacement: F64, sides: NDArray[np.int64]) -> F64:
 
 
 def marker_features(meas: Measurement, layout: Layout) -> F64:
-    """(m, K, 3) window-mean displacements of each measured marker (lateral out, Y, Z) [m]."""
+    """(m, K, 3) window-mean displacements of each measured marker (lateral out, Y, Z) [m];
+    NaN in the windows where the marker was not measured throughout."""
     out = np.full((len(layout.markers), len(layout.windows), 3), np.nan)
+    present = layout.presence()
     for j in range(len(layout.markers)):
         ok = np.isfinite(meas.positions[:, j, 0])
         if ok.sum() < 2:
             continue
         d = meas.positions[ok, j] - layout.starts[j]
         out[j] = window_means(meas.times[ok], d, layout.windows)
+        out[j, ~present[j]] = np.nan
     return oriented(out.transpose(1, 0, 2), layout.sides).transpose(1, 0, 2)
 
 
@@ -171,11 +208,22 @@ def force_features(times: F64, force: F64, layout: Layout) -> F64:
     return np.asarray(means[list(layout.force_windows)])
 
 
-def group_vector(features: F64, layout: Layout) -> F64:
-    """Group statistics (vector order of :meth:`Layout.names`) from (m, K, 3) features [m]."""
+def group_vector(features: F64, layout: Layout, masked: bool = False) -> F64:
+    """Group statistics (vector order of :meth:`Layout.names`) from (m, K, 3) features [m].
+
+    ``masked``: average only the markers present in each window (the model's side, so that it
+    sees the measurement's samples); a group-window with no marker present keeps every member
+    (its measured statistic is missing and is not compared).
+    """
     out = []
+    present = layout.presence()
     for g in layout.groups:
-        mean = np.nanmean(features[g.members], axis=0)  # (K, 3)
+        f = features[g.members]
+        if masked:
+            use = present[g.members]  # (n, K)
+            use = use | ~use.any(axis=0, keepdims=True)
+            f = np.where(use[..., None], f, np.nan)
+        mean = np.nanmean(f, axis=0)  # (K, 3)
         for a in Layout._axes(g):
             out.append(mean[:, AXES.index(a)])
     return np.concatenate(out) if out else np.zeros(0)
@@ -245,7 +293,7 @@ def model_statistics(rec: PassRecord, layout: Layout, cube: tuple[float, float, 
         f[..., 0] *= layout.sides[j] or 1
         feat[j], var[j], scatter = local_field(f, start[idx] - layout.starts[j])
         per_particle.append(scatter)
-    vector = group_vector(feat, layout)
+    vector = group_vector(feat, layout, masked=True)
     cov = _sampling_cov(per_particle, layout, len(vector))
     if with_force:
         force = force_features(rec.force_times, rec.tool_force, layout)
@@ -286,19 +334,24 @@ def local_field(features: F64, offsets: F64) -> tuple[F64, F64, F64]:
 
 
 def _sampling_cov(per_particle: list[F64], layout: Layout, n: int) -> F64:
-    """Block-diagonal covariance (one block per group) of one-particle-per-cube group means."""
+    """Block-diagonal covariance (one block per group) of one-particle-per-cube group means,
+    each window's mean over the markers present in it."""
     cov = np.zeros((n, n))
     at = 0
     k = len(layout.windows)
+    present = layout.presence()
     for g in layout.groups:
         axes = [AXES.index(a) for a in Layout._axes(g)]
         size = len(axes) * k
         block = np.zeros((size, size))
-        for j in g.members:
+        use = present[g.members] | ~present[g.members].any(axis=0, keepdims=True)  # (n, K)
+        count = np.tile(use.sum(axis=0), len(axes)).astype(np.float64)  # (size,)
+        for j, member in zip(g.members, use, strict=True):
             f = per_particle[j]
             if len(f) >= 2:
                 flat = f[:, :, axes].transpose(0, 2, 1).reshape(len(f), size)
-                block += np.nan_to_num(np.cov(flat, rowvar=False))
-        cov[at:at + size, at:at + size] = block / max(len(g.members), 1) ** 2
+                mask = np.tile(member, len(axes)).astype(np.float64)
+                block += np.nan_to_num(np.cov(flat, rowvar=False)) * np.outer(mask, mask)
+        cov[at:at + size, at:at + size] = block / np.outer(count, count)
         at += size
     return cov

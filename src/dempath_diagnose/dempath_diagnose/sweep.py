@@ -1,9 +1,12 @@
 """Simulation sweeps through Dask: a local cluster sized for the machine, or a scheduler address.
 
-Each task runs one library pass and stores it itself (atomically), so a finished run is never
-lost; a task whose worker dies is retried on another worker (``RETRIES``) and skips the run if
-its first attempt had already stored it. Local workers get ``NUMBA_NUM_THREADS`` so that
-workers x numba threads = cores (the engine's kernels are numba-parallel).
+Each task runs one library pass and returns its record through its future; the client stores it
+(atomically) as it arrives, so a finished run is never lost and a worker needs no access to the
+client's folders. A task whose worker dies is retried on another worker (``RETRIES``); a run
+that fails for a reason that would fail it again returns the failure as its value
+(:class:`~dempath_diagnose.library.RunFailure`) and is not retried. Local workers get
+``NUMBA_NUM_THREADS`` so that workers x numba threads = cores (the engine's kernels are
+numba-parallel).
 """
 
 from __future__ import annotations
@@ -100,9 +103,14 @@ class DaskSweep:
         if self.cluster is not None:
             self.cluster.close()
 
-    def run(self, tasks: Sequence[Callable[[], Any]], done: Callable[[int], None]) -> None:
-        """Run every task (retried on failure), started in the order given; ``done(k)`` as each
-        finishes.
+    @property
+    def remote(self) -> bool:
+        """Whether the workers may be on other machines (a scheduler given by address)."""
+        return bool(self.scheduler)
+
+    def run(self, tasks: Sequence[Callable[[], Any]], done: Callable[[int, Any], None]) -> None:
+        """Run every task (retried when its worker dies), started in the order given;
+        ``done(k, value)`` with what each returned, as each finishes.
 
         Raises:
             ClusterError: A task failed on every attempt (its message names the run).
@@ -120,6 +128,7 @@ class DaskSweep:
             if future.status == 'error':
                 failed.append(f'{tasks[k]!r:.80}: {future.exception()}')
             else:
-                done(k)
+                done(k, future.result())
+                future.release()  # the record is stored: the worker may drop it
         if failed:
             raise ClusterError(f'{len(failed)} runs failed: {failed[0]}')

@@ -20,7 +20,7 @@ from dempath_diagnose.library import Library
 from dempath_diagnose.recal_cli import recalibrate_main
 
 from .test_recal_cli import argv_for
-from .test_sweep import _start, wait_workers
+from .test_sweep import _start, stop_all, wait_workers
 
 
 def _default_sigint() -> None:
@@ -45,13 +45,7 @@ def one_worker(tmp_path: Path) -> Iterator[tuple[str, list[subprocess.Popen[byte
                             tmp_path / 'worker.log'))
         yield address, procs
     finally:
-        for p in reversed(procs):
-            if p.poll() is None:
-                os.killpg(p.pid, signal.SIGTERM)
-                try:
-                    p.wait(10)
-                except subprocess.TimeoutExpired:
-                    os.killpg(p.pid, signal.SIGKILL)
+        stop_all(procs)
 
 
 def _when_a_run_is_stored(runs: Path, timeout_s: float = 1200.0) -> list[Path]:
