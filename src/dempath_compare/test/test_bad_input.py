@@ -135,5 +135,5 @@ def test_unrecovered_bag_says_to_recover_it(tmp_path: Path) -> None:
     'no CSV files in folder'."""
     (tmp_path / 'rec').mkdir()
     (tmp_path / 'rec' / 'rec_0.mcap').write_bytes(b'\x89MCAP0\r\n')
-    with pytest.raises(InputError, match="dempath bag-recover"):
+    with pytest.raises(InputError, match='dempath bag-recover'):
         load_source(tmp_path / 'rec', MEASURED)
