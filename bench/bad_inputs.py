@@ -131,7 +131,7 @@ def corrupt_packing_cache(work: Path) -> str:
     """A truncated entry in the packing cache: named, set aside, the bed found elsewhere."""
     import logging
 
-    from dempath_sim.runs.fill import bundled_packing_dir, fill_bed, packing_key
+    from dempath_sim.runs.bed import bundled_packing_dir, fill_bed, packing_key
     from dempath_sim.runs.physics import build_params
     from dempath_sim.scene import bundled_scene
 
@@ -145,7 +145,7 @@ def corrupt_packing_cache(work: Path) -> str:
     seen: list[str] = []
     handler = logging.Handler()
     handler.emit = lambda record: seen.append(record.getMessage())  # type: ignore[method-assign]
-    logging.getLogger('dempath_sim.runs.fill').addHandler(handler)
+    logging.getLogger('dempath_sim.runs.bed').addHandler(handler)
     fill_bed(scene, model, build_params(scene, model), cache)
     return '\n'.join(seen)
 

@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from dempath.errors import DempathError
-from dempath_bringup.stages import DemoContext
+from dempath_bringup.stages import DemoContext, named_identity
 
 SHIPPED_LIBRARIES = 'libraries'  # folder of packed signature libraries in dempath_diagnose/data
 # Recalibration simulations of the demo: one real evaluation on two paired library seeds
@@ -241,7 +241,7 @@ def after_stage(ctx: DemoContext) -> str:
     if simulate_main(argv) != 0:
         msg = f'{scene}: the recalibrated model failed (dempath simulate {" ".join(argv)})'
         raise DempathError(msg)
-    result = compare_paths(ctx.results['graph'].bag, after_model_source(out))
+    result = compare_paths(ctx.results['graph'].bag, after_model_source(out), named_identity())
     table = build_table7(result)
     ctx.results.update(compare_after=result, table7_after=table)
     before = ctx.results['table7'].mean_nrmse

@@ -314,7 +314,7 @@ def build_library(scene: SceneSpec, spec: LibrarySpec, root: Path | None = None,
 
 def keep_beds(beds: Any, cache_dir: Path | None) -> None:
     """Store the beds a pour task returned (file name -> bytes) in the client's cache."""
-    from dempath_sim.runs.fill import default_cache_dir
+    from dempath_sim.runs.bed import default_cache_dir
 
     for name, data in dict(beds or {}).items():
         path = (cache_dir or default_cache_dir()) / name
@@ -340,7 +340,7 @@ class LibraryPour:
         scene = self.scene.unpack(self.cache_dir).with_overrides(seed=self.seed)
         ensure_bed(scene, self.cache_dir)
         found = bed_cache_file(scene, self.cache_dir)
-        from dempath_sim.runs.fill import bundled_packing_dir
+        from dempath_sim.runs.bed import bundled_packing_dir
 
         if found is None or found.parent == bundled_packing_dir():
             return {}

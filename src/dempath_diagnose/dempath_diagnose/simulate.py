@@ -273,7 +273,7 @@ def ensure_bed(scene: SceneSpec, cache_dir: Path | None = None) -> bool:
     differences; each run then re-settles it against the tool with its own physics
     (``tool.settle_s``), as LIGGGHTS users re-settle a saved bed.
     """
-    from dempath_sim.runs.fill import default_cache_dir, fill_bed, packing_key
+    from dempath_sim.runs.bed import default_cache_dir, fill_bed, packing_key
     from dempath_sim.runs.physics import build_params
 
     model = scene.bed_model()

@@ -7,10 +7,14 @@ LIGGGHTS deck's, a lab's packing file), so that beds are compared by one yardsti
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import Any
+
 import numpy as np
 
 from dempath_sim.effects import PhysicsModel
 from dempath_sim.engine.state import SimState
+from dempath_sim.runs.bed.pour import target_solid_fraction
 from dempath_sim.scene.spec import SceneSpec
 
 
@@ -52,3 +56,58 @@ def measure(scene: SceneSpec, model: PhysicsModel, state: SimState) -> dict[str,
     phi = volume / float(np.prod(hi - lo))
     return {'surface_height_m': surface, 'solid_fraction': phi,
             'bulk_density_kg_m3': phi * model.particle_density_kg_m3}
+
+
+@dataclass(frozen=True)
+class FillReport:
+    """What the fill achieved.
+
+    Attributes:
+        n_particles: Particles in the bed.
+        bulk_density_kg_m3: Achieved bulk density [kg/m^3].
+        solid_fraction: Achieved solid fraction [1].
+        surface_height_m: Y of the settled surface [m] (nominal 0).
+        floor_y_m: Y of the bin floor [m].
+        target_bulk_density_kg_m3: Target from the scene, or None.
+        within_tolerance: Whether the target was met within ``fill.tolerance`` (True if none).
+        settle_time_s: Simulated pour and settle time [s].
+        settled: Whether the settling criterion was met before ``max_settle_time_s``.
+        key: Cache key of the packing (``file:<sha>`` for a packing file).
+        from_cache: Whether the packing was read from the cache.
+        target_solid_fraction: Target bulk density / particle density, or None.
+        compaction_friction_scale: Friction scale of the compaction settle (1: none).
+        source: ``pour`` or the packing file's path.
+        count_scale: Grains poured / the volume count (``fill.count: surface``; 1 otherwise).
+    """
+
+    n_particles: int
+    bulk_density_kg_m3: float
+    solid_fraction: float
+    surface_height_m: float
+    floor_y_m: float
+    target_bulk_density_kg_m3: float | None
+    within_tolerance: bool
+    settle_time_s: float
+    settled: bool
+    key: str
+    from_cache: bool = False
+    target_solid_fraction: float | None = None
+    compaction_friction_scale: float = 1.0
+    source: str = 'pour'
+    count_scale: float = 1.0
+
+
+def fill_report(scene: SceneSpec, model: PhysicsModel, state: SimState, key: str, settled: bool,
+            scale: float = 1.0, source: str = 'pour', count_scale: float = 1.0) -> FillReport:
+    """The report of a bed: what ``measure`` finds, against the scene's target."""
+    found: dict[str, Any] = measure(scene, model, state)
+    target = scene.fill.bulk_density_target_kg_m3
+    within = target is None or abs(found['bulk_density_kg_m3'] - target) <= (
+        scene.fill.tolerance * target)
+    return FillReport(n_particles=state.n, target_bulk_density_kg_m3=target,
+                      within_tolerance=within, settle_time_s=state.time, settled=settled,
+                      key=key, floor_y_m=-scene.bed_thickness_m,
+                      target_solid_fraction=None if target is None else target_solid_fraction(
+                          scene, model),
+                      compaction_friction_scale=scale, source=source,
+                      count_scale=count_scale, **found)

@@ -7,7 +7,7 @@ mesh (generalised winding number, ``engine.solid``) or its sphere cuts the mesh 
 ``tool.placement: slot`` removes every particle touching the tool's bounding box, a pre-cut slot
 (dempath's set-up before issue 12): for a leaning tine it also empties the wedge behind the
 share. ``tool.placement: poured``: the bed was poured and settled around the standing tool
-(``runs.fill_tool``), so the grains resting against it stay (their contact overlap is the
+(``runs.bed.standing_tool``), so the grains resting against it stay (their contact overlap is the
 bed's); only a centre inside the mesh would go, as none should. The carve needs a closed mesh;
 an open one stops with one error naming the STL.
 """
@@ -23,8 +23,8 @@ from dempath_sim.engine.mesh import TriangleMesh
 from dempath_sim.engine.solid import open_edges, overlapping_spheres, winding_numbers
 from dempath_sim.engine.state import SimState
 from dempath_sim.errors import GeometryError
-from dempath_sim.runs.fill import FillReport
-from dempath_sim.runs.fill_tool import nominal_start
+from dempath_sim.runs.bed.measure import FillReport
+from dempath_sim.runs.bed.standing_tool import nominal_start
 from dempath_sim.scene.spec import SceneSpec
 
 logger = logging.getLogger(__name__)
