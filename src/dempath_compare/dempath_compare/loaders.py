@@ -104,6 +104,11 @@ def load_csv(path: str | Path, kind: str, meta: dict[str, Any] | None = None,
     if key in cols:
         idents = _integers(path, key, cols[key])
     else:
+        t = cols['t'][np.isfinite(cols['t'])]
+        if len(np.unique(t)) < len(t):  # one file of one particle has each time once
+            msg = (f'{path}: no {key!r} column, and its times repeat (rows of several '
+                   f'{key}s?); give a {key} column: t,{key},x,y,z')
+            raise InputError(msg)
         idents = np.full(n_rows, _number_in_name(path), dtype=np.int64)
     markers = _integers(path, 'marker', cols['marker']) if 'marker' in cols else None
     xyz = np.stack([cols['x'], cols['y'], cols['z']], axis=1)
@@ -138,6 +143,10 @@ def csv_files(folder: Path, kind: str) -> list[Path]:
     measured (a folder given on purpose for the measured side).
     """
     files = sorted(p for p in folder.iterdir() if p.suffix.lower() == '.csv' and p.is_file())
+    if not files and any(p.suffix.lower() in {'.mcap', '.db3'} for p in folder.iterdir()):
+        msg = (f'{folder}: a bag without metadata.yaml (a recording that was cut off?); run '
+               f"'dempath bag-recover {folder}' first")
+        raise InputError(msg)
     if not files:
         msg = f'{folder}: no CSV files in folder'
         raise InputError(msg)

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from dempath.errors import DempathError
+from dempath_diagnose.admission import check_force_time_base, markers_in_bin
 from dempath_diagnose.decision.diagnosis import CaseGeometry, Diagnosis, diagnose
 from dempath_diagnose.decision.emulator import Allowance
 from dempath_diagnose.decision.measure import load_force, load_tracks
@@ -249,16 +250,18 @@ def diagnosis_of(args: argparse.Namespace,
     arguments (what ``dempath recalibrate`` builds on)."""
     origin = _origin(args.origin)
     scene = load_scene(args.scene)
-    meas = load_tracks(args.measured, origin)
+    meas = markers_in_bin(args.measured, load_tracks(args.measured, origin), scene)
     if meas.time_origin:
         print(f'{args.measured}: {meas.time_origin}', file=sys.stderr)
     for marker, problem in sorted(meas.problems.items()):
         print(f'warning: {args.measured}: marker {marker}: {problem} (left out)', file=sys.stderr)
     if args.force is not None:
         t, f = load_force(args.force)
+        check_force_time_base(args.force, t, meas.times)
         meas = replace(meas, force_times=t, force=f)
     spec = library_spec(args, scene, meas)
-    library = ensure_library(args, scene, spec)
+    library = ensure_library(args, scene, spec)  # a given --library is only read
+    library.check_scene(scene)  # before any diagnosis is computed or written
     tool_x, half_width, cube = tool_geometry(scene)
     allowance = Allowance(args.noise, args.discrepancy, args.discrepancy_rel,
                           args.discrepancy_force)

@@ -28,7 +28,13 @@ from dempath_diagnose.recalibration.loop import (
     unchanged,
 )
 from dempath_diagnose.recalibration.progress import Callback, fan_out, printer
-from dempath_diagnose.recalibration.targets import also_candidates, budgets, named, targets
+from dempath_diagnose.recalibration.targets import (
+    also_candidates,
+    budgets,
+    check_options,
+    named,
+    targets,
+)
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -85,6 +91,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         raise DiagnosisError(f'--budget {args.budget}: must be a positive number of simulations')
     if args.seeds_per_eval <= 0:
         raise DiagnosisError(f'--seeds-per-eval {args.seeds_per_eval}: must be positive')
+    check_options(args)  # before the diagnosis is computed or written
     scene, spec, library, allowance, d = diagnosis_of(args)
     write_outputs(d, args.out, {'scene': scene.name, 'library': str(library.folder),
                                 'allowance': vars(allowance)})

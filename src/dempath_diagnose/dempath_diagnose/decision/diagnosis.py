@@ -17,6 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dempath.errors import DempathError
+from dempath_diagnose.admission import thin_decision
 from dempath_diagnose.decision.bandtracks import band_table7
 from dempath_diagnose.decision.emulator import Allowance, Emulator, build_emulator
 from dempath_diagnose.decision.measure import check_force_scale
@@ -106,7 +107,8 @@ def diagnose(meas: Measurement, library: Library, geometry: CaseGeometry,
     end = float(meas.times[-1])
     if end > cover + COVERAGE_SLACK_S:
         msg = (f'measured window: ends at t = {end:.3f} s, the model library covers '
-               f'{cover:.3f} s; rebuild it with a longer follow after the tool stops (--follow)')
+               f'{cover:.3f} s; give no --library, and dempath diagnose builds one that covers '
+               'the window')
         raise MeasurementError(msg)
     if library.region is not None:
         meas = _inside_region(meas, library)
@@ -125,7 +127,7 @@ def diagnose(meas: Measurement, library: Library, geometry: CaseGeometry,
     observed[observed_idx[~finite]] = False
     y = y[finite]
     cov = emu.fixed_cov(allowance, layout)
-    decision = decide(emu, y, observed, cov)
+    decision = thin_decision(decide(emu, y, observed, cov), layout)
     err, z = _marker_map(emu, features, allowance)
     table7 = baseline_table7(meas, library, geometry.cube_m)
     headline = baseline_headline(meas, library, geometry.cube_m, allowance.noise_m)

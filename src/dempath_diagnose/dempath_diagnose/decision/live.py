@@ -105,12 +105,14 @@ def build_live(scene: str, library: Path, n_windows: int = 4, noise_m: float = 0
     """A LiveDiagnoser for ``scene`` on the built library in ``library``.
 
     Raises:
-        LibraryError: The library is missing or incomplete (build it with ``dempath diagnose``).
+        LibraryError: The library is missing or incomplete (build it with ``dempath diagnose``),
+            or built for another scene or other physics.
     """
     from dempath_diagnose.library.simulator import load_scene, tool_geometry
 
     spec = load_scene(scene)
     tool_x, half_width, cube = tool_geometry(spec)
     allowance = Allowance(noise_m=noise_m, discrepancy_m=discrepancy_m)
-    return LiveDiagnoser(Library.load(library), CaseGeometry(tool_x, half_width, cube),
-                         allowance, n_windows)
+    built = Library.load(library)
+    built.check_scene(spec)
+    return LiveDiagnoser(built, CaseGeometry(tool_x, half_width, cube), allowance, n_windows)

@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from dempath.errors import DempathError
+from dempath_diagnose.admission import check_pass_times
 from dempath_diagnose.errors import MeasurementError
 from dempath_diagnose.records import F64, Measurement
 
@@ -79,6 +80,7 @@ def load_tracks(path: Path, origin: Sequence[float] = (0.0, 0.0, 0.0)) -> Measur
         raise MeasurementError(msg)
     end = max(float(np.nanmax(t.times)) for t in good)  # the whole pass: a marker lost early
     # counts where it was measured (statistics.window_presence), it never cuts the others
+    check_pass_times(path, min(float(np.nanmin(t.times)) for t in good), end)
     times = np.arange(0.0, end + 1e-9, COMMON_STEP_S, dtype=np.float64)
     positions = np.full((len(times), len(good), 3), np.nan)
     shift = np.asarray(origin, np.float64)

@@ -106,6 +106,7 @@ class Decision:
     baseline: ModelFit
     remaining: list[str] = field(default_factory=list)
     separators: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)  # why the verdict is weaker than the fits
 
 
 def gauss_logpdf(r: F64, cov: F64) -> tuple[float, float]:

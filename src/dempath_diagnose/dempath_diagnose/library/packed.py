@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import json
 import os
+import zipfile
 from collections.abc import Sequence
 from dataclasses import asdict
 from pathlib import Path
@@ -128,6 +129,7 @@ def export_library(library: Any, path: Path, cube: tuple[float, float, float],
               'margin_m': margin_m, 'box': None if box is None else np.asarray(box).tolist(),
               'cube_m': list(cube)}
     design = {'format': FORMAT, 'source': str(library.folder), 'region': region,
+              **getattr(library, 'identity', {}),
               'candidates': [asdict(c) for c in library.candidates],
               'runs': [asdict(r) for r in library.runs]}
     arrays['design'] = np.array(json.dumps(design))
@@ -152,12 +154,20 @@ def load_packed(path: Path) -> tuple[dict[str, Any], list[PassRecord]]:
     try:
         with np.load(path, allow_pickle=False) as data:
             design = json.loads(str(data['design']))
-            if design.get('format') != FORMAT:
-                msg = f'{path}: not a packed dempath library ({design.get("format")})'
+            if not isinstance(design, dict) or design.get('format') != FORMAT:
+                found = design.get('format') if isinstance(design, dict) else None
+                msg = (f'{path}: not a packed dempath library of this version (format {found!r},'
+                       f' expected {FORMAT!r}); pack it again with this dempath')
                 raise LibraryError(msg)
             records = [_unpack_record(data, k) for k in range(len(design['runs']))]
-    except (OSError, KeyError, ValueError) as err:
-        raise LibraryError(f'{path}: unreadable packed library ({err})') from err
+    except KeyError as err:  # an array or design entry of another layout
+        msg = (f'{path}: a packed library of another layout (no {err}); pack it again with this '
+               'dempath')
+        raise LibraryError(msg) from None
+    except (OSError, EOFError, zipfile.BadZipFile, ValueError, TypeError) as err:
+        what = 'empty' if path.is_file() and path.stat().st_size == 0 else 'truncated or damaged'
+        msg = f'{path}: unreadable packed library, {what} ({type(err).__name__}: {err})'
+        raise LibraryError(msg) from None
     return design, records
 
 

@@ -106,14 +106,20 @@ def physics_key(scene: SceneSpec) -> str:
     Files the scene names (the tool mesh, a packing) count by their content, not their path, so
     the same scene read from another clone or install keeps its key (and its library).
     """
-    data = scene.to_dict()
+    text = json.dumps(scene_parts(scene), sort_keys=True, default=str)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def scene_parts(scene: SceneSpec) -> dict[str, Any]:
+    """The parts of a scene that change its passes (the record :func:`physics_key` hashes):
+    its dict without name, description, seed, source and output, files by their content."""
+    data: dict[str, Any] = scene.to_dict()
     for key in ('name', 'description', 'seed', 'source', 'output'):
         data.pop(key, None)
     data['tool']['mesh'] = _file_digest(scene.tool.mesh)
     if scene.fill.packing is not None:
         data['fill']['packing'] = _file_digest(scene.fill.packing)
-    text = json.dumps(data, sort_keys=True, default=str)
-    return hashlib.sha256(text.encode()).hexdigest()[:16]
+    return data
 
 
 def _file_digest(path: Any) -> str:

@@ -26,6 +26,7 @@ from pathlib import Path
 from typing import Any
 
 from dempath.errors import DempathError
+from dempath_diagnose.admission import check_library_scene, scene_identity
 from dempath_diagnose.errors import LibraryError
 from dempath_diagnose.library.simulator import (
     LIBRARY_CANDIDATES,
@@ -295,7 +296,7 @@ def build_library(scene: SceneSpec, spec: LibrarySpec, root: Path | None = None,
     (folder / 'runs').mkdir(parents=True, exist_ok=True)
     candidates, runs = design(scene, spec)
     (folder / 'design.json').write_text(json.dumps({
-        'scene': scene.name, 'spec': asdict(spec), 'version': LIBRARY_VERSION,
+        **scene_identity(scene), 'spec': asdict(spec), 'version': LIBRARY_VERSION,
         'backend': backend, 'candidates': [asdict(c) for c in candidates],
         'runs': [asdict(r) for r in runs]}, indent=1))
     todo = [r for r in runs if not (folder / 'runs' / r.filename).is_file()]
@@ -403,6 +404,9 @@ class Library:
         records: Loaded records by file name.
         region: For a packed library, the marker region it was packed for (None: every
             particle near the surface is there).
+        identity: The scene it was built for: name, physics key, a key per part
+            (:func:`~dempath_diagnose.admission.scene_identity`; only the name for an older
+            library).
     """
 
     folder: Path
@@ -410,6 +414,11 @@ class Library:
     runs: list[RunSpec]
     records: dict[str, PassRecord]
     region: dict[str, Any] | None = None
+    identity: dict[str, Any] = field(default_factory=dict)
+
+    def check_scene(self, scene: SceneSpec) -> None:
+        """Refuse this library for another scene or other physics (LibraryError, one line)."""
+        check_library_scene(self.folder, self.identity, scene)
 
     @classmethod
     def load(cls, folder: Path) -> Library:
@@ -422,12 +431,13 @@ class Library:
             data = json.loads((folder / 'design.json').read_text())
         except (OSError, ValueError) as err:
             raise LibraryError(f'{folder}: no readable library design ({err})') from err
-        candidates, runs = _design_of(data)
+        candidates, runs = _design_of(data, folder)
         missing = [r.filename for r in runs if not (folder / 'runs' / r.filename).is_file()]
         if missing:
             raise LibraryError(f'{folder}: {len(missing)} runs missing (e.g. {missing[0]})')
         records = {r.filename: PassRecord.load(folder / 'runs' / r.filename) for r in runs}
-        return cls(folder, candidates, runs, records).with_extra_runs()
+        return cls(folder, candidates, runs, records,
+                   identity=_identity_of(data)).with_extra_runs()
 
     @classmethod
     def load_packed(cls, path: Path) -> Library:
@@ -435,10 +445,10 @@ class Library:
         from dempath_diagnose.library.packed import load_packed
 
         data, records = load_packed(path)
-        candidates, runs = _design_of(data)
+        candidates, runs = _design_of(data, path)
         return cls(Path(path), candidates, runs,
                    {r.filename: rec for r, rec in zip(runs, records, strict=True)},
-                   region=data['region']).with_extra_runs()
+                   region=data['region'], identity=_identity_of(data)).with_extra_runs()
 
     @property
     def extra_dir(self) -> Path:
@@ -457,7 +467,8 @@ class Library:
             return self
         records = {**self.records,
                    **{r.filename: PassRecord.load(stored / r.filename) for r in runs}}
-        return Library(self.folder, self.candidates, [*self.runs, *runs], records, self.region)
+        return Library(self.folder, self.candidates, [*self.runs, *runs], records, self.region,
+                       self.identity)
 
     def seeds(self) -> list[int]:
         """The packing seeds, in design order."""
@@ -532,8 +543,22 @@ def extend_library(library: Library, scene: SceneSpec, spec: LibrarySpec,
     return library.with_extra_runs()
 
 
-def _design_of(data: dict[str, Any]) -> tuple[list[Candidate], list[RunSpec]]:
-    """Candidates and runs of a stored design (design.json or a packed library)."""
-    candidates = [Candidate(**{**c, 'linked': tuple(tuple(x) for x in c['linked'])})
-                  for c in data['candidates']]
-    return candidates, [RunSpec(**r) for r in data['runs']]
+def _design_of(data: dict[str, Any], where: Path) -> tuple[list[Candidate], list[RunSpec]]:
+    """Candidates and runs of a stored design (design.json or a packed library).
+
+    Raises:
+        LibraryError: A design of another layout (an older dempath's), naming what is missing.
+    """
+    try:
+        candidates = [Candidate(**{**c, 'linked': tuple(tuple(x) for x in c['linked'])})
+                      for c in data['candidates']]
+        return candidates, [RunSpec(**r) for r in data['runs']]
+    except (KeyError, TypeError, ValueError) as err:
+        msg = (f'{where}: a library design of another layout ({type(err).__name__}: {err}); '
+               'rebuild the library with this dempath')
+        raise LibraryError(msg) from None
+
+
+def _identity_of(data: dict[str, Any]) -> dict[str, Any]:
+    """The scene identity a stored design carries (empty for a library that has none)."""
+    return {k: data[k] for k in ('scene', 'physics_key', 'parts') if k in data}

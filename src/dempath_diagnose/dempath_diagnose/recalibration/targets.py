@@ -48,6 +48,19 @@ def _from_file(path: Any) -> tuple[str, list[str], list[str]]:
         raise DiagnosisError(msg) from err
 
 
+def check_options(args: argparse.Namespace) -> None:
+    """Refuse ``--effect`` names that are not among ``--candidates`` (or bad start values) and
+    an unreadable ``--diagnosis`` before anything is computed or written.
+
+    Raises:
+        DiagnosisError: One line naming the option and the problem.
+    """
+    candidates = [c for c in str(args.candidates).split(',') if c]
+    _effects(args.effect or (), candidates)
+    if args.diagnosis is not None:
+        _from_file(args.diagnosis)
+
+
 def targets(args: argparse.Namespace, decision: Decision,
             known: Sequence[str]) -> list[tuple[str, float | None]]:
     """The candidates to fit, with optional start values (see the module docstring)."""

@@ -71,6 +71,7 @@ def to_json(d: Diagnosis, extra: dict[str, Any] | None = None) -> dict[str, Any]
             'mean_nrmse_pct': _num(float(d.table7.get('mean_nrmse_pct', math.nan)))},
         'remaining': dec.remaining if dec.verdict == 'inconclusive' else [],
         'would_separate': dec.separators,
+        'notes': dec.notes,
         'groups': {g.name: [int(d.layout.markers[i]) for i in g.members] for g in d.layout.groups},
         'windows_s': d.layout.windows.tolist(),
         'markers_in_windows': markers_in_windows(d.layout),
@@ -115,6 +116,7 @@ def write_outputs(d: Diagnosis, out: Path, extra: dict[str, Any] | None = None) 
 def markdown(d: Diagnosis, data: dict[str, Any], plots: list[str]) -> str:
     """report.md: plain sentences first, then the ranking, the remaining and the plots."""
     lines = [f'# Diagnosis: {data["verdict"]}', '']
+    lines += [f'**Note:** {s}' for s in data.get('notes', [])] + [''] * bool(data.get('notes'))
     lines += [f'- {s}' for s in data['summary']] + ['']
     w = d.layout.windows
     lines += [f'The statistics cover the whole measured pass, {w[0, 0]:.2f}-{w[-1, 1]:.2f} s, '
@@ -236,5 +238,7 @@ def print_ranking(data: dict[str, Any]) -> None:
                       f'{r["explained_fraction"]:.2f}', f'{r["implausibility"]:.1f}')
     console = Console()
     console.print(table)
+    for s in data.get('notes', []):
+        console.print(f'note: {s}')
     for s in data['summary']:
         console.print(s)
