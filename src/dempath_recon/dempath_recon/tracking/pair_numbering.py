@@ -13,10 +13,9 @@ from dempath_recon.tracking.linker import UNNUMBERED
 from dempath_recon.tracking.state import (
     ALONE_RATIO,
     CARRY_FLOOR_M,
-    MAX_DEPTH_AGE_S,
     RECENT_S,
     StereoState,
-    grid_xyz,
+    carried_point,
     retire,
     unnumbered_tracks,
 )
@@ -96,13 +95,12 @@ def only_marker(state: StereoState, xyz: FloatArray, stamp_s: float, missing: li
     (measured on the bundled render: marker 8 back 13 mm from 9's last point, 50 mm from
     its own; carried, 4.5 mm from 8 and 25 mm from 9).
     """
-    near_s, ages = 1.5 / state.config.fps, []
+    ages = []
     for m in missing:
-        anchor = grid_point(state, m)
-        at = state.positions.carried(m, stamp_s, near_s, MAX_DEPTH_AGE_S, anchor)
-        if at is None:
+        placed = carried_point(state, m, stamp_s)
+        if placed is None:
             return UNNUMBERED
-        since = state.positions.known.get(m, anchor or (stamp_s, at))[0]
+        at, since = placed
         reach = state.config.position_gate_m + state.config.max_speed_m_s * (stamp_s - since)
         dist = float(np.linalg.norm(xyz - at))
         ages.append((dist, dist <= reach, m))
@@ -114,12 +112,3 @@ def only_marker(state: StereoState, xyz: FloatArray, stamp_s: float, missing: li
         return UNNUMBERED
     return ages[0][2]
 
-
-def grid_point(state: StereoState, marker: int) -> tuple[float, FloatArray] | None:
-    """``(stamp s, (3,) m)``: a marker's fitted grid point in the first camera whose grid
-    was fitted, at the grid point's depth, at that fit's stamp; None before any fit."""
-    if not state.grid_time:
-        return None
-    camera = min(state.grid_time, key=lambda c: state.grid_time[c])
-    placed = grid_xyz(state, camera, marker)
-    return None if placed is None else (state.grid_time[camera], placed[1])
