@@ -22,16 +22,16 @@ from typing import Any
 
 import numpy as np
 
-from dempath_diagnose.cases import HiddenCase, make_case
 from dempath_diagnose.cli import diagnose_main
-from dempath_diagnose.library import (
+from dempath_diagnose.library.cases import HiddenCase, make_case
+from dempath_diagnose.library.simulator import LIBRARY_CANDIDATES, load_scene, pass_travel_s
+from dempath_diagnose.library.store import (
     LibrarySpec,
     build_library,
     covering_duration,
     library_state,
     serial_executor,
 )
-from dempath_diagnose.simulate import LIBRARY_CANDIDATES, load_scene, pass_travel_s
 
 NAMED = ('effect_missing', 'parameter_off')
 OPEN = ('nothing_significant', 'inconclusive')
@@ -211,7 +211,7 @@ def main() -> None:
         if args.serial:
             build_library(scene, spec, lib_root, serial_executor, packings)
         else:
-            from dempath_diagnose.sweep import DaskSweep
+            from dempath_diagnose.library.sweep import DaskSweep
 
             with DaskSweep() as sweep:
                 build_library(scene, spec, lib_root, sweep.run, packings)

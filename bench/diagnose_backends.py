@@ -18,10 +18,10 @@ import json
 import time
 from pathlib import Path
 
-from dempath_diagnose.cases import HiddenCase, make_case
 from dempath_diagnose.cli import diagnose_main
-from dempath_diagnose.library import covering_duration
-from dempath_diagnose.simulate import load_scene, pass_travel_s
+from dempath_diagnose.library.cases import HiddenCase, make_case
+from dempath_diagnose.library.simulator import load_scene, pass_travel_s
+from dempath_diagnose.library.store import covering_duration
 
 
 def main() -> None:

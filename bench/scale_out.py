@@ -46,9 +46,9 @@ def build_once(args: argparse.Namespace, n_workers: int, work: Path) -> dict[str
     """A fresh library with ``n_workers`` lone workers; its wall time and runs."""
     from distributed import Client
 
-    from dempath_diagnose.library import LibrarySpec, build_library, design
-    from dempath_diagnose.simulate import load_scene, pass_travel_s
-    from dempath_diagnose.sweep import DaskSweep
+    from dempath_diagnose.library.simulator import load_scene, pass_travel_s
+    from dempath_diagnose.library.store import LibrarySpec, build_library, design
+    from dempath_diagnose.library.sweep import DaskSweep
 
     work.mkdir(parents=True)
     port_file = work / 'scheduler.json'

@@ -34,6 +34,7 @@ setup(
     entry_points={
         'dempath.commands': [
             'demo = dempath_bringup.demo:demo_main',
+            'frames = dempath_bringup.framescli:frames_main',
         ],
     },
 )

@@ -16,8 +16,8 @@ from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
-from dempath_diagnose.diagnose import Diagnosis
-from dempath_diagnose.library import Library
+from dempath_diagnose.decision.diagnosis import Diagnosis
+from dempath_diagnose.library.store import Library
 from dempath_diagnose.next_runs import PlannedRun, plan_next
 
 # (library, [(candidate, strength)], seeds per strength) -> the library with those runs added

@@ -18,10 +18,21 @@ from typing import Any
 import numpy as np
 
 from dempath.errors import DempathError
-from dempath_diagnose.diagnose import CaseGeometry, Diagnosis, diagnose
-from dempath_diagnose.emulator import Allowance
+from dempath_diagnose.admission import check_force_time_base, markers_in_bin
+from dempath_diagnose.decision.diagnosis import CaseGeometry, Diagnosis, diagnose
+from dempath_diagnose.decision.emulator import Allowance
+from dempath_diagnose.decision.measure import load_force, load_tracks
 from dempath_diagnose.errors import DiagnosisError, MeasurementError
-from dempath_diagnose.library import (
+from dempath_diagnose.library.packed import DEFAULT_MARGIN_M
+from dempath_diagnose.library.simulator import (
+    BACKENDS,
+    LIBRARY_CANDIDATES,
+    SceneSpec,
+    load_scene,
+    pass_travel_s,
+    tool_geometry,
+)
+from dempath_diagnose.library.store import (
     Library,
     LibrarySpec,
     build_library,
@@ -30,17 +41,7 @@ from dempath_diagnose.library import (
     library_state,
     recorded_run_s,
 )
-from dempath_diagnose.measure import load_force, load_tracks
-from dempath_diagnose.packed import DEFAULT_MARGIN_M
 from dempath_diagnose.records import Measurement
-from dempath_diagnose.simulate import (
-    BACKENDS,
-    LIBRARY_CANDIDATES,
-    SceneSpec,
-    load_scene,
-    pass_travel_s,
-    tool_geometry,
-)
 
 DEFAULT_BUDGET = 6  # simulations beyond the library (two strengths on the default 3 seeds)
 MAX_FOLLOW_S = 5.0  # the model follows the bed at most this long after the tool stops [s]
@@ -179,7 +180,7 @@ def _build(args: argparse.Namespace, scene: SceneSpec, spec: LibrarySpec, todo: 
         TimeRemainingColumn,
     )
 
-    from dempath_diagnose.library import serial_executor
+    from dempath_diagnose.library.store import serial_executor
 
     bar = Progress(TextColumn('library'), BarColumn(), MofNCompleteColumn(),
                    TimeElapsedColumn(), TextColumn('ETA'), TimeRemainingColumn(),
@@ -200,7 +201,7 @@ def _build(args: argparse.Namespace, scene: SceneSpec, spec: LibrarySpec, todo: 
             build_library(scene, spec, args.library_root, serial_executor, args.packing_cache,
                           on_done, backend=args.backend)
             return
-        from dempath_diagnose.sweep import DaskSweep
+        from dempath_diagnose.library.sweep import DaskSweep
 
         with DaskSweep(args.scheduler, args.workers) as sweep:
             build_library(scene, spec, args.library_root, sweep.run, args.packing_cache,
@@ -213,7 +214,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     t0 = time.monotonic()
     scene, _spec, library, allowance, result = diagnosis_of(args)
     result.wall_s = time.monotonic() - t0
-    from dempath_diagnose.report import print_ranking, write_outputs
+    from dempath_diagnose.report.diagnosis_outputs import print_ranking, write_outputs
 
     extra: dict[str, Any] = {'scene': scene.name, 'library': str(library.folder),
                              'allowance': vars(allowance), 'backend': args.backend}
@@ -229,7 +230,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
 def export(args: argparse.Namespace, library: Library, result: Diagnosis,
            cube: tuple[float, float, float]) -> dict[str, Any]:
     """Pack the library for the measured markers (and ``--export-box``) into the export file."""
-    from dempath_diagnose.packed import export_library
+    from dempath_diagnose.library.packed import export_library
 
     box = None
     if args.export_box:
@@ -249,16 +250,18 @@ def diagnosis_of(args: argparse.Namespace,
     arguments (what ``dempath recalibrate`` builds on)."""
     origin = _origin(args.origin)
     scene = load_scene(args.scene)
-    meas = load_tracks(args.measured, origin)
+    meas = markers_in_bin(args.measured, load_tracks(args.measured, origin), scene)
     if meas.time_origin:
         print(f'{args.measured}: {meas.time_origin}', file=sys.stderr)
     for marker, problem in sorted(meas.problems.items()):
         print(f'warning: {args.measured}: marker {marker}: {problem} (left out)', file=sys.stderr)
     if args.force is not None:
         t, f = load_force(args.force)
+        check_force_time_base(args.force, t, meas.times)
         meas = replace(meas, force_times=t, force=f)
     spec = library_spec(args, scene, meas)
-    library = ensure_library(args, scene, spec)
+    library = ensure_library(args, scene, spec)  # a given --library is only read
+    library.check_scene(scene)  # before any diagnosis is computed or written
     tool_x, half_width, cube = tool_geometry(scene)
     allowance = Allowance(args.noise, args.discrepancy, args.discrepancy_rel,
                           args.discrepancy_force)
@@ -282,7 +285,7 @@ def own_model_table7(args: argparse.Namespace, meas: Measurement,
     reads a model) against the measured markers: each marker's Cube candidates in that run."""
     from dempath_compare.foreign import load_mapping
     from dempath_compare.loaders import MODEL, load_source
-    from dempath_diagnose.bandtracks import band_table7, model_record
+    from dempath_diagnose.decision.bandtracks import band_table7, model_record
 
     mapping = load_mapping(args.model_map) if args.model_map is not None else None
     record = model_record(load_source(args.model, MODEL, mapping))
@@ -297,13 +300,13 @@ def spend_budget(args: argparse.Namespace, scene: SceneSpec, spec: LibrarySpec,
     from contextlib import ExitStack
 
     from dempath_diagnose.adaptive import refine
-    from dempath_diagnose.library import extend_library, serial_executor
+    from dempath_diagnose.library.store import extend_library, serial_executor
 
     with ExitStack() as stack:
         executor: Any = serial_executor
         worker_cache: Path | None | str = 'same'
         if not args.serial:
-            from dempath_diagnose.sweep import DaskSweep
+            from dempath_diagnose.library.sweep import DaskSweep
 
             sweep = None
 

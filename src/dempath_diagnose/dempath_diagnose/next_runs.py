@@ -31,9 +31,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from dempath_diagnose.decision import ModelFit
-from dempath_diagnose.diagnose import Diagnosis
-from dempath_diagnose.emulator import CandidateEmulator
+from dempath_diagnose.decision.diagnosis import Diagnosis
+from dempath_diagnose.decision.emulator import CandidateEmulator
+from dempath_diagnose.decision.verdict import ModelFit
 from dempath_sim.effects.candidates import LOG_SCALE
 
 NAMED = ('effect_missing', 'parameter_off')

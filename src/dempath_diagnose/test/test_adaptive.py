@@ -10,12 +10,12 @@ from pathlib import Path
 import pytest
 
 from dempath_diagnose.adaptive import probabilities, refine
-from dempath_diagnose.cases import HiddenCase, make_case
-from dempath_diagnose.diagnose import CaseGeometry, Diagnosis, diagnose
-from dempath_diagnose.library import EXTRA_RUNS, Library, extend_library, serial_executor
-from dempath_diagnose.measure import load_force, load_tracks
+from dempath_diagnose.decision.diagnosis import CaseGeometry, Diagnosis, diagnose
+from dempath_diagnose.decision.measure import load_force, load_tracks
+from dempath_diagnose.library.cases import HiddenCase, make_case
+from dempath_diagnose.library.simulator import load_scene
+from dempath_diagnose.library.store import EXTRA_RUNS, Library, extend_library, serial_executor
 from dempath_diagnose.records import Measurement
-from dempath_diagnose.simulate import load_scene
 
 from .conftest import SCENE, SPEC
 from .test_hidden import case_files
@@ -90,3 +90,36 @@ def test_control_spends_nothing_and_budget_zero_changes_nothing(
     assert zero.used == 0 and not zero.steps  # type: ignore[attr-defined]
     assert probabilities(same) == probabilities(first)
     assert same.decision.verdict == first.decision.verdict
+
+
+@pytest.mark.timeout(1800)
+def test_cli_budget_reports_what_it_ran(cache: Path, tiny_library: Library,
+                                        tmp_path: Path) -> None:
+    """``dempath diagnose --budget 3``: diagnosis.json says what was run, why and how the
+    probabilities moved; report.md has the section; the runs stay in the library."""
+    import json
+
+    from dempath_diagnose.cli import diagnose_main
+
+    root = tmp_path / 'libraries'
+    shutil.copytree(tiny_library.folder, root / tiny_library.folder.name)
+    markers, force = make_case(load_scene(SCENE), FAST, cache / 'cases' / FAST.name,
+                               until_s=SPEC.duration_s, cache_dir=cache / 'packings')
+    out = tmp_path / 'diag'
+    assert diagnose_main(['--measured', str(markers), '--force', str(force), '--scene', SCENE,
+                          '--out', str(out), '--library-root', str(root), '--packing-cache',
+                          str(cache / 'packings'), '--seeds', ','.join(map(str, SPEC.seeds)),
+                          '--candidates', ','.join(SPEC.candidates), '--strengths',
+                          str(SPEC.n_strengths), '--serial', '--budget', '3']) == 0
+    data = json.loads((out / 'diagnosis.json').read_text())
+    adaptive = data['adaptive']
+    assert adaptive['extra_simulations'] == 3 and adaptive['budget'] == 3
+    (step,) = adaptive['steps']
+    assert step['runs'][0]['why'] == 'past_edge' and 'edge of the library' in \
+        step['runs'][0]['reason']
+    assert step['before']['tool_speed'] > 0.5 and 'tool_speed' in step['after']
+    assert adaptive['stop'] in ('the budget of simulations is spent',
+                                'tool_speed is named (p 1.00)')
+    assert data['simulations'] == len(tiny_library.runs) + 3
+    assert '## Simulations beyond the library (3 of a budget of 3)' in \
+        (out / 'report.md').read_text()

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from dempath_diagnose.cli import diagnose_main
+from dempath_diagnose.decision.measure import check_force_scale, load_force, load_tracks
 from dempath_diagnose.errors import ClusterError, MeasurementError
-from dempath_diagnose.measure import check_force_scale, load_force, load_tracks
-from dempath_diagnose.sweep import DaskSweep
+from dempath_diagnose.library.sweep import DaskSweep
 
 
 def write_markers(path: Path, rows: list[tuple[float, int, float, float, float]]) -> Path:

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from dempath_diagnose.library import LibrarySpec, LibraryTask, design
-from dempath_diagnose.simulate import load_scene
+from dempath_diagnose.library.simulator import load_scene
+from dempath_diagnose.library.store import LibrarySpec, LibraryTask, design
 from dempath_sim.runs.portable import pack_scene
 
 

@@ -9,12 +9,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from dempath_diagnose.bandtracks import band_table7
 from dempath_diagnose.cli import diagnose_main
-from dempath_diagnose.diagnose import CaseGeometry
-from dempath_diagnose.library import Library, LibrarySpec, library_dir
-from dempath_diagnose.measure import load_tracks
-from dempath_diagnose.simulate import load_scene, pass_travel_s, run_pass
+from dempath_diagnose.decision.bandtracks import band_table7
+from dempath_diagnose.decision.diagnosis import CaseGeometry
+from dempath_diagnose.decision.measure import load_tracks
+from dempath_diagnose.library.simulator import load_scene, pass_travel_s, run_pass
+from dempath_diagnose.library.store import Library, LibrarySpec, library_dir
 
 from .conftest import SCENE
 from .test_hidden import case_files

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from dempath_diagnose.sweep import DaskSweep, local_layout
+from dempath_diagnose.library.sweep import DaskSweep, local_layout
 
 DASK = str(Path(sys.executable).parent / 'dask')
 

@@ -22,9 +22,9 @@ from pathlib import Path
 import pytest
 
 from dempath_diagnose.cli import diagnose_main
-from dempath_diagnose.library import Library, LibrarySpec, LibraryTask, RunFailure, RunSpec
-from dempath_diagnose.recal_cli import recalibrate_main
-from dempath_diagnose.simulate import load_scene
+from dempath_diagnose.library.simulator import load_scene
+from dempath_diagnose.library.store import Library, LibrarySpec, LibraryTask, RunFailure, RunSpec
+from dempath_diagnose.recalibrate_cli import recalibrate_main
 from dempath_sim.runs.portable import pack_scene
 
 from .conftest import SCENE
