@@ -26,6 +26,7 @@ import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 ROOT = Path(__file__).resolve().parents[1]
 DEMPATH = str(Path(sys.executable).parent / 'dempath')
@@ -130,7 +131,7 @@ def corrupt_packing_cache(work: Path) -> str:
     """A truncated entry in the packing cache: named, set aside, the bed found elsewhere."""
     import logging
 
-    from dempath_sim.runs.fill import bundled_packing_dir, fill_bed, packing_key
+    from dempath_sim.runs.bed import bundled_packing_dir, fill_bed, packing_key
     from dempath_sim.runs.physics import build_params
     from dempath_sim.scene import bundled_scene
 
@@ -144,7 +145,7 @@ def corrupt_packing_cache(work: Path) -> str:
     seen: list[str] = []
     handler = logging.Handler()
     handler.emit = lambda record: seen.append(record.getMessage())  # type: ignore[method-assign]
-    logging.getLogger('dempath_sim.runs.fill').addHandler(handler)
+    logging.getLogger('dempath_sim.runs.bed').addHandler(handler)
     fill_bed(scene, model, build_params(scene, model), cache)
     return '\n'.join(seen)
 
@@ -241,6 +242,109 @@ def diagnose(work: Path, name: str, *extra: str, scene: str = 'reduced_1ms',
                 str(library), '--origin', ORIGIN, '--out', str(out), *extra], out, warn)
 
 
+def force_csv(work: Path, name: str, change: Callable[[Any], Any]) -> Path:
+    """The shipped library's first baseline force as a measured force file, its times changed."""
+    import numpy as np
+
+    with np.load(LIBRARY) as data:
+        t, f = np.asarray(data['r0_force_times']), np.asarray(data['r0_tool_force'])
+    t = change(t)
+    keep = np.isfinite(t)
+    path = work / f'{name}.csv'
+    path.write_text('t,Fx,Fy,Fz\n' + ''.join(f'{a:.6f},{b:.4f},{c:.4f},{d:.4f}\n'
+                                             for a, (b, c, d) in zip(t[keep], f[keep],
+                                                                     strict=True)))
+    return path
+
+
+def stiff_scene(work: Path) -> Path:
+    """reduced_1ms with Young's modulus x3 (other physics under the same scene name)."""
+    text = (ROOT / 'src/dempath_sim/dempath_sim/data/scenes/reduced_1ms.yaml').read_text()
+    path = work / 'reduced_1ms_stiff.yaml'
+    path.write_text(text.replace('youngs_modulus: {youngs_modulus_pa: 1.7e6}',
+                                 'youngs_modulus: {youngs_modulus_pa: 5.1e6}'))
+    assert path.read_text() != text
+    return path
+
+
+def measured_variant(work: Path, name: str, keep: Callable[[list[str]], bool],
+                     shift_s: float = 0.0, drop_marker_column: bool = False) -> Path:
+    """The field twin's measured CSV with rows kept, times shifted or the marker column cut."""
+    rows = MEASURED.read_text().splitlines()
+    out = []
+    for row in rows[1:]:
+        cells = row.split(',')
+        if keep(cells):
+            cells[0] = f'{float(cells[0]) + shift_s:.4f}'
+            out.append(','.join(cells[:1] + cells[2:] if drop_marker_column else cells))
+    header = 't,x,y,z' if drop_marker_column else rows[0]
+    path = work / f'{name}.csv'
+    path.write_text('\n'.join([header, *out]) + '\n')
+    return path
+
+
+def broken_library(work: Path, damage: str) -> Path:
+    """The shipped library truncated, emptied or of an older layout."""
+    sys.path.insert(0, str(ROOT / 'src/dempath_diagnose/test'))
+    from test_admission import damaged_library
+
+    return damaged_library(work / f'library_{damage}.npz', damage)
+
+
+def unrecovered_bag(work: Path) -> Path:
+    """A recording folder with its MCAP but no metadata.yaml (cut off)."""
+    folder = work / 'cut_recording'
+    folder.mkdir(exist_ok=True)
+    (folder / 'cut_recording_0.mcap').write_bytes(b'\x89MCAP0\r\n')
+    return folder
+
+
+def diagnose_cases(work: Path) -> dict[str, Callable[[], Outcome]]:
+    """The diagnosis and recalibration cases (the shipped packed library, no simulation)."""
+    import numpy as np
+
+    def f(name: str, change: Callable[[Any], Any]) -> Callable[[], Outcome]:
+        return lambda: diagnose(work, f'diag_{name}', '--force',
+                                str(force_csv(work, name, change)))
+
+    return {
+        'diagnose: reduced library, tiny scene': lambda: diagnose(work, 'diag_tiny',
+                                                                  scene='tiny'),
+        'diagnose: library, Young x3 scene': lambda: diagnose(
+            work, 'diag_stiff', scene=str(stiff_scene(work))),
+        'diagnose: force t in ms': f('force_ms', lambda t: t * 1e3),
+        'diagnose: force t as clock time': f('force_clock', lambda t: t + 1.7e9),
+        'diagnose: force covering 0-0.05 s': f('force_short',
+                                                lambda t: np.where(t < 0.05, t, np.nan)),
+        'diagnose: force shifted by -5 s': f('force_shift', lambda t: t - 5.0),
+        'diagnose: one marker': lambda: diagnose(
+            work, 'diag_one', measured=measured_variant(work, 'one', lambda c: c[1] == '3'),
+            warn='thin measurement'),
+        'diagnose: marker times from -5 s': lambda: diagnose(
+            work, 'diag_minus5', measured=measured_variant(work, 'minus5', lambda c: True,
+                                                           shift_s=-5.0)),
+        'diagnose: truncated library': lambda: diagnose(
+            work, 'diag_trunc', library=broken_library(work, 'truncated')),
+        'diagnose: empty library': lambda: diagnose(
+            work, 'diag_empty', library=broken_library(work, 'empty')),
+        'diagnose: older library layout': lambda: diagnose(
+            work, 'diag_old', library=broken_library(work, 'older_layout')),
+        'diagnose: CSV without marker column': lambda: diagnose(
+            work, 'diag_nomarker', measured=measured_variant(work, 'nomarker', lambda c: True,
+                                                             drop_marker_column=True)),
+        'diagnose: unrecovered bag as --measured': lambda: diagnose(
+            work, 'diag_bag', measured=unrecovered_bag(work)),
+        'recalibrate: --effect nonsense': lambda: run(
+            ['recalibrate', '--measured', str(MEASURED), '--scene', 'reduced_1ms', '--library',
+             str(LIBRARY), '--origin', ORIGIN, '--out', str(work / 'recal_nonsense'),
+             '--effect', 'nonsense'], work / 'recal_nonsense'),
+        'recalibrate: --diagnosis missing': lambda: run(
+            ['recalibrate', '--measured', str(MEASURED), '--scene', 'reduced_1ms', '--library',
+             str(LIBRARY), '--origin', ORIGIN, '--out', str(work / 'recal_nodiag'),
+             '--diagnosis', str(work / 'nowhere' / 'diagnosis.json')], work / 'recal_nodiag'),
+    }
+
+
 def all_cases(work: Path) -> dict[str, Callable[[], Outcome]]:
     """Every case by name (each a thunk, run in order)."""
     latin = work / 'latin1.yaml'
@@ -280,6 +384,7 @@ def all_cases(work: Path) -> dict[str, Callable[[], Outcome]]:
             ['diagnose', '--measured', str(MEASURED), '--scene', 'reduced_1ms', '--origin',
              ORIGIN, '--out', str(work / 'diag_http'), '--library-root', str(work / 'libs'),
              '--scheduler', http_server()], work / 'diag_http'),
+        **diagnose_cases(work),
     }
 
 

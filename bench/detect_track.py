@@ -21,11 +21,11 @@ detection, tracking, numbering) over the run's frames, and compares with the tru
 - ``id_switches``: numbered detections given a number other than the marker's own;
 - ``traj_rms_mm``: 3D error of the triangulated trajectories (true cameras) against the truth;
 - ``node_path``: the demo's code path (``make demo``): both cameras calibrated from the bag's
-  own board segment (``dempath_bringup.calibstep``), one :class:`StereoMarkerTracker` per
-  camera with the node's defaults (default grid), each fed the other's numbered points as the
-  detector nodes exchange them, then the reconstructor's core (``MarkerStream``,
-  ``dlt_refined``); its 3D error against the truth (``traj_rms_mm``), the numbers given to a
-  detection of another marker (``wrong_numbers``), unnumbered and withheld points.
+  own board segment (``dempath_bringup.calibstep``), the detector nodes' tracking when playing a
+  bag (``lossless``: both cameras in stamp order, the node's defaults, default grid, the
+  publication delay), then the reconstructor's core (``MarkerStream``, ``dlt_refined``) fed the
+  frames as they are released; its 3D error against the truth (``traj_rms_mm``), the numbers
+  given to a detection of another marker (``wrong_numbers``), unnumbered and withheld points.
 
 Prints one JSON object as the last line, with the machine's load average.
 """
@@ -47,6 +47,7 @@ from dempath.bagio import open_bag
 from dempath_calib.camera import CameraModel
 from dempath_recon.tracking.associate import MarkerGrid
 from dempath_recon.tracking.detect import MarkerDetector, decode_jpeg
+from dempath_recon.tracking.merge import StampMerge
 from dempath_recon.tracking.stereo import (
     StereoMarkerTracker,
     StereoTrackConfig,
@@ -168,22 +169,32 @@ def node_path(bag: Path, frames: list[tuple[str, int, bytes]], truth: dict) -> d
         stream = MarkerStream.from_config(StreamConfig(method='dlt_refined',
                                                        calibration_file=str(yaml)))
     names = list(cams)
-    cores = {c: StereoMarkerTracker(cams) for c in names}
-    ids, by_key = truth['marker_ids'], {(f['camera'], int(f['stamp_ns'])): f
+    # playing a bag (lossless) both detector nodes track both cameras in stamp order, with the
+    # publication delay, and each publishes its camera's frames: one tracker does the same
+    core = StereoMarkerTracker(cams)
+    merge: StampMerge[bytes] = StampMerge(names)
+    released = []
+    for cam, stamp, data in frames:
+        for c, s, d in merge.push(cam, stamp * 1e-9, data):
+            core.update(c, s, d)
+            released += core.release()
+    for c, s, d in merge.rest():
+        core.update(c, s, d)
+        released += core.release()
+    released += core.flush()
+    ids, by_key = truth['marker_ids'], {(f['camera'], round(f['stamp_ns'] * 1e-3)): f
                                         for f in truth['frames']}
     out3d, wrong, unnumbered = [], 0, 0
-    for cam, stamp, data in sorted(frames, key=lambda f: f[1]):
-        fr = cores[cam].update(cam, stamp * 1e-9, data)
+    for fr in released:
+        cam, key = fr.camera, (fr.camera, round(fr.stamp_s * 1e6))
         keep = fr.markers >= 0
-        other = names[1 - names.index(cam)]
-        cores[other].note_other(cam, stamp * 1e-9, fr.markers[keep], fr.uv[keep])  # on_other
         unnumbered += int((~keep).sum())
-        true_uv = np.array(by_key[(cam, stamp)]['uv']) if (cam, stamp) in by_key else None
+        true_uv = np.array(by_key[key]['uv']) if key in by_key else None
         for m, uv in zip(fr.markers[keep], fr.uv[keep], strict=True):
             if true_uv is not None:
                 d = np.linalg.norm(true_uv - uv, axis=1)
                 wrong += int(d.min() >= MATCH_PX or ids[int(np.argmin(d))] != m)
-        out3d += stream.update(PixelFrame(names.index(cam), stamp * 1e-9,
+        out3d += stream.update(PixelFrame(names.index(cam), fr.stamp_s,
                                           fr.markers[keep].astype(np.int64), fr.uv[keep]))
     side = [f for f in truth['frames'] if f['camera'] == names[0]]
     stamps = np.array([int(f['stamp_ns']) for f in side])
@@ -197,7 +208,7 @@ def node_path(bag: Path, frames: list[tuple[str, int, bytes]], truth: dict) -> d
             'traj_max_mm': float(e.max()) if len(e) else float('nan'), 'points': len(e),
             'markers': len({int(m) for f in out3d for m in f.ids}), 'wrong_numbers': wrong,
             'unnumbered': unnumbered,
-            'withheld': sum(c.report()[c_name]['withheld'] for c_name, c in cores.items())}
+            'withheld': sum(r['withheld'] for r in core.report().values())}
 
 
 def main(argv: list[str]) -> int:
@@ -207,6 +218,10 @@ def main(argv: list[str]) -> int:
     p.add_argument('--threads', type=int, default=2)
     p.add_argument('--repeat', type=int, default=3, help='timed passes (best is reported)')
     p.add_argument('--no-node-path', action='store_true', help="skip the demo's code path")
+    p.add_argument('--variations', action='store_true',
+                   help='score the field-condition variation set instead (held-out apart)')
+    p.add_argument('--cache', type=Path, default=HERE.parent / 'out' / 'bench_variations',
+                   help='where the varied frames are kept between runs')
     args = p.parse_args(argv)
     cv2.setNumThreads(1)
     truth = json.loads(args.bag.with_name(args.bag.name + '.truth.json').read_text())
@@ -216,6 +231,17 @@ def main(argv: list[str]) -> int:
     grid = MarkerGrid(layout_m=tuple(tuple(p) for p in truth['marker_grid_m']))
     config = StereoTrackConfig(grid=grid)
     load = [round(x, 2) for x in os.getloadavg()]
+    if args.variations:
+        from detect_track_variations import run_all
+
+        found = run_all(frames, truth, cams, config, args.cache)
+        held = found['held_out']
+        print(json.dumps({**{k: held[k] for k in (
+            'recall', 'numbered_right', 'id_switches', 'wrong_pair_points', 'traj_rms_mm',
+            'fps', 'deterministic')}, **found, 'load_average': load,
+            'load_average_end': [round(x, 2) for x in os.getloadavg()],
+            'cpus': os.cpu_count()}))
+        return 0
     best, cpu, one = None, None, None
     for _ in range(args.repeat):
         out, wall, report = run(frames, cams, args.threads, config)

@@ -22,16 +22,16 @@ from typing import Any
 
 import numpy as np
 
-from dempath_diagnose.cases import HiddenCase, make_case
 from dempath_diagnose.cli import diagnose_main
-from dempath_diagnose.library import (
+from dempath_diagnose.library.cases import HiddenCase, make_case
+from dempath_diagnose.library.simulator import LIBRARY_CANDIDATES, load_scene, pass_travel_s
+from dempath_diagnose.library.store import (
     LibrarySpec,
     build_library,
     covering_duration,
     library_state,
     serial_executor,
 )
-from dempath_diagnose.simulate import LIBRARY_CANDIDATES, load_scene, pass_travel_s
 
 NAMED = ('effect_missing', 'parameter_off')
 OPEN = ('nothing_significant', 'inconclusive')
@@ -65,6 +65,8 @@ def cases_for(scene_name: str) -> list[HiddenCase]:
                    'particle_friction', ('parameter_off', 'inconclusive'), seed=CASE_SEEDS[1]),
         HiddenCase('rolling_x2', {'rolling_resistance.coefficient': 0.52}, 'rolling_resistance',
                    ('parameter_off', 'inconclusive'), seed=CASE_SEEDS[2]),
+        HiddenCase('tool_speed_2', {'tool_speed.speed_scale': 2.0}, 'tool_speed',
+                   ('parameter_off',), seed=CASE_SEEDS[1]),
         HiddenCase('too_weak_tool_friction', {'tool_friction.static_friction': 0.42,
                                               'tool_friction.dynamic_friction': 0.315}, '',
                    OPEN, seed=CASE_SEEDS[0]),
@@ -89,6 +91,58 @@ def score(case: HiddenCase, data: dict[str, Any]) -> dict[str, Any]:
             'top1': top['effect'] == truth if truth else verdict == 'nothing_significant',
             'confident_wrong': bool(named and named != truth and top['probability'] > 0.5),
             'brier': brier, 'wall_s': data['wall_s']}
+
+
+def adaptive_row(case: HiddenCase, data: dict[str, Any]) -> dict[str, Any]:
+    """The answer on the library alone (before the extra simulations), scored like the final
+    one, and what the budget bought."""
+    adaptive = data.get('adaptive')
+    if not adaptive:
+        return {}
+    before = adaptive['probabilities_before']
+    ranked = sorted(((k, p) for k, p in before.items() if k != 'nothing'), key=lambda kp: -kp[1])
+    old = {'verdict': adaptive['verdict_before'], 'wall_s': 0.0,
+           'ranking': [{'effect': k, 'probability': p} for k, p in ranked],
+           'baseline': {'probability': before['nothing']},
+           'remaining': adaptive['remaining_before']}
+    was = score(case, old)
+    top, prior = data['ranking'][0], adaptive['top_before']
+    value = case.overrides.get(f"{case.truth}.{top['strength']['parameter']}")
+    fits = {}
+    if value is not None:
+        fits = {'true_strength': value, 'fitted': round(top['strength']['value'], 4),
+                'fitted_sd': round(top['strength']['uncertainty'], 4)}
+        if prior.get('effect') == case.truth:
+            fits.update({'fitted_before': round(prior['strength'], 4),
+                         'fitted_sd_before': round(prior['sd'], 4),
+                         'at_edge_before': prior['at_range_edge']})
+    return {**fits, 'verdict_before': was['verdict'], 'top_before': was['top'],
+            'top_p_before': was['top_p'], 'correct_before': was['correct'],
+            'brier_before': was['brier'], 'confident_wrong_before': was['confident_wrong'],
+            'extra_simulations': adaptive['extra_simulations'], 'stop': adaptive['stop'],
+            'steps': [[(r['candidate'], round(r['strength'], 4), r['why']) for r in s['runs']]
+                      for s in adaptive['steps']]}
+
+
+def budget_figures(rows: list[dict[str, Any]], budget: int) -> dict[str, Any]:
+    """The budget's figures: simulations spent, open answers turned right, right answers lost,
+    and the scores before (on the library alone)."""
+    def settled(r: dict[str, Any]) -> bool:
+        return bool(r['top1'] and r['verdict'] != 'inconclusive' and r['correct'])
+
+    had = [r for r in rows if 'verdict_before' in r]
+    return {
+        'budget': budget,
+        'extra_simulations': sum(r['extra_simulations'] for r in had),
+        'resolved': sum(r['verdict_before'] == 'inconclusive' and settled(r) for r in had),
+        'inconclusive_before': sum(r['verdict_before'] == 'inconclusive' for r in had),
+        'correct_before': sum(r['correct_before'] for r in had),
+        'lost': sum(r['correct_before'] and not r['correct'] for r in had),
+        'false_confident_before': sum(r['confident_wrong_before'] for r in had),
+        'brier_before': round(float(np.mean([r['brier_before'] for r in had])), 4)
+        if had else None,
+        'reliability_before': reliability([{**r, 'top': r['top_before'],
+                                            'top_p': r['top_p_before']} for r in had])}
 
 
 def reliability(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -121,10 +175,11 @@ def bench_parser() -> argparse.ArgumentParser:
 
 
 def library_args(args: argparse.Namespace) -> list[str]:
-    """The library options of a diagnosis: the packed file, or the folder under --root."""
+    """The library options of a diagnosis: the packed file, or the folder under --root (its
+    growing copy with ``--budget``)."""
     if args.library is not None:
         return ['--library', str(args.library)]
-    return ['--library-root', str(args.root / 'library')]
+    return ['--library-root', str(getattr(args, 'root_library', args.root / 'library'))]
 
 
 def main() -> None:
@@ -135,6 +190,10 @@ def main() -> None:
                         "file's physics on the case's seed, re-settled with the case's)")
     p.add_argument('--library-only', action='store_true',
                    help='build (or resume) the library, print its figures and stop')
+    p.add_argument('--budget', type=int, default=0,
+                   help='simulations beyond the library per diagnosis (issue 32); the runs go '
+                        'into a copy of the library (ROOT/library-budgetN), which grows from '
+                        "case to case as a user's would")
     args = p.parse_args()
     scene = load_scene(args.scene)
     duration = covering_duration(pass_travel_s(scene, {}), 0.0)
@@ -152,7 +211,7 @@ def main() -> None:
         if args.serial:
             build_library(scene, spec, lib_root, serial_executor, packings)
         else:
-            from dempath_diagnose.sweep import DaskSweep
+            from dempath_diagnose.library.sweep import DaskSweep
 
             with DaskSweep() as sweep:
                 build_library(scene, spec, lib_root, sweep.run, packings)
@@ -163,24 +222,33 @@ def main() -> None:
         print(json.dumps({'scene': scene.name, 'simulations': total,
                           'library_s': round(spent['library_s'], 1), 'library': str(lib_root)}))
         return
+    if args.budget > 0 and args.library is None:
+        import shutil
+
+        grown = args.root / f'library-budget{args.budget}'
+        if not grown.is_dir():
+            shutil.copytree(lib_root, grown)
+        args.root_library = grown
     rows = []
     for case in cases_for(scene.name):
         folder = args.root / 'cases' / case.name
         markers, force = make_case(scene, case, folder, until_s=duration,
                                    cache_dir=packings, own_pour=args.own_pour)
         for with_force in (True, False):
-            out = folder / ('diag_force' if with_force else 'diag_markers')
+            out = folder / (('diag_force' if with_force else 'diag_markers')
+                            + (f'_budget{args.budget}' if args.budget else ''))
             argv = ['--measured', str(markers), '--scene', args.scene, '--out', str(out),
                     *library_args(args), '--packing-cache', str(packings),
                     '--seeds', args.seeds, '--strengths', str(args.strengths),
-                    '--candidates', args.candidates, '--serial']
+                    '--candidates', args.candidates, '--serial',
+                    '--budget', str(args.budget)]
             if with_force:
                 argv += ['--force', str(force)]
             if diagnose_main(argv) != 0:
                 continue
             data = json.loads((out / 'diagnosis.json').read_text())
             total = data['simulations'] if args.library is not None else total
-            rows.append({**score(case, data), 'force': with_force})
+            rows.append({**score(case, data), 'force': with_force, **adaptive_row(case, data)})
             print(json.dumps(rows[-1]))
     named = [r for r in rows if r['verdict'] in NAMED]
     figures = {
@@ -194,6 +262,8 @@ def main() -> None:
         'case_s': round(statistics.median(r['wall_s'] for r in rows), 2) if rows else None,
         'brier': round(float(np.mean([r['brier'] for r in rows])), 4) if rows else None,
         'reliability': reliability(rows)}
+    if args.budget:
+        figures.update(budget_figures(rows, args.budget))
     print(json.dumps(figures))
 
 

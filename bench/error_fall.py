@@ -25,8 +25,8 @@ from pathlib import Path
 import numpy as np
 
 from dempath_diagnose.headline.fall import FallCase, FallSetup, run_case, summary
-from dempath_diagnose.library import Library
-from dempath_diagnose.simulate import load_scene, tool_geometry
+from dempath_diagnose.library.simulator import load_scene, tool_geometry
+from dempath_diagnose.library.store import Library
 
 ROOT = Path(__file__).resolve().parents[1]
 SHIPPED = ROOT / 'src/dempath_diagnose/dempath_diagnose/data/libraries/reduced_1ms_library.npz'
@@ -43,6 +43,8 @@ def main() -> None:
     p.add_argument('--cache', type=Path, default=Path('out/bench_error_fall'))
     p.add_argument('--seeds', default='1001,1002,1003')
     p.add_argument('--no-table7', action='store_true')
+    p.add_argument('--markdown', type=Path, help='write the per-case table (Markdown) here')
+    p.add_argument('--figure', type=Path, help='write the picture of every case (PNG) here')
     p.add_argument('--reconstructed', type=Path,
                    help='JSON of bench/marker_coverage.py (markers reconstructed on the twin)')
     args = p.parse_args()
@@ -67,12 +69,42 @@ def main() -> None:
                 tmp.replace(path)
             results.append(res)
             print(line(res), flush=True)
+    if args.markdown:
+        args.markdown.write_text(markdown(results))
+    if args.figure:
+        from dempath_diagnose.headline.plots import plot_error_fall
+
+        plot_error_fall(results, args.figure)
     out = summary(results, table7_like_for_like=not args.no_table7)
     out['markers_reconstructed'] = None
     if args.reconstructed and args.reconstructed.is_file():
         out['markers_reconstructed'] = json.loads(args.reconstructed.read_text()).get(
             'markers_reconstructed')
     print(json.dumps(out))
+
+
+def markdown(results: list[dict]) -> str:
+    """The per-case table: headline [mm] and Table 7 [%], each 'value (floor band) place'."""
+    def cell(f: dict | None, unit: str = '') -> str:
+        if not f:
+            return '-'
+        fl = f['floor']
+        mark = {'above': '**above**', 'in': 'in', 'below': 'below'}[f['place']]
+        return f"{f['value']:.1f} ({fl['low']:.1f}-{fl['high']:.1f}) {mark}"
+
+    rows = ['| case | seed | verdict | headline before | true fit (strength) | after true '
+            '| best wrong fit | after wrong | held-out before -> after | Table 7 before '
+            '| Table 7 after |', '|' + ' --- |' * 11]
+    for r in results:
+        a, h, t7 = r['all'], r['held_out'], r.get('table7', {})
+        fit = (f"{r['true_fit']['strength']:.3g}" if 'true_fit' in r else '-')
+        held = (f"{h['before']['value']:.1f} -> {h['after_true']['value']:.1f}"
+                if 'after_true' in h else f"{h['before']['value']:.1f}")
+        rows.append(f"| {r['case']} | {r['seed']} | {r['verdict']} | {cell(a['before'])} | "
+                    f"{fit} | {cell(a.get('after_true'))} | {r['wrong_fit']['candidate']} | "
+                    f"{cell(a['after_wrong'])} | {held} | {cell(t7.get('before'))} | "
+                    f"{cell(t7.get('after_true'))} |")
+    return '\n'.join(rows) + '\n'
 
 
 def line(r: dict) -> str:

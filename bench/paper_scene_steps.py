@@ -26,10 +26,10 @@ import numpy as np
 
 from dempath_sim.engine import Engine, ToolPose
 from dempath_sim.engine.mesh import TriangleMesh
-from dempath_sim.runs.bed_measure import surface_height
+from dempath_sim.runs.bed.measure import surface_height
+from dempath_sim.runs.bed.placement import carve_tool_slot
+from dempath_sim.runs.bed.pour import lattice_pour
 from dempath_sim.runs.physics import TOOL, bin_walls, build_params
-from dempath_sim.runs.placement import carve_tool_slot
-from dempath_sim.runs.pour import lattice_pour
 from dempath_sim.scene import load_scene
 
 log = logging.getLogger('bench')

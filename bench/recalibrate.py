@@ -28,10 +28,10 @@ sys.path.insert(0, str(Path(__file__).parent))
 
 from diagnose import bench_parser, cases_for, library_args  # bench/diagnose.py: the same cases
 
-from dempath_diagnose.cases import HiddenCase, make_case
-from dempath_diagnose.library import covering_duration
-from dempath_diagnose.recal_cli import recalibrate_main
-from dempath_diagnose.simulate import load_scene, pass_travel_s, scene_candidates
+from dempath_diagnose.library.cases import HiddenCase, make_case
+from dempath_diagnose.library.simulator import load_scene, pass_travel_s, scene_candidates
+from dempath_diagnose.library.store import covering_duration
+from dempath_diagnose.recalibrate_cli import recalibrate_main
 
 STRONG = ('tool_speed_1.5', 'tool_speed_0.7', 'cohesion_strong', 'tool_friction_x2')
 CONTROLS = ('control',)

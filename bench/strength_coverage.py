@@ -2,7 +2,7 @@
 
 Leave-one-seed-out on the library's own runs, each turned into a camera-like measurement (one
 particle per marker, 1.5 mm noise, the run's force), diagnosed for its own candidate; see
-:mod:`dempath_diagnose.coverage`. Prints a line per candidate and one JSON object last:
+:mod:`dempath_diagnose.decision.coverage`. Prints a line per candidate and one JSON object last:
 ``checks`` (n), ``mean_z``, ``rms_z`` and ``beyond_2sd`` overall and per candidate.
 
 Usage: ``.venv/bin/python bench/strength_coverage.py [--scene reduced_1ms] [--library FILE_OR_DIR]
@@ -18,10 +18,10 @@ from pathlib import Path
 
 import numpy as np
 
-from dempath_diagnose.coverage import strength_checks, summary
-from dempath_diagnose.library import Library
-from dempath_diagnose.measure import load_tracks
-from dempath_diagnose.simulate import load_scene, tool_geometry
+from dempath_diagnose.decision.coverage import strength_checks, summary
+from dempath_diagnose.decision.measure import load_tracks
+from dempath_diagnose.library.simulator import load_scene, tool_geometry
+from dempath_diagnose.library.store import Library
 
 SHIPPED = Path(__file__).resolve().parents[1] / (
     'src/dempath_diagnose/dempath_diagnose/data/libraries')

@@ -1,4 +1,4 @@
-"""The ROS way in: ``colcon build`` a package, then run its node from ``install/<pkg>/lib/<pkg>/``.
+"""The ROS way in: ``colcon build``, then run a node from ``install/<pkg>/lib/<pkg>/``.
 
 What ``ros2 run dempath_recon dempath_detector`` does after ``colcon build`` and
 ``source install/setup.bash``: find the executable in ``install/dempath_recon/lib/dempath_recon``
@@ -35,16 +35,17 @@ def _site_packages(install: Path) -> Path:
 
 @pytest.fixture(scope='module')
 def install(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """``colcon build --packages-select dempath_recon`` into a temporary workspace."""
+    """``colcon build`` of dempath_recon and dempath_bringup into a temporary workspace."""
     if not COLCON.is_file():
         pytest.skip(f'{COLCON}: colcon not installed (requirements-dev.txt)')
     ws = tmp_path_factory.mktemp('ws')
-    shutil.copytree(ROOT / 'src' / PACKAGE, ws / 'src' / PACKAGE,
-                    ignore=shutil.ignore_patterns('__pycache__', '*.egg-info', 'build'))
+    for pkg in (PACKAGE, 'dempath_bringup'):
+        shutil.copytree(ROOT / 'src' / pkg, ws / 'src' / pkg,
+                        ignore=shutil.ignore_patterns('__pycache__', '*.egg-info', 'build'))
     done = subprocess.run(
         [str(COLCON), '--log-base', str(ws / 'log'), 'build', '--base-paths', str(ws / 'src'),
          '--build-base', str(ws / 'build'), '--install-base', str(ws / 'install'),
-         '--packages-select', PACKAGE],
+         '--packages-select', PACKAGE, 'dempath_bringup'],
         cwd=ws, capture_output=True, text=True, timeout=300, check=False)
     assert done.returncode == 0, done.stdout + done.stderr
     return ws / 'install'
@@ -59,6 +60,16 @@ def test_colcon_puts_node_scripts_where_ros2_run_looks(install: Path) -> None:
     assert (install / PACKAGE / 'share' / PACKAGE / 'package.xml').is_file()
     index = install / PACKAGE / 'share' / 'ament_index' / 'resource_index' / 'packages' / PACKAGE
     assert index.is_file()
+
+
+def test_colcon_installs_the_launch_and_parameter_files(install: Path) -> None:
+    """``ros2 launch dempath_bringup field_replay.launch.py`` finds the file in share/, and the
+    launch file finds its parameter file there."""
+    share = install / 'dempath_bringup' / 'share' / 'dempath_bringup'
+    assert sorted(p.name for p in (share / 'launch').iterdir()) == [
+        'field_replay.launch.py', 'live.launch.py']
+    assert sorted(p.name for p in (share / 'config').iterdir()) == ['field_replay.yaml',
+                                                                    'live.yaml']
 
 
 def test_installed_node_runs_from_the_install(install: Path, tmp_path: Path) -> None:

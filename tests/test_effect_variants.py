@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from dempath_diagnose import library, simulate
+from dempath_diagnose.library import simulator, store
 from dempath_sim.scene import bundled_scene
 from dempath_sim.validation.effect_variants import (
     VARIANTS,
@@ -19,11 +19,11 @@ def test_variants_use_the_signature_librarys_upper_strengths() -> None:
     diagnosis uses: every candidate of the library is a variant, at the library's largest
     strength."""
     scene = bundled_scene('reduced_1ms')
-    assert set(VARIANTS) == {'base', *simulate.LIBRARY_CANDIDATES}
-    for cand in simulate.scene_candidates(scene):
+    assert set(VARIANTS) == {'base', *simulator.LIBRARY_CANDIDATES}
+    for cand in simulator.scene_candidates(scene):
         upper, _ = variant_overrides(scene, cand.name)
         lower, _ = variant_overrides(scene, cand.name, 'lower')
-        runs = library.strengths(cand, 2)
+        runs = store.strengths(cand, 2)
         assert upper[f'{cand.name}.{cand.parameter}'] == pytest.approx(max(runs))
         assert lower[f'{cand.name}.{cand.parameter}'] == pytest.approx(min(runs))
     with pytest.raises(ValueError, match="strength: 'middle' is not one of upper, lower"):

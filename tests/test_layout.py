@@ -105,50 +105,65 @@ def test_no_cycle_between_packages() -> None:
         visit(pkg, ())
 
 
-# The rooms inside a package, bottom to top: a room (a sub-package or a top-level module) imports
-# its own package's rooms only from the ones before it. Modules of the package not named here
-# (its CLI, nodes/, modules not yet in a room) sit above every room: a room may not import them.
+# The rooms inside a package (or inside one of its sub-packages), bottom to top: a room (a
+# sub-package or a module) imports the rooms of its own package only from the ones before it.
+# Modules not named here (a CLI, nodes/, modules not yet in a room) sit above every room: a room
+# may not import them.
 ROOMS = {
     'dempath_sim': ('errors', 'effects', 'engine', 'scene', 'runs', 'liggghts', 'validation'),
+    'dempath_sim.runs.bed': ('pour', 'measure', 'standing_tool', 'packing_file', 'settle', 'cache',
+                             'fill', 'placement'),
     'dempath_recon': ('errors', 'methods', 'tracking', 'clicker'),
     'dempath_twin': ('errors', 'rig', 'images', 'board', 'field', 'render'),
+    'dempath_diagnose': ('errors', 'records', 'admission', 'library', 'decision', 'headline',
+                         'recalibration', 'report'),
 }
+# Known crossings still to mend, each named by file: (package, file under the package) -> rooms.
+# decision/diagnosis.py reads the baseline's headline error (headline.stage) lazily, while
+# headline/fall.py builds on the decision: the headline room wants splitting (issue 26).
+# admission.py (the checks of inputs against each other, read by library and decision) reads the
+# decision's types and the library's physics key: it wants to sit inside those rooms.
+CROSSINGS = {('dempath_diagnose', 'decision/diagnosis.py'): {'headline'},
+             ('dempath_diagnose', 'admission.py'): {'library', 'decision'}}
 
 
-def own_parts(path: Path, pkg: str) -> set[str]:
-    """The parts of ``pkg`` (first name after ``pkg.``) a file imports, lazy imports included."""
+def own_parts(path: Path, package: str) -> set[str]:
+    """The parts of ``package`` (dotted; the first name after it) a file imports, lazy too."""
     found = set()
     for node in ast.walk(ast.parse(path.read_text(), str(path))):
         if isinstance(node, ast.Import):
             names = [a.name for a in node.names]
-        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module == pkg:
-            names = [f'{pkg}.{a.name}' for a in node.names]
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module == package:
+            names = [f'{package}.{a.name}' for a in node.names]
         elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
             names = [node.module]
         else:
             continue
-        found |= {n.split('.')[1] for n in names if n.startswith(f'{pkg}.')}
+        found |= {n[len(package) + 1:].split('.')[0] for n in names
+                  if n.startswith(f'{package}.')}
     return found
 
 
-def part_files(pkg: str, part: str) -> list[Path]:
-    """The files of one part of ``pkg``: a module or every file of a sub-package."""
-    base = ROOT / 'src' / pkg / pkg
+def part_files(package: str, part: str) -> list[Path]:
+    """The files of one part of ``package`` (dotted): a module or every file of a sub-package."""
+    top = package.split('.')[0]
+    base = ROOT / 'src' / top / Path(*package.split('.'))
     return [base / f'{part}.py'] if (base / f'{part}.py').is_file() else sorted(
         (base / part).rglob('*.py'))
 
 
-@pytest.mark.parametrize('pkg', sorted(ROOMS))
-def test_rooms_import_only_the_rooms_below(pkg: str) -> None:
+@pytest.mark.parametrize('package', sorted(ROOMS))
+def test_rooms_import_only_the_rooms_below(package: str) -> None:
     """Inside a package, a room imports itself and the rooms listed before it, nothing else."""
-    rooms = ROOMS[pkg]
+    rooms = ROOMS[package]
     wrong = []
     for level, room in enumerate(rooms):
-        files = part_files(pkg, room)
-        assert files, f'{pkg}: room {room!r} is neither a module nor a sub-package'
+        files = part_files(package, room)
+        assert files, f'{package}: room {room!r} is neither a module nor a sub-package'
         allowed = set(rooms[:level + 1])
         for path in files:
-            bad = own_parts(path, pkg) - allowed
+            rel = path.relative_to(ROOT / 'src' / package.split('.')[0] / package.split('.')[0])
+            bad = own_parts(path, package) - allowed - CROSSINGS.get((package, str(rel)), set())
             wrong += [f'{path.relative_to(ROOT)} imports {sorted(bad)}'] if bad else []
     assert not wrong, wrong
 

@@ -51,6 +51,7 @@ THIRD_PARTY = {
 }
 OPTIONAL = {'torch': 'mlp'}  # import -> the setup.py extra that brings it
 ROS_MODULES = {'rclpy', 'builtin_interfaces', 'rcl_interfaces', 'rosgraph_msgs'}
+ROS_PACKAGES = {'launch', 'launch_ros', 'ament_index_python'}  # ROS packages (the launch files)
 TEST_ONLY = {'pytest', 'selenium', 'mcap_ros2', 'cloudpickle', 'setuptools'}
 
 
@@ -103,7 +104,7 @@ def test_package_xml_is_valid_format_3(pkg: str) -> None:
 def test_every_key_exists(pkg: str) -> None:
     """Keys are ROS packages (dempath's or ROS's ``*_msgs``, rclpy...) or known rosdep keys."""
     keys = {e.text.strip() for e in package_xml(pkg) if e.tag.endswith('depend') and e.text}
-    ros = {k for k in keys if k.startswith('dempath') or k in ROS_MODULES
+    ros = {k for k in keys if k.startswith('dempath') or k in ROS_MODULES | ROS_PACKAGES
            or k.endswith(('_msgs', '_srvs', '_interfaces'))}
     unknown = keys - ros - set(ROSDEP_KEYS)
     assert unknown == set(), f'{pkg}/package.xml: no such rosdep key: {sorted(unknown)}'
@@ -121,6 +122,9 @@ def test_every_import_is_declared(pkg: str) -> None:
     extras = kw.get('extras_require', {})
     assert isinstance(extras, dict)
     for module in sorted(third_party_imports(pkg)):
+        if module in ROS_PACKAGES:  # a ROS install's (the launch description)
+            assert module in keys, f'{pkg}/package.xml: exec_depend {module} missing'
+            continue
         if module in OPTIONAL:
             assert module in extras.get(OPTIONAL[module], []), f'{pkg}: extra for {module}'
             continue

@@ -16,6 +16,8 @@ setup(
     data_files=[
         ('share/ament_index/resource_index/packages', [f'resource/{PACKAGE}']),
         (f'share/{PACKAGE}', ['package.xml']),
+        (f'share/{PACKAGE}/launch', [str(p) for p in sorted(Path('launch').glob('*.launch.py'))]),
+        (f'share/{PACKAGE}/config', [str(p) for p in sorted(Path('config').glob('*.yaml'))]),
     ],
     # PyPI names of the third-party imports; package.xml holds their rosdep keys
     install_requires=[
@@ -32,6 +34,7 @@ setup(
     entry_points={
         'dempath.commands': [
             'demo = dempath_bringup.demo:demo_main',
+            'frames = dempath_bringup.framescli:frames_main',
         ],
     },
 )

@@ -41,7 +41,7 @@ setup(
         ],
         'dempath.commands': [
             'diagnose = dempath_diagnose.cli:diagnose_main',
-            'recalibrate = dempath_diagnose.recal_cli:recalibrate_main',
+            'recalibrate = dempath_diagnose.recalibrate_cli:recalibrate_main',
         ],
     },
 )

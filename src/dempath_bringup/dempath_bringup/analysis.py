@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from dempath.errors import DempathError
-from dempath_bringup.stages import DemoContext
+from dempath_bringup.stages import DemoContext, named_identity
 
 SHIPPED_LIBRARIES = 'libraries'  # folder of packed signature libraries in dempath_diagnose/data
 # Recalibration simulations of the demo: one real evaluation on two paired library seeds
@@ -103,9 +103,9 @@ def diagnose_argv(ctx: DemoContext, out: Path) -> list[str]:
 def library_status(ctx: DemoContext) -> tuple[bool, str]:
     """(ready, why not) of the signature library the diagnosis would use."""
     from dempath_diagnose.cli import library_spec
-    from dempath_diagnose.library import library_state
-    from dempath_diagnose.measure import load_tracks
-    from dempath_diagnose.simulate import LIBRARY_CANDIDATES, load_scene
+    from dempath_diagnose.decision.measure import load_tracks
+    from dempath_diagnose.library.simulator import LIBRARY_CANDIDATES, load_scene
+    from dempath_diagnose.library.store import library_state
 
     o = ctx.options
     if o.get('library_file'):
@@ -161,7 +161,7 @@ def diagnosis_stage(ctx: DemoContext) -> str:
 
 def recalibration_stage(ctx: DemoContext) -> str:
     """``dempath recalibrate`` with the named (or top-ranked) effect and a small budget."""
-    from dempath_diagnose.recal_cli import recalibrate_main
+    from dempath_diagnose.recalibrate_cli import recalibrate_main
 
     diag = ctx.results.get('diagnosis')
     if diag is None:
@@ -206,6 +206,12 @@ def recalibration_lines(data: dict[str, Any]) -> list[str]:
         lines.append(f"mean nRMSE (Table 7, the library's seeds) {pb['mean_nrmse_pct']:.2f} -> "
                      f"{pa['mean_nrmse_pct']:.2f} % (floor {fl['mean_nrmse_pct']:.2f} +- "
                      f"{fl['mean_nrmse_sd_pct']:.2f} %)")
+        head = paper.get('headline') or {}
+        if all((head.get(k) or {}).get('value_mm') is not None for k in ('before', 'after')):
+            from dempath_diagnose.headline.stage import headline_sentence
+
+            lines += [headline_sentence(head['before'], 'before'),
+                      headline_sentence(head['after'], 'after')]
     return lines
 
 
@@ -235,7 +241,7 @@ def after_stage(ctx: DemoContext) -> str:
     if simulate_main(argv) != 0:
         msg = f'{scene}: the recalibrated model failed (dempath simulate {" ".join(argv)})'
         raise DempathError(msg)
-    result = compare_paths(ctx.results['graph'].bag, out)
+    result = compare_paths(ctx.results['graph'].bag, after_model_source(out), named_identity())
     table = build_table7(result)
     ctx.results.update(compare_after=result, table7_after=table)
     before = ctx.results['table7'].mean_nrmse
@@ -245,6 +251,17 @@ def after_stage(ctx: DemoContext) -> str:
     beside = (f" (floor {floor['mean_nrmse_pct']:.2f} +- {floor['mean_nrmse_sd_pct']:.2f} %: "
               'the true model over packing seeds)' if floor else '')
     return f'mean nRMSE of this recording {means}{beside}\n{out}'
+
+
+def after_model_source(run: Path) -> Path:
+    """The model side of the 'after' comparison of a ``dempath simulate`` run folder.
+
+    Its ``model.csv`` tags every tracked particle with its marker, so each marker is ranked
+    against its own Cube candidates (the N best of them, as the 'before' bag's model); the
+    folder itself would add ``markers.csv`` (one particle per marker: every marker's N was 1)
+    and ``tool.csv``.
+    """
+    return run / 'model.csv'
 
 
 def report_stage(ctx: DemoContext) -> str:
@@ -268,7 +285,11 @@ def report_stage(ctx: DemoContext) -> str:
         'iterations': copy_figure(ctx.out / 'recalibration' / 'recalibration.png', folder,
                                   'error_vs_iteration.png'),
         'recal_trajectories': copy_figure(ctx.out / 'recalibration' / 'trajectories.png',
-                                          folder, 'recalibration_trajectories.png')}
+                                          folder, 'recalibration_trajectories.png'),
+        'headline': copy_figure(ctx.out / 'recalibration' / 'headline.png', folder,
+                                'headline.png'),
+        'statistics': copy_figure(ctx.out / 'diagnosis' / 'statistics.png', folder,
+                                  'statistics.png')}
     drawn = None if ctx.clicked else figures.frame_with_detections(
         ctx.field_bag, graph.bag, folder / 'detections.png')
     figs['detections'] = drawn.name if drawn is not None else None

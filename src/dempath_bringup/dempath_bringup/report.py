@@ -81,6 +81,8 @@ def _diagnosis(r: dict[str, Any], figs: dict[str, str | None]) -> str:
     return (f"<p>Verdict: <b>{_e(data['verdict'])}</b>. {_e(text)}</p>"
             + _table(['candidate', 'probability', 'fitted strength', 'implausibility',
                       'ruled out'], rows)
+            + '<h3>Group statistics against the model band (whole pass)</h3>'
+            + _img(figs.get('statistics'), 'group statistics against the model band')
             + '<h3>Error map</h3>' + _img(figs.get('error_map'), 'error map'))
 
 
@@ -102,6 +104,8 @@ def _recalibration(r: dict[str, Any], figs: dict[str, str | None]) -> str:
             'simulations).</p>' + _errors_table(r, data)
             + '<p>The floor is what the true model itself gives over packing seeds: a fall is '
             'judged against it, not against zero (docs/recalibration.md).</p>'
+            + _img(figs.get('headline'), 'the headline error before and after, each beside '
+                   'its own floor band (the model played as the measurement, like for like)')
             + _img(figs.get('iterations'), 'error against iteration')
             + _img(figs.get('recal_trajectories'),
                    "the model's band before and after on the library's seeds"))

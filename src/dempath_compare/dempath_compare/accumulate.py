@@ -16,9 +16,16 @@ from dempath_compare.runinfo import run_info
 
 
 class TrajectoryAccumulator:
-    """Collects samples per (group, id) in arrival order."""
+    """Collects samples per (group, id) in arrival order.
 
-    def __init__(self) -> None:
+    Args:
+        from_names: fill the tracks' tool speed and seed from their group names
+            (``CompareConfig.identity_from_names``); off, they stay unknown (a bag or topic
+            carries no run metadata).
+    """
+
+    def __init__(self, from_names: bool = False) -> None:
+        self.from_names = from_names
         self._times: dict[tuple[str, int], list[float]] = defaultdict(list)
         self._points: dict[tuple[str, int], list[NDArray[np.float64]]] = defaultdict(list)
         self._markers: dict[tuple[str, int], int] = {}
@@ -57,7 +64,7 @@ class TrajectoryAccumulator:
             label = f'{group}/marker{ident}' if kind == MEASURED else f'{group}/{ident}'
             out.append(Track(label, group, ident, self._markers[key], np.array(times),
                              np.array(self._points[key]).reshape(len(times), 3), '', '',
-                             *run_info(group)))
+                             *run_info(group, from_names=self.from_names)))
         return out
 
     def clear(self) -> None:

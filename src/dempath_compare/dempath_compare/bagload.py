@@ -21,8 +21,9 @@ STATES_TYPE = 'dempath_msgs/msg/ParticleStates'
 ROLE_BED = 2  # ParticleStates.ROLE_BED: background particles, never candidates
 
 
-def load_bag(path: Path, kind: str) -> list[Track]:
-    """Tracks of ``kind`` from every topic of the matching type in a bag.
+def load_bag(path: Path, kind: str, from_names: bool = False) -> list[Track]:
+    """Tracks of ``kind`` from every topic of the matching type in a bag (``from_names``: tool
+    speed and seed from the group names, :mod:`dempath_compare.runinfo`).
 
     Raises:
         InputError: the bag cannot be read or has no topic of the needed type.
@@ -36,7 +37,7 @@ def load_bag(path: Path, kind: str) -> list[Track]:
             if not topics:
                 msg = f'{path}: no {wanted} topic in bag'
                 raise InputError(msg)
-            accumulator = TrajectoryAccumulator()
+            accumulator = TrajectoryAccumulator(from_names)
             for raw in bag.messages(topics):
                 add_message(accumulator, bag.deserialize(raw), kind, path.stem)
     except BagError as err:

@@ -42,6 +42,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument('--rest-samples', type=int, default=5, help='rest-phase samples [5]')
     parser.add_argument('--dtw-engine', choices=['kernel', 'dtaidistance'], default='kernel',
                         help='source of the DTW distances (identical numbers) [kernel]')
+    parser.add_argument('--identity-from-names', action='store_true',
+                        help='tool speed and seed from names (experiment_1p5ms, '
+                             '<scene>-s<seed>-<hash>) where no run metadata say them')
     parser.add_argument('--no-plots', action='store_true', help='skip the PNG figures')
     parser.add_argument('--model-map', type=Path, metavar='YAML',
                         help='how to read a foreign model export: a LIGGGHTS dump (its time '
@@ -84,7 +87,8 @@ def compare_main(argv: list[str]) -> int:
                                rank_by=args.rank_by, matching=args.matching,
                                pairing=args.pairing, range_kind=args.range_kind,
                                trim_y_drop=args.trim_y_drop, rest_samples=args.rest_samples,
-                               dtw_engine=args.dtw_engine)
+                               dtw_engine=args.dtw_engine,
+                               identity_from_names=args.identity_from_names)
         model_map = load_mapping(args.model_map) if args.model_map else None
         result = compare_paths(args.measured, args.model, config, model_map)
         print_ranking(result, args.top)

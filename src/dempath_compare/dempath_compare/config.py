@@ -76,8 +76,11 @@ class CompareConfig:
         min_points: fewest samples a trajectory needs to be scored.
         dtw_engine: source of the DTW distances in the batched path; with matching NEAREST the
             kernel builds no DTW matrix and dtaidistance is always used.
-        match_speed: when both an experiment and a model run name a tool speed
-            (e.g. ``experiment_1ms`` and ``model_1ms``), compare only equal speeds.
+        match_speed: when both an experiment and a model run know their tool speed (run
+            metadata, or names with ``identity_from_names``), compare only equal speeds.
+        identity_from_names: fill what run metadata do not say from the name convention (a tool
+            speed in ``experiment_1ms``, a seed in ``<scene>-s<seed>-<hash>``:
+            :mod:`dempath_compare.runinfo`); off, names are never parsed.
     """
 
     top_n: int = 10
@@ -95,6 +98,7 @@ class CompareConfig:
     range_kind: RangeKind = RangeKind.EXTENT
     min_points: int = 3
     match_speed: bool = True
+    identity_from_names: bool = False
     dtw_engine: DtwEngine = DtwEngine.KERNEL
 
     def __post_init__(self) -> None:

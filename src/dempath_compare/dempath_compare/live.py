@@ -33,8 +33,8 @@ class LiveComparer:
     def __init__(self, config: CompareConfig, experiment: str = 'experiment') -> None:
         self.config = config
         self.experiment = experiment
-        self.measured = TrajectoryAccumulator()
-        self.model = TrajectoryAccumulator()
+        self.measured = TrajectoryAccumulator(config.identity_from_names)
+        self.model = TrajectoryAccumulator(config.identity_from_names)
 
     def add_markers(self, t: float, marker_ids: NDArray[np.int64],
                     xyz: NDArray[np.float64]) -> None:

@@ -79,14 +79,16 @@ def read_csv_columns(path: Path, aliases: bool = True,
     return {header[k]: data[:, j] for j, k in enumerate(keep)}
 
 
-def load_csv(path: str | Path, kind: str, meta: dict[str, Any] | None = None) -> list[Track]:
+def load_csv(path: str | Path, kind: str, meta: dict[str, Any] | None = None,
+             from_names: bool = False) -> list[Track]:
     """Tracks of one CSV file.
 
     Args:
         path: CSV file in one of the module's shapes.
         kind: ``MEASURED`` or ``MODEL`` (decides whether ``marker`` or ``id`` names a track).
-        meta: run metadata (a ``dempath simulate`` summary.json) for the speed, run id and
-            seed; without it they come from the file name (:mod:`dempath_compare.runinfo`).
+        meta: run metadata (a ``dempath simulate`` summary.json) for the speed, run id, seed,
+            scene and physics keys (:mod:`dempath_compare.runinfo`).
+        from_names: what the metadata do not say from the file name (speed, seed).
 
     Raises:
         InputError: unreadable file, missing columns, non-integer ids.
@@ -102,10 +104,15 @@ def load_csv(path: str | Path, kind: str, meta: dict[str, Any] | None = None) ->
     if key in cols:
         idents = _integers(path, key, cols[key])
     else:
+        t = cols['t'][np.isfinite(cols['t'])]
+        if len(np.unique(t)) < len(t):  # one file of one particle has each time once
+            msg = (f'{path}: no {key!r} column, and its times repeat (rows of several '
+                   f'{key}s?); give a {key} column: t,{key},x,y,z')
+            raise InputError(msg)
         idents = np.full(n_rows, _number_in_name(path), dtype=np.int64)
     markers = _integers(path, 'marker', cols['marker']) if 'marker' in cols else None
     xyz = np.stack([cols['x'], cols['y'], cols['z']], axis=1)
-    info = run_info(path.stem, meta)
+    info = run_info(path.stem, meta, from_names)
     tracks = []
     for ident in dict.fromkeys(idents.tolist()):
         rows = np.flatnonzero(idents == ident)
@@ -136,6 +143,10 @@ def csv_files(folder: Path, kind: str) -> list[Path]:
     measured (a folder given on purpose for the measured side).
     """
     files = sorted(p for p in folder.iterdir() if p.suffix.lower() == '.csv' and p.is_file())
+    if not files and any(p.suffix.lower() in {'.mcap', '.db3'} for p in folder.iterdir()):
+        msg = (f'{folder}: a bag without metadata.yaml (a recording that was cut off?); run '
+               f"'dempath bag-recover {folder}' first")
+        raise InputError(msg)
     if not files:
         msg = f'{folder}: no CSV files in folder'
         raise InputError(msg)
@@ -155,10 +166,13 @@ def is_bag(path: Path) -> bool:
         path.suffix.lower() in {'.mcap', '.db3'}
 
 
-def load_source(path: str | Path, kind: str,
-                mapping: ExportMapping | None = None) -> list[Track]:
+def load_source(path: str | Path, kind: str, mapping: ExportMapping | None = None,
+                from_names: bool = False) -> list[Track]:
     """Tracks of ``kind`` from a CSV file, a folder of CSV files, a bag or (model side) a
     foreign export: a LIGGGHTS dump or a CSV read through ``mapping`` (:mod:`.foreign`).
+
+    A model folder's ``summary.json`` (run metadata) gives its tracks' identity; ``from_names``
+    fills what no metadata say from the names (``CompareConfig.identity_from_names``).
 
     Raises:
         InputError: missing path, empty folder, unreadable file, nothing of ``kind`` found.
@@ -175,16 +189,16 @@ def load_source(path: str | Path, kind: str,
     elif is_bag(path):
         from dempath_compare.bagload import load_bag
 
-        tracks = load_bag(path, kind)
+        tracks = load_bag(path, kind, from_names)
     elif path.is_dir():
         try:
             check_output_folder(path, 'summary.json')
         except OutputError as err:
             raise InputError(str(err)) from err
         meta = run_metadata(path) if kind == MODEL else None
-        tracks = [t for f in csv_files(path, kind) for t in load_csv(f, kind, meta)]
+        tracks = [t for f in csv_files(path, kind) for t in load_csv(f, kind, meta, from_names)]
     elif path.suffix.lower() == '.csv':
-        tracks = load_csv(path, kind)
+        tracks = load_csv(path, kind, None, from_names)
     else:
         msg = f'{path}: not a CSV file, folder of CSV files or bag'
         raise InputError(msg)

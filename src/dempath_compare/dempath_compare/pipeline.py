@@ -52,8 +52,9 @@ def compare_paths(measured: str | Path, model: str | Path,
     Raises:
         InputError: a source is missing, empty or unreadable.
     """
-    return compare_tracks(load_source(measured, MEASURED),
-                          load_source(model, MODEL, model_map), config)
+    names = (config or CompareConfig()).identity_from_names
+    return compare_tracks(load_source(measured, MEASURED, from_names=names),
+                          load_source(model, MODEL, model_map, names), config)
 
 
 def problems(result: CompareResult) -> list[Problem]:

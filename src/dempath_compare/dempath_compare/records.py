@@ -35,8 +35,10 @@ class Track(NamedTuple):
         speed_m_s: tool speed of the experiment or run [m/s]; NaN when unknown.
         run_id: model run (or experiment) id; the group name when nothing else is known.
         seed: packing seed of a model run; -1 when unknown.
+        scene_key: the run's scene set-up key (``dempath_sim.runs.identity``); '' when unknown.
+        physics_key: the run's physics key; '' when unknown.
 
-    The loaders fill the last three (:mod:`dempath_compare.runinfo` says from what).
+    The loaders fill the last five (:mod:`dempath_compare.runinfo` says from what).
     """
 
     label: str
@@ -50,6 +52,8 @@ class Track(NamedTuple):
     speed_m_s: float = math.nan
     run_id: str = ''
     seed: int = -1
+    scene_key: str = ''
+    physics_key: str = ''
 
 
 @dataclass(frozen=True)
@@ -70,6 +74,8 @@ class TrajectorySet:
         speeds: (n,) tool speed [m/s] of each trajectory's experiment or run (NaN: unknown).
         run_ids: (n,) run (or experiment) ids.
         seeds: (n,) packing seeds (-1: unknown).
+        scene_keys: (n,) scene set-up keys ('': unknown).
+        physics_keys: (n,) physics keys ('': unknown).
     """
 
     labels: tuple[str, ...]
@@ -85,6 +91,8 @@ class TrajectorySet:
     speeds: NDArray[np.float64]
     run_ids: tuple[str, ...]
     seeds: NDArray[np.int64]
+    scene_keys: tuple[str, ...]
+    physics_keys: tuple[str, ...]
 
     def __len__(self) -> int:
         return len(self.labels)
@@ -104,7 +112,8 @@ class TrajectorySet:
         k = int(self.lengths[i])
         return Track(self.labels[i], self.groups[i], int(self.idents[i]), int(self.marker_ids[i]),
                      self.times[i, :k].copy(), self.positions[i, :k].copy(), self.problems[i],
-                     self.notes[i], float(self.speeds[i]), self.run_ids[i], int(self.seeds[i]))
+                     self.notes[i], float(self.speeds[i]), self.run_ids[i], int(self.seeds[i]),
+                     self.scene_keys[i], self.physics_keys[i])
 
     def positions_list(self, index: Sequence[int] | NDArray[np.int64]
                        ) -> list[NDArray[np.float64]]:
@@ -151,7 +160,9 @@ def pack_tracks(tracks: Sequence[Track], shift_to_origin: bool = False) -> Traje
         problems=tuple(t.problem for t in tracks), notes=tuple(t.note for t in tracks),
         origins=origins, speeds=np.array([t.speed_m_s for t in tracks], np.float64).reshape(n),
         run_ids=tuple(t.run_id for t in tracks),
-        seeds=np.array([t.seed for t in tracks], dtype=np.int64).reshape(n))
+        seeds=np.array([t.seed for t in tracks], dtype=np.int64).reshape(n),
+        scene_keys=tuple(t.scene_key for t in tracks),
+        physics_keys=tuple(t.physics_key for t in tracks))
 
 
 def concat_sets(sets: Sequence[TrajectorySet]) -> TrajectorySet:
@@ -177,4 +188,6 @@ def concat_sets(sets: Sequence[TrajectorySet]) -> TrajectorySet:
         origins=np.concatenate([s.origins for s in sets]),
         speeds=np.concatenate([s.speeds for s in sets]),
         run_ids=tuple(x for s in sets for x in s.run_ids),
-        seeds=np.concatenate([s.seeds for s in sets]))
+        seeds=np.concatenate([s.seeds for s in sets]),
+        scene_keys=tuple(x for s in sets for x in s.scene_keys),
+        physics_keys=tuple(x for s in sets for x in s.physics_keys))

@@ -11,7 +11,7 @@ experiment). There is no Python loop over pairs.
 from __future__ import annotations
 
 import logging
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from operator import itemgetter
 
@@ -92,7 +92,16 @@ def pair_mask(measured: TrajectorySet, model: TrajectorySet,
         mask &= cube_candidates(measured.origins, model.origins, config.cube_size)
     if config.match_speed:
         mask &= same_speed(measured.speeds, model.speeds)
+    mask &= same_scene(measured.scene_keys, model.scene_keys)
     return np.asarray(mask)
+
+
+def same_scene(keys_e: Sequence[str], keys_m: Sequence[str]) -> NDArray[np.bool_]:
+    """(n_e, n_m) False only where both scene keys are known (not '') and differ."""
+    ke = np.asarray(list(keys_e), dtype=object)[:, None]
+    km = np.asarray(list(keys_m), dtype=object)[None, :]
+    return np.asarray((ke == km) | (ke == '') | (km == ''), dtype=bool).reshape(len(keys_e),
+                                                                               len(keys_m))
 
 
 def same_speed(speeds_e: NDArray[np.float64], speeds_m: NDArray[np.float64]

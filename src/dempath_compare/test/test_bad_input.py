@@ -117,3 +117,23 @@ def test_loader_rejects_empty_folder(tmp_path: Path) -> None:
     """The core raises InputError naming the folder."""
     with pytest.raises(InputError, match=str(tmp_path)):
         load_source(tmp_path, MEASURED)
+
+
+def test_measured_csv_without_marker_column_names_it(tmp_path: Path) -> None:
+    """Rows of several markers in a CSV without a marker column: one error naming the missing
+    column (it used to read as 'marker 0: duplicated time stamps')."""
+    path = tmp_path / 'measured.csv'
+    rows = [r.split(',', 2)[0] + ',' + r.split(',', 2)[2]
+            for m in (1, 2) for r in rows_measured(m, np.arange(5) * 0.02)]
+    path.write_text('\n'.join(['t,x,y,z', *rows]) + '\n')
+    with pytest.raises(InputError, match="no 'marker' column, and its times repeat"):
+        load_source(path, MEASURED)
+
+
+def test_unrecovered_bag_says_to_recover_it(tmp_path: Path) -> None:
+    """A bag folder without metadata.yaml (a cut-off recording) names bag-recover instead of
+    'no CSV files in folder'."""
+    (tmp_path / 'rec').mkdir()
+    (tmp_path / 'rec' / 'rec_0.mcap').write_bytes(b'\x89MCAP0\r\n')
+    with pytest.raises(InputError, match='dempath bag-recover'):
+        load_source(tmp_path / 'rec', MEASURED)

@@ -18,7 +18,8 @@ def test_cli_outputs_on_worked_example(example_dir: Path, tmp_path: Path,
     from openpyxl import load_workbook
 
     out = tmp_path / 'out'
-    code = compare_main([str(example_dir), str(example_dir), '--out', str(out), '--top', '5'])
+    code = compare_main([str(example_dir), str(example_dir), '--out', str(out), '--top', '5',
+                         '--identity-from-names'])
     printed = capsys.readouterr().out
     assert code == 0
     assert 'experiment_1ms/marker9' in printed and f'workbook: {out / "compare.xlsx"}' in printed

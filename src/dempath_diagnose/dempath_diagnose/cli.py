@@ -18,10 +18,21 @@ from typing import Any
 import numpy as np
 
 from dempath.errors import DempathError
-from dempath_diagnose.diagnose import CaseGeometry, Diagnosis, diagnose
-from dempath_diagnose.emulator import Allowance
+from dempath_diagnose.admission import check_force_time_base, markers_in_bin
+from dempath_diagnose.decision.diagnosis import CaseGeometry, Diagnosis, diagnose
+from dempath_diagnose.decision.emulator import Allowance
+from dempath_diagnose.decision.measure import load_force, load_tracks
 from dempath_diagnose.errors import DiagnosisError, MeasurementError
-from dempath_diagnose.library import (
+from dempath_diagnose.library.packed import DEFAULT_MARGIN_M
+from dempath_diagnose.library.simulator import (
+    BACKENDS,
+    LIBRARY_CANDIDATES,
+    SceneSpec,
+    load_scene,
+    pass_travel_s,
+    tool_geometry,
+)
+from dempath_diagnose.library.store import (
     Library,
     LibrarySpec,
     build_library,
@@ -30,17 +41,9 @@ from dempath_diagnose.library import (
     library_state,
     recorded_run_s,
 )
-from dempath_diagnose.measure import load_force, load_tracks
-from dempath_diagnose.packed import DEFAULT_MARGIN_M
 from dempath_diagnose.records import Measurement
-from dempath_diagnose.simulate import (
-    LIBRARY_CANDIDATES,
-    SceneSpec,
-    load_scene,
-    pass_travel_s,
-    tool_geometry,
-)
 
+DEFAULT_BUDGET = 6  # simulations beyond the library (two strengths on the default 3 seeds)
 MAX_FOLLOW_S = 5.0  # the model follows the bed at most this long after the tool stops [s]
 
 
@@ -71,6 +74,15 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument('--discrepancy-force', type=float, default=Allowance.discrepancy_force_rel,
                    help='relative model-discrepancy allowance on the draft force')
     p.add_argument('--serial', action='store_true', help='run the library here, without Dask')
+    p.add_argument('--model', type=Path,
+                   help="the paper's Table 7 against this model run of yours instead of the "
+                        "library's baseline band: dempath CSV, a LIGGGHTS dump or a mapped "
+                        'EDEM/Rocky CSV (with --model-map)')
+    p.add_argument('--model-map', type=Path, metavar='YAML',
+                   help='how to read --model: columns, units, axes (docs/compare.md)')
+    p.add_argument('--backend', choices=BACKENDS, default='dempath',
+                   help="engine of the library's runs (liggghts: LIGGGHTS 3.8 from the same "
+                        'settled beds)')
     p.add_argument('--library', type=Path,
                    help='use this library (a packed file or a library folder); never built')
     p.add_argument('--export-library', type=Path, metavar='FILE',
@@ -123,14 +135,14 @@ def ensure_library(args: argparse.Namespace, scene: SceneSpec, spec: LibrarySpec
     it will take, with a progress bar."""
     if args.library is not None:
         return Library.load(args.library)
-    state, done, total = library_state(scene, spec, args.library_root)
+    state, done, total = library_state(scene, spec, args.library_root, args.backend)
     if state != 'ready':
         width = 1 if args.serial else max(1, args.workers or 2)
-        per_run, timed = recorded_run_s(scene, spec, args.library_root)
+        per_run, timed = recorded_run_s(scene, spec, args.library_root, args.backend)
         print(library_notice(scene.name, state, done, total, per_run, timed, width),
               file=sys.stderr)
         _build(args, scene, spec, total - done, per_run)
-    return Library.load(library_dir(scene, spec, args.library_root))
+    return Library.load(library_dir(scene, spec, args.library_root, args.backend))
 
 
 def library_notice(scene: str, state: str, done: int, total: int, per_run_s: float,
@@ -168,7 +180,7 @@ def _build(args: argparse.Namespace, scene: SceneSpec, spec: LibrarySpec, todo: 
         TimeRemainingColumn,
     )
 
-    from dempath_diagnose.library import serial_executor
+    from dempath_diagnose.library.store import serial_executor
 
     bar = Progress(TextColumn('library'), BarColumn(), MofNCompleteColumn(),
                    TimeElapsedColumn(), TextColumn('ETA'), TimeRemainingColumn(),
@@ -187,13 +199,14 @@ def _build(args: argparse.Namespace, scene: SceneSpec, spec: LibrarySpec, todo: 
 
         if args.serial:
             build_library(scene, spec, args.library_root, serial_executor, args.packing_cache,
-                          on_done)
+                          on_done, backend=args.backend)
             return
-        from dempath_diagnose.sweep import DaskSweep
+        from dempath_diagnose.library.sweep import DaskSweep
 
         with DaskSweep(args.scheduler, args.workers) as sweep:
             build_library(scene, spec, args.library_root, sweep.run, args.packing_cache,
-                          on_done)
+                          on_done, worker_cache=None if sweep.remote else 'same',
+                          backend=args.backend)
 
 
 def run(args: argparse.Namespace) -> dict[str, Any]:
@@ -201,10 +214,12 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     t0 = time.monotonic()
     scene, _spec, library, allowance, result = diagnosis_of(args)
     result.wall_s = time.monotonic() - t0
-    from dempath_diagnose.report import print_ranking, write_outputs
+    from dempath_diagnose.report.diagnosis_outputs import print_ranking, write_outputs
 
     extra: dict[str, Any] = {'scene': scene.name, 'library': str(library.folder),
-                             'allowance': vars(allowance)}
+                             'allowance': vars(allowance), 'backend': args.backend}
+    if result.adaptive:
+        extra['adaptive'] = result.adaptive
     if args.export_library is not None:
         extra['exported_library'] = export(args, library, result, tool_geometry(scene)[2])
     data = write_outputs(result, args.out, extra)
@@ -215,7 +230,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
 def export(args: argparse.Namespace, library: Library, result: Diagnosis,
            cube: tuple[float, float, float]) -> dict[str, Any]:
     """Pack the library for the measured markers (and ``--export-box``) into the export file."""
-    from dempath_diagnose.packed import export_library
+    from dempath_diagnose.library.packed import export_library
 
     box = None
     if args.export_box:
@@ -235,23 +250,87 @@ def diagnosis_of(args: argparse.Namespace,
     arguments (what ``dempath recalibrate`` builds on)."""
     origin = _origin(args.origin)
     scene = load_scene(args.scene)
-    meas = load_tracks(args.measured, origin)
+    meas = markers_in_bin(args.measured, load_tracks(args.measured, origin), scene)
     if meas.time_origin:
         print(f'{args.measured}: {meas.time_origin}', file=sys.stderr)
     for marker, problem in sorted(meas.problems.items()):
         print(f'warning: {args.measured}: marker {marker}: {problem} (left out)', file=sys.stderr)
     if args.force is not None:
         t, f = load_force(args.force)
+        check_force_time_base(args.force, t, meas.times)
         meas = replace(meas, force_times=t, force=f)
     spec = library_spec(args, scene, meas)
-    library = ensure_library(args, scene, spec)
+    library = ensure_library(args, scene, spec)  # a given --library is only read
+    library.check_scene(scene)  # before any diagnosis is computed or written
     tool_x, half_width, cube = tool_geometry(scene)
     allowance = Allowance(args.noise, args.discrepancy, args.discrepancy_rel,
                           args.discrepancy_force)
-    result = diagnose(meas, library, CaseGeometry(tool_x, half_width, cube), allowance,
-                      args.windows, str(args.force))
+    geometry = CaseGeometry(tool_x, half_width, cube)
+
+    def again(lib: Library) -> Diagnosis:
+        return diagnose(meas, lib, geometry, allowance, args.windows, str(args.force))
+
+    result = again(library)
     result.simulations = len(library.runs)
+    if getattr(args, 'extra_budget', 0) > 0:
+        result, library = spend_budget(args, scene, spec, library, result, again)
+    if args.model is not None:
+        result.table7 = own_model_table7(args, meas, cube)
     return scene, spec, library, allowance, result
+
+
+def own_model_table7(args: argparse.Namespace, meas: Measurement,
+                     cube: tuple[float, float, float]) -> dict[str, Any]:
+    """The paper's Table 7 of the user's own model run (``--model``, read as dempath compare
+    reads a model) against the measured markers: each marker's Cube candidates in that run."""
+    from dempath_compare.foreign import load_mapping
+    from dempath_compare.loaders import MODEL, load_source
+    from dempath_diagnose.decision.bandtracks import band_table7, model_record
+
+    mapping = load_mapping(args.model_map) if args.model_map is not None else None
+    record = model_record(load_source(args.model, MODEL, mapping))
+    table = band_table7(meas, [record], cube, [args.model.stem])
+    return {**table, 'model': str(args.model)}
+
+
+def spend_budget(args: argparse.Namespace, scene: SceneSpec, spec: LibrarySpec,
+                 library: Library, first: Diagnosis, again: Any) -> tuple[Diagnosis, Library]:
+    """``--budget``: simulations beyond the library where they would settle an open answer
+    (:mod:`dempath_diagnose.adaptive`), through the library's executor (Dask or serial)."""
+    from contextlib import ExitStack
+
+    from dempath_diagnose.adaptive import refine
+    from dempath_diagnose.library.store import extend_library, serial_executor
+
+    with ExitStack() as stack:
+        executor: Any = serial_executor
+        worker_cache: Path | None | str = 'same'
+        if not args.serial:
+            from dempath_diagnose.library.sweep import DaskSweep
+
+            sweep = None
+
+            def lazy(tasks: Any, done: Any) -> None:  # a cluster only when something runs
+                nonlocal sweep
+                if sweep is None:
+                    sweep = stack.enter_context(DaskSweep(args.scheduler, args.workers))
+                sweep.run(tasks, done)
+
+            executor = lazy
+            worker_cache = None if args.scheduler else 'same'
+
+        def extend(lib: Library, additions: list[tuple[str, float]], seeds: int) -> Library:
+            for name, x in additions:
+                print(f'{scene.name}: simulating {name} at {x:.4g} on {seeds} seeds',
+                      file=sys.stderr)
+            return extend_library(lib, scene, spec, additions, seeds, executor,
+                                  args.packing_cache, worker_cache, args.backend)
+
+        final, library, outcome = refine(first, library, again, extend, args.extra_budget)
+    final.adaptive = outcome.to_dict()
+    print(f'{scene.name}: {outcome.used} simulations beyond the library; {outcome.stop}',
+          file=sys.stderr)
+    return final, library
 
 
 def diagnose_main(argv: list[str] | None = None) -> int:
@@ -259,8 +338,17 @@ def diagnose_main(argv: list[str] | None = None) -> int:
 
     Returns 0, or 1 after one ``error: <input>: <problem>`` line on bad input.
     """
-    args = _parser().parse_args(argv)
+    parser = _parser()
+    parser.add_argument('--budget', dest='extra_budget', type=int, default=None,
+                        help='simulations allowed beyond the library where they would settle '
+                             f'an open answer (0: none; default {DEFAULT_BUDGET}, or 0 with '
+                             '--library)')
+    args = parser.parse_args(argv)
+    if args.extra_budget is None:  # a library given by path is fixed unless asked otherwise
+        args.extra_budget = 0 if args.library is not None else DEFAULT_BUDGET
     try:
+        if args.extra_budget < 0:
+            raise DiagnosisError(f'--budget {args.extra_budget}: must be >= 0')
         run(args)
     except (DempathError, ValueError) as err:
         print(f'error: {err}', file=sys.stderr)

@@ -10,9 +10,9 @@ from pathlib import Path
 
 import pytest
 
-from dempath_diagnose.diagnose import CaseGeometry
-from dempath_diagnose.library import Library, LibrarySpec, build_library
-from dempath_diagnose.simulate import load_scene, tool_geometry
+from dempath_diagnose.decision.diagnosis import CaseGeometry
+from dempath_diagnose.library.simulator import load_scene, tool_geometry
+from dempath_diagnose.library.store import Library, LibrarySpec, build_library
 
 SCENE = 'builtin:tiny'
 SPEC = LibrarySpec(seeds=(1001, 1002, 1003), candidates=('cohesion', 'tool_speed',

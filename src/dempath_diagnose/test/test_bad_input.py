@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from dempath_diagnose.cli import diagnose_main
+from dempath_diagnose.decision.measure import check_force_scale, load_force, load_tracks
 from dempath_diagnose.errors import ClusterError, MeasurementError
-from dempath_diagnose.measure import check_force_scale, load_force, load_tracks
-from dempath_diagnose.sweep import DaskSweep
+from dempath_diagnose.library.sweep import DaskSweep
 
 
 def write_markers(path: Path, rows: list[tuple[float, int, float, float, float]]) -> Path:
@@ -86,7 +86,7 @@ def test_unreachable_scheduler_is_one_clear_error() -> None:
     """A scheduler address nobody listens on: ClusterError naming the address."""
     with pytest.raises(ClusterError, match=r'tcp://127\.0\.0\.1:9'), \
             DaskSweep('tcp://127.0.0.1:9', timeout_s=2.0) as sweep:
-        sweep.run([], lambda k: None)
+        sweep.run([], lambda k, v: None)
 
 
 def test_cli_force_in_kilonewtons_and_faulty_markers(cache: Path, tiny_library: object,

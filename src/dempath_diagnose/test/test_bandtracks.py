@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from dempath_diagnose.bandtracks import band_table7, band_tracks
+from dempath_diagnose.decision.bandtracks import band_table7, band_tracks
 from dempath_diagnose.records import Measurement, PassRecord
 
 CUBE = (0.02, 0.02, 0.02)

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from dempath_diagnose.coverage import strength_checks, summary
-from dempath_diagnose.diagnose import CaseGeometry
-from dempath_diagnose.library import Library
+from dempath_diagnose.decision.coverage import strength_checks, summary
+from dempath_diagnose.decision.diagnosis import CaseGeometry
+from dempath_diagnose.library.store import Library
 
 
 def test_left_out_runs_are_fitted_near_their_own_strength(tiny_library: Library,

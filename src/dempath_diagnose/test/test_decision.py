@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from dempath_diagnose.decision import decide, sigma_of
-from dempath_diagnose.emulator import CandidateEmulator, Emulator
-from dempath_diagnose.simulate import Candidate
+from dempath_diagnose.decision.emulator import CandidateEmulator, Emulator
+from dempath_diagnose.decision.verdict import decide, sigma_of
+from dempath_diagnose.library.simulator import Candidate
 
 NAMES = ['right:lateral_out:w0', 'right:lateral_out:w1', 'axis:forward:w0', 'axis:forward:w1',
          'force:draft:w0', 'force:draft:w1']

@@ -13,9 +13,9 @@ from dempath_diagnose.headline.fall import FallCase, FallSetup, run_case
 from dempath_diagnose.headline.floor import floor_band, headline_figure
 from dempath_diagnose.headline.samples import MarkerSamples, played_measurement
 from dempath_diagnose.headline.score import headline_error
-from dempath_diagnose.library import Library
+from dempath_diagnose.library.simulator import load_scene, tool_geometry
+from dempath_diagnose.library.store import Library
 from dempath_diagnose.records import PassRecord
-from dempath_diagnose.simulate import load_scene, tool_geometry
 
 CUBE = (0.045, 0.03, 0.03)
 

@@ -11,12 +11,12 @@ from pathlib import Path
 
 import pytest
 
-from dempath_diagnose.cases import HiddenCase, make_case
 from dempath_diagnose.cli import diagnose_main
-from dempath_diagnose.diagnose import CaseGeometry, diagnose
-from dempath_diagnose.library import Library
-from dempath_diagnose.measure import load_force, load_tracks
-from dempath_diagnose.simulate import load_scene
+from dempath_diagnose.decision.diagnosis import CaseGeometry, diagnose
+from dempath_diagnose.decision.measure import load_force, load_tracks
+from dempath_diagnose.library.cases import HiddenCase, make_case
+from dempath_diagnose.library.simulator import load_scene
+from dempath_diagnose.library.store import Library
 
 from .conftest import SCENE, SPEC
 

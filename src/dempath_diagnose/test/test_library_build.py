@@ -10,8 +10,8 @@ import pytest
 import yaml
 
 from dempath_diagnose.cli import diagnose_main, library_notice
-from dempath_diagnose.library import Library, library_dir, library_state, recorded_run_s
-from dempath_diagnose.simulate import load_scene
+from dempath_diagnose.library.simulator import load_scene
+from dempath_diagnose.library.store import Library, library_dir, library_state, recorded_run_s
 
 from .conftest import SCENE, SPEC
 from .test_hidden import case_files

@@ -2,21 +2,20 @@
 
 from __future__ import annotations
 
-from pathlib import Path
+from dempath_diagnose.library.simulator import load_scene
+from dempath_diagnose.library.store import LibrarySpec, LibraryTask, design
+from dempath_sim.runs.portable import pack_scene
 
-from dempath_diagnose.library import LibrarySpec, LibraryTask, design
-from dempath_diagnose.simulate import load_scene
 
-
-def test_run_cost_follows_simulated_time_over_the_stable_step(tmp_path: Path) -> None:
+def test_run_cost_follows_simulated_time_over_the_stable_step() -> None:
     """Stiffer grains (a shorter Rayleigh step) and a slower tool (a longer pass) cost more;
     Young's modulus x3 costs sqrt(3) of the baseline; an effect that keeps the step costs
     the same."""
     scene = load_scene('builtin:tiny')
     spec = LibrarySpec(seeds=(1001,), candidates=('youngs_modulus', 'tool_speed', 'cohesion'))
     _, runs = design(scene, spec)
-    cost = {r.label: LibraryTask(scene, r, tmp_path / r.filename, spec, None).cost()
-            for r in runs}
+    portable = pack_scene(scene)
+    cost = {r.label: LibraryTask(portable, r, spec, None).cost() for r in runs}
     base = cost['baseline']
     stiff = max(v for k, v in cost.items() if k.startswith('youngs_modulus'))
     soft = min(v for k, v in cost.items() if k.startswith('youngs_modulus'))

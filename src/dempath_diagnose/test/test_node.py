@@ -8,9 +8,9 @@ from typing import Any
 import numpy as np
 
 from dempath import topics
-from dempath_diagnose.library import Library
-from dempath_diagnose.live import measurement_from_frames
-from dempath_diagnose.measure import load_force, load_tracks
+from dempath_diagnose.decision.live import measurement_from_frames
+from dempath_diagnose.decision.measure import load_force, load_tracks
+from dempath_diagnose.library.store import Library
 from dempath_diagnose.nodes.diagnoser import DiagnoserNode
 from dempath_msgs.msg import Diagnosis, MarkerPoints3D, RunEvent, ToolForce
 

@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 
 from dempath_diagnose.cli import diagnose_main
-from dempath_diagnose.diagnose import CaseGeometry, diagnose
-from dempath_diagnose.library import Library
-from dempath_diagnose.measure import load_force, load_tracks
-from dempath_diagnose.packed import QUANTUM_M, export_library
+from dempath_diagnose.decision.diagnosis import CaseGeometry, diagnose
+from dempath_diagnose.decision.measure import load_force, load_tracks
+from dempath_diagnose.library.packed import QUANTUM_M, export_library
+from dempath_diagnose.library.store import Library
 
 from .conftest import SCENE
 from .test_hidden import case_files
@@ -76,12 +76,12 @@ def test_cli_exports_and_diagnoses_from_the_file(cache: Path, tiny_library: Libr
                           str(tmp_path / 'a'), '--export-library', str(packed), *common]) == 0
     a = json.loads((tmp_path / 'a' / 'diagnosis.json').read_text())
     assert a['exported_library']['bytes'] == packed.stat().st_size
-    moved = tmp_path / 'moved.csv'  # marker 1 starts 0.3 m away: outside the packed region
-    lines = markers.read_text().splitlines()
+    moved = tmp_path / 'moved.csv'  # marker 1 starts 50 mm back (still in the bin): outside
+    lines = markers.read_text().splitlines()  # the packed region
     out = [lines[0]]
     for line in lines[1:]:
         t, m, x, y, z = line.split(',')
-        out.append(f'{t},{m},{float(x) + 0.3 if m == "1" else x},{y},{z}')
+        out.append(f'{t},{m},{x},{y},{float(z) - 0.05 if m == "1" else z}')
     moved.write_text('\n'.join(out) + '\n')
     assert diagnose_main(['--measured', str(moved), '--force', str(force), '--out',
                           str(tmp_path / 'b'), '--library', str(packed), *common]) == 0

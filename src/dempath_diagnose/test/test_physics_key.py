@@ -5,7 +5,7 @@ from __future__ import annotations
 import shutil
 from pathlib import Path
 
-from dempath_diagnose.simulate import load_scene, physics_key
+from dempath_diagnose.library.simulator import load_scene, physics_key
 
 
 def _copy_scene(tmp: Path, mesh_bytes: bytes | None = None) -> Path:

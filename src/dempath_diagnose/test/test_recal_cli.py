@@ -9,10 +9,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from dempath_diagnose.diagnose import CaseGeometry
-from dempath_diagnose.library import Library
-from dempath_diagnose.recal_cli import recalibrate_main
-from dempath_diagnose.simulate import load_scene
+from dempath_diagnose.decision.diagnosis import CaseGeometry
+from dempath_diagnose.library.simulator import load_scene
+from dempath_diagnose.library.store import Library
+from dempath_diagnose.recalibrate_cli import recalibrate_main
 
 from .conftest import SCENE, SPEC
 from .test_hidden import CASES, case_files
@@ -143,8 +143,8 @@ def test_recalibration_from_a_packed_library(cache: Path, tiny_library: Library,
                                              geometry: CaseGeometry, tmp_path: Path) -> None:
     """A packed library (what the demo ships) has no run files: the 'before' runs of Table 7
     come from the loaded records, and the fit, the paper's metrics and the figures are written."""
-    from dempath_diagnose.measure import load_tracks
-    from dempath_diagnose.packed import export_library
+    from dempath_diagnose.decision.measure import load_tracks
+    from dempath_diagnose.library.packed import export_library
 
     markers, _ = case_files(cache, 'tool_speed')
     packed = tmp_path / 'lib.npz'

@@ -16,11 +16,11 @@ from pathlib import Path
 
 import pytest
 
-from dempath_diagnose.library import Library
-from dempath_diagnose.recal_cli import recalibrate_main
+from dempath_diagnose.library.store import Library
+from dempath_diagnose.recalibrate_cli import recalibrate_main
 
 from .test_recal_cli import argv_for
-from .test_sweep import _start, wait_workers
+from .test_sweep import _start, stop_all, wait_workers
 
 
 def _default_sigint() -> None:
@@ -45,13 +45,7 @@ def one_worker(tmp_path: Path) -> Iterator[tuple[str, list[subprocess.Popen[byte
                             tmp_path / 'worker.log'))
         yield address, procs
     finally:
-        for p in reversed(procs):
-            if p.poll() is None:
-                os.killpg(p.pid, signal.SIGTERM)
-                try:
-                    p.wait(10)
-                except subprocess.TimeoutExpired:
-                    os.killpg(p.pid, signal.SIGKILL)
+        stop_all(procs)
 
 
 def _when_a_run_is_stored(runs: Path, timeout_s: float = 1200.0) -> list[Path]:
@@ -114,7 +108,7 @@ def test_ctrl_c_writes_the_best_scene_so_far(cache: Path, tiny_library: Library,
     out = tmp_path / 'recal'
     argv = [*argv_for(cache, 'cohesion', out), '--budget', '8', '--seeds-per-eval', '1',
             '--effect', 'cohesion']
-    code = 'import sys; from dempath_diagnose.recal_cli import recalibrate_main as m; ' \
+    code = 'import sys; from dempath_diagnose.recalibrate_cli import recalibrate_main as m; ' \
            'sys.exit(m(sys.argv[1:]))'
     proc = subprocess.Popen([sys.executable, '-c', code, *argv], stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True,

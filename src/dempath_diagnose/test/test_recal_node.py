@@ -11,9 +11,9 @@ import numpy as np
 
 from dempath.bagio import open_bag
 from dempath.nodes.recorder import RecorderNode
-from dempath_diagnose.nodes.recal_progress import TOPIC, RecalProgressNode, progress_publisher
-from dempath_diagnose.recal_progress import Progress, State
-from dempath_diagnose.recalibrate import recalibrate
+from dempath_diagnose.nodes.progress_publisher import TOPIC, RecalProgressNode, progress_publisher
+from dempath_diagnose.recalibration.loop import recalibrate
+from dempath_diagnose.recalibration.progress import Progress, State
 
 from .test_recalibrate import SEEDS, evaluator, setup
 

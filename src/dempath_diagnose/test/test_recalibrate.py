@@ -10,11 +10,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dempath_diagnose.emulator import CandidateEmulator, Emulator
+from dempath_diagnose.decision.emulator import CandidateEmulator, Emulator
 from dempath_diagnose.errors import DiagnosisError
-from dempath_diagnose.objective import Floor, Objective
-from dempath_diagnose.recalibrate import check_strength, recalibrate
-from dempath_diagnose.simulate import Candidate
+from dempath_diagnose.library.simulator import Candidate
+from dempath_diagnose.recalibration.loop import check_strength, recalibrate
+from dempath_diagnose.recalibration.objective import Floor, Objective
 
 K = 6
 SD = 0.002  # seed spread of every statistic
@@ -152,7 +152,7 @@ def test_also_refits_an_existing_parameter_with_cma_es() -> None:
 
 def test_progress_is_reported_each_iteration_and_at_the_end() -> None:
     """Iteration 0 (the scene as it is), one record per real evaluation, a final FINISHED."""
-    from dempath_diagnose.recal_progress import State, progress_line
+    from dempath_diagnose.recalibration.progress import State, progress_line
 
     obj, ce = setup(0.8)
     got = []

@@ -4,14 +4,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from dempath_diagnose.records import Measurement, PassRecord
-from dempath_diagnose.statistics import (
+from dempath_diagnose.decision.statistics import (
     build_layout,
     local_field,
     measured_statistics,
     model_statistics,
     window_means,
 )
+from dempath_diagnose.records import Measurement, PassRecord
 
 CUBE = (0.02, 0.02, 0.02)
 

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from dempath_diagnose.sweep import DaskSweep, local_layout
+from dempath_diagnose.library.sweep import DaskSweep, local_layout
 
 DASK = str(Path(sys.executable).parent / 'dask')
 
@@ -79,6 +79,17 @@ def scheduler(tmp_path: Path) -> Iterator[tuple[str, list[subprocess.Popen[bytes
                     p.kill()
 
 
+def stop_all(procs: list[subprocess.Popen[bytes]]) -> None:
+    """Stop the processes' groups started here (last first): SIGTERM, SIGKILL after 10 s."""
+    for p in reversed(procs):
+        if p.poll() is None:
+            os.killpg(p.pid, signal.SIGTERM)
+            try:
+                p.wait(10)
+            except subprocess.TimeoutExpired:
+                os.killpg(p.pid, signal.SIGKILL)
+
+
 def wait_workers(address: str, n: int) -> None:
     """Wait until ``n`` workers have joined the scheduler."""
     from distributed import Client
@@ -95,7 +106,7 @@ def test_sweep_on_a_scheduler_given_by_address(
     tasks = [StoreTask(tmp_path / f'run{k}.txt', 0.1) for k in range(6)]
     finished: list[int] = []
     with DaskSweep(address) as sweep:
-        sweep.run(shipped(tasks), finished.append)
+        sweep.run(shipped(tasks), lambda k, _v: finished.append(k))
     assert sorted(finished) == list(range(6))
     assert all(t.path.is_file() for t in tasks)
 
@@ -111,7 +122,8 @@ def test_killed_worker_is_retried_and_nothing_finished_is_lost(
     with DaskSweep(address) as sweep:
         import threading
 
-        runner = threading.Thread(target=sweep.run, args=(shipped(tasks), finished.append))
+        runner = threading.Thread(target=sweep.run,
+                                  args=(shipped(tasks), lambda k, _v: finished.append(k)))
         runner.start()
         deadline = time.monotonic() + 60
         while not any(t.path.is_file() for t in tasks) and time.monotonic() < deadline:
@@ -159,7 +171,7 @@ def test_local_cluster_starts_tasks_in_the_order_given_with_the_engine_environme
     tasks = [EnvTask(tmp_path / f'task{k}.txt', 0.05 * (k % 3)) for k in range(8)]
     finished: list[int] = []
     with DaskSweep(workers=1) as sweep:
-        sweep.run([lambda t=t: t() for t in tasks], finished.append)
+        sweep.run([lambda t=t: t() for t in tasks], lambda k, _v: finished.append(k))
     assert sorted(finished) == list(range(len(tasks)))
     reports = [t.path.read_text().split() for t in tasks]
     starts = [float(r[0]) for r in reports]

@@ -16,8 +16,8 @@ import pytest
 
 from dempath import topics
 from dempath.bagio import make_typestore, write_bag
+from dempath_diagnose.decision.measure import load_tracks
 from dempath_diagnose.errors import MeasurementError
-from dempath_diagnose.measure import load_tracks
 
 from .test_bad_input import moving, write_markers
 

@@ -2,7 +2,7 @@
 
 ``dempath simulate SCENE [--out DIR] [--seed N] [--effect EFFECT.PARAM=VALUE ...] [--off EFFECT]``
 fills (or reads the cached packing), drives the tool with a progress bar showing simulated time
-and the real-time factor, and writes ``model.csv`` (t,id,x,y,z), ``markers.csv``
+and the real-time factor, and writes ``model.csv`` (t,id,marker,x,y,z), ``markers.csv``
 (t,marker,x,y,z), ``tool.csv``, ``result.npz`` and ``summary.json`` to DIR; with ``--vtk`` also
 the bed snapshots (with radii) and the tool per snapshot as VTK for ParaView (DIR/vtk, see
 :mod:`dempath_sim.runs.vtk`). SCENE is a scene file or the name of a shipped scene (``tiny``,

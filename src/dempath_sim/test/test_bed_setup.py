@@ -14,10 +14,10 @@ from dempath_sim.engine.mesh import TriangleMesh, closest_point_triangle_numpy
 from dempath_sim.engine.solid import open_edges, winding_numbers
 from dempath_sim.engine.stl import read_stl, write_stl_ascii
 from dempath_sim.errors import GeometryError, SceneError
-from dempath_sim.runs.fill import fill_bed, packing_key
+from dempath_sim.runs.bed import fill_bed, packing_key
+from dempath_sim.runs.bed.placement import place_tool, removal_mask
 from dempath_sim.runs.native import _prepare_drive, pass_start_springs, resettle
 from dempath_sim.runs.physics import build_params
-from dempath_sim.runs.placement import place_tool, removal_mask
 from dempath_sim.scene import bundled_scene, load_scene
 from dempath_sim.scene.loader import SCENES_DIR
 
@@ -141,7 +141,7 @@ def test_run_places_the_tool_by_carve(tiny_bed: tuple[Path, object]) -> None:
     _, (state, report) = tiny_bed
     scene = bundled_scene('tiny')
     mesh = TriangleMesh.from_stl(scene.tool.mesh, scale=scene.tool.scale)
-    from dempath_sim.runs.placement import tool_start
+    from dempath_sim.runs.bed.placement import tool_start
 
     start = tool_start(scene, report)
     _, carved = place_tool(state, mesh, start, 'carve')
@@ -184,7 +184,7 @@ def test_bed_poured_around_the_tool_rests_against_it(tmp_path: Path,
     assert packing_key(moved, bed) != key
     state, report = fill_bed(scene, bed, build_params(scene, bed), cache)
     mesh = TriangleMesh.from_stl(scene.tool.mesh, scale=scene.tool.scale)
-    from dempath_sim.runs.fill_tool import nominal_start
+    from dempath_sim.runs.bed.standing_tool import nominal_start
 
     start = nominal_start(scene)
     touching = removal_mask(state.positions, state.radii, mesh, start, 'carve')

@@ -15,7 +15,7 @@ import yaml
 from dempath_sim.cli import simulate_main
 from dempath_sim.errors import RunStoppedError
 from dempath_sim.runs import RunOptions, run_scene
-from dempath_sim.runs.fill import bundled_packing_dir, packing_key
+from dempath_sim.runs.bed import bundled_packing_dir, packing_key
 from dempath_sim.scene import SCENES_DIR, load_scene, resolve_scene
 
 EXIT_TIMEOUT_S = 120.0  # the run takes ~5-10 s; beyond this the process hangs

@@ -19,7 +19,7 @@ from dempath_sim.engine.materials import Interaction, Material
 from dempath_sim.engine.params import SimParams
 from dempath_sim.engine.state import SimState
 from dempath_sim.engine.walls import Plane
-from dempath_sim.runs.fill import packing_key
+from dempath_sim.runs.bed import packing_key
 from dempath_sim.scene import SceneError, bundled_scene, scene_from_dict
 from dempath_sim.validation.cross_engine import same_physics
 

@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from dempath_sim.engine.state import SimState
-from dempath_sim.runs.fill import fill_bed, measure, packing_key
+from dempath_sim.runs.bed import fill_bed, measure, packing_key
+from dempath_sim.runs.bed.pour import DEFAULT_SOLID_FRACTION, lattice, pour, sample_diameters
 from dempath_sim.runs.physics import build_params
-from dempath_sim.runs.pour import DEFAULT_SOLID_FRACTION, lattice, pour, sample_diameters
 from dempath_sim.scene import bundled_scene
 from dempath_sim.scene.spec import LayerSpec, SizeDistribution
 
@@ -117,7 +117,7 @@ def test_fill_settles_and_caches(tmp_path_factory: pytest.TempPathFactory) -> No
 
 def test_bundled_packing_matches_reduced_scenes() -> None:
     """The shipped packing still belongs to the reduced scenes (else the demo refills)."""
-    from dempath_sim.runs.fill import bundled_packing_dir, packing_key
+    from dempath_sim.runs.bed import bundled_packing_dir, packing_key
     from dempath_sim.scene import bundled_scene
 
     for name in ('reduced_1ms', 'reduced_1_5ms'):
@@ -135,7 +135,7 @@ def test_damaged_cache_entry_is_named_set_aside_and_replaced(
     every run of the scene failing with BadZipFile until the file is deleted by hand."""
     import logging
 
-    from dempath_sim.runs.fill import bundled_packing_dir
+    from dempath_sim.runs.bed import bundled_packing_dir
 
     scene = bundled_scene('reduced_1ms')
     model = scene.physics_model()
@@ -150,7 +150,7 @@ def test_damaged_cache_entry_is_named_set_aside_and_replaced(
     else:
         with np.load(bundled_packing_dir() / f'{key}.npz') as data:
             np.savez(entry, **{k: data[k] for k in data.files if k != 'report'})
-    with caplog.at_level(logging.WARNING, logger='dempath_sim.runs.fill'):
+    with caplog.at_level(logging.WARNING, logger='dempath_sim.runs.bed.cache'):
         state, report = fill_bed(scene, model, params, tmp_path)
     assert report.from_cache and state.n > 1000
     assert not entry.exists() and (tmp_path / f'{key}.npz.corrupt').is_file()

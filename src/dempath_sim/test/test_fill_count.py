@@ -9,7 +9,7 @@ import pytest
 import yaml
 
 from dempath_sim.errors import SceneError
-from dempath_sim.runs.fill import fill_bed, packing_key
+from dempath_sim.runs.bed import fill_bed, packing_key
 from dempath_sim.runs.physics import build_params
 from dempath_sim.scene import bundled_scene, load_scene
 from dempath_sim.scene.loader import SCENES_DIR

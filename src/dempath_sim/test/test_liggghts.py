@@ -15,6 +15,7 @@ from dempath_sim.liggghts.deck import fill_plan, layer_templates, primes_from, v
 from dempath_sim.liggghts.errors import DumpError, LiggghtsNotFoundError, LiggghtsRunError
 from dempath_sim.liggghts.install import LiggghtsInstall, ensure_liggghts, find_liggghts
 from dempath_sim.liggghts.runner import run_deck
+from dempath_sim.runs.identity import run_identity
 from dempath_sim.scene import bundled_scene
 from dempath_sim.scene.profiles import SpeedProfile, ToolPath
 
@@ -165,6 +166,10 @@ def test_tiny_scene_runs_end_to_end_on_liggghts(liggghts: LiggghtsInstall, tmp_p
     fill = result.meta['fill']
     assert 0.4 < fill['solid_fraction'] < 0.7
     assert abs(fill['surface_height_m']) < 0.03
+    identity = run_identity(scene).as_meta()  # a native run's identity; the run id names the
+    del identity['run_id']  # engine ('<scene>-s<seed>-liggghts')
+    assert {k: result.meta[k] for k in identity} == identity
+    assert result.meta['run_id'] == f'tiny-s{scene.seed}-liggghts'
 
 
 @pytest.mark.liggghts

@@ -13,8 +13,8 @@ from dempath.dumpio import frames_by_id, read_dump
 from dempath_sim.engine.timestep import rayleigh_time_step
 from dempath_sim.liggghts.deck import POUR_DUMP, settle_lines
 from dempath_sim.liggghts.install import LiggghtsInstall
+from dempath_sim.runs.bed.pour import pour
 from dempath_sim.runs.physics import build_params
-from dempath_sim.runs.pour import pour
 from dempath_sim.scene import bundled_scene
 
 

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from dempath_sim.errors import SceneError
-from dempath_sim.runs.fill import fill_bed
+from dempath_sim.runs.bed import fill_bed
 from dempath_sim.runs.physics import build_params
 from dempath_sim.scene import bundled_scene
 from dempath_sim.scene.loader import SCENES_DIR

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from dempath_sim.runs.fill import packing_key
+from dempath_sim.runs.bed import packing_key
 from dempath_sim.runs.portable import bed_cache_file, pack_scene
 from dempath_sim.scene import SceneError, resolve_scene
 

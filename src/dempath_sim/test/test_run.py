@@ -73,7 +73,7 @@ def test_soil_resists_and_markers_move(tiny_run: tuple[SimResult, list[Frame]]) 
 
 
 def test_csv_and_npz_round_trip(tiny_run: tuple[SimResult, list[Frame]], tmp_path: Path) -> None:
-    """CSV rows (t,id,x,y,z) and (t,marker,x,y,z) and the npz give back the arrays."""
+    """CSV rows (t,id,marker,x,y,z) and (t,marker,x,y,z) and the npz give back the arrays."""
     result, _ = tiny_run
     result.write_model_csv(tmp_path / 'model.csv')
     result.write_marker_csv(tmp_path / 'markers.csv')

@@ -42,7 +42,7 @@ def test_sparse_bed_and_untouched_tool_are_warned() -> None:
     a settled bed with a loaded tool gets none."""
     import numpy as np
 
-    from dempath_sim.runs.fill import FillReport
+    from dempath_sim.runs.bed import FillReport
     from dempath_sim.runs.native import run_warnings
 
     def report(n: int, fraction: float) -> FillReport:

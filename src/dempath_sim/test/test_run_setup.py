@@ -9,7 +9,7 @@ import pytest
 
 from dempath_sim.engine.mesh import TriangleMesh
 from dempath_sim.engine.state import SimState
-from dempath_sim.runs.fill import FillReport
+from dempath_sim.runs.bed import FillReport
 from dempath_sim.runs.native import carve_tool_slot, tool_start
 from dempath_sim.runs.physics import PARTICLES, TOOL, WALLS, build_params
 from dempath_sim.scene import bundled_scene

@@ -263,7 +263,8 @@ def run_graph(spec: GraphSpec, note: Callable[[str], None] = lambda text: None) 
             logger_class(name).set_level(WARN)
         recon = harness.start(ReconstructorNode, method=spec.method,
                               calibration_file=str(spec.calibration))
-        comparer = harness.start(ComparerNode, experiment=spec.experiment)
+        comparer = harness.start(ComparerNode, experiment=spec.experiment,
+                                 identity_from_names=True)  # as stages.named_identity
         frames = write_graph_frames(spec.output.with_name(f'{spec.output.name}.frames.yaml'),
                                     spec.calibration, spec.scene)  # /tf_static of the bag
         recorder = harness.start(RecorderNode, output=str(spec.output), topics=graph_topics(),

@@ -38,10 +38,12 @@ PARAMETERS = (
     ('rank_by', 'sum', 'rank by S_sum (sum) or S_mean (mean)'),
     ('matching', 'dtw', 'nearest point among DTW-paired points (dtw) or all points (nearest)'),
     ('pairing', 'auto', 'auto, all, marker or cube'),
+    ('identity_from_names', False, 'tool speed and seed from experiment and run names'),
     ('experiment', 'experiment', 'name of the measured experiment (group)'),
     ('frame_id', 'field', 'frame of the published MarkerArray (the measurement frame)'),
 )
-COMPARE_KEYS = ('top_n', 'sp', 'rest_samples', 'z_weight', 'rank_by', 'matching', 'pairing')
+COMPARE_KEYS = ('top_n', 'sp', 'rest_samples', 'z_weight', 'rank_by', 'matching', 'pairing',
+                'identity_from_names')
 
 
 class ComparerNode(Node):

@@ -5,7 +5,8 @@ from the same beds, so a particle keeps its id across the runs of one seed. The 
 strength x on seed s is the baseline run of s plus, particle by particle, the paired difference
 (candidate run minus baseline run, same seed) interpolated piecewise-linearly in x between the
 library's strengths (log x for log-scale effects) and extrapolated from the end segments: the
-emulator of :mod:`dempath_diagnose.emulator` applied to whole paths instead of group statistics.
+emulator of :mod:`dempath_diagnose.decision.emulator` applied to whole paths instead of group
+statistics.
 A particle missing from one of the runs is left out. It is what the headline error of a fitted
 strength is computed on when no real run at that strength exists; a real run replaces it.
 """
@@ -15,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from dempath_diagnose.library import Library
+from dempath_diagnose.library.store import Library
 from dempath_diagnose.records import F64, PassRecord
 from dempath_sim.effects.candidates import LOG_SCALE
 

@@ -31,16 +31,16 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from dempath_diagnose.bandtracks import band_table7
-from dempath_diagnose.decision import decide, fit_candidate
-from dempath_diagnose.emulator import Allowance, build_emulator
+from dempath_diagnose.decision.bandtracks import band_table7
+from dempath_diagnose.decision.emulator import Allowance, build_emulator
+from dempath_diagnose.decision.statistics import build_layout, measured_statistics
+from dempath_diagnose.decision.verdict import decide, fit_candidate
 from dempath_diagnose.headline.ensemble import emulated_run
 from dempath_diagnose.headline.floor import FloorBand, below_reason, floor_band, headline_figure
 from dempath_diagnose.headline.samples import MarkerSamples, played_measurement
 from dempath_diagnose.headline.score import headline_error
-from dempath_diagnose.library import Library
+from dempath_diagnose.library.store import Library
 from dempath_diagnose.records import F64, Measurement, PassRecord
-from dempath_diagnose.statistics import build_layout, measured_statistics
 
 NAMED = ('effect_missing', 'parameter_off')
 TABLE7_RANKS = 2  # particles per marker start taking turns in Table 7's floor (it is dearer)

@@ -26,8 +26,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from dempath_diagnose.library.counterparts import cube_members
 from dempath_diagnose.records import F64, Measurement, PassRecord
-from dempath_diagnose.statistics import cube_members
 
 MIN_SAMPLES = 3  # a marker measured at fewer times is not scored
 MIN_MEMBERS = 2  # an ensemble needs two members for its spread

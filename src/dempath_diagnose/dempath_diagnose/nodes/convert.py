@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from dempath_diagnose.diagnose import Diagnosis, sentences
+from dempath_diagnose.decision.diagnosis import Diagnosis, sentences
 from dempath_msgs.msg import Diagnosis as DiagnosisMsg
 from dempath_msgs.msg import EffectCandidate
 

@@ -20,7 +20,7 @@ from std_msgs.msg import Header
 from dempath import topics
 from dempath.errors import DempathError
 from dempath.nodes.spin import run_node
-from dempath_diagnose.live import build_live
+from dempath_diagnose.decision.live import build_live
 from dempath_diagnose.nodes.convert import diagnosis_msg, force_sample, marker_frame
 from dempath_msgs.msg import Diagnosis, MarkerPoints3D, ParticleStates, RunEvent, ToolForce
 

@@ -36,13 +36,12 @@ from dempath_recon.errors import ModelFileError, NotFittedError, PixelInputError
 from dempath_recon.methods.nets import (
     TrainSettings,
     build_mlp,
-    make_scaler,
     predict_network,
     resolve_device,
-    scaler_from_dict,
     train_network,
 )
 from dempath_recon.methods.params import ParamsMixin
+from dempath_recon.methods.scalers import make_scaler, scaler_from_dict
 
 FloatArray = NDArray[np.float64]
 logger = logging.getLogger(__name__)

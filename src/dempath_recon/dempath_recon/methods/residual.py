@@ -26,7 +26,6 @@ from numpy.typing import NDArray
 from dempath_recon.errors import ModelFileError, NotFittedError
 from dempath_recon.methods.mlp import check_pixels, read_model_file
 from dempath_recon.methods.nets import (
-    MinMaxScaler,
     TrainSettings,
     build_mlp,
     predict_network,
@@ -34,6 +33,7 @@ from dempath_recon.methods.nets import (
     train_network,
 )
 from dempath_recon.methods.params import ParamsMixin
+from dempath_recon.methods.scalers import MinMaxScaler
 from dempath_recon.methods.triangulate import DLTTriangulator
 
 FloatArray = NDArray[np.float64]

@@ -20,6 +20,15 @@ than ``work_queue`` frames behind, the oldest waiting frame is dropped and count
 (``dropped_stale``): the latency stays bounded at ``max_wait_s`` plus one detection, and no frame
 disappears unseen. With ``lossless:=true`` (playing a bag, as the demo does) the subscription
 is reliable and keeps all, and every frame is detected: no stride, no drop, no age limit.
+With ``lossless`` the node also subscribes the other camera's images and runs the two-camera
+tracker on both, in the order of their stamps (:class:`~dempath_recon.tracking.merge.StampMerge`:
+a frame is tracked once the other camera has a frame stamped later; after ``merge_wait_s``
+without any image, the rest), with the tracker's publication delay, and publishes its own
+camera's frames: the numbers are those of the offline ``track_bag`` on the same bag, whatever
+order the two topics' messages arrive in (the nodes' output does not depend on the machine's
+load; a pause of the player longer than ``merge_wait_s`` would be taken for the end). A camera
+that stops leaves the other's frames waiting until the recording ends. It costs the other
+camera's decoding and detection too.
 
 Every ``diagnostics_period_s`` the node publishes on ``/diagnostics``:
 ``frames_in`` (arrived), ``missing_in`` (never arrived: gaps in the arriving stamps, frames lost
@@ -36,6 +45,7 @@ dropped_behind + dropped_stale + waiting``.
 
 from __future__ import annotations
 
+import threading
 import time
 from collections import deque
 from dataclasses import dataclass
@@ -56,6 +66,7 @@ from dempath_msgs.msg import PixelPoints
 from dempath_recon.errors import ReconstructionError
 from dempath_recon.stride import FrameStride
 from dempath_recon.tracking.associate import MarkerGrid
+from dempath_recon.tracking.merge import StampMerge
 from dempath_recon.tracking.stereo import PixelFrame, StereoMarkerTracker, StereoTrackConfig
 
 PARAMETERS: tuple[tuple[str, Any, str], ...] = (
@@ -71,6 +82,9 @@ PARAMETERS: tuple[tuple[str, Any, str], ...] = (
     ('subscription_depth', 10, 'frames the middleware keeps on the image topic (best effort)'),
     ('lossless', False, 'bag playback: reliable keep-all subscription, every frame detected (no '
                         'stride, no drop, no age limit)'),
+    ('merge_wait_s', 2.0, 'lossless: after this long without an image of either camera, the '
+                          'frames still waiting for the other camera are tracked and the held '
+                          'ones published (the end of a recording) [s]'),
     ('silent_s', 1.0, 'no frame for this long after the first: diagnostics say WARN [s]'),
     ('scene', '', "scene file or shipped scene name whose markers: block gives the marker grid "
                   "(overrides the marker_* parameters); '': the marker_* parameters"),
@@ -88,9 +102,10 @@ LOSSLESS_QUEUE = 1_000_000  # frames that may wait when playing a bag losslessly
 class _Arrival:
     """An image as it came off the subscription."""
 
-    msg: CompressedImage | Image
+    msg: CompressedImage | Image | None  # None: release what waited merge_wait_s
     arrived_s: float  # monotonic clock at the callback [s]
     index: int  # frames enqueued, this one included
+    camera: str = ''  # whose image (lossless: either camera)
 
 
 @dataclass
@@ -159,6 +174,19 @@ class DetectorNode(Node):
                                      self.enqueue, qos)
         self.create_subscription(PixelPoints, topics.camera_topic(topics.PIXEL_POINTS, self.other),
                                  self.on_other, 10)
+        self.merge: StampMerge[_Arrival] | None = None
+        self.merge_lock = threading.Lock()  # the worker and the timer look at the merge
+        self.merge_wait_s = float(p['merge_wait_s'])
+        self.headers: dict[float, tuple[Any, float, int]] = {}  # own frames held by the core
+        self.last_any_s = time.monotonic()
+        if lossless:  # both cameras' images, one tracker, in stamp order
+            self.merge = StampMerge(self.core.cameras)
+            self.counts['other_frames_in'] = 0
+            kind, topic = ((CompressedImage, topics.IMAGE_COMPRESSED) if p['compressed']
+                           else (Image, topics.IMAGE_RAW))
+            self.create_subscription(kind, topics.camera_topic(topic, self.other),
+                                     self.enqueue_other, qos)
+            self.create_timer(0.1, self.check_waiting)
         self.create_timer(float(p['diagnostics_period_s']), self.publish_diagnostics)
 
     def enqueue(self, msg: CompressedImage | Image) -> None:
@@ -173,7 +201,25 @@ class DetectorNode(Node):
                 f'{self.camera}: detecting every {self.stride.stride} frame(s) by stamp (was '
                 f'{stride}); skipped frames are counted', throttle_duration_sec=5.0)
         self.enqueued += 1
-        self.work.put(_Arrival(msg, self.last_arrival_s, self.enqueued))
+        self.last_any_s = self.last_arrival_s
+        self.work.put(_Arrival(msg, self.last_arrival_s, self.enqueued, self.camera))
+
+    def enqueue_other(self, msg: CompressedImage | Image) -> None:
+        """The other camera's image (``lossless``): to the worker, for the joint tracker."""
+        self.counts['other_frames_in'] += 1
+        self.last_any_s = time.monotonic()
+        self.work.put(_Arrival(msg, self.last_any_s, self.enqueued, self.other))
+
+    def check_waiting(self) -> None:
+        """Timer (``lossless``): wake the worker when the merge waits for a camera that sent
+        nothing for ``merge_wait_s``, or frames are held and nothing arrived for that long."""
+        assert self.merge is not None
+        now = time.monotonic()
+        with self.merge_lock:
+            stalled = len(self.merge) > 0 and self.stalled(now, self.work.waiting)
+        idle = now - self.last_any_s > self.merge_wait_s
+        if stalled or (idle and self.core.held() and not self.work.waiting):
+            self.work.put(_Arrival(None, now, self.enqueued))
 
     def on_other(self, msg: PixelPoints) -> None:
         """The other camera's numbered markers: kept for the worker (which owns the tracker)."""
@@ -181,6 +227,10 @@ class DetectorNode(Node):
 
     def work_on(self, item: _Arrival) -> None:
         """Worker thread: note the other camera's markers, detect, publish; count any failure."""
+        if self.merge is not None:
+            self.work_in_stamp_order(item)
+            return
+        assert item.msg is not None
         behind = self.enqueued - item.index
         if self.max_wait_s > 0 and time.monotonic() - item.arrived_s > self.max_wait_s:
             self.counts['dropped_stale'] += 1
@@ -201,8 +251,65 @@ class DetectorNode(Node):
         self.publish(frame, item.msg.header)
         self.latency.add(time.monotonic() - item.arrived_s, behind)
 
+    def work_in_stamp_order(self, item: _Arrival) -> None:
+        """Worker thread (``lossless``): track both cameras' frames in stamp order, publish this
+        camera's frames as the tracker releases them."""
+        assert self.merge is not None
+        now = time.monotonic()
+        with self.merge_lock:
+            due = [] if item.msg is None else self.merge.push(item.camera, _stamp_s(item.msg),
+                                                              item)
+            while len(self.merge) and self.stalled(now, self.work.waiting - 1):
+                due.append(self.merge.pop_earliest())
+            left = len(self.merge)
+        for camera, stamp_s, arrival in due:
+            assert arrival.msg is not None
+            if camera == self.camera:
+                self.headers[stamp_s] = (arrival.msg.header, arrival.arrived_s,
+                                         self.enqueued - arrival.index)
+            held = self.core.held()
+            try:
+                if isinstance(arrival.msg, CompressedImage):
+                    frame = self.core.update(camera, stamp_s, bytes(arrival.msg.data))
+                else:
+                    frame = self.core.update_image(camera, stamp_s, _bgr(arrival.msg))
+            except Exception as err:  # a live node counts a bad frame, says why, and goes on
+                if camera == self.camera:
+                    self.headers.pop(stamp_s, None)
+                    self.counts['failed'] += 1
+                self.get_logger().error(f'{camera} frame at {stamp_s:.6f} s: '
+                                        f'{type(err).__name__}: {err}; skipped (counted as '
+                                        'failed)')
+                continue
+            if self.core.held() == held:  # not held (undecodable, out of order): out now
+                self.publish_released([frame])
+            self.publish_released(self.core.release())
+        if item.msg is None and not left and now - self.last_any_s > self.merge_wait_s:
+            self.publish_released(self.core.flush())  # the recording ended (or paused)
+
+    def stalled(self, now: float, queued: int) -> bool:
+        """Whether the frames left in the merge can go: no image of either camera for
+        ``merge_wait_s`` and nothing else (``queued``) waiting for the worker (the recording
+        ended, or a camera stopped and the other's frames wait for it; waiting for one camera
+        alone would take a slow delivery for a stop and change the order)."""
+        return not queued and now - self.last_any_s > self.merge_wait_s
+
+    def publish_released(self, frames: list[PixelFrame]) -> None:
+        """Publish the released frames of this camera under their own headers."""
+        for frame in frames:
+            held = self.headers.pop(frame.stamp_s, None) if frame.camera == self.camera \
+                else None
+            if held is None:
+                continue
+            header, arrived_s, behind = held
+            self.publish(frame, header)
+            self.latency.add(time.monotonic() - arrived_s, behind)
+
     def note_other(self, msg: PixelPoints) -> None:
-        """Remember the other camera's numbered markers (for epipolar numbering)."""
+        """Remember the other camera's numbered markers (for epipolar numbering; not with
+        ``lossless``, where this node tracks the other camera's images itself)."""
+        if self.merge is not None:
+            return
         self.core.note_other(self.other, _stamp_s(msg), np.asarray(msg.marker_ids, np.int32),
                              np.column_stack([msg.u, msg.v]).astype(np.float64))
 
@@ -223,7 +330,15 @@ class DetectorNode(Node):
 
     def handled_frames(self) -> int:
         """Frames the worker has finished with, skipped ones (undecodable, out of order,
-        failed) included: whoever waits for the detector waits for this count."""
+        failed) included: whoever waits for the detector waits for this count. With
+        ``lossless`` a frame is finished when it is published (the tracker holds frames for
+        its publication delay, and the last ones until the recording ends)."""
+        if self.merge is not None:
+            return int(self.counts['published'] + self.counts['failed'])
+        return self.processed_frames()
+
+    def processed_frames(self) -> int:
+        """Frames through the tracker, bad ones included."""
         c = self.core.counts[self.camera]
         return int(c.frames + c.undecodable + c.out_of_order + self.counts['failed'])
 
@@ -231,7 +346,7 @@ class DetectorNode(Node):
         """Every count of this camera (what ``/diagnostics`` carries)."""
         core = {k: v for k, v in self.core.report()[self.camera].items() if k != 'gaps_s'}
         core['gap_frames'] = core.pop('dropped')
-        processed = self.handled_frames()
+        processed = self.processed_frames()
         return {**self.counts, 'missing_in': self.stride.missing,
                 'processed': processed, 'skipped': self.stride.skipped,
                 'stride': self.stride.stride, 'most_stride': self.stride.most_stride,

@@ -1,11 +1,12 @@
 """From images to numbered marker tracks: detection, 2D linking, numbering and checks across the
 two cameras, and numbered tracks to 3D trajectories.
 
-Bottom to top (a module imports only the ones before it): ``detect`` (marker spots in one
-image), ``linker`` (one camera's tracks), ``associate`` (the marker grid, epipolar geometry, the
-markers' 3D positions), ``records`` (settings, numbered frames, counts), ``release`` (the
-publication delay), ``trajectories`` (numbered tracks to 3D), ``state`` (the tracker's state,
-one record), ``one_camera``, ``numbering``, ``pair_checks``, ``pair_numbering`` (functions on
-that record), ``stereo`` (:class:`~dempath_recon.tracking.stereo.StereoMarkerTracker`, the
-pipeline, and ``track_bag``).
+Bottom to top (a module imports only the ones before it): ``merge`` (two cameras' frames in
+stamp order), ``detect`` (marker spots in one image), ``linker`` (one camera's tracks),
+``associate`` (the marker grid, epipolar geometry, the markers' 3D positions), ``records``
+(settings, numbered frames, counts), ``release`` (the publication delay), ``trajectories``
+(numbered tracks to 3D), ``state`` (the tracker's state, one record), ``one_camera``,
+``numbering``, ``pair_checks``, ``pair_numbering`` (functions on that record), ``stereo``
+(:class:`~dempath_recon.tracking.stereo.StereoMarkerTracker`, the pipeline, and
+``track_bag``).
 """

@@ -20,6 +20,7 @@ from __future__ import annotations
 import logging
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import linear_sum_assignment
@@ -213,6 +214,15 @@ def back_project(cam: Camera, uv: FloatArray, at_depth: float) -> FloatArray:
     xn = undistort_normalized(cam, np.asarray(uv, np.float64).reshape(1, 2))[0]
     local = at_depth * np.array([xn[0], xn[1], 1.0])
     return np.asarray(np.asarray(cam.R).T @ (local - np.asarray(cam.t)), np.float64)
+
+
+def project(cam: Camera, xyz: FloatArray) -> FloatArray:
+    """(k, 2) px of world points (k, 3) m in ``cam`` (lens distortion included)."""
+    rvec, _ = cv2.Rodrigues(np.asarray(cam.R, np.float64))
+    uv, _ = cv2.projectPoints(np.asarray(xyz, np.float64).reshape(-1, 1, 3), rvec,
+                              np.asarray(cam.t, np.float64), np.asarray(cam.K, np.float64),
+                              np.asarray(cam.dist, np.float64))
+    return np.asarray(uv.reshape(-1, 2), np.float64)
 
 
 def _two_view_linear(cam_a: Camera, cam_b: Camera, xa: FloatArray, xb: FloatArray,

@@ -84,6 +84,8 @@ class Track:
     # the caller last reset it (a check against the other camera passed) [px]
     reattach_px: float = 0.0  # the same, of re-attachments only (a lost track taking a spot)
     reattached: tuple[float, float] | None = None  # (stamp s, miss px) of its last re-attachment
+    back_unchecked: bool = False  # re-attached, and no check against the other camera has
+    # passed since (the caller resets it)
 
     def predict(self, stamp_s: float, decay: float) -> FloatArray:
         """(2,) expected position at ``stamp_s`` [px]."""
@@ -233,6 +235,7 @@ class MarkerTracker:
             self.counts.reattached += 1
             track.reattach_px = max(track.reattach_px, miss)
             track.reattached = (stamp_s, miss)
+            track.back_unchecked = True
             events.append(f're-attached track {track.track_id} (marker {track.marker}) after '
                           f'{dt:.3f} s unseen, {np.linalg.norm(uv - track.uv):.1f} px away')
             track.lost = False

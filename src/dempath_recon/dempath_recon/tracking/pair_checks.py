@@ -6,14 +6,15 @@ reached); a pair that fails is withheld, and the track may lose its number.
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 
 import numpy as np
 from numpy.typing import NDArray
 
-from dempath_recon.tracking.associate import triangulate_pairs
+from dempath_recon.tracking.associate import project, triangulate_pairs
 from dempath_recon.tracking.linker import UNNUMBERED
 from dempath_recon.tracking.one_camera import alone
-from dempath_recon.tracking.state import StereoState
+from dempath_recon.tracking.state import RECENT_S, StereoState, carried_point
 
 LOG = logging.getLogger('dempath_recon.tracking.stereo')  # the pipeline's logger
 FloatArray = NDArray[np.float64]
@@ -48,7 +49,10 @@ def verify(state: StereoState, camera: str, track_ids: NDArray[np.int64],
     tracks = {t.track_id: t for t in state.trackers[camera].tracks}
     unsure = {k for k in np.flatnonzero(markers >= 0).tolist()
               if int(track_ids[k]) in tracks
-              and tracks[int(track_ids[k])].reattach_px > state.config.doubt_link_px}
+              and (tracks[int(track_ids[k])].reattach_px > state.config.doubt_link_px
+                   or (tracks[int(track_ids[k])].back_unchecked
+                       and likelier_in_view(state, camera, int(markers[k]), uv[k], markers,
+                                            stamp_s) is not None))}
     partner = partners(state, other, markers, unsure, stamp_s)
     idx = sorted(partner)
     for k in sorted(unsure - set(idx)):
@@ -72,18 +76,25 @@ def verify(state: StereoState, camera: str, track_ids: NDArray[np.int64],
         dist, allowed = state.positions.distance(m, stamp_s, x)
         # a doubtful re-attachment is confirmed only by the test that numbers a new track
         epi_ok = state.config.epipolar_px if k in unsure else 3 * state.config.epipolar_px
-        if d <= epi_ok and dist <= allowed:
+        track = tracks.get(int(track_ids[k]))
+        back = track is not None and track.back_unchecked
+        rival = likelier_marker(state, other, m, x, markers, stamp_s) if back else None
+        if d <= epi_ok and dist <= allowed and rival is None:
             state.positions.accept(m, stamp_s, x)
             state.pending[camera].pop(m, None)
-            if int(track_ids[k]) in tracks:
-                tracks[int(track_ids[k])].link_px = 0.0
-                tracks[int(track_ids[k])].reattach_px = 0.0
+            if track is not None:
+                track.link_px = 0.0
+                track.reattach_px = 0.0
+                track.back_unchecked = False
             continue
         counts = state.counts[camera]
         counts.withheld += 1
         if d > epi_ok:
             counts.epipolar_conflicts += 1
             why = f'{d:.1f} px off the epipolar line'
+        elif rival is not None:
+            counts.motion_conflicts += 1
+            why = f'its 3D point is nearer where the bed carried marker {rival}'
         else:
             counts.position_conflicts += 1
             why = f'3D point {1e3 * dist:.0f} mm from its last position (at most ' \
@@ -91,12 +102,21 @@ def verify(state: StereoState, camera: str, track_ids: NDArray[np.int64],
         markers[k] = UNNUMBERED
         tid = int(track_ids[k])
         jump = tracks[tid].link_px if tid in tracks else 0.0
-        if tid in state.late_numbered[camera] or jump > state.config.doubt_link_px:
+        if tid in state.late_numbered[camera] or jump > state.config.doubt_link_px \
+                or rival is not None:
             state.late_numbered[camera].discard(tid)
             state.refused[camera].add((tid, m))
             state.trackers[camera].number(tid, UNNUMBERED)
             counts.revoked += 1
             why += '; its number taken back'
+        if rival is not None:  # the other camera's unchecked re-attachment is the same spot
+            for t in state.trackers[other].tracks:
+                if t.marker == m and t.back_unchecked:
+                    state.refused[other].add((t.track_id, m))
+                    state.trackers[other].number(t.track_id, UNNUMBERED)
+                    state.pending[other].pop(m, None)
+                    state.counts[other].revoked += 1
+                    why += f' (and in {other})'
         msg = f'{camera}: marker {m} withheld at {stamp_s:.3f} s: {why}'
         events.append(msg)
         LOG.warning(msg)
@@ -120,3 +140,58 @@ def partners(state: StereoState, other: str, markers: NDArray[np.int32], unsure:
                 out[k] = hit[1]
                 break
     return out
+
+
+def likelier_marker(state: StereoState, other: str, marker: int, xyz: FloatArray,
+                    markers: NDArray[np.int32], stamp_s: float) -> int | None:
+    """A marker the bed's motion places nearer a doubtful pair's 3D point than ``marker``.
+
+    Two cameras that both lost a marker can both re-attach its track onto a neighbour that
+    reappears nearby: the pair is then consistent (one marker seen twice) but it is the
+    neighbour. Each marker not given out in this frame nor by the other camera within
+    ``RECENT_S`` (a rival), and ``marker`` itself, is placed where the bed has carried it
+    (:func:`~dempath_recon.tracking.state.carried_point`); the rival nearest the point is
+    returned when it is nearer than ``marker`` and within what it can have reached. None when
+    ``marker`` cannot be placed or no rival is nearer (a rival that cannot be placed is not
+    counted: it would withhold every re-attachment while one marker stays covered).
+    """
+    taken = {int(m) for m in markers if m >= 0} | {
+        m for m, (t, _) in state.latest[other].items() if abs(t - stamp_s) <= RECENT_S}
+    return _nearer_rival(state, marker, taken, stamp_s,
+                         lambda at: float(np.linalg.norm(xyz - at)), 'm')
+
+
+def likelier_in_view(state: StereoState, camera: str, marker: int, uv: FloatArray,
+                     markers: NDArray[np.int32], stamp_s: float) -> int | None:
+    """The same test on one camera's evidence: a marker whose carried place, seen in
+    ``camera``, is nearer a re-attached spot ``uv`` (2,) px than ``marker``'s. Such a spot
+    waits for the other camera (as a re-attachment far off its prediction does)."""
+    cam = state.cameras[camera]
+    taken = {int(m) for m in markers if m >= 0}
+    return _nearer_rival(state, marker, taken, stamp_s,
+                         lambda at: float(np.linalg.norm(project(cam, at[None])[0] - uv)),
+                         'px')
+
+
+def _nearer_rival(state: StereoState, marker: int, taken: set[int], stamp_s: float,
+                  distance: Callable[[FloatArray], float], unit: str) -> int | None:
+    """The marker not in ``taken`` whose carried place is nearest (``distance``), when it is
+    nearer than ``marker``'s (and, in 3D, within its reach); None otherwise."""
+    own = carried_point(state, marker, stamp_s)
+    if own is None:
+        return None
+    own_dist = distance(own[0])
+    best: tuple[float, int] | None = None
+    for m in state.config.grid.points()[0].tolist():
+        if m == marker or m in taken:
+            continue
+        placed = carried_point(state, m, stamp_s)
+        if placed is None:
+            continue
+        dist = distance(placed[0])
+        reach = state.config.position_gate_m + state.config.max_speed_m_s * (
+            stamp_s - placed[1])
+        if dist < own_dist and (unit == 'px' or dist <= reach) \
+                and (best is None or dist < best[0]):
+            best = (dist, m)
+    return None if best is None else best[1]

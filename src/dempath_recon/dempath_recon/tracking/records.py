@@ -108,6 +108,7 @@ class CameraCounts:
     unnumbered: int = 0
     epipolar_conflicts: int = 0
     position_conflicts: int = 0
+    motion_conflicts: int = 0
     withheld: int = 0
     unconfirmed: int = 0
     confirmed_alone: int = 0

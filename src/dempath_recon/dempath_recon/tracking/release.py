@@ -54,10 +54,12 @@ class ReleaseQueue:
         self._held = deque(h for h in self._held if self._age(h) <= self.delay)
 
     def due(self) -> list[HeldFrame]:
-        """The frames now ``delay`` frames old (removed from the queue)."""
-        out = []
-        while self._held and self._age(self._held[0]) >= self.delay:
-            out.append(self._held.popleft())
+        """The frames now ``delay`` frames old in their camera, in arrival order (removed from
+        the queue; a camera's frames are not kept waiting behind the other camera's younger
+        ones, which ``hold`` would then drop)."""
+        out = [h for h in self._held if self._age(h) >= self.delay]
+        if out:
+            self._held = deque(h for h in self._held if self._age(h) < self.delay)
         return out
 
     def rest(self) -> list[HeldFrame]:
@@ -65,6 +67,9 @@ class ReleaseQueue:
         out = list(self._held)
         self._held.clear()
         return out
+
+    def __len__(self) -> int:
+        return len(self._held)
 
     def _age(self, held: HeldFrame) -> int:
         return self._arrived[held.camera] - held.arrival

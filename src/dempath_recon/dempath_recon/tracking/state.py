@@ -117,6 +117,30 @@ def grid_xyz(state: StereoState, camera: str, marker: int) -> tuple[float, Float
     return z, back_project(cam, grid_uv[marker], z)
 
 
+def grid_point(state: StereoState, marker: int) -> tuple[float, FloatArray] | None:
+    """``(stamp s, (3,) m)``: a marker's fitted grid point in the first camera whose grid
+    was fitted, at the grid point's depth, at that fit's stamp; None before any fit."""
+    if not state.grid_time:
+        return None
+    camera = min(state.grid_time, key=lambda c: state.grid_time[c])
+    placed = grid_xyz(state, camera, marker)
+    return None if placed is None else (state.grid_time[camera], placed[1])
+
+
+def carried_point(state: StereoState, marker: int, stamp_s: float,
+                  ) -> tuple[FloatArray, float] | None:
+    """``((3,) m, since s)``: where the bed has carried a marker by ``stamp_s`` since its last
+    accepted 3D position (``MarkerPositions.carried``: moved as its nearest tracked
+    neighbours moved; a marker never triangulated starts from its fitted grid point), and
+    the stamp it was last placed at; None when it cannot be placed."""
+    anchor = grid_point(state, marker)
+    at = state.positions.carried(marker, stamp_s, 1.5 / state.config.fps, MAX_DEPTH_AGE_S,
+                                 anchor)
+    if at is None:
+        return None
+    return at, state.positions.known.get(marker, anchor or (stamp_s, at))[0]
+
+
 def forget_refusals(state: StereoState, camera: str, stamp_s: float) -> None:
     """Forget the numbers refused to a track that re-attached in this frame farther than
     ``doubt_link_px`` from its prediction: a refusal says the marker the track followed is not

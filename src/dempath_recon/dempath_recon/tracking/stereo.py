@@ -34,6 +34,7 @@ from numpy.typing import NDArray
 
 from dempath_recon.methods.triangulate import Camera
 from dempath_recon.tracking.detect import Detections, ImageDecodeError, MarkerDetector
+from dempath_recon.tracking.merge import StampMerge
 from dempath_recon.tracking.numbering import number_all_by_grid, number_new
 from dempath_recon.tracking.pair_checks import verify
 from dempath_recon.tracking.pair_numbering import number_pairs
@@ -87,6 +88,10 @@ class StereoMarkerTracker:
     def other(self, camera: str) -> str:
         """The other camera's name."""
         return self.state.other(camera)
+
+    def held(self) -> int:
+        """Frames held for the publication delay (``release``/``flush`` give them out)."""
+        return len(self.state.queue)
 
     def report(self) -> dict[str, Any]:
         """Counts per camera, and the stamp gaps where frames were missing."""
@@ -196,7 +201,9 @@ class StereoMarkerTracker:
 
 def track_bag(bag: Path, cameras: dict[str, Camera], config: StereoTrackConfig | None = None,
               start_ns: int = 0) -> tuple[list[PixelFrame], dict[str, Any]]:
-    """Batch form over a bag's ``/<cam>/image_raw/compressed`` topics (bag order).
+    """Batch form over a bag's ``/<cam>/image_raw/compressed`` topics, the two cameras'
+    frames merged by stamp (:class:`~dempath_recon.tracking.merge.StampMerge`, as the detector
+    node does with ``lossless``), each camera's in bag order.
 
     Args:
         bag: the bag folder.
@@ -209,12 +216,19 @@ def track_bag(bag: Path, cameras: dict[str, Camera], config: StereoTrackConfig |
     tracker = StereoMarkerTracker(cameras, config)
     frames: list[PixelFrame] = []
     topic_cam = {f'/{n}/image_raw/compressed': n for n in cameras}
+    merge: StampMerge[bytes] = StampMerge(cameras)
     with open_bag(bag, list(topic_cam)) as reader:
         for raw in reader.messages(list(topic_cam)):
             msg = reader.deserialize(raw)
             stamp = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
             if stamp < start_ns:
                 continue
-            tracker.update(topic_cam[raw.topic], stamp * 1e-9, bytes(msg.data))
-            frames += tracker.release()
+            seconds = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9  # as the node
+            for cam, stamp_s, data in merge.push(topic_cam[raw.topic], seconds,
+                                                 bytes(msg.data)):
+                tracker.update(cam, stamp_s, data)
+                frames += tracker.release()
+    for cam, stamp_s, data in merge.rest():
+        tracker.update(cam, stamp_s, data)
+        frames += tracker.release()
     return frames + tracker.flush(), tracker.report()

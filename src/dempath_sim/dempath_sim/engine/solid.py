@@ -1,14 +1,14 @@
 # mypy: disable-error-code="no-untyped-def"
 """A triangle mesh as a solid: is it closed, which points lie inside, how far is its surface.
 
-The tool's carve into the bed (``runs.placement``) removes the particles that overlap the tool's
-own volume, so it needs an inside test and the distance to the surface. Inside is decided by the
-generalised winding number (Jacobson, Kavan & Sorkine-Hornung, "Robust inside-outside
+The tool's carve into the bed (``runs.bed.placement``) removes the particles that overlap the
+tool's own volume, so it needs an inside test and the distance to the surface. Inside is decided by
+the generalised winding number (Jacobson, Kavan & Sorkine-Hornung, "Robust inside-outside
 segmentation using generalized winding numbers", ACM TOG 32(4), 2013): the sum over the triangles
 of the solid angle each subtends at the point (Van Oosterom & Strackee, IEEE TBME 30(2), 1983),
 over 4 pi. It is 1 inside a closed outward-oriented shell, 0 outside, and, unlike ray parity, it
-stays right for meshes built from overlapping closed shells (dempath's chisel: share and shank)
-and for inward-oriented shells (|w| is used). It is only meaningful for a closed mesh: every edge
+stays right for meshes built from overlapping closed shells (dempath's chisel: share and shank) and
+for inward-oriented shells (|w| is used). It is only meaningful for a closed mesh: every edge
 shared by triangles running along it in both directions (`open_edges` finds those that are not).
 """
 

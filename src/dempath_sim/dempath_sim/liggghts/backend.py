@@ -31,12 +31,13 @@ from dempath_sim.liggghts.commands import write_ascii_stl
 from dempath_sim.liggghts.errors import DeckError
 from dempath_sim.liggghts.runner import RunOutput, run_deck
 from dempath_sim.runs.backend import RunOptions
-from dempath_sim.runs.bed_measure import measure
-from dempath_sim.runs.fill import fill_bed
+from dempath_sim.runs.bed.fill import fill_bed
+from dempath_sim.runs.bed.measure import measure
+from dempath_sim.runs.bed.placement import removal_mask
+from dempath_sim.runs.bed.pour import pour, target_solid_fraction
+from dempath_sim.runs.identity import run_identity
 from dempath_sim.runs.markers import select_markers
 from dempath_sim.runs.physics import PARTICLES, build_params
-from dempath_sim.runs.placement import removal_mask
-from dempath_sim.runs.pour import pour, target_solid_fraction
 from dempath_sim.runs.results import SimResult
 from dempath_sim.scene.profiles import ToolPath
 from dempath_sim.scene.spec import SceneSpec
@@ -168,7 +169,7 @@ def fill_liggghts(scene: SceneSpec, workdir: Path, nprocs: int = 1,
 def slot_ids(bed: SettledBed, triangles: NDArray[np.float64], placement: str = 'slot',
              name: str = 'tool') -> NDArray[np.int64]:
     """Ids of the particles the tool (world ``triangles``) displaces at its start, by dempath's
-    rule for ``placement`` (``runs.placement``: carve or bounding-box slot)."""
+    rule for ``placement`` (``runs.bed.placement``: carve or bounding-box slot)."""
     mesh = TriangleMesh(np.asarray(triangles, dtype=np.float64), name=name)
     return bed.ids[removal_mask(bed.positions, bed.radii, mesh, (0.0, 0.0, 0.0), placement)]
 
@@ -228,9 +229,9 @@ class LiggghtsBackend:
         nprocs: MPI processes.
         friction: Which dempath friction coefficient LIGGGHTS uses ('static' or 'dynamic').
         fill: How LIGGGHTS gets its bed. ``'shared_pour'``: it settles dempath's loose pour of
-            the seed (``runs.fill.pour``) with its own physics; ``'insert_pack'``: it pours its
+            the seed (``runs.bed.pour``) with its own physics; ``'insert_pack'``: it pours its
             own loose bed with ``fix insert/pack``; ``'shared_packing'``: it starts from
-            dempath's settled packing (``runs.fill.fill_bed`` with ``options.cache_dir``;
+            dempath's settled packing (``runs.bed.fill_bed`` with ``options.cache_dir``;
             tracked ids are then dempath ids + 1).
 
     Raises:
@@ -332,7 +333,7 @@ def _result(workdir: Path, stage: dk.ToolStage, ids: NDArray[np.int64],
     force[k[ok]] = tool[ok, 1:]
     force[0, 6:] = stage.path.start_position_m
     radius_of = dict(zip(bed.ids.tolist(), bed.radii.tolist(), strict=True))
-    meta = {'engine': 'liggghts', 'scene': scene.name, 'seed': scene.seed,
+    meta = {**run_identity(scene).as_meta(), 'engine': 'liggghts',
             'fill': bed.report, 'dt_s': stage.dt, 'nprocs': run.nprocs,
             'fill_loop_time_s': bed.run.loop_time_s, 'pass_loop_time_s': run.loop_time_s,
             'workdir': str(workdir), 'run_id': f'{scene.name}-s{scene.seed}-liggghts', **extra}

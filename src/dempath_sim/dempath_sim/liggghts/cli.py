@@ -1,7 +1,7 @@
 """``dempath liggghts SCENE``: run a scene on LIGGGHTS 3.8 and write the same outputs as dempath.
 
 Writes to ``--out``: the decks, logs and dumps, ``result.npz`` (SimResult), ``markers.csv``
-(t,marker,x,y,z), ``model.csv`` (t,id,x,y,z) and ``tool.csv``. ``--install`` apt-installs
+(t,marker,x,y,z), ``model.csv`` (t,id,marker,x,y,z) and ``tool.csv``. ``--install`` apt-installs
 LIGGGHTS when it is missing (root only).
 """
 

@@ -49,7 +49,7 @@ POUR_DATA = 'pour.data'
 POUR_DUMP = 'pour.dump'  # the loose bed as LIGGGHTS read it
 INSERT_SOLID_FRACTION = 0.2  # loose random packing insert/pack reaches in one go
 DISCRETE_BINS = 5  # templates approximating a uniform size distribution
-SETTLE_CHECK_S = 0.02  # as dempath_sim.runs.fill
+SETTLE_CHECK_S = 0.02  # as dempath_sim.runs.bed.settle
 SPLIT = '* 1 *'  # MPI grid: split X and Z only (bed below, empty tool space above)
 MIN_SETTLE_S = 0.1
 
@@ -201,10 +201,10 @@ def _insert_lines(scene: SceneSpec, plan: FillPlan) -> list[str]:
 
 def settle_lines(scene: SceneSpec, dt: float, stage: int, until_s: float,
                  start_s: float = 0.0, offset: int = 0) -> list[str]:
-    """One settle stage, as ``dempath_sim.runs.fill.settle``: runs of ``SETTLE_CHECK_S`` until the
-    fastest particle is slower than ``fill.settle_speed_m_s`` after at least ``MIN_SETTLE_S``,
-    or until the step of ``until_s`` [s]; ``start_s`` [s] is the nominal start of the stage
-    (the step count of each run is fixed, the stage's start step is read in the deck);
+    """One settle stage, as ``dempath_sim.runs.bed.settle.settle``: runs of ``SETTLE_CHECK_S``
+    until the fastest particle is slower than ``fill.settle_speed_m_s`` after at least
+    ``MIN_SETTLE_S``, or until the step of ``until_s`` [s]; ``start_s`` [s] is the nominal start of
+    the stage (the step count of each run is fixed, the stage's start step is read in the deck);
     ``offset`` is the step at which the pour starts (time 0 of the settle)."""
     chunk = max(1, round(SETTLE_CHECK_S / dt))
     min_chunks = math.ceil(MIN_SETTLE_S / (chunk * dt) - 1e-9)

@@ -5,8 +5,8 @@
 the other on any backend (the engine already uses every core). Steps: build the engine parameters
 from the scene's physics model; fill the bin or read the cached packing; pick markers and
 candidates; insert the tool at its depth (``tool.placement``: the particles overlapping its closed
-mesh are removed, or those in its bounding box, see ``runs.placement``); re-settle the bed with the
-tool in place and the run's own physics for ``tool.settle_s`` (so that the pass starts with the
+mesh are removed, or those in its bounding box, see ``runs.bed.placement``); re-settle the bed with
+the tool in place and the run's own physics for ``tool.settle_s`` (so that the pass starts with the
 contact history of a bed at rest against the tool, as a LIGGGHTS deck's re-settle does, also when
 the packing came from the cache or was poured with the scene file's physics); then drive the tool
 with the profile in the same engine and record the tracked particles, the tool pose, force and
@@ -21,7 +21,6 @@ import math
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -31,10 +30,11 @@ from dempath_sim.effects import PhysicsModel
 from dempath_sim.engine import Engine, SimParams, SimState, ToolPose, TriangleMesh
 from dempath_sim.errors import RunStoppedError, SimulationError
 from dempath_sim.runs.backend import Backend, Frame, Progress, RunOptions
-from dempath_sim.runs.fill import FillReport, fill_bed
+from dempath_sim.runs.bed import FillReport, fill_bed, place_tool, tool_start
+from dempath_sim.runs.bed.placement import carve_tool_slot
+from dempath_sim.runs.identity import run_id, run_identity
 from dempath_sim.runs.markers import MarkerSelection, select_markers
 from dempath_sim.runs.physics import TOOL, bin_walls, build_params
-from dempath_sim.runs.placement import carve_tool_slot, place_tool, tool_start
 from dempath_sim.runs.results import Recorder, SimResult
 from dempath_sim.scene.profiles import ToolPath
 from dempath_sim.scene.spec import SceneSpec
@@ -54,38 +54,6 @@ def _with_run_masses(state: SimState, params: SimParams) -> SimState:
     fresh.angular_velocities[:] = state.angular_velocities
     fresh.extra = dict(state.extra)
     return fresh
-
-
-def run_id(scene: SceneSpec) -> str:
-    """Label of one run: scene name, seed and a short hash of everything that changes the run.
-
-    The hash covers the whole scene record (effects and the bed's effects, bin, layers,
-    materials, tool and profile, markers, fill, output cadence, numerics such as the time step)
-    and the bytes of the files it names (the tool's STL, a ``fill.packing``) in place of their
-    paths, so that two runs with the same id are the same run; the scene's name (the id's
-    prefix), description and path are left out.
-    """
-    import hashlib
-    import json
-
-    record = scene.to_dict()
-    for label in ('name', 'source', 'description'):
-        record.pop(label, None)
-    record['tool']['mesh'] = _file_digest(scene.tool.mesh)  # the bytes, not where they lie
-    if scene.fill.packing is not None:
-        record['fill']['packing'] = _file_digest(scene.fill.packing)
-    text = json.dumps(record, sort_keys=True, default=str)
-    return f'{scene.name}-s{scene.seed}-{hashlib.sha256(text.encode()).hexdigest()[:8]}'
-
-
-def _file_digest(path: Path) -> str:
-    """sha256 of a file's bytes (hex, 16 chars), or 'missing' when it cannot be read."""
-    import hashlib
-
-    try:
-        return hashlib.sha256(Path(path).read_bytes()).hexdigest()[:16]
-    except OSError:
-        return 'missing'
 
 
 @dataclass
@@ -238,7 +206,7 @@ def run_scene(scene: SceneSpec, options: RunOptions | None = None) -> SimResult:
     t_drive = time.monotonic()
     state = drive_tool(drive, state, options)
     meta: dict[str, Any] = {
-        'run_id': run_id(scene), 'scene': scene.name, 'source': scene.source, 'seed': scene.seed,
+        **run_identity(scene).as_meta(), 'engine': 'dempath', 'source': scene.source,
         'effects': scene.to_dict()['effects'], 'fill': asdict(report),
         'dt_s': drive.engine.dt, 'n_particles': state.n,
         'removed_particles': drive.engine.removed_count, 'end_time_s': drive.end_time_s,

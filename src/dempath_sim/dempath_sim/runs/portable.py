@@ -18,7 +18,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from dempath_sim.errors import SceneError
-from dempath_sim.runs.fill import bundled_packing_dir, default_cache_dir, packing_key
+from dempath_sim.runs.bed import bundled_packing_dir, default_cache_dir, packing_key
 from dempath_sim.scene.spec import SceneSpec
 
 PORTABLE_DIR = 'dempath-portable'  # folder under the worker's temporary directory

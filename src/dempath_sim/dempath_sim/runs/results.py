@@ -2,7 +2,7 @@
 
 :class:`Recorder` is the streaming side (one call per output time, as the node uses it) and
 :class:`SimResult` the batch record that ``run_scene`` returns; CSV export writes the model shape
-``t,id,x,y,z`` and the measured-trajectory shape ``t,marker,x,y,z`` (metres, seconds) that
+``t,id,marker,x,y,z`` and the measured-trajectory shape ``t,marker,x,y,z`` (metres, seconds) that
 dempath_compare reads. Units SI, world frame of the paper (X lateral, Y up, Z travel).
 """
 
@@ -102,11 +102,14 @@ class SimResult:
         return cls(**arrays, meta=meta)
 
     def write_model_csv(self, path: str | Path, roles: tuple[int, ...] = (0, 1)) -> None:
-        """CSV ``t,id,x,y,z`` of the tracked particles with the given roles (NaN rows skipped)."""
+        """CSV ``t,id,marker,x,y,z`` of the tracked particles with the given roles (NaN rows
+        skipped); ``marker`` is the marker a particle stands for or is a Cube candidate of, so
+        that a comparison ranks each marker's own candidates (the paper's N best of the cube),
+        not one particle per marker."""
         cols = np.flatnonzero(np.isin(self.roles, roles))
-        rows = ((t, int(self.ids[c]), *self.positions[i, c]) for i, t in enumerate(self.times)
-                for c in cols)
-        _write_csv(path, ('t', 'id', 'x', 'y', 'z'), rows)
+        rows = ((t, int(self.ids[c]), int(self.marker_ids[c]), *self.positions[i, c])
+                for i, t in enumerate(self.times) for c in cols)
+        _write_csv(path, ('t', 'id', 'marker', 'x', 'y', 'z'), rows)
 
     def write_marker_csv(self, path: str | Path) -> None:
         """CSV ``t,marker,x,y,z`` of the marker particles, the measured-trajectory shape."""

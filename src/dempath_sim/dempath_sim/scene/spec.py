@@ -91,7 +91,7 @@ class ToolSpec:
         placement: ``carve`` (remove the particles overlapping the tool's closed mesh, as a
             LIGGGHTS deck deletes them), ``slot`` (everything in its bounding box: a pre-cut
             slot) or ``poured`` (the bed poured and settled around the tool standing at its
-            start, as LIGGGHTS users set a bin up; ``runs.fill_tool``).
+            start, as LIGGGHTS users set a bin up; ``runs.bed.standing_tool``).
         settle_s: Re-settle of the bed with the tool in place and the run's own physics before
             the pass [s] (builds the contact history; 0 starts the pass at once).
     """

@@ -1,0 +1,260 @@
+"""The variation set of ``detect_track.py --variations``: the bundled render under field
+conditions (``field_conditions.VARIATIONS``), scored per variation and held-out apart.
+
+Per variation (one JSON line each): ``recall`` (markers at least half visible that were found
+within 3 px), ``numbered_right`` (found and given their own number, in the frames as
+``StereoMarkerTracker.release`` gives them out), ``id_switches`` (numbered detections whose
+nearest true marker within 8 px is another one; ``spurious_numbers``: no marker within 8 px),
+``wrong_pair_points`` (3D points more than 5 mm from the truth whose pair holds
+a wrongly numbered detection), ``traj_rms_mm`` (3D error of the trajectories, true cameras),
+``fps`` (frames per second of wall time, decode included, one thread, on the machine as loaded
+as it is), ``cpu_ms_per_frame`` and ``fps_two_free_cores`` (2 / CPU time per frame),
+``deterministic`` (the offline path run twice gives the same frames, and the graph equals it),
+``graph_equals_offline`` (what the detector nodes publish playing a bag, ``lossless``: each
+tracks both cameras in stamp order; the same frames and numbers as the offline path whether the
+images arrive in stamp order or every front image first; the nodes themselves are tested in
+``tests/test_detector_stamp_order.py``), and ``live_order_independent`` (live, without
+``lossless``: one tracker per camera exchanging numbered points; whether its result is the same
+with the other camera's points heard at once or one frame late).
+"""
+
+from __future__ import annotations
+
+import json
+import pickle
+import time
+from dataclasses import asdict
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from field_conditions import VARIATIONS, Condition, apply
+from numpy.typing import NDArray
+
+from dempath_calib.camera import CameraModel
+from dempath_recon.tracking.merge import StampMerge
+from dempath_recon.tracking.records import PixelFrame, StereoTrackConfig
+from dempath_recon.tracking.stereo import StereoMarkerTracker, triangulate_tracks
+
+MATCH_PX = 3.0  # a detection this near a true centre found that marker
+OWNER_PX = 8.0  # a numbered detection's marker is the true one nearest within this (about a
+# marker's diameter in these views); none that near: a number given to no marker (spurious)
+WRONG_PAIR_MM = 5.0
+Frames = list[tuple[str, int, bytes]]
+
+
+def vary(frames: Frames, truth: dict[str, Any], cond: Condition, cache: Path,
+         ) -> tuple[Frames, dict[str, Any]]:
+    """The recording's frames under ``cond`` and the truth moved with any image shift (cached
+    in ``cache`` by the condition's hash)."""
+    path = cache / f'{cond.name}-{cond.key()}.pkl'
+    if path.is_file():
+        out, shifts = pickle.loads(path.read_bytes())
+    else:
+        by_key = {(f['camera'], int(f['stamp_ns'])): f for f in truth['frames']}
+        cams = [c['name'] for c in truth['cameras']]
+        per_cam = {c: [f for f in frames if f[0] == c] for c in cams}
+        out, shifts = [], {}
+        index = {(c, s): k for c in cams for k, (_, s, _) in enumerate(per_cam[c])}
+        for cam, stamp, data in frames:
+            k = index[(cam, stamp)]
+            uv = np.array(by_key[(cam, stamp)]['uv'], np.float64)
+            prev = by_key.get((cam, per_cam[cam][k - 1][1])) if k else None
+            step = uv - np.array(prev['uv']) if prev else np.full_like(uv, np.nan)
+            jpeg, shift = apply(data, cond, cams.index(cam), k, len(per_cam[cam]), uv, step)
+            out.append((cam, stamp, jpeg))
+            shifts[(cam, stamp)] = shift.tolist()
+        cache.mkdir(parents=True, exist_ok=True)
+        path.write_bytes(pickle.dumps((out, shifts)))
+    moved = dict(truth)
+    moved['frames'] = [{**f, 'uv': (np.array(f['uv']) + shifts.get(
+        (f['camera'], int(f['stamp_ns'])), [0.0, 0.0])).tolist()} for f in truth['frames']]
+    return out, moved
+
+
+def _truth_ids(fr: PixelFrame, t: dict[str, Any], ids: NDArray[np.int64], within_px: float,
+               ) -> NDArray[np.int64]:
+    """(k,) the true marker nearest each detection of a frame (-1: none within ``within_px``)."""
+    uv = np.array(t['uv'])
+    if not len(fr.uv):
+        return np.zeros(0, np.int64)
+    d = np.linalg.norm(fr.uv[:, None] - uv[None], axis=2)
+    j = np.argmin(d, axis=1)
+    return np.where(d[np.arange(len(fr.uv)), j] < within_px, ids[j], -1)
+
+
+def score(out: list[PixelFrame], truth: dict[str, Any], cams: dict[str, CameraModel],
+          ) -> dict[str, Any]:
+    """recall, numbered_right, id_switches, wrong_pair_points, traj errors against the truth."""
+    ids = np.array(truth['marker_ids'])
+    by_key = {(f['camera'], round(f['stamp_ns'] * 1e-3)): f for f in truth['frames']}
+    want = found = right = switches = spurious = 0
+    wrong: set[tuple[str, int, int]] = set()  # (camera, stamp us, number) wrongly given
+    for fr in out:
+        t = by_key.get((fr.camera, round(fr.stamp_s * 1e6)))
+        if t is None:
+            continue
+        true_of = _truth_ids(fr, t, ids, MATCH_PX)
+        owner = _truth_ids(fr, t, ids, OWNER_PX)
+        vis = np.array(t['visible'])
+        for i, m in enumerate(ids):
+            if vis[i] < 0.5:
+                continue
+            want += 1
+            hits = np.flatnonzero(true_of == m)
+            found += int(len(hits) > 0)
+            right += int(any(fr.markers[h] == m for h in hits))
+        for k in np.flatnonzero(fr.markers >= 0):
+            if owner[k] != fr.markers[k]:  # another marker's spot, or nobody's
+                switches += int(owner[k] >= 0)
+                spurious += int(owner[k] < 0)
+                wrong.add((fr.camera, round(fr.stamp_s * 1e6), int(fr.markers[k])))
+    side = truth['cameras'][0]['name']
+    front = truth['cameras'][1]['name']
+    front_us = np.array(sorted({round(f.stamp_s * 1e6) for f in out if f.camera == front}))
+    times, markers, xyz = triangulate_tracks(out, cams, side)
+    true3d = {round(f['stamp_ns'] * 1e-3): np.array(f['xyz']) for f in truth['frames']
+              if f['camera'] == side}
+    d3, wrong_pairs = [], 0
+    for k, t_s in enumerate(times):
+        us = round(t_s * 1e6)
+        ref = true3d.get(us)
+        if ref is None:
+            continue
+        near = front_us[np.abs(front_us - us) <= 1.5 * 20_000]
+        for j, m in enumerate(markers):
+            if not np.isfinite(xyz[k, j]).all():
+                continue
+            err = float(np.linalg.norm(xyz[k, j] - ref[list(ids).index(m)]))
+            d3.append(err)
+            bad = (side, us, int(m)) in wrong or any((front, int(f), int(m)) in wrong
+                                                     for f in near)
+            wrong_pairs += int(bad and err * 1e3 > WRONG_PAIR_MM)
+    return {'want': want, 'found': found, 'right': right, 'id_switches': switches,
+            'spurious_numbers': spurious,
+            'wrong_pair_points': wrong_pairs, 'sq3d': float(np.sum(np.square(d3))),
+            'n3d': len(d3), 'max3d_mm': 1e3 * max(d3) if d3 else float('nan')}
+
+
+def offline(frames: Frames, cams: dict[str, CameraModel], config: StereoTrackConfig,
+            ) -> list[PixelFrame]:
+    """The offline path (one tracker for both cameras, the publication delay)."""
+    tracker = StereoMarkerTracker(cams, config)
+    out: list[PixelFrame] = []
+    for cam, stamp, data in frames:
+        tracker.update(cam, stamp * 1e-9, data)
+        out += tracker.release()
+    return out + tracker.flush()
+
+
+def lossless_graph(frames: Frames, cams: dict[str, CameraModel], config: StereoTrackConfig,
+                   front_first: bool) -> list[PixelFrame]:
+    """What the detector nodes publish playing a bag (``lossless``): each tracks both cameras
+    in stamp order (``StampMerge``) and gives out its own camera's frames; the images arrive
+    in stamp order, or every front image before the first side image (``front_first``)."""
+    names = list(cams)
+    order = sorted(frames, key=lambda f: (f[0] == names[0], f[1])) if front_first \
+        else sorted(frames, key=lambda f: f[1])
+    out: list[PixelFrame] = []
+    for own in names:
+        tracker = StereoMarkerTracker(cams, config)
+        merge: StampMerge[bytes] = StampMerge(names)
+        mine: list[PixelFrame] = []
+        for cam, stamp, data in order:
+            for c, s, d in merge.push(cam, stamp * 1e-9, data):
+                tracker.update(c, s, d)
+                mine += tracker.release()
+        for c, s, d in merge.rest():
+            tracker.update(c, s, d)
+            mine += tracker.release()
+        out += [f for f in mine + tracker.flush() if f.camera == own]
+    return sorted(out, key=lambda f: f.stamp_s)
+
+
+def live_nodes(frames: Frames, cams: dict[str, CameraModel], config: StereoTrackConfig,
+               lag: int) -> list[PixelFrame]:
+    """The detector nodes live (not ``lossless``): one tracker per camera, each hearing the
+    other's numbered points ``lag`` frames of the other camera late (0: at once)."""
+    names = list(cams)
+    cores = {c: StereoMarkerTracker(cams, config) for c in names}
+    waiting: dict[str, list[PixelFrame]] = {c: [] for c in names}
+    out = []
+    for cam, stamp, data in sorted(frames, key=lambda f: f[1]):
+        fr = cores[cam].update(cam, stamp * 1e-9, data)
+        out.append(fr)
+        other = names[1 - names.index(cam)]
+        waiting[other].append(fr)
+        while len(waiting[other]) > lag:
+            heard = waiting[other].pop(0)
+            keep = heard.markers >= 0
+            cores[other].note_other(heard.camera, heard.stamp_s, heard.markers[keep],
+                                    heard.uv[keep])
+    return out
+
+
+def same(a: list[PixelFrame], b: list[PixelFrame]) -> bool:
+    """Whether two runs gave the same frames and numbers."""
+    return len(a) == len(b) and all(
+        x.camera == y.camera and x.stamp_s == y.stamp_s and np.array_equal(x.markers, y.markers)
+        and np.array_equal(x.uv, y.uv) for x, y in zip(a, b, strict=True))
+
+
+def run_variation(frames: Frames, truth: dict[str, Any], cams: dict[str, CameraModel],
+                  config: StereoTrackConfig, cond: Condition, cache: Path) -> dict[str, Any]:
+    """One variation's figures (raw sums kept for the summaries)."""
+    varied, moved = vary(frames, truth, cond, cache)
+    t0, c0 = time.perf_counter(), time.process_time()
+    out = offline(varied, cams, config)
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    again = offline(varied, cams, config)
+    s = score(out, moved, cams)
+    by_stamp = sorted(out, key=lambda f: f.stamp_s)
+    graph = all(same(lossless_graph(varied, cams, config, first), by_stamp)
+                for first in (False, True))
+    live = same(live_nodes(varied, cams, config, 0), live_nodes(varied, cams, config, 1))
+    return {'variation': cond.name, 'held_out': cond.held_out, **summary([s]),
+            'fps': len(varied) / wall, 'cpu_ms_per_frame': 1e3 * cpu / len(varied),
+            'fps_two_free_cores': 2 * len(varied) / cpu, 'deterministic': same(out, again),
+            'graph_equals_offline': graph, 'live_order_independent': live,
+            'condition': asdict(cond), 'raw': s}
+
+
+def summary(scores: list[dict[str, Any]]) -> dict[str, Any]:
+    """Pooled figures of several variations."""
+    want = sum(s['want'] for s in scores)
+    n3d = sum(s['n3d'] for s in scores)
+    return {'recall': sum(s['found'] for s in scores) / max(want, 1),
+            'numbered_right': sum(s['right'] for s in scores) / max(want, 1),
+            'id_switches': sum(s['id_switches'] for s in scores),
+            'spurious_numbers': sum(s['spurious_numbers'] for s in scores),
+            'wrong_pair_points': sum(s['wrong_pair_points'] for s in scores),
+            'traj_rms_mm': 1e3 * float(np.sqrt(sum(s['sq3d'] for s in scores) / n3d))
+            if n3d else float('nan'),
+            'traj_max_mm': max((s['max3d_mm'] for s in scores), default=float('nan')),
+            'visible_markers': want}
+
+
+def run_all(frames: Frames, truth: dict[str, Any], cams: dict[str, CameraModel],
+            config: StereoTrackConfig, cache: Path) -> dict[str, Any]:
+    """Every variation (one JSON line each), then the held-out and tuned summaries."""
+    rows = []
+    for cond in VARIATIONS:
+        row = run_variation(frames, truth, cams, config, cond, cache)
+        rows.append(row)
+        print(json.dumps({k: v for k, v in row.items() if k not in ('raw', 'condition')}),
+              flush=True)
+    out: dict[str, Any] = {}
+    for name, pick in (('held_out', True), ('tuned', False)):
+        part = [r for r in rows if r['held_out'] == pick]
+        out[name] = {**summary([r['raw'] for r in part]),
+                     'fps': min(r['fps'] for r in part),
+                     'fps_two_free_cores': min(r['fps_two_free_cores'] for r in part),
+                     'deterministic': all(r['deterministic'] and r['graph_equals_offline']
+                                          for r in part),
+                     'graph_equals_offline': all(r['graph_equals_offline'] for r in part),
+                     'live_order_independent': all(r['live_order_independent']
+                                                   for r in part),
+                     'variations': [r['variation'] for r in part]}
+    low = next(r for r in rows if r['variation'] == 'light_x0.3_shutter_12ms')
+    out['light_x0.3_shutter_12ms_numbered_right'] = low['numbered_right']
+    return out
