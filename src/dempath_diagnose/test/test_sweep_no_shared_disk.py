@@ -1,12 +1,12 @@
 """Sweeps through a real `dask scheduler` whose worker shares no folder with the client.
 
-The worker runs in its own mount namespace with an empty tmpfs over /tmp (where the client's test
-folders, library and packing cache live), its own HOME, TMPDIR, packing cache and working folder,
-as a worker on another host has. Where the machine does not allow a mount namespace, the worker
-still gets its own HOME, TMPDIR, cache and folder, and the check that it cannot see the client's
-folder is skipped. A library build and a recalibration finish, the records reach the client
-through the futures, the pour's bed travels back and forth, and a run that fails for a reason
-that would fail it again is returned once, not retried.
+The worker runs in its own mount namespace with an empty tmpfs over the test folders (``pytest-
+of-<user>``, where the client's library and packing cache live), its own HOME, TMPDIR, packing
+cache and working folder, as a worker on another host has. Where the machine does not allow a mount
+namespace, the worker still gets its own HOME, TMPDIR, cache and folder, and the check that it
+cannot see the client's folder is skipped. A library build and a recalibration finish, the records
+reach the client through the futures, the pour's bed travels back and forth, and a run that fails
+for a reason that would fail it again is returned once, not retried.
 """
 
 from __future__ import annotations
@@ -33,22 +33,28 @@ from .test_recal_cli import argv_for
 from .test_sweep import DASK, _start, stop_all
 
 
-def _namespaces_allowed() -> bool:
-    """Whether this machine lets us give a process its own mount namespace and /tmp."""
+def _masked_folder(basetemp: Path) -> Path:
+    """The folder the worker must not see: every test's temporary folder (``pytest-of-<user>``),
+    not all of /tmp, which may hold the checkout and its venv (a CI clone under /tmp)."""
+    return next((p for p in basetemp.parents if p.name.startswith('pytest-of-')), basetemp)
+
+
+def _namespaces_allowed(masked: Path) -> bool:
+    """Whether this machine lets us give a process its own mount namespace over ``masked``."""
     if not shutil.which('unshare'):
         return False
     probe = subprocess.run(['unshare', '--mount', '--propagation', 'private', 'sh', '-c',
-                            'mount -t tmpfs tmpfs /tmp'], capture_output=True, check=False)
+                            f'mount -t tmpfs tmpfs {masked}'], capture_output=True, check=False)
     return probe.returncode == 0
 
 
-def _worker_command(address: str, home: Path, isolated: bool) -> list[str]:
+def _worker_command(address: str, home: Path, masked: Path | None) -> list[str]:
     run = (f'mkdir -p {home}/cache && cd {home} && HOME={home} TMPDIR={home} '
            f'DEMPATH_CACHE_DIR={home}/cache exec {DASK} worker {address} --nthreads 1 '
            '--no-dashboard --name lone')
-    if isolated:
+    if masked is not None:
         return ['unshare', '--mount', '--propagation', 'private', 'sh', '-c',
-                f'mount -t tmpfs tmpfs /tmp && {run}']
+                f'mount -t tmpfs tmpfs {masked} && {run}']
     return ['sh', '-c', run]
 
 
@@ -61,14 +67,15 @@ def lone_worker(tmp_path_factory: pytest.TempPathFactory,
     port_file = tmp / 'scheduler.json'
     procs = [_start(['scheduler', '--port', '0', '--no-dashboard', '--scheduler-file',
                      str(port_file)], tmp / 'scheduler.log')]
-    isolated = _namespaces_allowed()
-    home = Path('/tmp/worker-home') if isolated else tmp / 'worker-home'
+    masked = _masked_folder(tmp_path_factory.getbasetemp())
+    isolated = _namespaces_allowed(masked)
+    home = masked / 'worker-home' if isolated else tmp / 'worker-home'
     try:
         deadline = time.monotonic() + 60
         while not port_file.is_file() and time.monotonic() < deadline:
             time.sleep(0.1)
         address = json.loads(port_file.read_text())['address']
-        procs.append(subprocess.Popen(_worker_command(address, home, isolated),
+        procs.append(subprocess.Popen(_worker_command(address, home, masked if isolated else None),
                                       stdout=(tmp / 'worker.log').open('wb'),
                                       stderr=subprocess.STDOUT, start_new_session=True))
         from distributed import Client

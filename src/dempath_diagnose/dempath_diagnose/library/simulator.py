@@ -116,6 +116,8 @@ def scene_parts(scene: SceneSpec) -> dict[str, Any]:
     data: dict[str, Any] = scene.to_dict()
     for key in ('name', 'description', 'seed', 'source', 'output'):
         data.pop(key, None)
+    if data.get('markers', {}).get('pick') == 'exposed':
+        del data['markers']['pick']  # the default rule: keys made before the option stay valid
     data['tool']['mesh'] = _file_digest(scene.tool.mesh)
     if scene.fill.packing is not None:
         data['fill']['packing'] = _file_digest(scene.fill.packing)
