@@ -10,6 +10,7 @@ import os
 import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -38,6 +39,7 @@ def test_script_starts_and_stops_on_sigint(script: str, tmp_path: Path,
     if not up:
         proc.kill()
         pytest.fail(f'{script}: node {node_name!r} not in the graph after {START_TIMEOUT_S} s')
+    time.sleep(1.0)  # the node is in the graph before its main reaches the spin's try block
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=30)
     assert proc.returncode == 0, f'{script}: status {proc.returncode}\n{err}'
