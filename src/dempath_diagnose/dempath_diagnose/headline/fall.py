@@ -13,7 +13,8 @@ is what a user's pass goes through, with the library of the other seeds only:
    candidate's fit (the one with the lowest d^2 at its best strength), each model on the
    other seeds at its fitted strength (:mod:`.ensemble`), each beside its own floor band
    (:mod:`.floor`: that model on every seed playing the measurement with the same samples,
-   pools of as many seeds);
+   pools of as many seeds); a fit is *at its floor* when it lies at or below its band and the
+   other fit does not score significantly lower, marker by marker (:mod:`.compare`);
 3. the same on the held-out markers alone;
 4. the paper's Table 7 (mean nRMSE over the N best cube candidates, N = 10) before and after
    the true fit, with the same markers, samples, pools and N, and its floor band likewise.
@@ -35,6 +36,7 @@ from dempath_diagnose.decision.bandtracks import band_table7
 from dempath_diagnose.decision.emulator import Allowance, build_emulator
 from dempath_diagnose.decision.statistics import build_layout, measured_statistics
 from dempath_diagnose.decision.verdict import decide, fit_candidate
+from dempath_diagnose.headline.compare import rival_lower
 from dempath_diagnose.headline.ensemble import emulated_run
 from dempath_diagnose.headline.floor import FloorBand, below_reason, floor_band, headline_figure
 from dempath_diagnose.headline.samples import MarkerSamples, played_measurement
@@ -108,14 +110,27 @@ def scored(meas: Measurement, samples: MarkerSamples, library: Library, candidat
     (``cache``: floor bands already computed, by model and samples)."""
     seeds = library.seeds()
     pool = model_runs(library, candidate, strength, [s for s in seeds if s != seed])
-    value = headline_error(meas, [pool], setup.cube_m).value
+    error = headline_error(meas, [pool], setup.cube_m)
     key = ('headline', candidate, strength, _samples_key(samples))
     band = (cache or {}).get(key) or floor_band(
         samples, model_runs(library, candidate, strength, seeds),
         headline_figure(setup.cube_m), setup.allowance.noise_m, len(pool))
     if cache is not None:
         cache[key] = band
-    return _placed(value, band, 'the headline error', 1e3)
+    out = _placed(error.value, band, 'the headline error', 1e3)
+    out['per_marker_mm'] = [None if not np.isfinite(v) else float(v) * 1e3
+                            for v in error.per_marker]
+    return out
+
+
+def at_floor(entry: dict[str, Any]) -> bool:
+    """A fitted model's headline at or below its floor band, and no rival fitted with the same
+    budget scoring significantly lower (:mod:`.compare`)."""
+    return bool(entry['place'] != 'above' and not entry.get('rival', {}).get('lower', False))
+
+
+def _per_marker(entry: dict[str, Any]) -> F64:
+    return np.array([np.nan if v is None else v for v in entry['per_marker_mm']]) * 1e-3
 
 
 def _samples_key(samples: MarkerSamples) -> tuple[Any, ...]:
@@ -185,6 +200,10 @@ def run_case(library: Library, case: FallCase, setup: FallSetup, with_table7: bo
     for part, (m, s) in parts.items():
         out[part] = {key: scored(m, s, library, c, x, case.seed, setup, cache)
                      for key, (c, x) in models.items()}
+        if 'after_true' in out[part]:
+            true_e, wrong_e = out[part]['after_true'], out[part]['after_wrong']
+            true_e['rival'] = rival_lower(_per_marker(true_e), _per_marker(wrong_e))
+            wrong_e['rival'] = rival_lower(_per_marker(wrong_e), _per_marker(true_e))
     if with_table7:
         out['table7'] = {key: table7(meas, samples, library, c, x, case.seed, setup, cache)
                          for key, (c, x) in models.items() if key != 'after_wrong'}
@@ -220,8 +239,9 @@ def summary(results: Sequence[dict[str, Any]], table7_like_for_like: bool) -> di
     effects = [r for r in results if r['candidate']]
     controls = [r for r in results if not r['candidate']]
     seen = [r for r in effects if r['all']['before']['place'] == 'above']
-    true_in = [r for r in seen if r['all']['after_true']['place'] != 'above']
-    wrong_in = [r for r in seen if r['all']['after_wrong']['place'] != 'above']
+    true_in = [r for r in seen if at_floor(r['all']['after_true'])]
+    wrong_in = [r for r in seen if at_floor(r['all']['after_wrong'])]
+    wrong_band = [r for r in seen if r['all']['after_wrong']['place'] != 'above']
     held_fell = [r for r in seen if r['held_out']['after_true']['value']
                  < r['held_out']['before']['value']]
     t7 = [r for r in effects if 'table7' in r]
@@ -229,7 +249,7 @@ def summary(results: Sequence[dict[str, Any]], table7_like_for_like: bool) -> di
                < r['table7']['before']['value'] - 1e-9]
     return {'cases': len(results), 'effect_cases': len(effects),
             'effect_seen': len(seen), 'true_fit_in_floor': len(true_in),
-            'wrong_fit_in_floor': len(wrong_in),
+            'wrong_fit_in_floor': len(wrong_in), 'wrong_fit_in_own_band': len(wrong_band),
             'control_moved': sum(r['verdict'] in NAMED for r in controls),
             'controls': len(controls), 'held_out_fell': len(held_fell),
             'table7_like_for_like': table7_like_for_like,
