@@ -108,6 +108,11 @@ def test_strong_cohesion_falls_into_its_floor_and_a_wrong_fit_does_not(
     assert res['all']['after_wrong']['rival']['lower']  # the measurement prefers the true fit
     held = res['held_out']
     assert held['after_true']['value'] < held['before']['value']
+    # d^2 beside its like-for-like floor (the seeds playing the measurement with the fit
+    # markers' samples), not a nominal chi-square
+    d2 = res['d2']
+    assert d2['before']['place'] == 'above' and d2['after_true']['place'] != 'above'
+    assert d2['after_true']['floor']['seeds'] == 3 and d2['after_true']['floor']['n'] == 12
     assert res['window_s'][1] > 0.8  # the whole pass
 
 
