@@ -1,4 +1,5 @@
-"""Field conditions laid over a rendered recording, for ``detect_track.py --variations``.
+"""Field conditions laid over a rendered recording (``bench/detect_track.py --variations``, and
+the tracking tests on the bundled render).
 
 The twin renders one look (``bags/field_render_reduced_1ms``: 4 ms shutter, its own light and
 noise). Each :class:`Condition` changes that recording's frames the way the field would, with
@@ -21,6 +22,7 @@ from __future__ import annotations
 import hashlib
 import json
 from dataclasses import asdict, dataclass
+from typing import Any
 
 import cv2
 import numpy as np
@@ -200,3 +202,41 @@ def apply(jpeg: bytes, cond: Condition, camera_index: int, k: int, n: int,
     ok, buf = cv2.imencode('.jpg', out, [cv2.IMWRITE_JPEG_QUALITY, cond.jpeg_quality])
     assert ok
     return buf.tobytes(), shift
+
+
+Frames = list[tuple[str, int, bytes]]  # (camera, stamp ns, JPEG bytes)
+
+
+def vary_recording(frames: Frames, truth: dict[str, Any], cond: Condition,
+                   ) -> tuple[Frames, dict[str, list[float]]]:
+    """A recording's field frames under ``cond``, and each frame's image shift [px] by
+    ``'camera stamp_ns'`` (add it to the truth's pixels: :func:`moved_truth`).
+
+    Args:
+        frames: (camera, stamp ns, JPEG) of the pass, in any order.
+        truth: the recording's truth (``<bag>.truth.json``: cameras, frames with ``uv``).
+        cond: the condition.
+    """
+    by_key = {(f['camera'], int(f['stamp_ns'])): f for f in truth['frames']}
+    cams = [c['name'] for c in truth['cameras']]
+    per_cam = {c: [f for f in frames if f[0] == c] for c in cams}
+    index = {(c, s): k for c in cams for k, (_, s, _) in enumerate(per_cam[c])}
+    out: Frames = []
+    shifts: dict[str, list[float]] = {}
+    for cam, stamp, data in frames:
+        k = index[(cam, stamp)]
+        uv = np.array(by_key[(cam, stamp)]['uv'], np.float64)
+        prev = by_key.get((cam, per_cam[cam][k - 1][1])) if k else None
+        step = uv - np.array(prev['uv']) if prev else np.full_like(uv, np.nan)
+        jpeg, shift = apply(data, cond, cams.index(cam), k, len(per_cam[cam]), uv, step)
+        out.append((cam, stamp, jpeg))
+        shifts[f'{cam} {stamp}'] = shift.tolist()
+    return out, shifts
+
+
+def moved_truth(truth: dict[str, Any], shifts: dict[str, list[float]]) -> dict[str, Any]:
+    """The truth with each frame's marker pixels moved by its image shift (shake)."""
+    moved = dict(truth)
+    moved['frames'] = [{**f, 'uv': (np.array(f['uv']) + shifts.get(
+        f"{f['camera']} {int(f['stamp_ns'])}", [0.0, 0.0])).tolist()} for f in truth['frames']]
+    return moved
