@@ -1,5 +1,6 @@
 """The variation set of ``detect_track.py --variations``: the bundled render under field
-conditions (``dempath_twin.render.conditions.VARIATIONS``), scored per variation and held-out apart.
+conditions (``dempath_twin.render.conditions.VARIATIONS``), scored per variation and held-out
+apart.
 
 Per variation (one JSON line each): ``recall`` (markers at least half visible that were found
 within 3 px), ``numbered_right`` (found and given their own number, in the frames as

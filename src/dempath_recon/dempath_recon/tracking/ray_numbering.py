@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dempath_recon.tracking.associate import back_project
-from dempath_recon.tracking.linker import UNNUMBERED, Track
+from dempath_recon.tracking.linker import Track
 from dempath_recon.tracking.state import (
     CARRY_FLOOR_M,
     StereoState,
