@@ -55,3 +55,22 @@ def test_a_run_is_compared_with_every_candidate_of_each_marker(tmp_path: Path) -
     assert all(r.n_best == 10 for r in table.rows), [r.n_best for r in table.rows]
     for e, marker in enumerate(result.measured.idents):
         assert (result.model.marker_ids[result.best(e)] == marker).all()
+
+
+def test_a_simulate_folder_itself_gives_the_model_csv_alone(tmp_path: Path) -> None:
+    """``dempath compare`` given the run folder (summary.json beside the CSVs) reads model.csv
+    only: markers.csv would pair each marker with one particle and tool.csv is no track."""
+    import json
+
+    run = _run()
+    folder = tmp_path / 'run'
+    folder.mkdir()
+    run.write_model_csv(folder / 'model.csv')
+    run.write_marker_csv(folder / 'markers.csv')
+    run.write_tool_csv(folder / 'tool.csv')
+    (folder / 'summary.json').write_text(json.dumps({'run_id': 'r', 'seed': 1}))
+    run.write_marker_csv(tmp_path / 'measured.csv')
+    result = compare_paths(tmp_path / 'measured.csv', folder)
+    table = build_table7(result)
+    assert all(r.n_best == 10 for r in table.rows), [r.n_best for r in table.rows]
+    assert len(result.model.idents) == 2 * (CANDIDATES + 1)

@@ -160,6 +160,24 @@ def csv_files(folder: Path, kind: str) -> list[Path]:
     return chosen
 
 
+def run_model_files(folder: Path) -> list[Path]:
+    """The model tracks of a ``dempath simulate`` folder: its ``model.csv`` alone.
+
+    ``model.csv`` tags every tracked particle with the marker it stands for or is a Cube
+    candidate of, so each marker is ranked against its own candidates (the paper's N best).
+    The folder's other CSV files are not model tracks: ``markers.csv`` repeats one particle per
+    marker (every marker's N would be 1) and ``tool.csv`` is the tool's pose and force.
+
+    Raises:
+        InputError: the folder has a ``summary.json`` but no ``model.csv``.
+    """
+    model = folder / 'model.csv'
+    if not model.is_file():
+        msg = f'{folder}: a dempath simulate folder (summary.json) without model.csv'
+        raise InputError(msg)
+    return [model]
+
+
 def is_bag(path: Path) -> bool:
     """A rosbag2 directory or a bare .mcap / .db3 file."""
     return (path.is_dir() and (path / 'metadata.yaml').is_file()) or \
@@ -196,7 +214,8 @@ def load_source(path: str | Path, kind: str, mapping: ExportMapping | None = Non
         except OutputError as err:
             raise InputError(str(err)) from err
         meta = run_metadata(path) if kind == MODEL else None
-        tracks = [t for f in csv_files(path, kind) for t in load_csv(f, kind, meta, from_names)]
+        files = run_model_files(path) if meta is not None else csv_files(path, kind)
+        tracks = [t for f in files for t in load_csv(f, kind, meta, from_names)]
     elif path.suffix.lower() == '.csv':
         tracks = load_csv(path, kind, None, from_names)
     else:

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from dempath.nodes.pytest_plugin import require_component
 from dempath_diagnose.cli import diagnose_main
 from dempath_diagnose.decision.bandtracks import band_table7
 from dempath_diagnose.decision.diagnosis import CaseGeometry
@@ -29,9 +30,9 @@ def test_liggghts_run_is_a_library_record(cache: Path, tmp_path: Path) -> None:
     from dempath_sim.liggghts.install import ensure_liggghts
 
     try:
-        ensure_liggghts(install=False)
+        ensure_liggghts(install=True)  # apt-get under the install lock, as dempath_sim's tests
     except LiggghtsNotFoundError as err:
-        pytest.skip(f'LIGGGHTS unavailable: {err}')
+        require_component('liggghts', err)  # fails unless skipped on purpose
     scene = load_scene(SCENE)
     until = round(pass_travel_s(scene, {}) + 0.1, 6)
     packings = cache / 'packings'

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 import yaml
@@ -15,7 +17,7 @@ from dempath_sim.runs.markers import (
 )
 from dempath_sim.scene import SceneError, load_scene, scene_from_dict
 from dempath_sim.scene.spec import MarkerSpec
-from dempath_sim.validation.deck_setup import RAKED_TINE
+from dempath_sim.validation.deck_setup import NEAR_M, RAKED_TINE, pick_markers
 
 D = 0.004  # grain diameter of the paper's top layer [m]
 
@@ -87,11 +89,57 @@ def test_top_pick_takes_the_highest_grain_not_a_half_buried_one() -> None:
     assert select_markers(pos, rad, ids, MarkerSpec(**grid)).particle_ids.tolist() == [7]
     top = select_markers(pos, rad, ids, MarkerSpec(**grid, pick='top'))
     assert top.particle_ids.tolist() == [8]
-    scene = load_scene(RAKED_TINE.scene_file())
-    assert scene.markers.pick == 'exposed'
     raw = yaml.safe_load(RAKED_TINE.scene_file().read_text())
+    del raw['markers']['pick']
+    assert scene_from_dict(raw, base_dir=RAKED_TINE.folder).markers.pick == 'exposed'
     raw['markers']['pick'] = 'top'
     assert scene_from_dict(raw, base_dir=RAKED_TINE.folder).markers.pick == 'top'
     raw['markers']['pick'] = 'highest'
     with pytest.raises(SceneError, match="pick: 'highest' is not one of exposed, top"):
         scene_from_dict(raw, base_dir=RAKED_TINE.folder)
+
+
+def rough_bed(seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """The raked-tine deck's 7 / 8 mm grains on a 7.5 mm lattice around its marker grid, the
+    top layer at random heights over one spacing (some grains half-buried, as on a poured bed)."""
+    rng = np.random.default_rng(seed)
+    step = 0.0075
+    xs = np.arange(-0.09, 0.09 + 1e-9, step)
+    zs = np.arange(0.12, 0.38 + 1e-9, step)
+    ys = -0.004 - np.arange(4) * step
+    pos = np.stack(np.meshgrid(xs, ys, zs, indexing='ij'), axis=-1).reshape(-1, 3)
+    pos[:, [0, 2]] += rng.uniform(-0.001, 0.001, (len(pos), 2))
+    top = pos[:, 1] > -0.005
+    pos[top, 1] -= rng.uniform(0.0, step, int(top.sum()))
+    return pos, rng.choice([0.0035, 0.004], len(pos))
+
+
+def marker_depth(pos: np.ndarray, rad: np.ndarray, index: list[int]) -> float:
+    """Mean depth [m] of the grains' tops below the highest top within NEAR_M of each."""
+    tops = pos[:, 1] + rad
+    return float(np.mean([tops[np.hypot(*(pos[:, [0, 2]] - pos[i, [0, 2]]).T) < NEAR_M].max()
+                          - tops[i] for i in index]))
+
+
+def test_the_raked_deck_scene_picks_the_decks_surface_grains() -> None:
+    """Issue 29's bin compares dempath's markers with a hand-written deck's "existing surface
+    grains"; dempath's default rule took grains ~3 mm deeper, which move ~18 % less outward
+    beside the tine (docs/liggghts.md). The deck's scene file picks by the deck's rule: on rough
+    beds of the deck's grains its markers are the deck's (``deck_setup.pick_markers``) at most
+    grid points and sit as high, while the default rule's sit over a millimetre deeper."""
+    spec = load_scene(RAKED_TINE.scene_file()).markers
+    assert spec.pick == 'top'
+    same, depths = [], []
+    for seed in range(5):
+        pos, rad = rough_bed(seed)
+        ids = np.arange(len(pos))
+        deck = pick_markers(ids, pos, RAKED_TINE.mean_r, RAKED_TINE.marker_z)
+        deck_index = deck['axis'] + deck['right']
+        scene = select_markers(pos, rad, ids, spec).particle_ids.tolist()
+        default = select_markers(pos, rad, ids, replace(spec, pick='exposed')).particle_ids
+        same.append(np.mean(np.array(scene) == np.array(deck_index)))
+        depths.append([marker_depth(pos, rad, x) for x in (deck_index, scene, default.tolist())])
+    deck_d, scene_d, default_d = np.mean(depths, axis=0)
+    assert np.mean(same) >= 0.8, same
+    assert abs(scene_d - deck_d) < 3e-4, depths
+    assert default_d > deck_d + 1e-3, depths

@@ -2,7 +2,8 @@
 
 ``rclpy.init``; build the node (a bad file or parameter ends with one ``error:`` line and exit
 status 1); spin until Ctrl-C, SIGTERM or the node says it is done (a signal that arrives while
-the node is still being built is held until spinning starts, so it too ends cleanly); then
+the node is still being built is held until spinning starts, or, when a thread that existed
+before the mask took it, ends the start-up with status 0: either way a clean stop); then
 shut down in order: the node's own finishing step, the executor, the node, the context.
 """
 
@@ -47,6 +48,13 @@ def run_node(make_node: Callable[[], N], args: list[str] | None = None,
         print(f'error: {err}', file=sys.stderr)
         rclpy.try_shutdown()
         return 1
+    except KeyboardInterrupt:
+        # Ctrl-C reached a thread started before the mask (a library's pool, e.g. OpenBLAS's,
+        # started at import) and Python raised it in the main thread while the node was built:
+        # nothing was recorded yet, so it is a clean stop
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, HELD_SIGNALS)
+        rclpy.try_shutdown()
+        return 0
     except RuntimeError:
         # rclpy's RCLError: a signal reached a thread started before the mask (a library's pool)
         # and shut the context down while the node was built: a clean stop, unless the context
