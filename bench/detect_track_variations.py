@@ -1,5 +1,6 @@
 """The variation set of ``detect_track.py --variations``: the bundled render under field
-conditions (``field_conditions.VARIATIONS``), scored per variation and held-out apart.
+conditions (``dempath_twin.render.conditions.VARIATIONS``), scored per variation and held-out
+apart.
 
 Per variation (one JSON line each): ``recall`` (markers at least half visible that were found
 within 3 px), ``numbered_right`` (found and given their own number, in the frames as
@@ -28,13 +29,18 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from field_conditions import VARIATIONS, Condition, apply
 from numpy.typing import NDArray
 
 from dempath_calib.camera import CameraModel
 from dempath_recon.tracking.merge import StampMerge
 from dempath_recon.tracking.records import PixelFrame, StereoTrackConfig
 from dempath_recon.tracking.stereo import StereoMarkerTracker, triangulate_tracks
+from dempath_twin.render.conditions import (
+    VARIATIONS,
+    Condition,
+    moved_truth,
+    vary_recording,
+)
 
 MATCH_PX = 3.0  # a detection this near a true centre found that marker
 OWNER_PX = 8.0  # a numbered detection's marker is the true one nearest within this (about a
@@ -47,29 +53,14 @@ def vary(frames: Frames, truth: dict[str, Any], cond: Condition, cache: Path,
          ) -> tuple[Frames, dict[str, Any]]:
     """The recording's frames under ``cond`` and the truth moved with any image shift (cached
     in ``cache`` by the condition's hash)."""
-    path = cache / f'{cond.name}-{cond.key()}.pkl'
+    path = cache / f'{cond.name}-{cond.key()}.v2.pkl'
     if path.is_file():
         out, shifts = pickle.loads(path.read_bytes())
     else:
-        by_key = {(f['camera'], int(f['stamp_ns'])): f for f in truth['frames']}
-        cams = [c['name'] for c in truth['cameras']]
-        per_cam = {c: [f for f in frames if f[0] == c] for c in cams}
-        out, shifts = [], {}
-        index = {(c, s): k for c in cams for k, (_, s, _) in enumerate(per_cam[c])}
-        for cam, stamp, data in frames:
-            k = index[(cam, stamp)]
-            uv = np.array(by_key[(cam, stamp)]['uv'], np.float64)
-            prev = by_key.get((cam, per_cam[cam][k - 1][1])) if k else None
-            step = uv - np.array(prev['uv']) if prev else np.full_like(uv, np.nan)
-            jpeg, shift = apply(data, cond, cams.index(cam), k, len(per_cam[cam]), uv, step)
-            out.append((cam, stamp, jpeg))
-            shifts[(cam, stamp)] = shift.tolist()
+        out, shifts = vary_recording(frames, truth, cond)
         cache.mkdir(parents=True, exist_ok=True)
         path.write_bytes(pickle.dumps((out, shifts)))
-    moved = dict(truth)
-    moved['frames'] = [{**f, 'uv': (np.array(f['uv']) + shifts.get(
-        (f['camera'], int(f['stamp_ns'])), [0.0, 0.0])).tolist()} for f in truth['frames']]
-    return out, moved
+    return out, moved_truth(truth, shifts)
 
 
 def _truth_ids(fr: PixelFrame, t: dict[str, Any], ids: NDArray[np.int64], within_px: float,

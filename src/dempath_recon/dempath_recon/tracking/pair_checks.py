@@ -14,7 +14,7 @@ from numpy.typing import NDArray
 from dempath_recon.tracking.associate import project, triangulate_pairs
 from dempath_recon.tracking.linker import UNNUMBERED
 from dempath_recon.tracking.one_camera import alone
-from dempath_recon.tracking.state import RECENT_S, StereoState, carried_point
+from dempath_recon.tracking.state import RECENT_S, StereoState, at_stamp, carried_point
 
 LOG = logging.getLogger('dempath_recon.tracking.stereo')  # the pipeline's logger
 FloatArray = NDArray[np.float64]
@@ -137,7 +137,7 @@ def partners(state: StereoState, other: str, markers: NDArray[np.int32], unsure:
         for source in sources:
             hit = source.get(m)
             if hit is not None and abs(hit[0] - stamp_s) <= 1.0 / state.config.fps:
-                out[k] = hit[1]
+                out[k] = at_stamp(state, other, m, hit, stamp_s)
                 break
     return out
 

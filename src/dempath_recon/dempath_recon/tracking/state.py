@@ -141,6 +141,24 @@ def carried_point(state: StereoState, marker: int, stamp_s: float,
     return at, state.positions.known.get(marker, anchor or (stamp_s, at))[0]
 
 
+def at_stamp(state: StereoState, camera: str, marker: int, sighting: Sighting,
+             stamp_s: float) -> FloatArray:
+    """(2,) px: ``camera``'s sighting of ``marker`` moved to ``stamp_s`` along its track.
+
+    The two cameras are not synchronised (the front one exposes a few ms after the side
+    one); a marker pushed at 1 m/s moves several pixels in between, which put a right pair
+    4 px off the epipolar line on the bundled render re-encoded with a 1 ms shutter (its
+    number was taken back for good). The sighting moves with its track's velocity (the last
+    link's) when the track is running and was seen at that sighting; otherwise it is kept.
+    """
+    seen_s, uv = sighting
+    for track in state.trackers[camera].tracks:
+        if track.marker == marker and not track.lost and track.last_stamp_s == seen_s \
+                and len(track.history) > 1:
+            return np.asarray(uv + track.velocity * (stamp_s - seen_s), np.float64)
+    return uv
+
+
 def forget_refusals(state: StereoState, camera: str, stamp_s: float) -> None:
     """Forget the numbers refused to a track that re-attached in this frame farther than
     ``doubt_link_px`` from its prediction: a refusal says the marker the track followed is not

@@ -144,6 +144,8 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument('--seed', type=int, default=0)
     p.add_argument('--hidden-seed', type=int, help='packing seed when SOURCE is a scene')
     p.add_argument('--on', action='append', default=[], help='effect on when SOURCE is a scene')
+    p.add_argument('--rig', default='fixed', choices=('fixed', 'carriage'),
+                   help="the twin's cameras: 'fixed' (paper_rig) or 'carriage' (carriage_rig)")
     return p
 
 
@@ -160,7 +162,7 @@ def _bed(args: argparse.Namespace, fps: float) -> BedRecord:
 
 def render_main(argv: list[str] | None = None) -> int:
     """``dempath twin render SCENE_OR_RUN --out BAG``; one error line and 1 on bad input."""
-    from dempath_twin.rig import paper_rig
+    from dempath_twin.rig import RIGS
 
     args = _parser().parse_args(argv)
     try:
@@ -171,7 +173,7 @@ def render_main(argv: list[str] | None = None) -> int:
                                  look=replace(Look(), exposure_s=args.exposure,
                                               blur_subframes=args.blur_subframes))
         bed = _bed(args, config.fps)
-        out, truth = write_field_recording(bed, paper_rig(), args.out, config)
+        out, truth = write_field_recording(bed, RIGS[args.rig](), args.out, config)
     except (DempathError, OSError, ValueError) as err:
         print(f'error: {args.source}: {" ".join(str(err).split())}', file=sys.stderr)
         return 1
