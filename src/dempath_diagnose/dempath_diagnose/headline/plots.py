@@ -9,7 +9,8 @@ from typing import Any
 COLOURS = {'above': 'C3', 'in': 'C2', 'below': 'C0'}
 
 
-def plot_headline(entries: Sequence[tuple[str, dict[str, Any]]], path: Path) -> str:
+def plot_headline(entries: Sequence[tuple[str, dict[str, Any]]], path: Path,
+                  title: str = '') -> str:
     """One row per (label, headline entry): the floor band shaded, the value a dot coloured by
     where it lies (red above the band, green inside, blue below); returns the file name."""
     import matplotlib
@@ -31,6 +32,8 @@ def plot_headline(entries: Sequence[tuple[str, dict[str, Any]]], path: Path) -> 
     ax.set_xlim(left=0.0)
     ax.set_ylim(-0.7, len(rows) - 0.3)
     ax.legend(loc='lower right', fontsize=7)
+    if title:
+        ax.set_title(title, fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=100)
     plt.close(fig)
