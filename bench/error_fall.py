@@ -29,7 +29,14 @@ from pathlib import Path
 
 import numpy as np
 
-from dempath_diagnose.headline.fall import FallCase, FallSetup, run_case, summary
+from dempath_diagnose.headline.fall import (
+    D2_VERSION,
+    FallCase,
+    FallSetup,
+    redo_d2,
+    run_case,
+    summary,
+)
 from dempath_diagnose.library.simulator import load_scene, tool_geometry
 from dempath_diagnose.library.store import Library
 
@@ -76,6 +83,10 @@ def main() -> None:
         path = args.cache / f'{name}-s{seed}.json'
         if path.is_file():
             res = json.loads(path.read_text())
+            if res.get('d2', {}).get('version') != D2_VERSION:  # stored before d^2's floor
+                res['d2'] = redo_d2(library, FallCase(name, cand, strength, seed), setup,
+                                    floors)
+                path.write_text(json.dumps(res))
         else:
             res = run_case(library, FallCase(name, cand, strength, seed), setup,
                            not args.no_table7, floors)
