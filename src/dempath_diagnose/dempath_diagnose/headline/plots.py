@@ -62,9 +62,13 @@ def plot_error_fall(results: Sequence[dict[str, Any]], path: Path) -> str:
                     alpha=0.35, lw=4)
             ax.plot(f['value'], i + dy, mark, color=colour, ms=5,
                     label=label if i == 0 else None)
+            if f.get('rival', {}).get('lower'):  # the measurement prefers the other fit
+                ax.annotate('rival lower', (f['value'], i + dy), xytext=(5, -3),
+                            textcoords='offset points', fontsize=6, color=colour)
     ax.set_yticks(range(len(rows)), [f"{r['case']} s{r['seed']}" for r in rows], fontsize=7)
     ax.set_xscale('log')
-    ax.set_xlabel("headline error [mm] (bars: each model's floor band, like for like)")
+    ax.set_xlabel("headline error [mm] (bars: each model's floor band, like for like; "
+                  "'rival lower': the other fit scores significantly lower)")
     ax.invert_yaxis()
     ax.legend(fontsize=7, loc='lower right')
     fig.tight_layout()
