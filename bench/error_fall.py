@@ -125,19 +125,20 @@ def markdown(results: list[dict]) -> str:
         mark = {'above': '**above**', 'in': 'in', 'below': 'below'}[f['place']]
         if f.get('rival', {}).get('lower'):
             mark += f", **rival lower** (p {f['rival']['p']:.3f})"
-        return f"{f['value']:.1f} ({fl['low']:.1f}-{fl['high']:.1f}) {mark}"
+        return f"{f['value']:.1f} ({max(fl['low'], 0.0):.1f}-{fl['high']:.1f}) {mark}"
 
     rows = ['| case | seed | verdict | headline before | true fit (strength) | after true '
-            '| best wrong fit | after wrong | held-out before -> after | Table 7 before '
-            '| Table 7 after |', '|' + ' --- |' * 11]
+            '| best wrong fit | after wrong | held-out before -> after | d^2 before '
+            '| d^2 after true | Table 7 before | Table 7 after |', '|' + ' --- |' * 13]
     for r in results:
-        a, h, t7 = r['all'], r['held_out'], r.get('table7', {})
+        a, h, t7, d2 = r['all'], r['held_out'], r.get('table7', {}), r.get('d2', {})
         fit = (f"{r['true_fit']['strength']:.3g}" if 'true_fit' in r else '-')
         held = (f"{h['before']['value']:.1f} -> {h['after_true']['value']:.1f}"
                 if 'after_true' in h else f"{h['before']['value']:.1f}")
         rows.append(f"| {r['case']} | {r['seed']} | {r['verdict']} | {cell(a['before'])} | "
                     f"{fit} | {cell(a.get('after_true'))} | {r['wrong_fit']['candidate']} | "
-                    f"{cell(a['after_wrong'])} | {held} | {cell(t7.get('before'))} | "
+                    f"{cell(a['after_wrong'])} | {held} | {cell(d2.get('before'))} | "
+                    f"{cell(d2.get('after_true'))} | {cell(t7.get('before'))} | "
                     f"{cell(t7.get('after_true'))} |")
     return '\n'.join(rows) + '\n'
 
