@@ -232,7 +232,7 @@ def _d2_entries(library: Library, case: FallCase, samples: MarkerSamples, layout
     (:mod:`.d2floor`: each seed plays the measurement against the emulator of the other two,
     as the case's seed does in the figure)."""
     d2setup = D2Setup(layout, setup.cube_m, setup.allowance)
-    out = {}
+    out: dict[str, Any] = {}
     models = [('before', '', 0.0, float(decision.baseline.chi2), False)]
     if true_fit is not None:
         models.append(('after_true', case.candidate, float(true_fit.strength),
