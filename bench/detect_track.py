@@ -220,6 +220,8 @@ def main(argv: list[str]) -> int:
     p.add_argument('--no-node-path', action='store_true', help="skip the demo's code path")
     p.add_argument('--variations', action='store_true',
                    help='score the field-condition variation set instead (held-out apart)')
+    p.add_argument('--rendered', type=Path, nargs='*', default=[],
+                   help='with --variations: also score these re-rendered bags (held out)')
     p.add_argument('--cache', type=Path, default=HERE.parent / 'out' / 'bench_variations',
                    help='where the varied frames are kept between runs')
     args = p.parse_args(argv)
@@ -235,6 +237,10 @@ def main(argv: list[str]) -> int:
         from detect_track_variations import run_all
 
         found = run_all(frames, truth, cams, config, args.cache)
+        if args.rendered:
+            from detect_track_variations import run_rendered
+
+            found['rendered_held_out'] = run_rendered(args.rendered, read_frames)
         held = found['held_out']
         print(json.dumps({**{k: held[k] for k in (
             'recall', 'numbered_right', 'id_switches', 'wrong_pair_points', 'traj_rms_mm',
