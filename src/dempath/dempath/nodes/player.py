@@ -55,7 +55,7 @@ class PlayerNode(Node):
         self.declare_parameters('', [(n, d, ParameterDescriptor(description=t))
                                      for n, d, t in PARAMETERS])
         self.finished = threading.Event()
-        self.stats: PlaybackStats | None = None
+        self._stats: PlaybackStats | None = None
         self._event_pub = self.create_publisher(
             RunEvent, topics.PLAYER_EVENTS, reliable_qos(10, latched=True))
         self._clock_pub = self.create_publisher(Clock, topics.CLOCK, 10)
@@ -80,6 +80,15 @@ class PlayerNode(Node):
         self._playback = Playback(self._bag, self.config, sorted(self._topic_pubs))
         threading.Thread(target=self._run, name='player', daemon=True).start()
 
+    @property
+    def stats(self) -> PlaybackStats | None:
+        """What the playback published (None until it has ended; ``finished`` is set then)."""
+        return self._stats
+
+    def published(self) -> dict[str, int]:
+        """Messages published per topic (empty until the playback has ended)."""
+        return dict(self._stats.published) if self._stats is not None else {}
+
     def _end(self, event: int, detail: str, error: bool = False) -> None:
         (self.get_logger().error if error else self.get_logger().info)(detail)
         self._event(event, detail)
@@ -103,21 +112,21 @@ class PlayerNode(Node):
         wait_for_subscribers(self._topic_pubs.values(), self.config.wait_for_subscribers,
                              self.config.wait_timeout_s, self._playback.stop)
         self._event(RunEvent.STARTED, f'playing {len(self._topic_pubs)} topics')
-        self.stats = self._playback.run(self._publish)
+        self._stats = stats = self._playback.run(self._publish)
         self._bag.close()
-        if self.stats.error:
-            self._end(RunEvent.ABORTED, self.stats.error, error=True)
+        if stats.error:
+            self._end(RunEvent.ABORTED, stats.error, error=True)
         elif self._playback.stop.is_set():
             self._end(RunEvent.ABORTED, f'{self.config.bag}: stopped after '
-                      f'{self.stats.total} messages')
+                      f'{stats.total} messages')
         else:
             unacked = self._wait_for_acks()
             delivered = 'every message acknowledged' if not unacked else (
                 f'NOT all acknowledged within {self.config.ack_timeout_s:g} s on '
                 + ', '.join(unacked))
-            self._end(RunEvent.FINISHED, f'{self.config.bag}: published {self.stats.total} '
-                      f'messages on {len(self._topic_pubs)} topics, {self.stats.behind} '
-                      f'behind schedule (max {self.stats.max_lag_s:.3f} s); {delivered}',
+            self._end(RunEvent.FINISHED, f'{self.config.bag}: published {stats.total} '
+                      f'messages on {len(self._topic_pubs)} topics, {stats.behind} '
+                      f'behind schedule (max {stats.max_lag_s:.3f} s); {delivered}',
                       error=bool(unacked))
 
     def _wait_for_acks(self) -> list[str]:

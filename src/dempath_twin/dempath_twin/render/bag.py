@@ -154,6 +154,8 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument('--seed', type=int, default=0)
     p.add_argument('--hidden-seed', type=int, help='packing seed when SOURCE is a scene')
     p.add_argument('--on', action='append', default=[], help='effect on when SOURCE is a scene')
+    p.add_argument('--rig', default='fixed', choices=('fixed', 'carriage'),
+                   help="the twin's cameras: 'fixed' (paper_rig) or 'carriage' (carriage_rig)")
     return p
 
 
@@ -182,7 +184,7 @@ def _bed(args: argparse.Namespace, fps: float) -> BedRecord:
 
 def render_main(argv: list[str] | None = None) -> int:
     """``dempath twin render SCENE_OR_RUN --out BAG``; one error line and 1 on bad input."""
-    from dempath_twin.rig import paper_rig
+    from dempath_twin.rig import RIGS
 
     args = _parser().parse_args(argv)
     try:
@@ -197,7 +199,7 @@ def render_main(argv: list[str] | None = None) -> int:
                                               marker_bgr=args.marker_bgr,
                                               marker_diameter_m=args.marker_diameter))
         bed = _bed(args, config.fps)
-        out, truth = write_field_recording(bed, paper_rig(), args.out, config)
+        out, truth = write_field_recording(bed, RIGS[args.rig](), args.out, config)
     except (DempathError, OSError, ValueError) as err:
         print(f'error: {args.source}: {" ".join(str(err).split())}', file=sys.stderr)
         return 1
