@@ -221,7 +221,7 @@ def main(argv: list[str]) -> int:
     p.add_argument('--variations', action='store_true',
                    help='score the field-condition variation set instead (held-out apart)')
     p.add_argument('--rendered', type=Path, nargs='*', default=[],
-                   help='with --variations: also score these re-rendered bags (held out)')
+                   help='score these re-rendered bags (held out; with --variations: as well)')
     p.add_argument('--cache', type=Path, default=HERE.parent / 'out' / 'bench_variations',
                    help='where the varied frames are kept between runs')
     args = p.parse_args(argv)
@@ -233,6 +233,14 @@ def main(argv: list[str]) -> int:
     grid = MarkerGrid(layout_m=tuple(tuple(p) for p in truth['marker_grid_m']))
     config = StereoTrackConfig(grid=grid)
     load = [round(x, 2) for x in os.getloadavg()]
+    if args.rendered and not args.variations:  # the re-rendered set alone
+        from detect_track_variations import run_rendered
+
+        rendered = run_rendered(args.rendered, read_frames)
+        print(json.dumps({**rendered, 'load_average': load,
+                          'load_average_end': [round(x, 2) for x in os.getloadavg()],
+                          'cpus': os.cpu_count()}))
+        return 0
     if args.variations:
         from detect_track_variations import run_all
 
