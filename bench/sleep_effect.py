@@ -171,9 +171,20 @@ def main() -> None:
     parser.add_argument('--results-dir', type=Path, required=True)
     parser.add_argument('--cache-dir', type=Path, default=None, help='packing cache')
     parser.add_argument('--json-out', type=Path, default=None)
+    parser.add_argument('--only', choices=MODES, default=None,
+                        help='only run the passes of one mode (e.g. in a second process) and '
+                             'stop; a later call without it compares')
     args = parser.parse_args()
     logging.basicConfig(level=logging.INFO, format='%(message)s')
     scene = load_scene(args.scene)
+    if args.only is not None:
+        for variant in args.variants:
+            folder = args.results_dir / variant
+            folder.mkdir(parents=True, exist_ok=True)
+            for seed in args.seeds:
+                one_pass(scene, variant, seed, args.only, folder, args.cache_dir)
+        print(json.dumps({'scene': scene.name, 'only': args.only, 'done': True}))
+        return
     results: dict[str, object] = {}
     worst = 0.0
     for variant in args.variants:
