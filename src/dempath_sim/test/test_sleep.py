@@ -39,7 +39,7 @@ def _lattice(layers: int, seed: int = 1) -> SimState:
 
 @pytest.fixture(scope='module')
 def settled() -> SimState:
-    """A bed of 798 grains settled without sleeping (0.5 s), history dropped, at rest."""
+    """A bed of 756 grains settled without sleeping (0.5 s), history dropped, at rest."""
     state = Engine(PARAMS, WALLS).run(_lattice(6), 6000)
     return SimState.from_spheres(state.positions, state.radii, 0, PARAMS)
 
