@@ -2,7 +2,11 @@
 
 The raw CDR bytes of each message are published as they are (header stamps unchanged), /clock
 follows the bag time, and ``/player/events`` (dempath_msgs/RunEvent, transient local) says
-STARTED, then FINISHED or ABORTED, so that pipelines know when the bag is done. A topic whose
+STARTED, then FINISHED or ABORTED, so that pipelines know when the bag is done. FINISHED is
+sent (and the console script exits) only once every subscriber has acknowledged every reliable
+message, or after ``ack_timeout_s``, when the event names the topics whose messages were not all
+acknowledged: on a loaded machine the player used to exit with its last frames still unsent
+(7 frames per camera lost in one run of the demo graph). A topic whose
 message class cannot be imported is skipped with one error line; the rest plays. A bad bag
 logs one error line and an ABORTED event; the node stays up and harms no other node.
 """
@@ -15,6 +19,7 @@ from typing import Any
 
 from builtin_interfaces.msg import Time
 from rcl_interfaces.msg import ParameterDescriptor
+from rclpy.duration import Duration
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 
@@ -38,6 +43,7 @@ PARAMETERS = [
     ('wait_timeout_s', 10.0, 'longest wait for those subscribers [s]'),
     ('clock_hz', 100.0, 'highest /clock rate [Hz]'),
     ('prefetch', 16, 'messages read ahead'),
+    ('ack_timeout_s', 30.0, 'longest wait for subscribers to acknowledge every message [s]'),
 ]
 
 
@@ -114,9 +120,25 @@ class PlayerNode(Node):
             self._end(RunEvent.ABORTED, f'{self.config.bag}: stopped after '
                       f'{stats.total} messages')
         else:
+            unacked = self._wait_for_acks()
+            delivered = 'every message acknowledged' if not unacked else (
+                f'NOT all acknowledged within {self.config.ack_timeout_s:g} s on '
+                + ', '.join(unacked))
             self._end(RunEvent.FINISHED, f'{self.config.bag}: published {stats.total} '
                       f'messages on {len(self._topic_pubs)} topics, {stats.behind} '
-                      f'behind schedule (max {stats.max_lag_s:.3f} s)')
+                      f'behind schedule (max {stats.max_lag_s:.3f} s); {delivered}',
+                      error=bool(unacked))
+
+    def _wait_for_acks(self) -> list[str]:
+        """Wait (up to ``ack_timeout_s`` in all) until the subscribers have acknowledged every
+        reliable message; the topics still waiting then."""
+        deadline = time.monotonic() + max(self.config.ack_timeout_s, 0.0)
+        late = []
+        for name, pub in sorted(self._topic_pubs.items()):
+            left = max(deadline - time.monotonic(), 0.0)
+            if not pub.wait_for_all_acked(Duration(seconds=left)):
+                late.append(name)
+        return late
 
     def destroy_node(self) -> None:
         """Stop the playback thread, then destroy the node."""

@@ -111,6 +111,8 @@ class CameraCounts:
     position_conflicts: int = 0
     motion_conflicts: int = 0
     withheld: int = 0
+    pair_residual_px: float = 0.0
+    drift_frames: int = 0
     unconfirmed: int = 0
     confirmed_alone: int = 0
     revoked: int = 0

@@ -58,6 +58,8 @@ class StereoState:
         free: each camera's last frame's unnumbered tracks: (stamp s, track ids (k,),
             px (k, 2)), None before its first frame.
         queue: the frames held for the publication delay.
+        residuals: per camera, each checked frame's median distance of its numbered pairs
+            from their epipolar lines [px] (``pair_checks.note_residuals``).
     """
 
     cameras: dict[str, Camera]
@@ -74,6 +76,7 @@ class StereoState:
     pending: dict[str, dict[int, Sighting]]
     free: dict[str, tuple[float, NDArray[np.int64], FloatArray] | None]
     queue: ReleaseQueue
+    residuals: dict[str, list[float]]
 
     @classmethod
     def start(cls, cameras: dict[str, Camera], config: StereoTrackConfig) -> StereoState:
@@ -89,7 +92,8 @@ class StereoState:
             last_stamp=dict.fromkeys(cameras), grid_uv={}, grid_time={},
             late_numbered={n: set() for n in cameras}, refused={n: set() for n in cameras},
             pending={n: {} for n in cameras}, free=dict.fromkeys(cameras),
-            queue=ReleaseQueue(cameras, config.number_delay_frames))
+            queue=ReleaseQueue(cameras, config.number_delay_frames),
+            residuals={n: [] for n in cameras})
 
     def other(self, camera: str) -> str:
         """The other camera's name."""
