@@ -287,8 +287,12 @@ def report_stage(ctx: DemoContext) -> str:
         'headline_iterations': copy_figure(recal / 'headline_iterations.png', folder,
                                            'headline_iterations.png'),
         'statistics': copy_figure(diag / 'statistics.png', folder, 'statistics.png')}
-    coverage = figures.marker_coverage(measured_csv(ctx))
-    figs['coverage'] = figures.plot_marker_coverage(coverage, folder / 'coverage.png').name
+    try:
+        coverage = figures.marker_coverage(measured_csv(ctx))
+    except DempathError:  # no 3D point recorded: the detection section says so
+        coverage = None
+    figs['coverage'] = (figures.plot_marker_coverage(coverage, folder / 'coverage.png').name
+                        if coverage else None)
     drawn = None if ctx.clicked else figures.frame_with_detections(
         ctx.field_bag, graph.bag, folder / 'detections.png')
     figs['detections'] = drawn.name if drawn is not None else None
@@ -301,9 +305,11 @@ def report_stage(ctx: DemoContext) -> str:
     if ctx.traj_rms_mm is not None:
         detection += (". Reconstructed 3D markers vs the recording's truth: RMS "
                       f'{ctx.traj_rms_mm:.2f} mm.')
-    detection += (f". Markers reconstructed in 3D in at least 80 % of the pass's "
-                  f"{coverage['frames']} frames: {len(coverage['reconstructed'])} of "
-                  f"{len(coverage['present'])} ({', '.join(map(str, coverage['reconstructed']))})")
+    if coverage:
+        detection += (f". Markers reconstructed in 3D in at least 80 % of the pass's "
+                      f"{coverage['frames']} frames: {len(coverage['reconstructed'])} of "
+                      f"{len(coverage['present'])} "
+                      f"({', '.join(map(str, coverage['reconstructed']))})")
     meta = {'title': f'{ctx.field_bag.name} against scene {ctx.scene}',
             'what': (f'Field recording {ctx.field_bag}, calibration from {ctx.calib_source}, '
                      f'model scene {ctx.scene}.'),
