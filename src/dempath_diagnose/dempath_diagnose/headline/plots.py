@@ -67,8 +67,9 @@ def plot_error_fall(results: Sequence[dict[str, Any]], path: Path) -> str:
                             textcoords='offset points', fontsize=6, color=colour)
     ax.set_yticks(range(len(rows)), [f"{r['case']} s{r['seed']}" for r in rows], fontsize=7)
     ax.set_xscale('log')
-    ax.set_xlabel("headline error [mm] (bars: each model's floor band, like for like; "
-                  "'rival lower': the other fit scores significantly lower)")
+    ax.set_xlabel("headline error [mm]; bars: each model's floor band, like for like\n"
+                  "'rival lower': the other fit scores significantly lower, marker by marker",
+                  fontsize=8)
     ax.invert_yaxis()
     ax.legend(fontsize=7, loc='lower right')
     fig.tight_layout()
