@@ -8,9 +8,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from dempath_diagnose.headline.compare import rival_lower
 from dempath_diagnose.headline.ensemble import emulated_run
-from dempath_diagnose.headline.fall import FallCase, FallSetup, run_case
-from dempath_diagnose.headline.floor import floor_band, headline_figure
+from dempath_diagnose.headline.fall import FallCase, FallSetup, at_floor, run_case
+from dempath_diagnose.headline.floor import band_of, floor_band, headline_figure
 from dempath_diagnose.headline.samples import MarkerSamples, played_measurement
 from dempath_diagnose.headline.score import headline_error
 from dempath_diagnose.library.simulator import load_scene, tool_geometry
@@ -102,8 +103,43 @@ def test_strong_cohesion_falls_into_its_floor_and_a_wrong_fit_does_not(
     res = run_case(shipped, FallCase('cohesion', 'cohesion', 1e5, 1001), setup,
                    with_table7=False)
     assert res['all']['before']['place'] == 'above'
-    assert res['all']['after_true']['place'] != 'above'
-    assert res['all']['after_wrong']['place'] == 'above'
+    assert at_floor(res['all']['after_true'])
+    assert not at_floor(res['all']['after_wrong'])
+    assert res['all']['after_wrong']['rival']['lower']  # the measurement prefers the true fit
     held = res['held_out']
     assert held['after_true']['value'] < held['before']['value']
+    # d^2 beside its like-for-like floor (the seeds playing the measurement with the fit
+    # markers' samples), not a nominal chi-square
+    d2 = res['d2']
+    assert d2['before']['place'] == 'above' and d2['after_true']['place'] != 'above'
+    assert d2['after_true']['floor']['seeds'] == 3 and d2['after_true']['floor']['n'] == 12
     assert res['window_s'][1] > 0.8  # the whole pass
+
+
+def test_floor_band_takes_the_seed_as_the_unit() -> None:
+    """Figures that agree within each seed but differ between seeds give a wide band (three
+    seeds are three draws, not twelve); the same spread spread evenly over ranks does not."""
+    clustered = [[10.0, 10.1, 10.0, 10.1], [12.0, 12.1, 12.0, 12.1], [14.0, 14.1, 14.0, 14.1]]
+    mixed = [[10.0, 12.1, 14.0, 12.0], [14.1, 10.0, 12.0, 12.1], [12.0, 14.1, 10.1, 14.0]]
+    tight, wide = band_of(mixed, 2), band_of(clustered, 2)
+    assert wide.high - wide.low > 2 * (tight.high - tight.low)
+    assert wide.df < 3 < tight.df
+    # the 5-95 % percentiles of the twelve clustered figures would end at 14.1; the band
+    # for one more seed reaches well past the seeds seen
+    assert wide.high > 17.0 and wide.low < 7.0
+    assert wide.place(16.0) == 'in' and tight.place(16.0) == 'above'
+
+
+def test_rival_lower_pairs_the_markers() -> None:
+    """A rival lower on every marker by more than the markers' scatter is significantly lower;
+    one lower on average through a single marker is not."""
+    rng = np.random.default_rng(3)
+    this = 0.012 + 0.003 * rng.standard_normal(15)
+    assert rival_lower(this, this - 0.002 + 0.0003 * rng.standard_normal(15))['lower']
+    one = this.copy()
+    one[4] -= 0.02
+    res = rival_lower(this, one)
+    assert not res['lower'] and res['markers'] == 15
+    this[:13] = np.nan
+    assert rival_lower(this, this - 0.01) == {'lower': False, 'p': None, 'markers': 2,
+                                              'mean_difference_mm': None}

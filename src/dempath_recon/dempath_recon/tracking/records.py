@@ -104,12 +104,15 @@ class CameraCounts:
     numbered_by_epipolar: int = 0
     numbered_by_grid_late: int = 0
     numbered_by_pair: int = 0
+    numbered_by_ray: int = 0
     numbered_late: int = 0
     unnumbered: int = 0
     epipolar_conflicts: int = 0
     position_conflicts: int = 0
     motion_conflicts: int = 0
     withheld: int = 0
+    pair_residual_px: float = 0.0
+    drift_frames: int = 0
     unconfirmed: int = 0
     confirmed_alone: int = 0
     revoked: int = 0

@@ -192,6 +192,7 @@ class NumericsSpec:
     max_overlap_fraction: float = DEFAULT_MAX_OVERLAP_FRACTION
     coulomb_limit: str = 'total'  # 'total' (spring + dashpot) or 'spring' (LIGGGHTS 3.8)
     contact_forms: str = 'dempath'  # 'dempath' or 'liggghts' (see SimParams.contact_forms)
+    sleep: bool = False  # grains at rest sleep during the pass (engine/sleep.py; native engine)
 
 
 @dataclass(frozen=True)
@@ -269,6 +270,8 @@ class SceneSpec:
         for key in ('effects', 'bed_effects'):
             effects = getattr(self, key) or self.effects
             out[key] = {k: {'enabled': v.enabled, **dict(v.values)} for k, v in effects.items()}
+        if not self.sim.sleep:  # added after libraries and run ids were made: left out at its
+            del out['sim']['sleep']  # default, so that their keys stay valid
         return out
 
 

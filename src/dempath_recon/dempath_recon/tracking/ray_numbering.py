@@ -1,0 +1,108 @@
+"""The two-camera tracker's numbering of a marker only one camera sees: an unnumbered track
+that has run steadily for a few frames takes the number of the one marker the bed has carried
+onto its line of sight.
+
+A marker covered in one view (the tine's heap, a neighbour in front) never gets a number from
+the other camera's epipolar line nor as a pair; until now it stayed unnumbered for as long as
+the other camera could not see it (on the bundled render: marker 11 in the side camera for the
+last 9 frames, the front camera seeing at most 17 % of it). Its own camera's line of sight
+still says much: every marker has a place the bed has carried it to (``carried_point``), and
+when exactly one marker that this frame does not show elsewhere lies near the line, and every
+other is several times as far, the spot is that marker. The number is taken back if a later
+pair contradicts it (``verify``, as for every late number).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from dempath_recon.tracking.associate import back_project
+from dempath_recon.tracking.linker import Track
+from dempath_recon.tracking.state import (
+    CARRY_FLOOR_M,
+    StereoState,
+    carried_point,
+    retire,
+    unnumbered_tracks,
+)
+
+FloatArray = NDArray[np.float64]
+STEADY_FRAMES = 3  # frames a track must have been linked without a gap before it is numbered
+# on one camera's evidence (a spot seen once may be noise or a neighbour's edge)
+RAY_RATIO = 3.0  # the nearest marker to the line of sight wins when every other candidate is
+# this many times as far (stricter than the pair numbering's 2.5: one camera, no depth)
+RAY_GATE_M = 0.025  # farthest a marker's carried place may lie from the line of sight [m]
+# (the carried place of a marker covered for half a second was 4.5 mm off on the bundled render;
+# a marker's diameter and a half beyond that is no longer evidence)
+
+
+def number_by_ray(state: StereoState, camera: str, track_ids: NDArray[np.int64],
+                  markers: NDArray[np.int32], uv: FloatArray, stamp_s: float,
+                  events: list[str]) -> NDArray[np.int32]:
+    """Number unnumbered steady tracks of ``camera`` by the markers' carried places.
+
+    For each unnumbered track linked without a gap over its last ``STEADY_FRAMES`` frames,
+    every grid marker not numbered in this frame is a candidate, placed where the bed has
+    carried it (:func:`~dempath_recon.tracking.state.carried_point`). The track is numbered
+    as the candidate nearest its line of sight when that one lies within ``RAY_GATE_M`` and
+    within what the marker can have reached, and every other candidate is at least
+    ``RAY_RATIO`` times as far (at least ``CARRY_FLOOR_M``). A candidate that cannot be
+    placed could be anywhere: then nothing is numbered. A number refused to the track before
+    is not given.
+    """
+    todo = np.flatnonzero(unnumbered_tracks(state, camera, track_ids, markers))
+    if not len(todo):
+        return markers
+    tracks = {t.track_id: t for t in state.trackers[camera].tracks}
+    taken = {int(m) for m in markers if m >= 0}
+    candidates = [m for m in state.config.grid.points()[0].tolist() if m not in taken]
+    places: dict[int, tuple[FloatArray, float]] = {}
+    for m in candidates:
+        placed = carried_point(state, m, stamp_s)
+        if placed is None:
+            return markers
+        places[m] = placed
+    cam = state.cameras[camera]
+    centre = -np.asarray(cam.R, np.float64).T @ np.asarray(cam.t, np.float64)
+    markers = markers.copy()
+    for k in todo.tolist():
+        tid = int(track_ids[k])
+        track = tracks.get(tid)
+        if track is None or not steady(track, STEADY_FRAMES, 1.5 / state.config.fps):
+            continue
+        ray = back_project(cam, uv[k], 1.0) - centre
+        ray /= np.linalg.norm(ray)
+        ranked = sorted((_off_ray(at, centre, ray), m) for m, (at, _) in places.items())
+        dist, number = ranked[0]
+        reach = state.config.position_gate_m + state.config.max_speed_m_s * (
+            stamp_s - places[number][1])
+        if dist > min(RAY_GATE_M, reach) or (tid, number) in state.refused[camera]:
+            continue
+        if len(ranked) > 1 and ranked[1][0] < RAY_RATIO * max(dist, CARRY_FLOOR_M):
+            continue
+        retire(state, camera, number)
+        state.trackers[camera].number(tid, number)
+        state.late_numbered[camera].add(tid)
+        state.counts[camera].numbered_by_ray += 1
+        events.append(f'{camera}: track {tid} numbered marker {number}: the one marker the '
+                      f'bed carried onto its line of sight ({1e3 * dist:.1f} mm; the next '
+                      f'{1e3 * ranked[1][0] if len(ranked) > 1 else np.inf:.1f} mm)')
+        markers[k] = number
+        del places[number]
+    return markers
+
+
+def steady(track: Track, frames: int, gap_s: float) -> bool:
+    """Whether ``track``'s last ``frames`` sightings follow each other without a gap."""
+    if len(track.history) < frames:
+        return False
+    stamps = [h[0] for h in track.history[-frames:]]
+    return bool(np.all(np.diff(stamps) <= gap_s))
+
+
+def _off_ray(point: FloatArray, centre: FloatArray, ray: FloatArray) -> float:
+    """Distance [m] of ``point`` (3,) from the line of sight ``centre + s * ray`` (s >= 0)."""
+    rel = point - centre
+    along = max(float(rel @ ray), 0.0)
+    return float(np.linalg.norm(rel - along * ray))
