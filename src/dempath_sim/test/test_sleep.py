@@ -39,7 +39,7 @@ def _lattice(layers: int, seed: int = 1) -> SimState:
 
 @pytest.fixture(scope='module')
 def settled() -> SimState:
-    """A bed of 798 grains settled without sleeping (0.5 s), history dropped, at rest."""
+    """A bed of 756 grains settled without sleeping (0.5 s), history dropped, at rest."""
     state = Engine(PARAMS, WALLS).run(_lattice(6), 6000)
     return SimState.from_spheres(state.positions, state.radii, 0, PARAMS)
 
@@ -172,3 +172,32 @@ def test_settings_are_checked() -> None:
         SleepSettings(speed_fraction=2.0, wake_speed_fraction=1.0)
     with pytest.raises(ValueError, match='quiet_steps'):
         dataclasses.replace(SleepSettings(), quiet_steps=0)
+
+
+def test_checkpoint_resumes_the_run(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """A run written to disk half way and resumed in a new engine ends where the uninterrupted
+    run ends (particles to rounding), sleep state and springs included."""
+    settings = SleepSettings(quiet_steps=50)
+    start = np.array([0.0, 0.004, LO[2] + 0.002])
+
+    def motion(t: float) -> ToolPose:
+        return ToolPose(start + np.array([0.0, 0.0, 0.3 * t]), np.array([0.0, 0.0, 0.3]))
+
+    def engine() -> Engine:
+        return Engine(PARAMS, WALLS, tool=_plate(0.012, 0.05), sleep=settings)
+
+    whole = engine()
+    ref = whole.run(_lattice(3, seed=4), 1600, tool_motion=motion)
+    first = engine()
+    half = first.run(_lattice(3, seed=4), 800, tool_motion=motion)
+    np.savez(tmp_path / 'cp.npz', **first.checkpoint(half))
+    second = engine()
+    with np.load(tmp_path / 'cp.npz') as data:
+        resumed = second.resume(data)
+    assert resumed.step == 800 and second.n_asleep == first.n_asleep
+    out = second.run(resumed, 800, tool_motion=motion)
+    assert whole.n_asleep > 0  # the sleep state went through the checkpoint
+    np.testing.assert_allclose(out.positions, ref.positions, rtol=0, atol=1e-9 * RADIUS)
+    np.testing.assert_allclose(out.velocities, ref.velocities, rtol=1e-6, atol=1e-9)
+    assert second.n_asleep == whole.n_asleep
+    assert second.pair_evaluations == whole.pair_evaluations

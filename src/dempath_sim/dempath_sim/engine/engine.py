@@ -26,7 +26,7 @@ removed with a warning and a new, compacted state is returned, so always use the
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 
 import numba
 import numpy as np
@@ -434,6 +434,55 @@ class Engine:
             state = self.step(state, pose)
             if callback is not None and (k + 1) % callback_every == 0:
                 callback(state, self)
+        return state
+
+    # ----------------------------------------------------------------- checkpoints
+    _STATE_FIELDS = ('positions', 'velocities', 'angular_velocities', 'radii', 'masses',
+                     'inertias', 'material', 'ids')
+    _ENGINE_ARRAYS = ('_force', '_torque', '_gkey', '_ght', '_ghr', '_start', '_nbr', '_ht',
+                      '_hr', '_pos_build', '_tool_build', '_asleep_u8', '_rim_u8', '_quiet')
+    _COUNTERS = ('removed_count', 'n_rebuilds', 'slot_overflows', 'pair_evaluations',
+                 'n_asleep', 'woken', '_n_bound')
+
+    def checkpoint(self, state: SimState) -> dict[str, NDArray[np.generic]]:
+        """Everything needed to go on stepping ``state`` (bound) later: the state, the neighbour
+        list with its springs, the geometry slots, the forces of the last step, the sleep state,
+        the counters and the tool pose (arrays; the caller writes them, e.g. ``np.savez``).
+        `resume` continues the run: the particles' motion to rounding (the tool's force is a
+        sum over its candidates in another grouping until the next candidate search)."""
+        if state is not self._bound:
+            msg = 'Engine.checkpoint: the state is not the one this engine steps'
+            raise SimulationError(msg)
+        out: dict[str, NDArray[np.generic]] = {
+            f'state.{k}': getattr(state, k) for k in self._STATE_FIELDS}
+        out.update({f'engine.{k}': getattr(self, k) for k in self._ENGINE_ARRAYS})
+        out['state.clock'] = np.array([state.time, float(state.step)])
+        out['engine.counters'] = np.array([getattr(self, k) for k in self._COUNTERS], np.int64)
+        pose = self.tool_pose
+        out['engine.tool_pose'] = np.concatenate([
+            np.asarray(pose.position, np.float64).reshape(3),
+            np.asarray(pose.velocity, np.float64).reshape(3),
+            np.eye(3).reshape(9) if pose.rotation is None else np.asarray(pose.rotation).ravel(),
+            np.zeros(3) if pose.angular_velocity is None else np.asarray(pose.angular_velocity)])
+        return out
+
+    def resume(self, data: Mapping[str, NDArray[np.generic]]) -> SimState:
+        """The state of a `checkpoint`, bound to this engine (same parameters, walls, tool and
+        sleep settings as the engine that wrote it) with its list, springs and forces."""
+        saved = {k: np.array(data[f'state.{k}']) for k in self._STATE_FIELDS}
+        state = SimState(**{k: v.copy() for k, v in saved.items()},  # type: ignore[arg-type]
+                         time=float(data['state.clock'][0]), step=int(data['state.clock'][1]))
+        pose = np.asarray(data['engine.tool_pose'], np.float64)
+        self.tool_pose = ToolPose(pose[:3], pose[3:6], pose[6:15].reshape(3, 3), pose[15:18])
+        self.bind(state)  # buffers and a list (reordered: overwritten next)
+        for k, v in saved.items():
+            getattr(state, k)[...] = v
+        for k in self._ENGINE_ARRAYS:
+            setattr(self, k, np.ascontiguousarray(data[f'engine.{k}']))
+        for k, v in zip(self._COUNTERS, np.asarray(data['engine.counters']).tolist(),
+                        strict=True):
+            setattr(self, k, int(v))
+        self._reach.forget()
         return state
 
     # ----------------------------------------------------------------- introspection
