@@ -17,6 +17,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from dempath_recon.methods.triangulate import Camera
 from dempath_recon.tracking.associate import back_project
 from dempath_recon.tracking.linker import Track
 from dempath_recon.tracking.state import (
@@ -52,13 +53,18 @@ def number_by_ray(state: StereoState, camera: str, track_ids: NDArray[np.int64],
     is not given.
     """
     todo = np.flatnonzero(unnumbered_tracks(state, camera, track_ids, markers))
-    if not len(todo):
-        return markers
     tracks = {t.track_id: t for t in state.trackers[camera].tracks}
-    taken = {int(m) for m in markers if m >= 0}
-    candidates = [m for m in state.config.grid.points()[0].tolist() if m not in taken]
+    gap = 1.5 / state.config.fps
+    doubtful = [k for k in np.flatnonzero(markers >= 0).tolist()
+                if (t := tracks.get(int(track_ids[k]))) is not None
+                and t.reattach_px > state.config.doubt_link_px and steady(t, STEADY_FRAMES, gap)]
+    if not len(todo) and not doubtful:
+        return markers
+    sure = {int(m) for k, m in enumerate(markers) if m >= 0 and k not in doubtful}
     places: dict[int, tuple[FloatArray, float]] = {}
-    for m in candidates:
+    for m in state.config.grid.points()[0].tolist():
+        if m in sure:
+            continue
         placed = carried_point(state, m, stamp_s)
         if placed is None:
             return markers
@@ -66,31 +72,68 @@ def number_by_ray(state: StereoState, camera: str, track_ids: NDArray[np.int64],
     cam = state.cameras[camera]
     centre = -np.asarray(cam.R, np.float64).T @ np.asarray(cam.t, np.float64)
     markers = markers.copy()
+    for k in doubtful:  # a re-attached track not yet confirmed, on another marker's line
+        tid, own = int(track_ids[k]), int(markers[k])
+        number, note = _nearest(state, cam, centre, uv[k], places, stamp_s)
+        if number < 0 or number == own or number in markers or (tid, number) in \
+                state.refused[camera]:
+            continue
+        state.refused[camera].add((tid, own))
+        state.counts[camera].revoked += 1
+        _give(state, camera, tracks[tid], number)
+        events.append(f'{camera}: track {tid} re-attached as marker {own} renumbered marker '
+                      f'{number}: the one marker the bed carried onto its line of sight '
+                      f'({note})')
+        markers[k] = number
+    taken = {int(m) for m in markers if m >= 0}
+    for m in taken:
+        places.pop(m, None)
     for k in todo.tolist():
         tid = int(track_ids[k])
         track = tracks.get(tid)
-        if track is None or not steady(track, STEADY_FRAMES, 1.5 / state.config.fps):
+        if track is None or not steady(track, STEADY_FRAMES, gap):
             continue
-        ray = back_project(cam, uv[k], 1.0) - centre
-        ray /= np.linalg.norm(ray)
-        ranked = sorted((_off_ray(at, centre, ray), m) for m, (at, _) in places.items())
-        dist, number = ranked[0]
-        reach = state.config.position_gate_m + state.config.max_speed_m_s * (
-            stamp_s - places[number][1])
-        if dist > min(RAY_GATE_M, reach) or (tid, number) in state.refused[camera]:
+        number, note = _nearest(state, cam, centre, uv[k], places, stamp_s)
+        if number < 0 or (tid, number) in state.refused[camera]:
             continue
-        if len(ranked) > 1 and ranked[1][0] < RAY_RATIO * max(dist, CARRY_FLOOR_M):
-            continue
-        retire(state, camera, number)
-        state.trackers[camera].number(tid, number)
-        state.late_numbered[camera].add(tid)
-        state.counts[camera].numbered_by_ray += 1
+        _give(state, camera, track, number)
         events.append(f'{camera}: track {tid} numbered marker {number}: the one marker the '
-                      f'bed carried onto its line of sight ({1e3 * dist:.1f} mm; the next '
-                      f'{1e3 * ranked[1][0] if len(ranked) > 1 else np.inf:.1f} mm)')
+                      f'bed carried onto its line of sight ({note})')
         markers[k] = number
         del places[number]
     return markers
+
+
+def _nearest(state: StereoState, cam: Camera, centre: FloatArray, uv: FloatArray,
+             places: dict[int, tuple[FloatArray, float]], stamp_s: float) -> tuple[int, str]:
+    """The marker of ``places`` nearest the line of sight through ``uv`` when it is within
+    ``RAY_GATE_M`` and its reach and every other is ``RAY_RATIO`` times as far; else -1."""
+    if not places:
+        return -1, ''
+    ray = back_project(cam, uv, 1.0) - centre
+    ray /= np.linalg.norm(ray)
+    ranked = sorted((_off_ray(at, centre, ray), m) for m, (at, _) in places.items())
+    dist, number = ranked[0]
+    reach = state.config.position_gate_m + state.config.max_speed_m_s * (
+        stamp_s - places[number][1])
+    if dist > min(RAY_GATE_M, reach):
+        return -1, ''
+    if len(ranked) > 1 and ranked[1][0] < RAY_RATIO * max(dist, CARRY_FLOOR_M):
+        return -1, ''
+    nxt = f'{1e3 * ranked[1][0]:.1f} mm' if len(ranked) > 1 else 'none'
+    return number, f'{1e3 * dist:.1f} mm; the next {nxt}'
+
+
+def _give(state: StereoState, camera: str, track: Track, number: int) -> None:
+    """Number ``track`` by its line of sight (a late number: a later pair may take it back)."""
+    retire(state, camera, number)
+    state.trackers[camera].number(track.track_id, number)
+    # the doubts of an earlier re-attachment were about the number it had; the new one rests
+    # on the steady track's own line of sight
+    track.reattach_px = track.link_px = 0.0
+    track.back_unchecked = False
+    state.late_numbered[camera].add(track.track_id)
+    state.counts[camera].numbered_by_ray += 1
 
 
 def steady(track: Track, frames: int, gap_s: float) -> bool:
