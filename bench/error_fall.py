@@ -29,7 +29,14 @@ from pathlib import Path
 
 import numpy as np
 
-from dempath_diagnose.headline.fall import FallCase, FallSetup, run_case, summary
+from dempath_diagnose.headline.fall import (
+    D2_VERSION,
+    FallCase,
+    FallSetup,
+    redo_d2,
+    run_case,
+    summary,
+)
 from dempath_diagnose.library.simulator import load_scene, tool_geometry
 from dempath_diagnose.library.store import Library
 
@@ -76,6 +83,10 @@ def main() -> None:
         path = args.cache / f'{name}-s{seed}.json'
         if path.is_file():
             res = json.loads(path.read_text())
+            if res.get('d2', {}).get('version') != D2_VERSION:  # stored before d^2's floor
+                res['d2'] = redo_d2(library, FallCase(name, cand, strength, seed), setup,
+                                    floors)
+                path.write_text(json.dumps(res))
         else:
             res = run_case(library, FallCase(name, cand, strength, seed), setup,
                            not args.no_table7, floors)
@@ -114,19 +125,20 @@ def markdown(results: list[dict]) -> str:
         mark = {'above': '**above**', 'in': 'in', 'below': 'below'}[f['place']]
         if f.get('rival', {}).get('lower'):
             mark += f", **rival lower** (p {f['rival']['p']:.3f})"
-        return f"{f['value']:.1f} ({fl['low']:.1f}-{fl['high']:.1f}) {mark}"
+        return f"{f['value']:.1f} ({max(fl['low'], 0.0):.1f}-{fl['high']:.1f}) {mark}"
 
     rows = ['| case | seed | verdict | headline before | true fit (strength) | after true '
-            '| best wrong fit | after wrong | held-out before -> after | Table 7 before '
-            '| Table 7 after |', '|' + ' --- |' * 11]
+            '| best wrong fit | after wrong | held-out before -> after | d^2 before '
+            '| d^2 after true | Table 7 before | Table 7 after |', '|' + ' --- |' * 13]
     for r in results:
-        a, h, t7 = r['all'], r['held_out'], r.get('table7', {})
+        a, h, t7, d2 = r['all'], r['held_out'], r.get('table7', {}), r.get('d2', {})
         fit = (f"{r['true_fit']['strength']:.3g}" if 'true_fit' in r else '-')
         held = (f"{h['before']['value']:.1f} -> {h['after_true']['value']:.1f}"
                 if 'after_true' in h else f"{h['before']['value']:.1f}")
         rows.append(f"| {r['case']} | {r['seed']} | {r['verdict']} | {cell(a['before'])} | "
                     f"{fit} | {cell(a.get('after_true'))} | {r['wrong_fit']['candidate']} | "
-                    f"{cell(a['after_wrong'])} | {held} | {cell(t7.get('before'))} | "
+                    f"{cell(a['after_wrong'])} | {held} | {cell(d2.get('before'))} | "
+                    f"{cell(d2.get('after_true'))} | {cell(t7.get('before'))} | "
                     f"{cell(t7.get('after_true'))} |")
     return '\n'.join(rows) + '\n'
 

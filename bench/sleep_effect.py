@@ -61,9 +61,9 @@ class PassStats:
     draft: float
 
 
-def with_sleep(scene: SceneSpec, on: bool) -> SceneSpec:
-    """``scene`` with ``sim.sleep`` set."""
-    return replace(scene, sim=replace(scene.sim, sleep=on))
+def with_sleep(scene: SceneSpec, on: bool, scale: float = 1.0) -> SceneSpec:
+    """``scene`` with ``sim.sleep`` and ``sim.sleep_scale`` set."""
+    return replace(scene, sim=replace(scene.sim, sleep=on, sleep_scale=scale if on else 1.0))
 
 
 def marker_starts(scene: SceneSpec,
@@ -90,13 +90,15 @@ def pass_stats(rec: PassRecord, starts: NDArray[np.float64], tool_x: float,
 
 
 def one_pass(scene: SceneSpec, variant: str, seed: int, mode: str, folder: Path,
-             cache_dir: Path | None) -> PassRecord:
-    """The pass of ``variant`` on ``seed`` with sleeping ``mode``: read back or run and saved."""
-    path = folder / f'{variant}-{mode}-s{seed}.npz'
+             cache_dir: Path | None, scale: float = 1.0) -> PassRecord:
+    """The pass of ``variant`` on ``seed`` with sleeping ``mode`` (thresholds times ``scale``):
+    read back or run and saved."""
+    tag = mode if mode == 'off' or scale == 1.0 else f'{mode}-x{scale:g}'
+    path = folder / f'{variant}-{tag}-s{seed}.npz'
     if path.is_file():
         return PassRecord.load(path)
     t0 = time.monotonic()
-    run = with_sleep(variant_scene(scene, variant), mode == 'on')
+    run = with_sleep(variant_scene(scene, variant), mode == 'on', scale)
     rec = run_pass(run, seed, {}, cache_dir=cache_dir)
     rec.save(path)
     log.info('%s %s seed %d: %.0f s, %d pair evaluations in the pass', variant, mode, seed,
@@ -140,9 +142,10 @@ def null_median(n: int) -> float:
 
 
 def variant_figures(scene: SceneSpec, variant: str, seeds: list[int], folder: Path,
-                    cache_dir: Path | None) -> dict[str, object]:
+                    cache_dir: Path | None, scale: float = 1.0) -> dict[str, object]:
     """Both modes on every seed, and the off/on comparison."""
-    recs = {m: [one_pass(scene, variant, s, m, folder, cache_dir) for s in seeds] for m in MODES}
+    recs = {m: [one_pass(scene, variant, s, m, folder, cache_dir, scale) for s in seeds]
+            for m in MODES}
     tool_x, half, _ = tool_geometry(scene)
     numbers, starts = marker_starts(scene, recs['off'][0])
     stats = {m: [pass_stats(r, marker_starts(scene, r)[1], tool_x, half) for r in recs[m]]
@@ -188,6 +191,8 @@ def main() -> None:
     parser.add_argument('--results-dir', type=Path, required=True)
     parser.add_argument('--cache-dir', type=Path, default=None, help='packing cache')
     parser.add_argument('--json-out', type=Path, default=None)
+    parser.add_argument('--sleep-scale', type=float, default=1.0,
+                        help='the sleep thresholds times this (sim.sleep_scale)')
     parser.add_argument('--only', choices=MODES, default=None,
                         help='only run the passes of one mode (e.g. in a second process) and '
                              'stop; a later call without it compares')
@@ -199,7 +204,8 @@ def main() -> None:
             folder = args.results_dir / variant
             folder.mkdir(parents=True, exist_ok=True)
             for seed in args.seeds:
-                one_pass(scene, variant, seed, args.only, folder, args.cache_dir)
+                one_pass(scene, variant, seed, args.only, folder, args.cache_dir,
+                         args.sleep_scale)
         print(json.dumps({'scene': scene.name, 'only': args.only, 'done': True}))
         return
     results: dict[str, object] = {}
@@ -207,13 +213,15 @@ def main() -> None:
     for variant in args.variants:
         folder = args.results_dir / variant
         folder.mkdir(parents=True, exist_ok=True)
-        fig = variant_figures(scene, variant, args.seeds, folder, args.cache_dir)
+        fig = variant_figures(scene, variant, args.seeds, folder, args.cache_dir,
+                              args.sleep_scale)
         results[variant] = fig
         group = fig['group_statistics']
         assert isinstance(group, dict)
         worst = max(worst, float(str(fig['cross_engine_statistics_ratio'])),
                     float(group['largest']))
-    out = {'scene': scene.name, 'variants': results, 'largest_ratio': worst,
+    out = {'scene': scene.name, 'sleep_scale': args.sleep_scale, 'variants': results,
+           'largest_ratio': worst,
            'harmless': bool(worst <= 1.0) if math.isfinite(worst) else False,
            'command': ' '.join(['.venv/bin/python bench/sleep_effect.py', *sys.argv[1:]])}
     text = json.dumps(out, default=float)

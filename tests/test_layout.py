@@ -202,3 +202,15 @@ def test_ruff_clean() -> None:
     done = subprocess.run([str(ruff), 'check', 'src', 'tests', 'bench'], cwd=ROOT,
                           capture_output=True, text=True, check=False)
     assert done.returncode == 0, done.stdout[-3000:]
+
+
+def test_nothing_below_a_command_takes_parsed_arguments() -> None:
+    """argparse.Namespace and redirect_stdout stay in the commands (a module with a ``*_main``
+    or a ``*cli*`` module): below them, typed requests and results (house style)."""
+    found = []
+    for path in core_modules():
+        text = path.read_text()
+        command = re.search(r'^def \w+_main\(', text, re.MULTILINE) or 'cli' in path.stem
+        if not command and ('argparse.Namespace' in text or 'redirect_stdout' in text):
+            found.append(str(path.relative_to(ROOT)))
+    assert found == [], f'parsed arguments or captured stdout below a command: {found}'

@@ -143,3 +143,46 @@ def test_rival_lower_pairs_the_markers() -> None:
     this[:13] = np.nan
     assert rival_lower(this, this - 0.01) == {'lower': False, 'p': None, 'markers': 2,
                                               'mean_difference_mm': None}
+
+
+def test_recalibration_table7_after_has_its_own_floor_and_iterations_their_headline(
+        shipped: Library, tmp_path: Path) -> None:
+    """Table 7 after a cohesion fit sits beside the fitted model's own floor (every library
+    seed, pools as large as the figure's), not the baseline's; every evaluated iteration gets
+    its headline beside its own band."""
+    from types import SimpleNamespace
+
+    from dempath_diagnose.decision.statistics import build_layout
+    from dempath_diagnose.recalibration.paper_metrics import before_after
+    from dempath_diagnose.report.recalibration_paper import fitted_model, iteration_headlines
+
+    tool_x, half, cube = tool_geometry(load_scene('reduced_1ms'))
+    starts = np.array(shipped.region['starts'])
+    truth = emulated_run(shipped, 'cohesion', 1e5, 1003)
+    times = np.arange(0.0, 0.6, 0.01)
+    samples = MarkerSamples(np.arange(1, 16), starts, times, np.ones((len(times), 15), bool))
+    meas = played_measurement(truth, samples, 0, 0.0015, np.random.default_rng(3))
+    layout = build_layout(meas.markers, meas.start, tool_x, half, 0.6, 0.6)
+    base = {r.seed: r.filename for r in shipped.runs if not r.candidate}
+    coh = {r.seed: r.filename for r in shipped.runs
+           if r.candidate == 'cohesion' and r.strength == 1e5}
+    before = [(base[s], shipped.records[base[s]]) for s in (1001, 1002)]
+    after = [(coh[s], shipped.records[coh[s]]) for s in (1001, 1002)]
+    floor = [(base[s], shipped.records[base[s]]) for s in sorted(base)]
+    best = SimpleNamespace(params=[SimpleNamespace(name='cohesion', value=1e5)],
+                           effect='cohesion', strengths=(1e5,))
+    own = fitted_model(best, shipped)  # type: ignore[arg-type]
+    assert len(own) == 3
+    paper = before_after(meas, layout, cube, before, after, floor, 0.0015, own)
+    assert paper['pool_seeds'] == paper['floor_pool_seeds'] == 2
+    assert paper['floor_after_pool_seeds'] == 2
+    # cohesive beds vary more: the fitted model's own floor lies well above the baseline's
+    assert paper['floor_after']['mean_nrmse_pct'] > paper['floor']['mean_nrmse_pct'] + 2.0
+    paths = []
+    for name, rec in after:
+        rec.save(tmp_path / f'{name}.npz')
+        paths.append(tmp_path / f'{name}.npz')
+    evaluate = SimpleNamespace(runs={(1e5,): paths})
+    its = iteration_headlines(meas, evaluate, before, cube, 0.0015)
+    assert [it['label'] for it in its] == ['before', 'iteration 1: 1e+05']
+    assert its[0]['place'] == 'above' and its[1]['value_mm'] < its[0]['value_mm']

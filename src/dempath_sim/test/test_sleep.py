@@ -172,6 +172,9 @@ def test_settings_are_checked() -> None:
         SleepSettings(speed_fraction=2.0, wake_speed_fraction=1.0)
     with pytest.raises(ValueError, match='quiet_steps'):
         dataclasses.replace(SleepSettings(), quiet_steps=0)
+    loose = SleepSettings().scaled(10.0)
+    assert loose.speed_fraction == 5.0 and loose.wake_force_fraction == 10.0
+    assert loose.quiet_steps == SleepSettings().quiet_steps
 
 
 def test_checkpoint_resumes_the_run(tmp_path) -> None:  # type: ignore[no-untyped-def]

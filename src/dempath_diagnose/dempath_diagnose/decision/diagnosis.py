@@ -64,8 +64,8 @@ class Diagnosis:
         table7: The paper's Table 7 of the baseline band against the measured markers
             (:func:`~dempath_diagnose.decision.bandtracks.band_table7`).
         headline: The headline error of the baseline beside its like-for-like floor
-            (:func:`~dempath_diagnose.headline.stage.baseline_headline`), added above the
-            decision by whoever reports it (the entry point); empty until then.
+            (:func:`~dempath_diagnose.headline.stage.with_headline`), added above the
+            decision by whoever reports it (the entry point, the node); empty until then.
         adaptive: What simulations beyond the library were run and why (``--budget``;
             :meth:`~dempath_diagnose.adaptive.AdaptiveResult.to_dict`), empty when none were
             allowed.

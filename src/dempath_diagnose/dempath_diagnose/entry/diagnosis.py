@@ -26,7 +26,7 @@ from dempath_diagnose.decision.measure import load_force, load_tracks
 from dempath_diagnose.entry.library_build import ensure_library, library_executor
 from dempath_diagnose.entry.requests import DiagnoseRequest
 from dempath_diagnose.errors import MeasurementError
-from dempath_diagnose.headline.stage import baseline_headline
+from dempath_diagnose.headline.stage import with_headline
 from dempath_diagnose.library.simulator import (
     SceneSpec,
     load_scene,
@@ -129,11 +129,8 @@ def diagnosis_of(request: DiagnoseRequest) -> DiagnosisOutcome:
     geometry = CaseGeometry(tool_x, half_width, cube)
 
     def again(lib: Library) -> Diagnosis:
-        d = diagnose(meas, lib, geometry, request.allowance, request.windows,
-                     str(request.force))
-        assert d.measurement is not None
-        d.headline = baseline_headline(d.measurement, lib, cube, request.allowance.noise_m)
-        return d
+        return with_headline(diagnose(meas, lib, geometry, request.allowance, request.windows,
+                                      str(request.force)), lib, cube, request.allowance.noise_m)
 
     result = again(library)
     result.simulations = len(library.runs)

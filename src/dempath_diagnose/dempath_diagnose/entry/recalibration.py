@@ -180,11 +180,14 @@ def summary_lines(data: dict[str, Any]) -> list[str]:
     """What the recalibration changed, in a few lines: the stop, the error before and after
     beside the floor (and the paper's mean nRMSE), the headline error before and after."""
     paper = data.get('paper')
+    after_floor = (f', after\'s own {paper["floor_after"]["mean_nrmse_pct"]:.2f} %'
+                   if paper and paper.get('floor_after') else '')
     nrmse = (f'; mean nRMSE {paper["before"]["mean_nrmse_pct"]:.2f} -> '
-             f'{paper["after"]["mean_nrmse_pct"]:.2f} % (floor '
-             f'{paper["floor"]["mean_nrmse_pct"]:.2f} %)') if paper else ''
+             f'{paper["after"]["mean_nrmse_pct"]:.2f} % (floor before '
+             f'{paper["floor"]["mean_nrmse_pct"]:.2f} %{after_floor})') if paper else ''
     lines = [f'{data["effect"]}: {data["stop_reason"]}; error d^2 {data["error_before"]:.1f} -> '
-             f'{data["error_after"]:.1f} (floor {data["floor"]["k"]}){nrmse}']
+             f'{data["error_after"]:.1f} (nominal stop: chi^2 mean k = {data["floor"]["k"]})'
+             f'{nrmse}']
     head = (paper or {}).get('headline', {})
     if head.get('before', {}).get('value_mm') is not None and \
             head.get('after', {}).get('value_mm') is not None:

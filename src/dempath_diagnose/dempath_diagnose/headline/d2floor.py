@@ -8,7 +8,8 @@ the covariance is exactly right; the diagnosis' covariance carries a discrepancy
 the model (the baseline, or a candidate at its fitted strength, from the library's paired runs:
 :mod:`.ensemble`) on each packing seed in turn plays the measurement (the measured markers, at
 the measured samples, with the cameras' noise: :func:`~.samples.played_measurement`), its
-statistics are taken with the figure's own layout (markers, groups, windows), and d^2 is
+statistics are taken with the figure's own layout (markers, groups, windows; displacements from
+the played marker's own start, as the figure's from the measured start), and d^2 is
 computed against the emulator of the *other* seeds with the diagnosis' covariance; for a fitted
 figure the candidate is fitted again on the 121-point strength grid, as the figure was. The band
 is :func:`~.floor.band_of` (the seed as the unit).
@@ -19,7 +20,7 @@ emulators have one seed fewer: the floor is then slightly wide (more emulator va
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -94,8 +95,12 @@ def d2_floor(library: Library, candidate: str, strength: float, samples: MarkerS
 
 
 def observed_statistics(emu: Any, meas: Any, layout: Layout) -> tuple[Any, Any]:
-    """The finite measured statistics and their mask over the emulator's (no force)."""
-    y, _ = measured_statistics(meas, layout)
+    """The finite measured statistics and their mask over the emulator's (no force).
+
+    A marker's displacements are taken from ``meas``'s own start (as the figure takes them from
+    the measured start): the layout's groups, windows and cube counterparts stay the figure's.
+    """
+    y, _ = measured_statistics(meas, replace(layout, starts=meas.start))
     observed = ~emu.is_force()
     finite = np.isfinite(y)
     idx = np.flatnonzero(observed)

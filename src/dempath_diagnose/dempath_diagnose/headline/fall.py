@@ -46,6 +46,7 @@ from dempath_diagnose.library.store import Library
 from dempath_diagnose.records import F64, Measurement, PassRecord
 
 NAMED = ('effect_missing', 'parameter_off')
+D2_VERSION = 2  # d^2 floor: displacements from each played marker's own start
 TABLE7_RANKS = 2  # particles per marker start taking turns in Table 7's floor (it is dearer)
 
 
@@ -161,9 +162,10 @@ def _placed(value: float, band: FloorBand, name: str, scale: float) -> dict[str,
             'why_below': below_reason(place, name)}
 
 
-def run_case(library: Library, case: FallCase, setup: FallSetup, with_table7: bool = True,
-             cache: FloorCache | None = None) -> dict[str, Any]:
-    """Everything of one case (see the module docstring), JSON-ready (mm, %)."""
+def _measured(library: Library, case: FallCase,
+              setup: FallSetup) -> tuple[Measurement, MarkerSamples, NDArray[np.bool_]]:
+    """The case's measurement (its seed's run, every marker, 1.5 mm noise), its samples and
+    the held-out mask (deterministic: the same on every call)."""
     rng = np.random.default_rng(case.seed)
     truth = emulated_run(library, case.candidate, case.strength, case.seed)
     times = np.round(np.arange(0.0, float(truth.times[-1]) + 1e-9, 0.005), 6)
@@ -171,8 +173,25 @@ def run_case(library: Library, case: FallCase, setup: FallSetup, with_table7: bo
     samples = MarkerSamples(setup.markers.astype(np.int64), setup.starts, times,
                             np.ones((len(times), len(setup.markers)), bool))
     meas = played_measurement(truth, samples, 0, setup.allowance.noise_m, rng)
-    held = np.isin(samples.markers, setup.held_out)
-    fit_meas = Measurement(meas.markers[~held], meas.times, meas.positions[:, ~held])
+    return meas, samples, np.isin(samples.markers, setup.held_out)
+
+
+def redo_d2(library: Library, case: FallCase, setup: FallSetup,
+            cache: FloorCache | None = None) -> dict[str, Any]:
+    """Only the d^2 entries of a case (for results stored before d^2's floor changed)."""
+    meas, samples, held = _measured(library, case, setup)
+    decision, fits, layout = _diagnose(library, _only(meas, ~held), case.seed, setup)
+    true_fit = next((f for f in fits if f.name == case.candidate), None)
+    return _d2_entries(library, case, samples.subset(~held), layout, setup, decision, true_fit,
+                       cache)
+
+
+def run_case(library: Library, case: FallCase, setup: FallSetup, with_table7: bool = True,
+             cache: FloorCache | None = None) -> dict[str, Any]:
+    """Everything of one case (see the module docstring), JSON-ready (mm, %)."""
+    meas, samples, held = _measured(library, case, setup)
+    times = samples.times
+    fit_meas = _only(meas, ~held)
     decision, fits, layout = _diagnose(library, fit_meas, case.seed, setup)
     true_fit = next((f for f in fits if f.name == case.candidate), None)
     wrong = min((f for f in fits if f.name != case.candidate), key=lambda f: f.chi2)
@@ -213,17 +232,20 @@ def _d2_entries(library: Library, case: FallCase, samples: MarkerSamples, layout
     (:mod:`.d2floor`: each seed plays the measurement against the emulator of the other two,
     as the case's seed does in the figure)."""
     d2setup = D2Setup(layout, setup.cube_m, setup.allowance)
-    out = {}
+    out: dict[str, Any] = {}
     models = [('before', '', 0.0, float(decision.baseline.chi2), False)]
     if true_fit is not None:
         models.append(('after_true', case.candidate, float(true_fit.strength),
                        float(true_fit.chi2), True))
     for key, cand, x, value, fitted in models:
-        ck = ('d2', cand, x, fitted, _samples_key(samples))
+        ck = ('d2', D2_VERSION, cand, x, fitted, _samples_key(samples),
+              tuple(tuple(g.members.tolist()) for g in layout.groups),
+              layout.windows.tobytes())
         band = (cache or {}).get(ck) or d2_floor(library, cand, x, samples, d2setup, fitted)
         if cache is not None:
             cache[ck] = band
         out[key] = _placed(value, band, 'd^2', 1.0)
+    out['version'] = D2_VERSION
     return out
 
 

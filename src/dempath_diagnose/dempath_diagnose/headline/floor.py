@@ -138,7 +138,8 @@ def band_of(groups: Sequence[Sequence[float]], pool_seeds: int) -> FloorBand:
     half = float(stats.t.ppf(BAND_QUANTILE, df) if math.isfinite(df)
                  else stats.norm.ppf(BAND_QUANTILE)) * math.sqrt(part_b + part_w)
     mean = float(arr.mean())
-    return FloorBand(mean - half, mean + half, float(np.median(arr)), tuple(arr.tolist()),
+    low = max(mean - half, 0.0) if arr.min() >= 0.0 else mean - half  # figures >= 0 stay so
+    return FloorBand(low, mean + half, float(np.median(arr)), tuple(arr.tolist()),
                      pool_seeds, s, float(df))
 
 

@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from dempath_diagnose.decision.diagnosis import Diagnosis
 from dempath_diagnose.headline.floor import below_reason, floor_band, headline_figure
 from dempath_diagnose.headline.samples import MarkerSamples
 from dempath_diagnose.headline.score import headline_error
@@ -53,6 +54,15 @@ def baseline_headline(meas: Measurement, library: Library, cube: tuple[float, fl
         return headline_entry(meas, [library.records[f] for f in files], cube, noise_m)
     except ValueError as err:
         return {'error': str(err)}
+
+
+def with_headline(d: Diagnosis, library: Library, cube: tuple[float, float, float],
+                  noise_m: float) -> Diagnosis:
+    """``d`` with the headline error of the library's baseline on the measurement it diagnosed
+    (what every reported diagnosis carries: the command's, the demo's and the node's)."""
+    assert d.measurement is not None
+    d.headline = baseline_headline(d.measurement, library, cube, noise_m)
+    return d
 
 
 def headline_sentence(entry: dict[str, Any], what: str) -> str:

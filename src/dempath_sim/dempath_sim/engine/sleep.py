@@ -87,6 +87,15 @@ class SleepSettings:
             raise ValueError(msg)
 
 
+    def scaled(self, factor: float) -> SleepSettings:
+        """These settings with every speed and force bound times ``factor`` (quiet steps and the
+        tool's reach kept): looser (> 1) for beds that ring at a few g dt after their settle."""
+        return SleepSettings(self.speed_fraction * factor, self.spin_fraction * factor,
+                             self.force_fraction * factor, self.quiet_steps,
+                             self.wake_speed_fraction * factor,
+                             self.wake_force_fraction * factor, self.tool_reach_radii)
+
+
 @njit(parallel=True, cache=True)
 def update_sleep(vel, omg, force, torque, mass, rad, gravity, asleep, quiet, rim, touch, wake,
                  near_tool, v_sleep, w_sleep, f_sleep, f_wake, quiet_steps,

@@ -107,7 +107,8 @@ def _prepare_drive(scene: SceneSpec, params: SimParams, model: PhysicsModel, sta
     path = ToolPath(scene.tool.profile.scaled(model.speed_scale), start,
                     scene.tool.profile_offset_m)
     engine = Engine(params, bin_walls(scene), mesh,
-                    sleep=SleepSettings() if scene.sim.sleep else None)
+                    sleep=SleepSettings().scaled(scene.sim.sleep_scale) if scene.sim.sleep
+                    else None)
     engine.tool_pose = ToolPose(*path.pose_at(0.0))
     engine.bind(state)
     dt = float(engine.dt or 0.0)

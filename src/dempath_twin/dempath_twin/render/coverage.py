@@ -80,11 +80,11 @@ def rig_coverage(bed: BedRecord, rig: Any, config: RecordingConfig) -> Coverage:
     scene = FieldScene(bed, config.look, np.random.default_rng(config.seed))
     look = config.look
     n = look.blur_subframes
-    visible: dict[str, list[NDArray[np.float64]]] = {}
+    visible: dict[str, NDArray[np.float64]] = {}
     for c, cam in enumerate(cameras_for(rig, config)):
         field_cam = FieldCamera(cam, look, seed=config.seed + c)
         offset = config.front_offset_s if c == 1 else 0.0
-        rows = []
+        rows: list[NDArray[np.float64]] = []
         for t in frame_times(bed, config):
             t0 = float(t) + offset
             subs = [t0] if n == 1 else [t0 + look.exposure_s * (k / (n - 1) - 0.5)
