@@ -186,3 +186,24 @@ def test_recalibration_table7_after_has_its_own_floor_and_iterations_their_headl
     its = iteration_headlines(meas, evaluate, before, cube, 0.0015)
     assert [it['label'] for it in its] == ['before', 'iteration 1: 1e+05']
     assert its[0]['place'] == 'above' and its[1]['value_mm'] < its[0]['value_mm']
+
+
+def test_summary_counts_a_fit_inside_its_band_but_beaten_as_not_at_its_floor() -> None:
+    """A wrong fit inside its own band whose rival scores significantly lower is not at its
+    floor; a case whose error before lies inside the band is not seen and counts for neither."""
+    from dempath_diagnose.headline.fall import summary
+
+    def entry(place: str, lower: bool = False) -> dict[str, object]:
+        return {'place': place, 'value': 1.0, 'rival': {'lower': lower}}
+
+    def case(before: str, true: str, wrong: str, beaten: bool) -> dict[str, object]:
+        return {'case': 'c', 'seed': 1, 'candidate': 'cohesion', 'verdict': 'effect_missing',
+                'all': {'before': entry(before), 'after_true': entry(true),
+                        'after_wrong': entry(wrong, beaten)},
+                'held_out': {'before': entry(before), 'after_true': entry(true)}}
+
+    results = [case('above', 'in', 'in', True), case('above', 'in', 'above', True),
+               case('in', 'in', 'in', False)]
+    out = summary(results, table7_like_for_like=True)
+    assert out['effect_seen'] == 2 and out['true_fit_in_floor'] == 2
+    assert out['wrong_fit_in_floor'] == 0 and out['wrong_fit_in_own_band'] == 1
