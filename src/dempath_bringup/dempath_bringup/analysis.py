@@ -240,10 +240,9 @@ def after_stage(ctx: DemoContext) -> str:
     before = need(ctx.comparison, 'comparison').table7.mean_nrmse
     means = ', '.join(f'{k}: {before.get(k, float("nan")):.2f} -> {v:.2f} %'
                       for k, v in table.mean_nrmse.items())
-    floor = (recal.data.get('paper') or {}).get('floor')
-    beside = (f" (floor {floor['mean_nrmse_pct']:.2f} +- {floor['mean_nrmse_sd_pct']:.2f} %: "
-              'the true model over packing seeds)' if floor else '')
-    return f'mean nRMSE of this recording {means}{beside}\n{out}'
+    # no floor beside it: the library's Table 7 floor has other candidate pools (issue 26)
+    return (f'mean nRMSE of this recording {means} (no like-for-like floor: one run per model, '
+            f"its candidate pool is not the library floor's)\n{out}")
 
 
 def after_model_source(run: Path) -> Path:

@@ -50,7 +50,8 @@ def number_by_ray(state: StereoState, camera: str, track_ids: NDArray[np.int64],
     within what the marker can have reached, and every other candidate is at least
     ``RAY_RATIO`` times as far (at least ``CARRY_FLOOR_M``). A candidate that cannot be
     placed could be anywhere: then nothing is numbered. A number refused to the track before
-    is not given.
+    is not given, nor a marker this camera gave out since the track started (it ran beside
+    the track: the epipolar numbering's rule).
     """
     todo = np.flatnonzero(unnumbered_tracks(state, camera, track_ids, markers))
     tracks = {t.track_id: t for t in state.trackers[camera].tracks}
@@ -93,7 +94,11 @@ def number_by_ray(state: StereoState, camera: str, track_ids: NDArray[np.int64],
         track = tracks.get(tid)
         if track is None or not steady(track, STEADY_FRAMES, gap):
             continue
-        number, note = _nearest(state, cam, centre, uv[k], places, stamp_s)
+        # a marker this camera gave out since the track started ran beside it: not this one
+        start = track.history[0][0]
+        own = {m: p for m, p in places.items()
+               if state.latest[camera].get(m, (-np.inf, None))[0] < start}
+        number, note = _nearest(state, cam, centre, uv[k], own, stamp_s)
         if number < 0 or (tid, number) in state.refused[camera]:
             continue
         _give(state, camera, track, number)
@@ -129,9 +134,10 @@ def _give(state: StereoState, camera: str, track: Track, number: int) -> None:
     retire(state, camera, number)
     state.trackers[camera].number(track.track_id, number)
     # the doubts of an earlier re-attachment were about the number it had; the new one rests
-    # on the steady track's own line of sight
+    # on the steady track's own line of sight, and its first pair is checked as a re-attached
+    # track's is: against every marker the bed could have carried to the pair's 3D point
     track.reattach_px = track.link_px = 0.0
-    track.back_unchecked = False
+    track.back_unchecked = True
     state.late_numbered[camera].add(track.track_id)
     state.counts[camera].numbered_by_ray += 1
 

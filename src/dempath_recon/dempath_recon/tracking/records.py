@@ -49,6 +49,10 @@ class StereoTrackConfig:
             marker that comes back is often numbered a few frames later, when the other
             camera sees it too). 0 gives every frame out as it is numbered on arrival (what
             ``update`` returns, whatever this is).
+        ray_numbering: number a marker only one camera sees by the line of sight the bed
+            carried it onto (``ray_numbering``). Off by default: on the re-rendered held-out
+            recordings (another run, another look) it gave more wrong-pair 3D points (13 against
+            8 without it) for 0.7 points more numbered right.
     """
 
     detector: DetectorConfig = field(default_factory=DetectorConfig)
@@ -62,6 +66,7 @@ class StereoTrackConfig:
     doubt_link_px: float = 5.0
     max_speed_m_s: float = 2.0
     number_delay_frames: int = 5
+    ray_numbering: bool = False
 
     def __post_init__(self) -> None:
         for name in ('fps', 'epipolar_px', 'grid_gate_px', 'position_gate_m',

@@ -162,7 +162,9 @@ class StereoMarkerTracker:
             markers = number_all_by_grid(state, camera, tf.track_ids, tf.uv, events)
         markers = number_new(state, camera, tf.track_ids, markers, tf.uv, stamp_s, events)
         markers = number_pairs(state, camera, tf.track_ids, markers, tf.uv, stamp_s, events)
-        markers = number_by_ray(state, camera, tf.track_ids, markers, tf.uv, stamp_s, events)
+        if state.config.ray_numbering:
+            markers = number_by_ray(state, camera, tf.track_ids, markers, tf.uv, stamp_s,
+                                    events)
         markers = verify(state, camera, tf.track_ids, markers, tf.uv, stamp_s, events)
         free_mask = unnumbered_tracks(state, camera, tf.track_ids, markers)
         free = np.flatnonzero(free_mask)
