@@ -11,7 +11,7 @@ PKG_FILES := $(foreach p,$(PKGS),src/$(p)/setup.py src/$(p)/setup.cfg)
 export ROS_AUTOMATIC_DISCOVERY_RANGE ?= LOCALHOST
 export AMENT_PREFIX_PATH ?= $(abspath $(VENV))
 
-.PHONY: demo test lint bench setup clean
+.PHONY: demo test lint bench figures setup clean
 demo: $(VENV)/.installed
 	$(BIN)/dempath demo --data bags
 
@@ -23,7 +23,11 @@ lint: $(VENV)/.installed
 	$(BIN)/mypy
 
 bench: $(VENV)/.installed
-	for b in bench/*.py; do $(BIN)/python $$b || exit 1; done
+	for b in $(filter-out bench/figures.py,$(wildcard bench/*.py)); do $(BIN)/python $$b || exit 1; done
+
+# Every figure the docs show, regenerated from the current code (bench/figures.py; --slow: piles)
+figures: $(VENV)/.installed
+	nice -n 10 $(BIN)/python bench/figures.py
 
 setup: $(VENV)/.installed
 

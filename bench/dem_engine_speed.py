@@ -28,6 +28,7 @@ from dempath_sim.engine import Engine, ToolPose
 from dempath_sim.engine.materials import Interaction, Material
 from dempath_sim.engine.mesh import TriangleMesh
 from dempath_sim.engine.params import SimParams
+from dempath_sim.engine.sleep import SleepSettings
 from dempath_sim.engine.state import SimState
 from dempath_sim.engine.walls import box_walls
 
@@ -102,12 +103,16 @@ def insert_tool(state: SimState, depth: float, tip_z: float) -> tuple[SimState, 
     return state.subset(~inside), tip
 
 
-def timed_run(state: SimState, tip: np.ndarray, steps: int,
-              skin: float) -> dict[str, float]:
-    """Run with the moving chisel; return the speed and the seconds spent in each stage."""
+def timed_run(state: SimState, tip: np.ndarray, steps: int, skin: float,
+              sleep: SleepSettings | None = None) -> dict[str, float]:
+    """Run with the moving chisel; return the speed and the seconds spent in each stage.
+
+    ``sleep``: let grains at rest sleep (changes results slightly; see engine/sleep.py).
+    """
     tool = TriangleMesh.from_stl(CHISEL, material=1)
     params = dataclasses.replace(PARAMS, skin=skin)
-    engine = Engine(params, walls=box_walls(BIN_LO, BIN_HI, material=1), tool=tool)
+    engine = Engine(params, walls=box_walls(BIN_LO, BIN_HI, material=1), tool=tool,
+                    sleep=sleep)
     speed = np.array([0.0, 0.0, 1.0])
     t_start = state.time
 
@@ -127,6 +132,7 @@ def timed_run(state: SimState, tip: np.ndarray, steps: int,
             return out
         setattr(engine, name, timed)
     rebuilds0 = engine.n_rebuilds
+    evals0 = engine.pair_evaluations
     t0 = time.perf_counter()
     cpu0 = time.process_time()
     state = engine.run(state, steps, tool_motion=motion)
@@ -136,7 +142,9 @@ def timed_run(state: SimState, tip: np.ndarray, steps: int,
     return {'particles': state.n, 'steps': steps, 'seconds': wall,
             'particle_steps_per_s': state.n * steps / wall, 'cpu_seconds': cpu,
             'particle_steps_per_cpu_s': state.n * steps / cpu, 'dt': engine.dt,
-            'rebuilds': engine.n_rebuilds - rebuilds0, 'draft_force_n': float(
+            'rebuilds': engine.n_rebuilds - rebuilds0,
+            'pair_evaluations_per_step': (engine.pair_evaluations - evals0) / steps,
+            'asleep_at_end': engine.n_asleep, 'draft_force_n': float(
                 engine.tool_force[2]), 'contacts': engine.n_contacts,
             'pairs': mem['pairs'], 'particle_bytes': mem['particle_arrays'] / state.n,
             'pair_bytes': mem['pair_arrays'] / max(mem['pairs'], 1),
@@ -182,6 +190,8 @@ def main() -> None:
                              "lattice's spatial order")
     parser.add_argument('--skin', type=float, default=PARAMS.skin,
                         help='neighbour skin / smallest radius')
+    parser.add_argument('--sleep', action='store_true',
+                        help='grains at rest sleep (engine/sleep.py; changes results slightly)')
     args = parser.parse_args()
     logging.basicConfig(level=logging.INFO, format='%(message)s')
     log = logging.getLogger('bench')
@@ -193,7 +203,8 @@ def main() -> None:
     state, tip = insert_tool(state, depth=0.04, tip_z=0.08)
     if args.shuffle:
         state = state.subset(np.random.default_rng(1).permutation(state.n))
-    result = timed_run(state, tip, args.steps, args.skin)
+    result = timed_run(state, tip, args.steps, args.skin,
+                       SleepSettings() if args.sleep else None)
     per_particle = result['particle_bytes'] + result['pair_bytes'] * result['pairs'] / state.n
     result.update({'threads': numba.get_num_threads(), 'skin': args.skin,
                    'shuffled': args.shuffle,

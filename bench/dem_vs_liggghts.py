@@ -9,7 +9,7 @@ without start-up and file output). Then the cross-engine comparison on a small s
 each seed unless ``--fill`` says otherwise) gives ``cross_engine_ratio`` (difference of the
 engines / packing-seed spread). Last line: one JSON object.
 
-    .venv/bin/python bench/dem_vs_liggghts.py [--steps 600] [--np 2] [--skip-cross]
+    .venv/bin/python bench/dem_vs_liggghts.py [--steps 600] [--np 2] [--skip-cross] [--sleep]
     .venv/bin/python bench/dem_vs_liggghts.py --skip-speed --cross-scene builtin:reduced_1ms \\
         --seeds 3 --cache-dir /tmp/xe/packings --json-out docs/cross_engine_reduced.json
     .venv/bin/python bench/dem_vs_liggghts.py --skip-speed --cross-scene builtin:reduced_1ms \\
@@ -39,6 +39,7 @@ from types import ModuleType
 import numba
 import numpy as np
 
+from dempath_sim.engine.sleep import SleepSettings
 from dempath_sim.engine.state import SimState
 from dempath_sim.engine.stl import read_stl
 from dempath_sim.liggghts import commands as cmd
@@ -164,6 +165,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument('--skip-cross', action='store_true')
     parser.add_argument('--no-rolling', action='store_true',
                         help='speed part without rolling resistance, in BOTH engines')
+    parser.add_argument('--sleep', action='store_true',
+                        help="dempath's grains at rest sleep (engine/sleep.py: changes results "
+                             'slightly; the figure with the result-changing saving on)')
     parser.add_argument('--skip-speed', action='store_true',
                         help='only the cross-engine part (speed keys are NaN)')
     parser.add_argument('--fill', choices=('shared_pour', 'insert_pack', 'shared_packing'),
@@ -198,13 +202,17 @@ def speed(args: argparse.Namespace, work: Path) -> dict[str, object]:
     log.info('bed: %d spheres after the tool slot', state.n)
     if args.no_rolling:  # after the (cached) settle; timed_run and liggghts_run read sb.PARAMS
         sb.PARAMS = sb.without_rolling(sb.PARAMS)
-    dem = sb.timed_run(state.subset(np.ones(state.n, bool)), tip, args.steps, sb.PARAMS.skin)
+    sleep = SleepSettings() if args.sleep else None
+    dem = sb.timed_run(state.subset(np.ones(state.n, bool)), tip, args.steps, sb.PARAMS.skin,
+                       sleep)
     lig = liggghts_run(sb, state, tip, dem['dt'], args.steps, args.nprocs, work)
     per_particle = dem['particle_bytes'] + dem['pair_bytes'] * dem['pairs'] / dem['particles']
     log.info('dempath %.3g, LIGGGHTS %.3g particle-steps/s', dem['particle_steps_per_s'],
              lig['liggghts_particle_steps_per_s'])
     return {'particles': dem['particles'], 'steps': args.steps, 'dt_s': dem['dt'],
             'dempath_threads': numba.get_num_threads(), 'rolling': not args.no_rolling,
+            'dempath_sleep': args.sleep, 'dempath_asleep_at_end': dem['asleep_at_end'],
+            'dempath_pair_evaluations_per_step': dem['pair_evaluations_per_step'],
             'dempath_particle_steps_per_s': dem['particle_steps_per_s'], **lig,
             'ratio': dem['particle_steps_per_s'] / lig['liggghts_particle_steps_per_s'],
             'bytes_per_particle': per_particle}

@@ -220,6 +220,8 @@ def main(argv: list[str]) -> int:
     p.add_argument('--no-node-path', action='store_true', help="skip the demo's code path")
     p.add_argument('--variations', action='store_true',
                    help='score the field-condition variation set instead (held-out apart)')
+    p.add_argument('--rendered', type=Path, nargs='*', default=[],
+                   help='score these re-rendered bags (held out; with --variations: as well)')
     p.add_argument('--cache', type=Path, default=HERE.parent / 'out' / 'bench_variations',
                    help='where the varied frames are kept between runs')
     args = p.parse_args(argv)
@@ -231,10 +233,22 @@ def main(argv: list[str]) -> int:
     grid = MarkerGrid(layout_m=tuple(tuple(p) for p in truth['marker_grid_m']))
     config = StereoTrackConfig(grid=grid)
     load = [round(x, 2) for x in os.getloadavg()]
+    if args.rendered and not args.variations:  # the re-rendered set alone
+        from detect_track_variations import run_rendered
+
+        rendered = run_rendered(args.rendered, read_frames)
+        print(json.dumps({**rendered, 'load_average': load,
+                          'load_average_end': [round(x, 2) for x in os.getloadavg()],
+                          'cpus': os.cpu_count()}))
+        return 0
     if args.variations:
         from detect_track_variations import run_all
 
         found = run_all(frames, truth, cams, config, args.cache)
+        if args.rendered:
+            from detect_track_variations import run_rendered
+
+            found['rendered_held_out'] = run_rendered(args.rendered, read_frames)
         held = found['held_out']
         print(json.dumps({**{k: held[k] for k in (
             'recall', 'numbered_right', 'id_switches', 'wrong_pair_points', 'traj_rms_mm',

@@ -1,5 +1,6 @@
 """The variation set of ``detect_track.py --variations``: the bundled render under field
-conditions (``field_conditions.VARIATIONS``), scored per variation and held-out apart.
+conditions (``dempath_twin.render.conditions.VARIATIONS``), scored per variation and held-out
+apart.
 
 Per variation (one JSON line each): ``recall`` (markers at least half visible that were found
 within 3 px), ``numbered_right`` (found and given their own number, in the frames as
@@ -28,13 +29,19 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from field_conditions import VARIATIONS, Condition, apply
 from numpy.typing import NDArray
 
 from dempath_calib.camera import CameraModel
+from dempath_recon.tracking.associate import MarkerGrid
 from dempath_recon.tracking.merge import StampMerge
 from dempath_recon.tracking.records import PixelFrame, StereoTrackConfig
 from dempath_recon.tracking.stereo import StereoMarkerTracker, triangulate_tracks
+from dempath_twin.render.conditions import (
+    VARIATIONS,
+    Condition,
+    moved_truth,
+    vary_recording,
+)
 
 MATCH_PX = 3.0  # a detection this near a true centre found that marker
 OWNER_PX = 8.0  # a numbered detection's marker is the true one nearest within this (about a
@@ -47,29 +54,14 @@ def vary(frames: Frames, truth: dict[str, Any], cond: Condition, cache: Path,
          ) -> tuple[Frames, dict[str, Any]]:
     """The recording's frames under ``cond`` and the truth moved with any image shift (cached
     in ``cache`` by the condition's hash)."""
-    path = cache / f'{cond.name}-{cond.key()}.pkl'
+    path = cache / f'{cond.name}-{cond.key()}.v2.pkl'
     if path.is_file():
         out, shifts = pickle.loads(path.read_bytes())
     else:
-        by_key = {(f['camera'], int(f['stamp_ns'])): f for f in truth['frames']}
-        cams = [c['name'] for c in truth['cameras']]
-        per_cam = {c: [f for f in frames if f[0] == c] for c in cams}
-        out, shifts = [], {}
-        index = {(c, s): k for c in cams for k, (_, s, _) in enumerate(per_cam[c])}
-        for cam, stamp, data in frames:
-            k = index[(cam, stamp)]
-            uv = np.array(by_key[(cam, stamp)]['uv'], np.float64)
-            prev = by_key.get((cam, per_cam[cam][k - 1][1])) if k else None
-            step = uv - np.array(prev['uv']) if prev else np.full_like(uv, np.nan)
-            jpeg, shift = apply(data, cond, cams.index(cam), k, len(per_cam[cam]), uv, step)
-            out.append((cam, stamp, jpeg))
-            shifts[(cam, stamp)] = shift.tolist()
+        out, shifts = vary_recording(frames, truth, cond)
         cache.mkdir(parents=True, exist_ok=True)
         path.write_bytes(pickle.dumps((out, shifts)))
-    moved = dict(truth)
-    moved['frames'] = [{**f, 'uv': (np.array(f['uv']) + shifts.get(
-        (f['camera'], int(f['stamp_ns'])), [0.0, 0.0])).tolist()} for f in truth['frames']]
-    return out, moved
+    return out, moved_truth(truth, shifts)
 
 
 def _truth_ids(fr: PixelFrame, t: dict[str, Any], ids: NDArray[np.int64], within_px: float,
@@ -203,20 +195,52 @@ def run_variation(frames: Frames, truth: dict[str, Any], cams: dict[str, CameraM
                   config: StereoTrackConfig, cond: Condition, cache: Path) -> dict[str, Any]:
     """One variation's figures (raw sums kept for the summaries)."""
     varied, moved = vary(frames, truth, cond, cache)
+    return {'variation': cond.name, 'held_out': cond.held_out,
+            **figures(varied, moved, cams, config), 'condition': asdict(cond)}
+
+
+def figures(frames: Frames, truth: dict[str, Any], cams: dict[str, CameraModel],
+            config: StereoTrackConfig) -> dict[str, Any]:
+    """A recording's figures: scores, speed, and whether the offline path, the lossless graph
+    and the live nodes agree."""
     t0, c0 = time.perf_counter(), time.process_time()
-    out = offline(varied, cams, config)
+    out = offline(frames, cams, config)
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
-    again = offline(varied, cams, config)
-    s = score(out, moved, cams)
+    again = offline(frames, cams, config)
+    s = score(out, truth, cams)
     by_stamp = sorted(out, key=lambda f: f.stamp_s)
-    graph = all(same(lossless_graph(varied, cams, config, first), by_stamp)
+    graph = all(same(lossless_graph(frames, cams, config, first), by_stamp)
                 for first in (False, True))
-    live = same(live_nodes(varied, cams, config, 0), live_nodes(varied, cams, config, 1))
-    return {'variation': cond.name, 'held_out': cond.held_out, **summary([s]),
-            'fps': len(varied) / wall, 'cpu_ms_per_frame': 1e3 * cpu / len(varied),
-            'fps_two_free_cores': 2 * len(varied) / cpu, 'deterministic': same(out, again),
-            'graph_equals_offline': graph, 'live_order_independent': live,
-            'condition': asdict(cond), 'raw': s}
+    live = same(live_nodes(frames, cams, config, 0), live_nodes(frames, cams, config, 1))
+    return {**summary([s]), 'fps': len(frames) / wall,
+            'cpu_ms_per_frame': 1e3 * cpu / len(frames),
+            'fps_two_free_cores': 2 * len(frames) / cpu, 'deterministic': same(out, again),
+            'graph_equals_offline': graph, 'live_order_independent': live, 'raw': s}
+
+
+def run_rendered(bags: list[Path], read: Any) -> dict[str, Any]:
+    """Recordings re-rendered by the twin's renderer (``dempath twin render`` with other light,
+    shutter, sand and marker colours, marker size, noise, JPEG quality, on another run), each
+    with its own truth and cameras; all held out (never run while changing the code). One JSON
+    line each, then their pooled figures. ``read(bag, start_ns, cameras)`` reads the frames."""
+    import json as _json
+
+    rows = []
+    for bag in bags:
+        truth = _json.loads(bag.with_name(bag.name + '.truth.json').read_text())
+        cams = {c['name']: CameraModel.from_dict(c) for c in truth['cameras']}
+        frames = read(bag, truth['calibration_segment']['field_start_ns'], list(cams))
+        grid = MarkerGrid(layout_m=tuple(tuple(p) for p in truth['marker_grid_m']))
+        row = {'variation': bag.name, 'held_out': True, 'rendered': True,
+               'look': truth['config']['look'], 'jpeg_quality': truth['config']['jpeg_quality'],
+               **figures(frames, truth, cams, StereoTrackConfig(grid=grid))}
+        rows.append(row)
+        print(json.dumps({k: v for k, v in row.items() if k != 'raw'}), flush=True)
+    return {**summary([r['raw'] for r in rows]),
+            'fps_two_free_cores': min(r['fps_two_free_cores'] for r in rows),
+            'deterministic': all(r['deterministic'] and r['graph_equals_offline'] for r in rows),
+            'live_order_independent': all(r['live_order_independent'] for r in rows),
+            'variations': [r['variation'] for r in rows]}
 
 
 def summary(scores: list[dict[str, Any]]) -> dict[str, Any]:

@@ -9,11 +9,16 @@ before and after; the paper's Table 7 like for like (same markers, samples, pool
 before, after and its floor. See :mod:`dempath_diagnose.headline.fall`. No simulation runs.
 
 Cases: cohesion 1e5 (strong) and 2e4 (moderate) J/m^3, tool speed x1.5 and x0.6, tool friction
-0.6 and 0.24, and the control (the baseline), each on seeds 1001-1003. Every finished case is
+0.6 and 0.24, and the control (the baseline), each on seeds 1001-1003: the cases the floor band
+and the rival test were chosen on. Held out from that choice (run after it was fixed; summary
+figures apart under ``held_out``): cohesion 5e4, tool speed x1.2, rolling resistance 0.39,
+Young's modulus x3 (strengths between or at the library's runs: emulated, ``headline/ensemble``).
+A fit is *in its floor* when its headline lies at or below its floor band and the other fit does
+not score significantly lower marker by marker (``headline/compare.py``). Every finished case is
 stored in ``--cache`` at once (resumable). Prints a line per case and one JSON line last.
 
 Usage: ``nice -n 10 .venv/bin/python bench/error_fall.py [--cache DIR] [--seeds 1001,...]
-[--no-table7] [--bag FIELD_BAG_TRUTH_JSON]``.
+[--no-table7] [--no-held-out-cases] [--markdown T] [--figure PNG] [--reconstructed JSON]``.
 """
 
 from __future__ import annotations
@@ -24,7 +29,14 @@ from pathlib import Path
 
 import numpy as np
 
-from dempath_diagnose.headline.fall import FallCase, FallSetup, run_case, summary
+from dempath_diagnose.headline.fall import (
+    D2_VERSION,
+    FallCase,
+    FallSetup,
+    redo_d2,
+    run_case,
+    summary,
+)
 from dempath_diagnose.library.simulator import load_scene, tool_geometry
 from dempath_diagnose.library.store import Library
 
@@ -34,6 +46,11 @@ CASES = (('cohesion_strong', 'cohesion', 1e5), ('cohesion_moderate', 'cohesion',
          ('tool_speed_x1.5', 'tool_speed', 1.5), ('tool_speed_x0.6', 'tool_speed', 0.6),
          ('tool_friction_0.6', 'tool_friction', 0.6),
          ('tool_friction_0.24', 'tool_friction', 0.24), ('control', '', 0.0))
+# Cases kept out of the choice of the method (issue 26's session 12: the floor's seed-aware
+# bound was chosen on the seven cases above only; these were run after it was fixed).
+HELD_OUT_CASES = (('cohesion_5e4', 'cohesion', 5e4), ('tool_speed_x1.2', 'tool_speed', 1.2),
+                  ('rolling_resistance_0.39', 'rolling_resistance', 0.39),
+                  ('youngs_modulus_x3', 'youngs_modulus', 5.1e6))
 HELD_OUT = (3, 8, 13)
 
 
@@ -43,6 +60,8 @@ def main() -> None:
     p.add_argument('--cache', type=Path, default=Path('out/bench_error_fall'))
     p.add_argument('--seeds', default='1001,1002,1003')
     p.add_argument('--no-table7', action='store_true')
+    p.add_argument('--no-held-out-cases', action='store_true',
+                   help='only the cases the method was chosen on')
     p.add_argument('--markdown', type=Path, help='write the per-case table (Markdown) here')
     p.add_argument('--figure', type=Path, help='write the picture of every case (PNG) here')
     p.add_argument('--reconstructed', type=Path,
@@ -56,19 +75,27 @@ def main() -> None:
                       tool_x, half, cube)
     args.cache.mkdir(parents=True, exist_ok=True)
     results, floors = [], {}
-    for seed in (int(s) for s in args.seeds.split(',')):
-        for name, cand, strength in CASES:
-            path = args.cache / f'{name}-s{seed}.json'
-            if path.is_file():
-                res = json.loads(path.read_text())
-            else:
-                res = run_case(library, FallCase(name, cand, strength, seed), setup,
-                               not args.no_table7, floors)
-                tmp = path.with_suffix('.tmp')
-                tmp.write_text(json.dumps(res))
-                tmp.replace(path)
-            results.append(res)
-            print(line(res), flush=True)
+    seeds = [int(s) for s in args.seeds.split(',')]
+    order = [(seed, c) for seed in seeds for c in CASES]
+    if not args.no_held_out_cases:
+        order += [(seed, c) for seed in seeds for c in HELD_OUT_CASES]
+    for seed, (name, cand, strength) in order:
+        path = args.cache / f'{name}-s{seed}.json'
+        if path.is_file():
+            res = json.loads(path.read_text())
+            if res.get('d2', {}).get('version') != D2_VERSION:  # stored before d^2's floor
+                res['d2'] = redo_d2(library, FallCase(name, cand, strength, seed), setup,
+                                    floors)
+                path.write_text(json.dumps(res))
+        else:
+            res = run_case(library, FallCase(name, cand, strength, seed), setup,
+                           not args.no_table7, floors)
+            tmp = path.with_suffix('.tmp')
+            tmp.write_text(json.dumps(res))
+            tmp.replace(path)
+        res['case_set'] = ('tuned' if name in {c[0] for c in CASES} else 'held_out')
+        results.append(res)
+        print(line(res), flush=True)
     if args.markdown:
         args.markdown.write_text(markdown(results))
     if args.figure:
@@ -76,6 +103,12 @@ def main() -> None:
 
         plot_error_fall(results, args.figure)
     out = summary(results, table7_like_for_like=not args.no_table7)
+    for part in ('tuned', 'held_out'):
+        some = [r for r in results if r['case_set'] == part]
+        if some:
+            sub = summary(some, table7_like_for_like=not args.no_table7)
+            out[part] = {k: sub[k] for k in ('cases', 'effect_seen', 'true_fit_in_floor',
+                                             'wrong_fit_in_floor', 'control_moved')}
     out['markers_reconstructed'] = None
     if args.reconstructed and args.reconstructed.is_file():
         out['markers_reconstructed'] = json.loads(args.reconstructed.read_text()).get(
@@ -90,19 +123,22 @@ def markdown(results: list[dict]) -> str:
             return '-'
         fl = f['floor']
         mark = {'above': '**above**', 'in': 'in', 'below': 'below'}[f['place']]
-        return f"{f['value']:.1f} ({fl['low']:.1f}-{fl['high']:.1f}) {mark}"
+        if f.get('rival', {}).get('lower'):
+            mark += f", **rival lower** (p {f['rival']['p']:.3f})"
+        return f"{f['value']:.1f} ({max(fl['low'], 0.0):.1f}-{fl['high']:.1f}) {mark}"
 
     rows = ['| case | seed | verdict | headline before | true fit (strength) | after true '
-            '| best wrong fit | after wrong | held-out before -> after | Table 7 before '
-            '| Table 7 after |', '|' + ' --- |' * 11]
+            '| best wrong fit | after wrong | held-out before -> after | d^2 before '
+            '| d^2 after true | Table 7 before | Table 7 after |', '|' + ' --- |' * 13]
     for r in results:
-        a, h, t7 = r['all'], r['held_out'], r.get('table7', {})
+        a, h, t7, d2 = r['all'], r['held_out'], r.get('table7', {}), r.get('d2', {})
         fit = (f"{r['true_fit']['strength']:.3g}" if 'true_fit' in r else '-')
         held = (f"{h['before']['value']:.1f} -> {h['after_true']['value']:.1f}"
                 if 'after_true' in h else f"{h['before']['value']:.1f}")
         rows.append(f"| {r['case']} | {r['seed']} | {r['verdict']} | {cell(a['before'])} | "
                     f"{fit} | {cell(a.get('after_true'))} | {r['wrong_fit']['candidate']} | "
-                    f"{cell(a['after_wrong'])} | {held} | {cell(t7.get('before'))} | "
+                    f"{cell(a['after_wrong'])} | {held} | {cell(d2.get('before'))} | "
+                    f"{cell(d2.get('after_true'))} | {cell(t7.get('before'))} | "
                     f"{cell(t7.get('after_true'))} |")
     return '\n'.join(rows) + '\n'
 
@@ -115,8 +151,9 @@ def line(r: dict) -> str:
         if key not in a:
             return '-'
         f = a[key]
+        rival = ' (rival lower)' if f.get('rival', {}).get('lower') else ''
         return (f"{f['value']:.2f} [{f['floor']['low']:.2f}-{f['floor']['high']:.2f}] "
-                f"{f['place']}")
+                f"{f['place']}{rival}")
 
     t7 = r.get('table7', {})
     t7s = (f" | T7 {t7['before']['value']:.1f} -> {t7['after_true']['value']:.1f} % "

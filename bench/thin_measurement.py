@@ -2,7 +2,7 @@
 
 The diagnosis makes its verdict ``inconclusive`` when a measurement has fewer than
 ``MIN_MARKERS`` markers, or none on the tool axis, or none beside the tool
-(:func:`dempath_diagnose.admission.thin_measurement`). This bench checks that rule against what
+(:func:`dempath_diagnose.decision.thin.thin_measurement`). This bench checks that rule against what
 the method does without it: every hidden-effect case of ``bench/diagnose.py`` (their cached
 library and case passes under ``--root``) is diagnosed again on random subsets of its markers
 (sizes 1, 2, 3, 4, 6 and all; ``--draws`` subsets per size, with the force and without) and each
@@ -35,9 +35,9 @@ from typing import Any
 
 import numpy as np
 
-from dempath_diagnose.admission import MIN_MARKERS
 from dempath_diagnose.decision.diagnosis import CaseGeometry, diagnose
 from dempath_diagnose.decision.measure import load_force, load_tracks
+from dempath_diagnose.decision.thin import MIN_MARKERS
 from dempath_diagnose.decision.verdict import CONFIDENT, decide
 from dempath_diagnose.library.cases import HiddenCase, make_case
 from dempath_diagnose.library.simulator import load_scene, pass_travel_s, tool_geometry

@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
+import time
 from pathlib import Path
 
 import numpy as np
 import pytest
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rosbags.interfaces import (
     Qos,
     QosDurability,
@@ -17,7 +18,7 @@ from rosbags.interfaces import (
 )
 from rosbags.rosbag2 import StoragePlugin, Writer
 from rosgraph_msgs.msg import Clock
-from sensor_msgs.msg import CameraInfo
+from sensor_msgs.msg import CameraInfo, CompressedImage
 
 from dempath import topics
 from dempath.bagio import make_typestore, open_bag, write_bag
@@ -117,3 +118,33 @@ def test_latched_topic_reaches_late_subscriber(tmp_path: Path, ros_harness: RosH
     got = ros_harness.collect(CameraInfo, topic, LATCHED)
     assert ros_harness.spin_until(lambda: len(got) == 1, timeout_s=10)
     assert (got[0].width, got[0].header.frame_id) == (1920, 'cam_side')
+
+
+def test_player_finishes_only_when_every_message_is_acknowledged(
+        tmp_path: Path, ros_harness: RosHarness) -> None:
+    """A slow reliable subscriber: the player's FINISHED event comes once the subscriber has
+    acknowledged every message, and says so; the player node destroyed at that moment (as the
+    console script exits) loses nothing. (On a loaded machine the player used to exit with the
+    last frames unsent.)"""
+    source = make_input_bag(tmp_path / 'in')
+    keep_all = QoSProfile(depth=1, history=HistoryPolicy.KEEP_ALL,
+                          reliability=ReliabilityPolicy.RELIABLE)
+    got: list[object] = []
+
+    def slow(msg: object) -> None:
+        time.sleep(0.01)
+        got.append(msg)
+
+    ros_harness.probe.create_subscription(CompressedImage, '/cam_side/image_raw/compressed',
+                                          slow, keep_all)
+    events = ros_harness.collect(RunEvent, topics.PLAYER_EVENTS, LATCHED)
+    player = ros_harness.start(PlayerNode, bag=str(source), rate=0.0, wait_for_subscribers=1,
+                               topics=['/cam_side/image_raw/compressed'])
+    assert ros_harness.spin_until(player.finished.is_set, timeout_s=30)
+    ros_harness.nodes.remove(player)
+    ros_harness.executor.remove_node(player)  # as the console script exits
+    player.destroy_node()
+    assert ros_harness.spin_until(lambda: len(got) == 12, timeout_s=10), len(got)
+    assert ros_harness.spin_until(
+        lambda: any(e.event == RunEvent.FINISHED for e in events), timeout_s=10)
+    assert 'every message acknowledged' in events[-1].detail, events[-1].detail

@@ -25,7 +25,8 @@ import pytest
 
 from dempath.browser import BrowserNotFoundError, headless_chromium
 from dempath.nodes.pytest_plugin import require_component
-from dempath_recon.clicker.clicks import ClickBounds, ClickStore
+from dempath_recon.clicker.click_csv import ClickBounds
+from dempath_recon.clicker.clicks import ClickStore
 from dempath_recon.clicker.frames import open_frames
 from dempath_recon.clicker.server import ClickServer, ClickSession
 

@@ -245,7 +245,8 @@ def test_idle_connection_is_closed(frames: Path, tmp_path: Path,
     import threading
 
     from dempath_recon.clicker import server as server_module
-    from dempath_recon.clicker.clicks import ClickBounds, ClickStore
+    from dempath_recon.clicker.click_csv import ClickBounds
+    from dempath_recon.clicker.clicks import ClickStore
     from dempath_recon.clicker.frames import open_frames
 
     monkeypatch.setattr(server_module.ClickHandler, 'timeout', 0.5)

@@ -9,38 +9,16 @@ in ``test_demo_detect.py``, Ctrl-C in ``test_demo_interrupt.py``.)
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
 
 import cv2
 import numpy as np
 import pytest
 
-from dempath.bagio import open_bag
+from dempath.bagio import filter_bag
 from dempath_bringup.demo import demo_main
 
 ROOT = Path(__file__).resolve().parents[1]
 RENDER = ROOT / 'bags' / 'field_render_reduced_1ms'
-
-
-def copy_bag(src: Path, dst: Path, keep: object) -> Path:
-    """A copy of ``src`` with only the messages ``keep(topic, stamp_ns)`` accepts."""
-    from rosbags.rosbag2 import StoragePlugin, Writer
-
-    from dempath.bagio import make_typestore
-
-    store = make_typestore()
-    with open_bag(src) as reader, Writer(dst, version=9,
-                                         storage_plugin=StoragePlugin.MCAP) as writer:
-        conns: dict[str, Any] = {}
-        for raw in reader.messages(list(reader.topics)):
-            msg = reader.deserialize(raw)
-            stamp = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
-            if not keep(raw.topic, stamp):  # type: ignore[operator]
-                continue
-            if raw.topic not in conns:
-                conns[raw.topic] = writer.add_connection(raw.topic, raw.msgtype, typestore=store)
-            writer.write(conns[raw.topic], raw.log_time_ns, bytes(raw.data))
-    return dst
 
 
 def error_lines(capsys: pytest.CaptureFixture[str]) -> list[str]:
@@ -50,7 +28,7 @@ def error_lines(capsys: pytest.CaptureFixture[str]) -> list[str]:
 
 def test_bag_with_one_camera(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """Only cam_side in the bag: one error line naming the bag and the missing camera."""
-    bag = copy_bag(RENDER, tmp_path / 'one_cam', lambda topic, _: 'cam_front' not in topic)
+    bag = filter_bag(RENDER, tmp_path / 'one_cam', lambda topic, _: 'cam_front' not in topic)
     out = tmp_path / 'out'
     out.mkdir()
     (out / 'kept.txt').write_text('from an earlier run')

@@ -12,14 +12,13 @@ from __future__ import annotations
 import json
 from collections import Counter
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import pytest
 from mcap.reader import make_reader
 
 from dempath import topics
-from dempath.bagio import open_bag
+from dempath.bagio import filter_bag
 from dempath_bringup.calibstep import (
     CalibrationRun,
     calibrate_recording,
@@ -51,27 +50,6 @@ def calibrated(tmp_path_factory: pytest.TempPathFactory) -> tuple[CalibrationRun
     run = calibrate_recording(RENDER, lambda *_: None)
     out = tmp_path_factory.mktemp('calib')
     return run, save_result(run.result, out, {'inputs': [str(RENDER)]})['stereo.yaml']
-
-
-def copy_bag(src: Path, dst: Path, keep: object) -> Path:
-    """A copy of ``src`` with only the messages ``keep(topic, stamp_ns)`` accepts."""
-    from rosbags.rosbag2 import StoragePlugin, Writer
-
-    from dempath.bagio import make_typestore
-
-    store = make_typestore()
-    with open_bag(src) as reader, Writer(dst, version=9,
-                                         storage_plugin=StoragePlugin.MCAP) as writer:
-        conns: dict[str, Any] = {}
-        for raw in reader.messages(list(reader.topics)):
-            msg = reader.deserialize(raw)
-            stamp = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
-            if not keep(raw.topic, stamp):  # type: ignore[operator]
-                continue
-            if raw.topic not in conns:
-                conns[raw.topic] = writer.add_connection(raw.topic, raw.msgtype, typestore=store)
-            writer.write(conns[raw.topic], raw.log_time_ns, bytes(raw.data))
-    return dst
 
 
 def mcap_topic_counts(bag: Path) -> Counter[str]:
@@ -140,7 +118,7 @@ def test_camera_topic_stopping_mid_pass(calibrated: tuple[CalibrationRun, Path],
     truth = json.loads(TRUTH.read_text())
     front = sorted(f['stamp_ns'] for f in truth['frames'] if f['camera'] == 'cam_front')
     cut = front[len(front) // 2]
-    bag = copy_bag(RENDER, tmp_path / 'stops', lambda topic, stamp: not (
+    bag = filter_bag(RENDER, tmp_path / 'stops', lambda topic, stamp: not (
         topic.startswith('/cam_front/') and stamp >= cut))
     offset = run.field_start_s - run.first_stamp_s - START_MARGIN_S  # type: ignore[operator]
     spec = GraphSpec(field_bag=bag, calibration=stereo, scene='tiny', output=tmp_path / 'run',

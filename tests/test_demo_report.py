@@ -34,7 +34,7 @@ BAGS = ROOT / 'bags'
 FIELD = BAGS / 'field_twin_tiny'
 LIBRARY = ['--seeds', '1001,1002', '--candidates', 'tool_speed', '--strengths', '1']
 FIGURES = ('calibration.png', 'trajectories.png', 'error_map.png', 'error_vs_iteration.png',
-           'recalibration_trajectories.png')
+           'recalibration_trajectories.png', 'coverage.png')
 
 
 @pytest.fixture(scope='module')
@@ -83,11 +83,21 @@ def test_demo_diagnoses_recalibrates_and_reports(demo_out: tuple[Path, int, str]
                     '4. Diagnosis', '5. Recalibration', 'Table 7, before'):
         assert section in page, section
     assert 'tool_speed' in page
-    # each error before and after beside the true model's floor (d^2's k, the paper's nRMSE)
-    assert 'floor (the true model)' in page
-    assert f"{recal['floor']['k']:g} (95 % band" in page
-    if recal.get('paper'):
-        assert f"{recal['paper']['floor']['mean_nrmse_pct']:.2f} +- " in page
+    # each error before and after beside its own like-for-like floor, or beside none: d^2's
+    # chi^2 mean is named as the loop's nominal stop, not printed as a floor
+    assert 'floor before' in page and 'floor after' in page
+    assert f"nominal chi<sup>2</sup> mean k = {recal['floor']['k']:g}" in page
+    paper = recal.get('paper')
+    if paper:
+        assert f"{paper['floor']['mean_nrmse_pct']:.2f} +- " in page
+        if paper.get('floor_after'):
+            assert f"{paper['floor_after']['mean_nrmse_pct']:.2f} +- " in page
+        iterations = paper['headline_iterations']
+        assert iterations[0]['label'] == 'before'
+        assert all('value_mm' in it or 'error' in it for it in iterations)
+        if recal['simulations'] > 0:  # each evaluated iteration has its headline
+            assert len(iterations) >= 2 and iterations[1]['label'].startswith('iteration 1')
+        assert 'src="headline_iterations.png"' in page
     for name in FIGURES:
         assert (out / 'report' / name).is_file(), name
         assert f'src="{name}"' in page, name

@@ -17,7 +17,7 @@ import logging
 import os
 import struct
 import sys
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -389,3 +389,26 @@ def write_bag(path: str | Path, messages: Iterable[tuple[str, str, int, Any]], *
         msg = f'{path}: cannot write bag: {err}'
         raise BagError(msg) from err
     return path
+
+
+def filter_bag(src: str | Path, dst: str | Path,
+               keep: Callable[[str, int], bool]) -> Path:
+    """Copy a bag to a new MCAP bag with only the messages ``keep(topic, stamp_ns)`` accepts.
+
+    ``stamp_ns`` is the message's header stamp (the camera clock), or its log time for a
+    message without a header; the kept messages are copied byte for byte. Used to make a
+    recording with a camera missing or frames dropped (tests and fault drills).
+
+    Raises:
+        BagError: ``src`` cannot be read or ``dst`` cannot be written.
+    """
+    with open_bag(src) as reader:
+        def kept() -> Iterator[tuple[str, str, int, bytes]]:
+            for raw in reader.messages(list(reader.topics)):
+                header = getattr(reader.deserialize(raw), 'header', None)
+                stamp = (header.stamp.sec * 10**9 + header.stamp.nanosec if header is not None
+                         else raw.log_time_ns)
+                if keep(raw.topic, stamp):
+                    yield raw.topic, raw.msgtype, raw.log_time_ns, bytes(raw.data)
+
+        return write_bag(dst, kept(), typestore=reader.typestore)

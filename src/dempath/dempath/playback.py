@@ -38,6 +38,8 @@ class PlayerConfig:
         wait_timeout_s: Longest wait for those subscribers [s]; then play anyway.
         clock_hz: Highest rate of /clock messages [Hz] (one before a message when due).
         prefetch: Messages read ahead of publishing.
+        ack_timeout_s: Longest wait, once played, for the subscribers to acknowledge every
+            reliable message [s] (the node's FINISHED event names the topics still waiting).
     """
 
     bag: str
@@ -50,13 +52,15 @@ class PlayerConfig:
     wait_timeout_s: float = 10.0
     clock_hz: float = 100.0
     prefetch: int = 16
+    ack_timeout_s: float = 30.0
 
     def __post_init__(self) -> None:
         if not self.bag:
             raise ValueError(f'bag: a bag path is required, got {self.bag!r}')
-        if self.rate < 0 or self.start_offset_s < 0 or self.wait_timeout_s < 0:
-            raise ValueError(f'rate/start_offset_s/wait_timeout_s must be >= 0: '
-                             f'{self.rate!r}, {self.start_offset_s!r}, {self.wait_timeout_s!r}')
+        if min(self.rate, self.start_offset_s, self.wait_timeout_s, self.ack_timeout_s) < 0:
+            raise ValueError(f'rate/start_offset_s/wait_timeout_s/ack_timeout_s must be >= 0: '
+                             f'{self.rate!r}, {self.start_offset_s!r}, {self.wait_timeout_s!r}, '
+                             f'{self.ack_timeout_s!r}')
         if self.queue_depth < 1 or self.prefetch < 1 or self.clock_hz <= 0:
             raise ValueError(f'queue_depth/prefetch >= 1 and clock_hz > 0 required: '
                              f'{self.queue_depth!r}, {self.prefetch!r}, {self.clock_hz!r}')

@@ -15,6 +15,7 @@ from dempath import mcapread
 from dempath.bagio import (
     dempath_msg_dir,
     ensure_type,
+    filter_bag,
     make_typestore,
     message_definition,
     open_bag,
@@ -85,6 +86,26 @@ def test_start_offset_and_topic_selection(tmp_path: Path) -> None:
         late = list(bag.messages(['/cam_front/pixel_points'], start_offset_s=0.1))
     assert {m.topic for m in late} == {'/cam_front/pixel_points'}
     assert [m.log_time_ns for m in late] == [START_NS + i * 20_000_000 for i in range(5, 10)]
+
+
+def test_filter_bag_keeps_what_the_rule_accepts_byte_for_byte(tmp_path: Path) -> None:
+    """A camera dropped and a stamp window cut: the rest is copied unchanged, in order."""
+    store = make_typestore()
+    msgs = [*pixel_points(store, 10, camera='cam_side'),
+            *pixel_points(store, 10, camera='cam_front')]
+    src = write_bag(tmp_path / 'src', sorted(msgs, key=lambda m: m[2]), typestore=store)
+    cut = START_NS + 100_000_000
+
+    def keep(topic: str, stamp: int) -> bool:
+        return 'cam_front' not in topic and stamp < cut
+
+    dst = filter_bag(src, tmp_path / 'dst', keep)
+    with open_bag(src) as a, open_bag(dst) as b:
+        want = [m for m in a.messages()
+                if keep(m.topic, (lambda h: h.sec * 10**9 + h.nanosec)(a.deserialize(m)
+                                                                      .header.stamp))]
+        got = list(b.messages())
+    assert len(got) == 5 and got == want
 
 
 def test_type_defined_only_in_bag_is_readable(tmp_path: Path) -> None:

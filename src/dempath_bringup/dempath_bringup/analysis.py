@@ -1,27 +1,30 @@
 """The demo's model stages after the comparison: diagnosis, recalibration, the model after it.
 
-The diagnosis (``dempath diagnose``) reads the recorded bag's MarkerPoints3D and needs the demo
-scene's signature library. When the library is not there, the stage says so in one clear line
-and the demo goes on without the diagnosis and the recalibration (the library of a scene takes
-hours to build here; it ships packed with the package once built). The recalibration
-(``dempath recalibrate``) fits the named effect's strength with a small simulation budget and
-writes the recalibrated scene, which the last stage runs once more and compares with the same
-measurement (the "after" of the report).
+The diagnosis (:func:`~dempath_diagnose.entry.diagnosis.run_diagnosis`, what ``dempath
+diagnose`` calls) reads the recorded bag's MarkerPoints3D and needs the demo scene's signature
+library. When the library is not there, the stage says so in one clear line and the demo goes
+on without the diagnosis and the recalibration (the library of a scene takes hours to build
+here; it ships packed with the package once built). The recalibration
+(:func:`~dempath_diagnose.entry.recalibration.run_recalibration`) builds on that diagnosis, fits
+the named effect's strength with a small simulation budget and writes the recalibrated scene,
+whose fitted values the next stage runs once more
+(:func:`~dempath_sim.runs.folder.run_to_folder`) and compares with the same measurement (the
+"after" of the report). Each stage passes its typed outcome on through the context.
 """
 
 from __future__ import annotations
 
-import argparse
-import contextlib
-import io
-import json
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from dempath.errors import DempathError
-from dempath_bringup.stages import DemoContext, named_identity
+from dempath_bringup.context import ComparisonStage, DemoContext, DiagnosisStage, need
+from dempath_bringup.stages import named_identity
+from dempath_diagnose.entry.requests import DEFAULT_BUDGET, DEFAULT_SEEDS, DiagnoseRequest
+from dempath_diagnose.library.simulator import LIBRARY_CANDIDATES
 
 SHIPPED_LIBRARIES = 'libraries'  # folder of packed signature libraries in dempath_diagnose/data
 # Recalibration simulations of the demo: one real evaluation on two paired library seeds
@@ -36,7 +39,7 @@ def measured_origin(ctx: DemoContext) -> tuple[float, float, float]:
     The field frame is centred on the marker grid on the surface; the model's marker particles
     start on the same grid, so their mean start position (on Y = 0) is that origin.
     """
-    model = ctx.results['compare_before'].model
+    model = need(ctx.comparison, 'comparison').result.model
     keep = (model.marker_ids > 0) & np.isfinite(model.origins).all(1)
     if not keep.any():
         return 0.0, 0.0, 0.0
@@ -60,152 +63,143 @@ def measured_csv(ctx: DemoContext) -> Path:
     The times start at the first 3D frame: the measured pass starts with the recording, as the
     model's run starts at t = 0 (the bag's stamps are camera clock times).
     """
-    if 'measured_csv' in ctx.results:
-        return Path(ctx.results['measured_csv'])
+    if ctx.measured_csv is not None:
+        return ctx.measured_csv
     from dempath import topics
     from dempath.bagio import open_bag
 
+    bag = need(ctx.graph, 'graph').bag
     rows = []
-    with open_bag(ctx.results['graph'].bag, [topics.MARKER_POINTS]) as reader:
+    with open_bag(bag, [topics.MARKER_POINTS]) as reader:
         for raw in reader.messages([topics.MARKER_POINTS]):
             msg = reader.deserialize(raw)
             t_ns = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
             rows += [(t_ns, int(m), x, y, z)
                      for m, x, y, z in zip(msg.marker_ids, msg.x, msg.y, msg.z, strict=True)]
     if not rows:
-        msg_ = f"{ctx.results['graph'].bag}: no MarkerPoints3D to diagnose"
+        msg_ = f'{bag}: no MarkerPoints3D to diagnose'
         raise DempathError(msg_)
     t0 = min(r[0] for r in rows)
     path = ctx.out / 'measured.csv'
     lines = ['t,marker,x,y,z'] + [f'{(t - t0) * 1e-9:.6f},{m},{x:.6f},{y:.6f},{z:.6f}'
                                   for t, m, x, y, z in sorted(rows)]
     path.write_text('\n'.join(lines) + '\n')
-    ctx.results['measured_csv'] = path
+    ctx.measured_csv = path
     return path
 
 
-def diagnose_argv(ctx: DemoContext, out: Path) -> list[str]:
-    """The ``dempath diagnose`` arguments of this demo (library options included)."""
+def diagnose_request(ctx: DemoContext, out: Path) -> DiagnoseRequest:
+    """The diagnosis of this demo: the recorded markers against the demo's scene and library
+    (the budget beyond the library as ``dempath diagnose`` sets it: none with a library file)."""
     o = ctx.options
-    origin = ','.join(f'{v:.6f}' for v in measured_origin(ctx))
-    argv = ['--measured', str(measured_csv(ctx)), '--scene', ctx.scene,
-            '--origin', origin, '--out', str(out)]
-    if o.get('library_file'):
-        argv += ['--library', str(o['library_file'])]
-    for key, flag in (('library_root', '--library-root'), ('seeds', '--seeds'),
-                      ('candidates', '--candidates'), ('strengths', '--strengths'),
-                      ('packing_cache', '--packing-cache')):
-        if o.get(key) is not None:
-            argv += [flag, str(o[key])]
-    return argv + (['--serial'] if o.get('serial', True) else [])
+    return DiagnoseRequest(
+        measured=measured_csv(ctx), scene=ctx.scene, out=out, origin=measured_origin(ctx),
+        library=o.library_file, library_root=o.library_root, packing_cache=o.packing_cache,
+        seeds=o.seeds or DEFAULT_SEEDS, candidates=o.candidates or LIBRARY_CANDIDATES,
+        strengths=o.strengths or 2, serial=o.serial,
+        budget=0 if o.library_file is not None else DEFAULT_BUDGET)
 
 
-def library_status(ctx: DemoContext) -> tuple[bool, str]:
+def library_status(request: DiagnoseRequest) -> tuple[bool, str]:
     """(ready, why not) of the signature library the diagnosis would use."""
-    from dempath_diagnose.cli import library_spec
     from dempath_diagnose.decision.measure import load_tracks
-    from dempath_diagnose.library.simulator import LIBRARY_CANDIDATES, load_scene
+    from dempath_diagnose.entry.diagnosis import library_spec
+    from dempath_diagnose.library.simulator import load_scene
     from dempath_diagnose.library.store import library_state
 
-    o = ctx.options
-    if o.get('library_file'):
-        ok = Path(o['library_file']).exists()
-        return ok, '' if ok else f"{o['library_file']}: library file not found"
-    scene = load_scene(ctx.scene)
-    meas = load_tracks(measured_csv(ctx), measured_origin(ctx))
-    ns = argparse.Namespace(measured=measured_csv(ctx),
-                            seeds=o.get('seeds') or '1001,1002,1003,1004',
-                            candidates=o.get('candidates') or ','.join(LIBRARY_CANDIDATES),
-                            strengths=int(o.get('strengths') or 2))
-    spec = library_spec(ns, scene, meas)
-    state, done, total = library_state(scene, spec, o.get('library_root'))
+    if request.library is not None:
+        ok = request.library.exists()
+        return ok, '' if ok else f'{request.library}: library file not found'
+    scene = load_scene(request.scene)
+    spec = library_spec(request, scene, load_tracks(request.measured, request.origin))
+    state, done, total = library_state(scene, spec, request.library_root)
     if state == 'ready':
         return True, ''
     return False, (f'the signature library of scene {scene.name} is {state} ({done} of {total} '
                    'runs; building it takes hours on this machine)')
 
 
-def _call(main: Any, argv: list[str]) -> tuple[int, str]:
-    """Run a ``dempath`` command function; (exit code, its printed output)."""
-    out = io.StringIO()
-    with contextlib.redirect_stdout(out):
-        code = int(main(argv))
-    return code, out.getvalue()
-
-
 def diagnosis_stage(ctx: DemoContext) -> str:
-    """``dempath diagnose`` on the recorded 3D markers, when the scene's library is there."""
-    from dempath_diagnose.cli import diagnose_main
+    """The diagnosis of the recorded 3D markers, when the scene's library is there."""
+    from dempath_diagnose.entry.diagnosis import run_diagnosis
+    from dempath_diagnose.report.diagnosis_outputs import ranking_text
 
-    ready, why = library_status(ctx)
+    request = diagnose_request(ctx, ctx.out / 'diagnosis')
+    ready, why = library_status(request)
     if not ready:
-        ctx.results['diagnosis'] = None
-        ctx.results['diagnosis_missing'] = why
+        ctx.diagnosis = DiagnosisStage(request, None, why)
         return (f'MISSING: {why}. The diagnosis and the recalibration are skipped; the demo goes '
                 'on (ship the library, or pass --library FILE / --library-root DIR).')
-    out = ctx.out / 'diagnosis'
-    argv = diagnose_argv(ctx, out)
-    code, text = _call(diagnose_main, argv)
-    if code != 0:
-        msg = f'{ctx.scene}: the diagnosis failed (dempath diagnose {" ".join(argv)})'
-        raise DempathError(msg)
-    data = json.loads((out / 'diagnosis.json').read_text())
-    ctx.results['diagnosis'] = data
-    ctx.results['diagnose_argv'] = argv
+    try:
+        outcome = run_diagnosis(request)
+    except DempathError as err:
+        msg = f'{ctx.scene}: the diagnosis failed ({err})'
+        raise DempathError(msg) from err
+    ctx.diagnosis = DiagnosisStage(request, outcome)
+    data = outcome.data
     rank = [*data['ranking'][:4], data['baseline']]
     ranking = ', '.join(f"{r['effect']} {r['probability']:.2f}" for r in rank)
     return (f"verdict: {data['verdict']}; ranking (probability): {ranking}\n"
             'no measured tool force in the recording: markers only\n'
-            f'{out / "diagnosis.json"}\n' + text.strip())
+            f'{outcome.folder / "diagnosis.json"}\n' + ranking_text(data).strip())
 
 
 def recalibration_stage(ctx: DemoContext) -> str:
-    """``dempath recalibrate`` with the named (or top-ranked) effect and a small budget."""
-    from dempath_diagnose.recalibrate_cli import recalibrate_main
+    """The recalibration with the named (or top-ranked) effect and a small budget, on the
+    diagnosis the demo has just made."""
+    from dempath_diagnose.entry.recalibration import run_recalibration, summary_lines
+    from dempath_diagnose.entry.requests import RecalibrationRequest
+    from dempath_diagnose.recalibration.targets import parse_effects
 
-    diag = ctx.results.get('diagnosis')
-    if diag is None:
-        return f"skipped: no diagnosis ({ctx.results.get('diagnosis_missing', '')})"
+    diagnosis = need(ctx.diagnosis, 'diagnosis')
+    if diagnosis.outcome is None:
+        return f'skipped: no diagnosis ({diagnosis.missing})'
+    data = diagnosis.outcome.data
+    effect = ctx.options.effect
+    if effect is None and data['verdict'] == 'inconclusive' and data['ranking']:
+        effect = data['ranking'][0]['effect']  # the top-ranked candidate
     out = ctx.out / 'recalibration'
-    argv = [a if a != str(ctx.out / 'diagnosis') else str(out)
-            for a in ctx.results['diagnose_argv']]
-    argv += ['--budget', str(ctx.options.get('budget', DEMO_BUDGET))]
-    if ctx.options.get('effect'):
-        argv += ['--effect', str(ctx.options['effect'])]
-    elif diag['verdict'] == 'inconclusive' and diag['ranking']:
-        argv += ['--effect', diag['ranking'][0]['effect']]  # the top-ranked candidate
-    code, text = _call(recalibrate_main, argv)
-    if code != 0:
-        msg = f'{ctx.scene}: the recalibration failed (dempath recalibrate {" ".join(argv)})'
+    request = RecalibrationRequest(replace(diagnosis.request, out=out),
+                                   effects=parse_effects([effect] if effect else []),
+                                   budget=ctx.options.budget)
+    try:
+        outcome = run_recalibration(request, diagnosis.outcome)
+    except DempathError as err:
+        msg = f'{ctx.scene}: the recalibration failed ({err})'
+        raise DempathError(msg) from err
+    if outcome.stop in ('interrupted', 'scheduler_lost'):
+        msg = f"{ctx.scene}: the recalibration stopped: {outcome.data['stop_reason']}"
         raise DempathError(msg)
-    data = json.loads((out / 'recalibration.json').read_text())
-    ctx.results['recalibration'] = data
-    ctx.results['recalibrated_scene'] = next(out.glob('*.recalibrated.yaml'), None)
-    return '\n'.join([*recalibration_lines(data), str(out), text.strip()])
+    ctx.recalibration = outcome
+    return '\n'.join([*recalibration_lines(outcome.data), str(out),
+                      *summary_lines(outcome.data)])
 
 
 def recalibration_lines(data: dict[str, Any]) -> list[str]:
-    """What the recalibration changed and its errors before and after, each beside the floor.
+    """What the recalibration changed and its errors before and after, each beside its own
+    like-for-like floor where one was computed.
 
-    The floor is what the true model itself gives over packing seeds: d^2's chi^2_k mean and
-    95 % band, and the paper's mean nRMSE of one seed playing the measurement against the others
-    (docs/recalibration.md). A fall is judged against it, not against zero.
+    Table 7's floors are each model's own (the model before, the fitted model after) with the
+    measured samples and pools as large as the figure's; the headline error's are each model's
+    band (docs/diagnosis.md). d^2 gets no floor here: its chi^2_k mean is only the loop's nominal
+    stop (bench/error_fall.py measures d^2 beside its like-for-like floor).
     """
     s, f = data['strength'], data['floor']
     change = (f"{data['effect']}.{data['parameter']} {s['before']:.4g} -> {s['value']:.4g} "
               f"+- {s['uncertainty']:.2g} {s['unit']}" if data['changed']
               else 'nothing changed')
     lines = [f"{change} ({data['stop_reason']}; {data['simulations']} simulations)",
-             f"error d^2 {data['error_before']:.1f} -> {data['error_after']:.1f} (floor "
-             f"{f['k']:g}, the true model's 95 % band {f['low']:.1f}-{f['high']:.1f}); "
-             f"{100 * (data.get('error_reduction') or 0.0):.0f} % of the error above the floor "
-             'removed']
+             f"error d^2 {data['error_before']:.1f} -> {data['error_after']:.1f} (the loop's "
+             f"nominal stop: chi^2 mean k = {f['k']:g}; not a like-for-like floor)"]
     paper = data.get('paper')
     if paper:
         fl, pb, pa = paper['floor'], paper['before'], paper['after']
+        fa = paper.get('floor_after')
+        after_floor = (f"; after's own floor {fa['mean_nrmse_pct']:.2f} +- "
+                       f"{fa['mean_nrmse_sd_pct']:.2f} %" if fa else '')
         lines.append(f"mean nRMSE (Table 7, the library's seeds) {pb['mean_nrmse_pct']:.2f} -> "
-                     f"{pa['mean_nrmse_pct']:.2f} % (floor {fl['mean_nrmse_pct']:.2f} +- "
-                     f"{fl['mean_nrmse_sd_pct']:.2f} %)")
+                     f"{pa['mean_nrmse_pct']:.2f} % (before's floor {fl['mean_nrmse_pct']:.2f} "
+                     f"+- {fl['mean_nrmse_sd_pct']:.2f} %{after_floor})")
         head = paper.get('headline') or {}
         if all((head.get(k) or {}).get('value_mm') is not None for k in ('before', 'after')):
             from dempath_diagnose.headline.stage import headline_sentence
@@ -218,39 +212,37 @@ def recalibration_lines(data: dict[str, Any]) -> list[str]:
 def after_stage(ctx: DemoContext) -> str:
     """Run the recalibrated model once and compare it with the same measured markers.
 
-    The model is the demo's scene with the recalibration's fitted values set on it (``dempath
-    simulate SCENE --effect EFFECT.PARAM=VALUE``), which is the recalibrated scene file's model
-    on the bed the "before" run used: the scene file written by the recalibration names the
-    effect among its own, so ``dempath simulate`` of that file would pour a new bed with it
-    (minutes) and the before/after comparison would no longer be on the same packing.
+    The model is the demo's scene with the recalibration's fitted values set on it, which is the
+    recalibrated scene file's model on the bed the "before" run used: the scene file written by
+    the recalibration names the effect among its own, so a run of that file would pour a new bed
+    with it (minutes) and the before/after comparison would no longer be on the same packing.
     """
     from dempath_compare.pipeline import compare_paths
     from dempath_compare.summary import build_table7
-    from dempath_sim.cli import simulate_main
+    from dempath_sim.runs.folder import SimulateRequest, run_to_folder
+    from dempath_sim.scene import resolve_scene
 
-    scene = ctx.results.get('recalibrated_scene')
-    data = ctx.results.get('recalibration')
-    if scene is None or data is None or not data['changed']:
+    recal = ctx.recalibration
+    if recal is None or not recal.best.changed:
         return 'skipped: no recalibrated model'
     out = ctx.out / 'model_after'
-    argv = [ctx.scene, '--out', str(out), '--quiet']
-    for p in data['parameters']:
-        argv += ['--effect', f"{p['name']}.{p['parameter']}={p['value']!r}"]
-    if ctx.options.get('packing_cache') is not None:
-        argv += ['--cache-dir', str(ctx.options['packing_cache'])]
-    if simulate_main(argv) != 0:
-        msg = f'{scene}: the recalibrated model failed (dempath simulate {" ".join(argv)})'
-        raise DempathError(msg)
-    result = compare_paths(ctx.results['graph'].bag, after_model_source(out), named_identity())
+    fitted = {f'{p.name}.{p.parameter}': p.value for p in recal.best.params}
+    try:
+        scene = resolve_scene(ctx.scene).with_overrides(fitted)
+        run_to_folder(SimulateRequest(scene, out, ctx.options.packing_cache))
+    except (DempathError, OSError) as err:
+        msg = f'{recal.scene_file}: the recalibrated model failed ({err})'
+        raise DempathError(msg) from err
+    result = compare_paths(need(ctx.graph, 'graph').bag, after_model_source(out),
+                           named_identity())
     table = build_table7(result)
-    ctx.results.update(compare_after=result, table7_after=table)
-    before = ctx.results['table7'].mean_nrmse
+    ctx.after = ComparisonStage(result, table)
+    before = need(ctx.comparison, 'comparison').table7.mean_nrmse
     means = ', '.join(f'{k}: {before.get(k, float("nan")):.2f} -> {v:.2f} %'
                       for k, v in table.mean_nrmse.items())
-    floor = (data.get('paper') or {}).get('floor')
-    beside = (f" (floor {floor['mean_nrmse_pct']:.2f} +- {floor['mean_nrmse_sd_pct']:.2f} %: "
-              'the true model over packing seeds)' if floor else '')
-    return f'mean nRMSE of this recording {means}{beside}\n{out}'
+    # no floor beside it: the library's Table 7 floor has other candidate pools (issue 26)
+    return (f'mean nRMSE of this recording {means} (no like-for-like floor: one run per model, '
+            f"its candidate pool is not the library floor's)\n{out}")
 
 
 def after_model_source(run: Path) -> Path:
@@ -272,39 +264,55 @@ def report_stage(ctx: DemoContext) -> str:
 
     folder = ctx.out / 'report'
     folder.mkdir(parents=True, exist_ok=True)
-    r = ctx.results
-    graph = r['graph']
+    graph = need(ctx.graph, 'graph')
+    calibration = need(ctx.calibration, 'calibration')
+    comparison = need(ctx.comparison, 'comparison')
+    diagnosed = ctx.diagnosis.outcome if ctx.diagnosis is not None else None
+    diag = diagnosed.folder if diagnosed is not None else ctx.out / 'diagnosis'
+    recal = ctx.recalibration.request.out if ctx.recalibration else ctx.out / 'recalibration'
     figs: dict[str, str | None] = {
-        'calibration': figures.plot_calibration(r['calibration'], r.get('calib_truth') or [],
+        'calibration': figures.plot_calibration(calibration.result, calibration.truth,
                                                 folder / 'calibration.png').name,
         'trajectories': figures.plot_trajectories(
-            {'before': r['compare_before'], 'after': r.get('compare_after')},
+            {'before': comparison.result,
+             'after': ctx.after.result if ctx.after is not None else None},
             folder / 'trajectories.png').name,
-        'error_map': copy_figure(ctx.out / 'diagnosis' / 'error_map.png', folder,
-                                 'error_map.png'),
-        'iterations': copy_figure(ctx.out / 'recalibration' / 'recalibration.png', folder,
+        'error_map': copy_figure(diag / 'error_map.png', folder, 'error_map.png'),
+        'iterations': copy_figure(recal / 'recalibration.png', folder,
                                   'error_vs_iteration.png'),
-        'recal_trajectories': copy_figure(ctx.out / 'recalibration' / 'trajectories.png',
-                                          folder, 'recalibration_trajectories.png'),
-        'headline': copy_figure(ctx.out / 'recalibration' / 'headline.png', folder,
-                                'headline.png'),
-        'statistics': copy_figure(ctx.out / 'diagnosis' / 'statistics.png', folder,
-                                  'statistics.png')}
+        'recal_trajectories': copy_figure(recal / 'trajectories.png', folder,
+                                          'recalibration_trajectories.png'),
+        'headline': copy_figure(recal / 'headline.png', folder, 'headline.png'),
+        'headline_iterations': copy_figure(recal / 'headline_iterations.png', folder,
+                                           'headline_iterations.png'),
+        'statistics': copy_figure(diag / 'statistics.png', folder, 'statistics.png')}
+    try:
+        coverage = figures.marker_coverage(measured_csv(ctx))
+    except DempathError:  # no 3D point recorded: the detection section says so
+        coverage = None
+    figs['coverage'] = (figures.plot_marker_coverage(coverage, folder / 'coverage.png').name
+                        if coverage else None)
     drawn = None if ctx.clicked else figures.frame_with_detections(
         ctx.field_bag, graph.bag, folder / 'detections.png')
     figs['detections'] = drawn.name if drawn is not None else None
-    files = {'MCAP bag (Foxglove)': str(graph.bag), 'stereo calibration': str(r['stereo_yaml']),
-             'comparison report': str(r['outputs'].report)}
-    if r.get('recalibrated_scene') is not None:
-        files['recalibrated scene'] = str(r['recalibrated_scene'])
+    files = {'MCAP bag (Foxglove)': str(graph.bag),
+             'stereo calibration': str(calibration.stereo_yaml),
+             'comparison report': str(comparison.outputs.report if comparison.outputs else '-')}
+    if ctx.recalibration is not None:
+        files['recalibrated scene'] = str(ctx.recalibration.scene_file)
     detection = '; '.join(detection_lines(graph.detection)) or 'clicked points (no detection)'
-    err = r.get('traj_rms_mm')
-    if err is not None:
-        detection += f". Reconstructed 3D markers vs the recording's truth: RMS {err:.2f} mm."
+    if ctx.traj_rms_mm is not None:
+        detection += (". Reconstructed 3D markers vs the recording's truth: RMS "
+                      f'{ctx.traj_rms_mm:.2f} mm.')
+    if coverage:
+        detection += (f". Markers reconstructed in 3D in at least 80 % of the pass's "
+                      f"{coverage['frames']} frames: {len(coverage['reconstructed'])} of "
+                      f"{len(coverage['present'])} "
+                      f"({', '.join(map(str, coverage['reconstructed']))})")
     meta = {'title': f'{ctx.field_bag.name} against scene {ctx.scene}',
             'what': (f'Field recording {ctx.field_bag}, calibration from {ctx.calib_source}, '
                      f'model scene {ctx.scene}.'),
-            'stages': r.get('stage_s', {}), 'files': files, 'detection': detection}
-    page = write_report(r, figs, folder, meta)
+            'stages': ctx.stage_s, 'files': files, 'detection': detection}
+    page = write_report(ctx, figs, folder, meta)
     made = sorted(k for k, v in figs.items() if v)
     return f'{page} ({len(made)} figures: {", ".join(made)})'

@@ -34,7 +34,7 @@ from typing import Any
 
 from dempath.errors import DempathError
 from dempath_bringup import analysis, stages
-from dempath_bringup.stages import DemoContext
+from dempath_bringup.context import DemoContext, DemoOptions
 
 DATA = Path('bags')  # the repository's shipped recordings, relative to where the demo runs
 RENDER_BAG = 'field_render_reduced_1ms'
@@ -61,9 +61,9 @@ STEPS: list[Step] = [
          'recorder -> MCAP', stages.graph_stage),
     Step('comparison outputs', 'workbook, plots, Table 7 from the recorded bag',
          stages.compare_stage),
-    Step('diagnosis', 'which physical effect the model misses (dempath diagnose)',
+    Step('diagnosis', 'which physical effect the model misses (as dempath diagnose)',
          analysis.diagnosis_stage),
-    Step('recalibration', 'fit the named effect with a small budget (dempath recalibrate)',
+    Step('recalibration', 'fit the named effect with a small budget (as dempath recalibrate)',
          analysis.recalibration_stage),
     Step('model after', 'run the recalibrated scene and compare it again', analysis.after_stage),
     Step('report', 'one HTML page with its figures', analysis.report_stage),
@@ -116,7 +116,13 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def context_of(args: argparse.Namespace) -> DemoContext:
-    """The demo's inputs from its arguments (the clicked path has its own default bags)."""
+    """The demo's inputs from its arguments (the clicked path has its own default bags).
+
+    Raises:
+        DempathError: ``--seeds`` that are not integers.
+    """
+    from dempath_diagnose.cli_options import ints
+
     if args.clicked:
         field_bag = args.field_bag or args.data / CLICKED_BAG
         calib = args.calib_bag or args.data / CLICKED_CALIB_BAG
@@ -128,10 +134,12 @@ def context_of(args: argparse.Namespace) -> DemoContext:
         from dempath_bringup.analysis import shipped_library
 
         library = shipped_library(args.scene)
-    options = {'library_file': library, 'library_root': args.library_root,
-               'seeds': args.seeds, 'candidates': args.candidates,
-               'strengths': args.strengths, 'packing_cache': args.packing_cache,
-               'budget': args.budget, 'effect': args.effect}
+    options = DemoOptions(
+        library_file=library, library_root=args.library_root,
+        seeds=ints(args.seeds, '--seeds') if args.seeds else None,
+        candidates=tuple(c for c in args.candidates.split(',') if c) if args.candidates
+        else None, strengths=args.strengths, packing_cache=args.packing_cache,
+        budget=args.budget, effect=args.effect)
     return DemoContext(calib, field_bag, args.scene, args.out, args.rate, args.clicked,
                        options, progress_bar)
 
@@ -156,7 +164,7 @@ def run_steps(ctx: DemoContext, steps: list[Step]) -> int:
     """Run the steps in order, printing each one's result and time; 0, 1 on error, 130 on
     Ctrl-C. ``timing.json`` in the output folder lists the seconds of each finished step."""
     timing: dict[str, Any] = {'stages': {}}
-    ctx.results['stage_s'] = timing['stages']
+    ctx.stage_s = timing['stages']
     start = time.monotonic()
     code = 0
     for number, step in enumerate(steps, 1):
@@ -177,13 +185,13 @@ def run_steps(ctx: DemoContext, steps: list[Step]) -> int:
         timing['stages'][step.name] = round(seconds, 2)
         print('    ' + text.replace('\n', '\n    ') + f'\n    ({seconds:.1f} s)', flush=True)
     timing.update(demo_s=round(time.monotonic() - start, 1), exit_code=code,
-                  traj_rms_mm=ctx.results.get('traj_rms_mm'),
-                  mean_nrmse_pct={name: table.mean_nrmse for name, key in
-                                  (('before', 'table7'), ('after', 'table7_after'))
-                                  if (table := ctx.results.get(key)) is not None})
+                  traj_rms_mm=ctx.traj_rms_mm,
+                  mean_nrmse_pct={name: stage.table7.mean_nrmse for name, stage in
+                                  (('before', ctx.comparison), ('after', ctx.after))
+                                  if stage is not None})
     (ctx.out / 'timing.json').write_text(json.dumps(timing))
     if code == 0:
-        graph = ctx.results.get('graph')
+        graph = ctx.graph
         print(f'demo finished in {timing["demo_s"]} s; outputs in {ctx.out}:\n'
               f'    report   {ctx.out / "report" / "index.html"}\n'
               f'    MCAP bag {graph.bag if graph is not None else "-"}\n'
@@ -194,7 +202,11 @@ def run_steps(ctx: DemoContext, steps: list[Step]) -> int:
 def demo_main(argv: list[str]) -> int:
     """``dempath demo``: from camera images to a recalibrated model, on bundled data."""
     args = _parser().parse_args(argv)
-    ctx = context_of(args)
+    try:
+        ctx = context_of(args)
+    except DempathError as err:
+        print(f'error: {err}', file=sys.stderr)
+        return 1
     problem = check_inputs(ctx, args)
     if problem is not None:
         print(f'error: {problem}', file=sys.stderr)

@@ -170,3 +170,47 @@ def plot_trajectories(results: dict[str, Any], path: Path) -> Path:
     fig.savefig(path, dpi=90)
     plt.close(fig)
     return path
+
+
+def marker_coverage(measured_csv: Path, markers: int = 15,
+                    fps: float = 50.0) -> dict[str, Any]:
+    """Which markers the cameras reconstructed, and when: per marker the share of the pass's
+    frames (from the first to the last 3D frame) with a 3D point, and the frame times.
+
+    Returns:
+        {'frames': n, 'times_s': (n,), 'present': {marker: (n,) bool}, 'share': {marker: f},
+        'reconstructed': markers present in at least 80 % of the frames}.
+    """
+    data = np.loadtxt(measured_csv, delimiter=',', skiprows=1, ndmin=2)
+    keys = np.round(data[:, 0] * fps).astype(int)
+    first = int(keys.min()) if len(keys) else 0
+    times = (first + np.arange(int(keys.max()) - first + 1 if len(keys) else 0)) / fps
+    frame = keys - first
+    present = {m: np.zeros(len(times), bool) for m in range(1, markers + 1)}
+    for f, m in zip(frame, data[:, 1].astype(int), strict=True):
+        if m in present and 0 <= f < len(times):
+            present[m][f] = True
+    share = {m: float(v.mean()) if len(v) else 0.0 for m, v in present.items()}
+    return {'frames': len(times), 'times_s': times, 'present': present, 'share': share,
+            'reconstructed': [m for m, s in share.items() if s >= 0.8]}
+
+
+def plot_marker_coverage(coverage: dict[str, Any], path: Path) -> Path:
+    """One row per marker: the frames in which it was reconstructed in 3D, and its share."""
+    plt = _pyplot()
+    marks = sorted(coverage['present'])
+    fig, ax = plt.subplots(figsize=(8.0, 0.28 * len(marks) + 1.2))
+    img = np.array([coverage['present'][m] for m in marks], float)
+    t = coverage['times_s']
+    extent = (float(t[0]), float(t[-1]), len(marks) - 0.5, -0.5) if len(t) > 1 else None
+    ax.imshow(img, aspect='auto', cmap='Greens', vmin=0, vmax=1.3, extent=extent,
+              interpolation='nearest')
+    ax.set_yticks(range(len(marks)),
+                  [f"{m} ({coverage['share'][m]:.0%})" for m in marks], fontsize=7)
+    ax.set_xlabel('time of the pass [s]')
+    ax.set_title(f"markers reconstructed in 3D (green): {len(coverage['reconstructed'])} of "
+                 f'{len(marks)} in at least 80 % of the {coverage["frames"]} frames', fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path

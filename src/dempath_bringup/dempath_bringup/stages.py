@@ -1,21 +1,21 @@
 """The demo's measurement stages: calibration, the node graph, the comparison outputs.
 
 Each stage is ``stage(ctx) -> str`` (printable result lines) over a shared
-:class:`DemoContext`; :mod:`dempath_bringup.demo` runs them in order as named steps, and
+:class:`~dempath_bringup.context.DemoContext`, whose field for the stage it sets to its typed
+result; :mod:`dempath_bringup.demo` runs them in order as named steps, and
 :mod:`dempath_bringup.analysis` holds the stages after them (diagnosis, recalibration, report).
 """
 
 from __future__ import annotations
 
 import shutil
-from collections.abc import Callable
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from dempath.errors import DempathError
+from dempath_bringup.context import CalibrationStage, ComparisonStage, DemoContext, need
 from dempath_bringup.nodes.graph import METHOD, GraphSpec, field_truth_error, run_graph
 
 LIVE_TOL_PCT = 1e-6  # live and recorded Table 7 agree to rounding [% nRMSE]
@@ -23,30 +23,6 @@ SQUARE_MM = 40.4  # the paper's ChArUco squares
 PAPER_RMSE_PX = {'side': 0.49, 'front': 0.57}  # the paper's calibration RMSE
 START_MARGIN_S = 0.002  # the player starts this long before the first field image [s]
 DETECT_RATE = 0.25  # playback speed of images: both detectors keep up on a loaded machine
-
-
-@dataclass
-class DemoContext:
-    """What the stages share: inputs, options, the output folder and results by name.
-
-    Attributes:
-        calib_source: bag or frame folder with the board views (the field bag itself when it
-            starts with a board segment).
-        field_bag: the field recording (images, or clicked pixel points with ``clicked``).
-        clicked: play the bag's pixel points instead of detecting markers in its images.
-        options: the diagnosis and recalibration settings (``analysis`` reads them).
-        progress: ``progress(description, total)`` context manager factory for long stages.
-    """
-
-    calib_source: Path
-    field_bag: Path
-    scene: str
-    out: Path
-    rate: float
-    clicked: bool = False
-    options: dict[str, Any] = field(default_factory=dict)
-    progress: Callable[..., Any] | None = None
-    results: dict[str, Any] = field(default_factory=dict)
 
 
 def truth_json(bag: Path) -> Path:
@@ -70,8 +46,7 @@ def calibrate_stage(ctx: DemoContext) -> str:
     result = run.result
     paths = save_result(result, ctx.out / 'calibration', {'inputs': [str(ctx.calib_source)]})
     checks = check_against_truth(result.calibration, truth_cameras(truth_json(ctx.calib_source)))
-    ctx.results.update(calibration=result, stereo_yaml=paths['stereo.yaml'], calib_run=run,
-                       calib_truth=checks)
+    ctx.calibration = CalibrationStage(run, paths['stereo.yaml'], checks)
     rep = result.report
     spacing = rep['corner_spacing']
     field_start = ('' if run.field_start_s is None else
@@ -86,7 +61,7 @@ def calibrate_stage(ctx: DemoContext) -> str:
 
 def corner_error(ctx: DemoContext, reconstructor: Any) -> str:
     """3D error of the reconstructor node's fitted method on the calibration corners."""
-    ps = ctx.results['calibration'].point_set
+    ps = need(ctx.calibration, 'calibration').result.point_set
     err_mm = 1e3 * np.linalg.norm(reconstructor.predict(ps.pixels) - ps.xyz, axis=1)
     return (f'{METHOD} (fitted by the reconstructor node) on the {len(ps.xyz)} calibration '
             f'corners: mean 3D error {np.nanmean(err_mm):.2f} mm, max {np.nanmax(err_mm):.2f} mm')
@@ -94,13 +69,14 @@ def corner_error(ctx: DemoContext, reconstructor: Any) -> str:
 
 def graph_spec(ctx: DemoContext, bag: Path) -> GraphSpec:
     """The node graph of this demo: detection from images, or the bag's clicked points."""
-    run = ctx.results.get('calib_run')
+    calibration = need(ctx.calibration, 'calibration')
+    run = calibration.run
     offset = 0.0
-    if not ctx.clicked and run is not None and run.field_start_s is not None and \
+    if not ctx.clicked and run.field_start_s is not None and \
             ctx.calib_source.resolve() == ctx.field_bag.resolve():
         offset = max(run.field_start_s - run.first_stamp_s - START_MARGIN_S, 0.0)
     rate = ctx.rate if ctx.clicked else ctx.rate * DETECT_RATE
-    return GraphSpec(field_bag=ctx.field_bag, calibration=ctx.results['stereo_yaml'],
+    return GraphSpec(field_bag=ctx.field_bag, calibration=calibration.stereo_yaml,
                      scene=ctx.scene, output=bag, method=METHOD, rate=rate,
                      experiment=ctx.field_bag.name, detect=not ctx.clicked,
                      start_offset_s=offset)
@@ -115,7 +91,7 @@ def graph_stage(ctx: DemoContext) -> str:
     assert ctx.progress is not None
     with ctx.progress('graph', None) as bar:
         graph = run_graph(spec, lambda text: bar(0, None, text))
-    ctx.results['graph'] = graph
+    ctx.graph = graph
     if graph.live is None:
         msg = f'{spec.scene}: the comparer node published no scores'
         raise DempathError(msg)
@@ -123,7 +99,7 @@ def graph_stage(ctx: DemoContext) -> str:
     lines += detection_lines(graph.detection)
     err = truth_error(ctx, bag)
     if err is not None:
-        ctx.results['traj_rms_mm'] = err[2]
+        ctx.traj_rms_mm = err[2]
         lines.append(f"reconstructed vs the recording's true markers: mean {err[0]:.2f} mm, "
                      f'max {err[1]:.2f} mm, RMS {err[2]:.2f} mm')
     return '\n'.join(lines)
@@ -180,13 +156,12 @@ def compare_stage(ctx: DemoContext) -> str:
     from dempath_compare.pipeline import compare_paths
     from dempath_compare.summary import build_table7
 
-    graph = ctx.results['graph']
+    graph = need(ctx.graph, 'graph')
     result = compare_paths(graph.bag, graph.bag, named_identity())
     outputs = write_outputs(result, ctx.out / 'compare')
-    ctx.results.update(outputs=outputs, compare_before=result)
     live = build_table7(graph.live)
     gap = table7_gap(live, build_table7(result))
-    ctx.results['table7'] = live
+    ctx.comparison = ComparisonStage(result, live, outputs)
     return (f'{table7_text(live)}\nworkbook {outputs.workbook}\nreport   {outputs.report}\n'
             f'table 7  {outputs.table7_md}\nplots    {len(outputs.best_plots)} XZ/YZ + '
             f'{len(outputs.tracked_plots)} 3D in {outputs.report.parent}\n'

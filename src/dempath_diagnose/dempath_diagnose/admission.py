@@ -1,89 +1,36 @@
-"""The inputs of a diagnosis checked against each other before any work.
+"""The measured inputs of a diagnosis checked against the scene and each other before any work.
 
 A wrong pairing of inputs gives a confident wrong answer, not an error, so each is refused with
 one line naming what differs:
 
-- a signature library (folder or packed file) is for one scene: it carries the scene's name,
-  its physics key (:func:`~dempath_diagnose.library.simulator.physics_key`) and one key per
-  part of the scene (bin, layers, materials, effects, tool, markers, fill, numerics); another
-  scene or other physics is refused naming the parts that differ;
 - the measured markers must start inside the scene's bin (after ``--origin``): a few outside are
   left out and named, most outside is refused;
 - a force file's time base is checked as a marker file's is: no clock times, not
-  milliseconds, no offset before the pass, and it must cover the measured pass;
-- a thin measurement (too few markers, or none on the tool axis or beside it) makes the verdict
-  ``inconclusive`` and says how many markers naming an effect needs.
+  milliseconds, no offset before the pass, and it must cover the measured pass.
+
+The two other admissions sit in the rooms whose types they read: a library against its scene in
+:mod:`dempath_diagnose.library.scene_identity`, a thin measurement in
+:mod:`dempath_diagnose.decision.thin`.
 """
 
 from __future__ import annotations
 
-import hashlib
-import json
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from dempath_diagnose.errors import LibraryError, MeasurementError
+from dempath_diagnose.errors import MeasurementError
 from dempath_diagnose.records import F64, Measurement
 
 if TYPE_CHECKING:
-    from dempath_diagnose.decision.statistics import Layout
-    from dempath_diagnose.decision.verdict import Decision
     from dempath_sim.scene import SceneSpec
 
-PARTS = ('bin', 'layers', 'materials', 'effects', 'bed_effects', 'tool', 'markers', 'fill',
-         'sim')
 MAX_CLOCK_START_S = 1e5  # a first time later than this is a clock time [s]
 MAX_LEAD_S = 1.0  # a pass file may start this long before t = 0 [s]
 MIN_COVER = 0.9  # the force must cover this fraction of the measured window
 MS_RATIO = 50.0  # a force spanning this many times the markers' window is in milliseconds
 BIN_SLACK_M = 0.005  # a marker start may lie this far outside the bin's walls [m]
-
-
-def scene_identity(scene: SceneSpec) -> dict[str, Any]:
-    """What a library stores about its scene: name, physics key and one key per part."""
-    from dempath_diagnose.library.simulator import physics_key, scene_parts
-
-    parts = scene_parts(scene)
-    return {'scene': scene.name, 'physics_key': physics_key(scene),
-            'parts': {k: _digest(parts[k]) for k in PARTS if k in parts}}
-
-
-def _digest(value: Any) -> str:
-    text = json.dumps(value, sort_keys=True, default=str)
-    return hashlib.sha256(text.encode()).hexdigest()[:12]
-
-
-def check_library_scene(library_path: Path, stored: dict[str, Any], scene: SceneSpec) -> None:
-    """Refuse a library built for another scene or other physics.
-
-    Args:
-        library_path: The library (for messages).
-        stored: Its identity (:func:`scene_identity` as stored; may be partial for an older
-            library: then only the scene name is compared).
-        scene: The scene of this diagnosis.
-
-    Raises:
-        LibraryError: One line naming the library, both scenes and the parts that differ.
-    """
-    mine = scene_identity(scene)
-    name = stored.get('scene')
-    key = stored.get('physics_key')
-    if key is None:
-        if name is not None and name != scene.name:
-            msg = (f'{library_path}: the library is for scene {name!r}, not {scene.name!r} '
-                   '(it carries no physics key: an older library)')
-            raise LibraryError(msg)
-        return
-    if key == mine['physics_key']:
-        return
-    theirs = stored.get('parts') or {}
-    differ = [p for p in PARTS if theirs.get(p) != mine['parts'].get(p)] if theirs else []
-    what = ', '.join(differ) if differ else 'its physics'
-    msg = (f'{library_path}: the library is for scene {name!r} (physics key {key}), not for '
-           f'{scene.name!r} (physics key {mine["physics_key"]}): they differ in {what}')
-    raise LibraryError(msg)
 
 
 def markers_in_bin(source: Path, meas: Measurement, scene: SceneSpec) -> Measurement:
@@ -165,49 +112,4 @@ def check_pass_times(source: Path, first: float, last: float) -> None:
         raise MeasurementError(msg)
 
 
-MIN_MARKERS = 3  # fewer markers than this cannot tell candidates apart (see thin_measurement)
-
-
-def thin_measurement(layout: Layout) -> str:
-    """Why a measurement is too thin to name an effect, or ''.
-
-    The candidates differ in how markers on the tool axis and beside it move (heave and lift on
-    the axis, outward push beside it), and a group statistic of one particle carries that
-    particle's own chaotic spread. So a diagnosis needs at least :data:`MIN_MARKERS` markers,
-    at least one on the tool axis and one beside the tool; with fewer its verdict is
-    ``inconclusive`` whatever the probabilities (:func:`thin_decision`).
-    """
-    axis = sum(len(g.members) for g in layout.groups if g.side == 0)
-    beside = sum(len(g.members) for g in layout.groups if g.side != 0)
-    n = len(layout.markers)
-    if n >= MIN_MARKERS and axis and beside:
-        return ''
-    return (f'thin measurement: {n} marker{"s" if n != 1 else ""} ({axis} on the tool axis, '
-            f'{beside} beside it); naming an effect needs at least {MIN_MARKERS} markers with '
-            'at least one on the axis and one beside the tool')
-
-
-def thin_decision(decision: Decision, layout: Layout) -> Decision:
-    """``decision`` made ``inconclusive`` (every model remaining, the reason in its notes)
-    when the measurement is thin; unchanged otherwise."""
-    from dataclasses import replace
-
-    note = thin_measurement(layout)
-    if not note:
-        return decision
-    remaining = [decision.baseline.name, *(f.name for f in decision.ranking)]
-    return replace(decision, verdict='inconclusive', remaining=remaining,
-                   notes=[*decision.notes, note])
-
-
-__all__ = [
-    'MIN_MARKERS',
-    'PARTS',
-    'check_force_time_base',
-    'check_library_scene',
-    'check_pass_times',
-    'markers_in_bin',
-    'scene_identity',
-    'thin_decision',
-    'thin_measurement',
-]
+__all__ = ['check_force_time_base', 'check_pass_times', 'markers_in_bin']

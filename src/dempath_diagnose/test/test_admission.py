@@ -141,7 +141,7 @@ def test_marker_times_before_the_pass_are_refused() -> None:
 def test_library_folder_design_carries_the_identity(tmp_path: Path) -> None:
     """A library folder's design.json without the identity (an older build) is still compared
     by its scene name."""
-    from dempath_diagnose.admission import check_library_scene
+    from dempath_diagnose.library.scene_identity import check_library_scene
 
     check_library_scene(tmp_path, {'scene': 'tiny'}, bundled_scene('tiny'))
     with pytest.raises(LibraryError, match="for scene 'tiny', not 'reduced_1ms'"):

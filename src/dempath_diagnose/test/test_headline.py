@@ -8,9 +8,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from dempath_diagnose.headline.compare import rival_lower
 from dempath_diagnose.headline.ensemble import emulated_run
-from dempath_diagnose.headline.fall import FallCase, FallSetup, run_case
-from dempath_diagnose.headline.floor import floor_band, headline_figure
+from dempath_diagnose.headline.fall import FallCase, FallSetup, at_floor, run_case
+from dempath_diagnose.headline.floor import band_of, floor_band, headline_figure
 from dempath_diagnose.headline.samples import MarkerSamples, played_measurement
 from dempath_diagnose.headline.score import headline_error
 from dempath_diagnose.library.simulator import load_scene, tool_geometry
@@ -102,8 +103,133 @@ def test_strong_cohesion_falls_into_its_floor_and_a_wrong_fit_does_not(
     res = run_case(shipped, FallCase('cohesion', 'cohesion', 1e5, 1001), setup,
                    with_table7=False)
     assert res['all']['before']['place'] == 'above'
-    assert res['all']['after_true']['place'] != 'above'
-    assert res['all']['after_wrong']['place'] == 'above'
+    assert at_floor(res['all']['after_true'])
+    assert not at_floor(res['all']['after_wrong'])
+    assert res['all']['after_wrong']['rival']['lower']  # the measurement prefers the true fit
     held = res['held_out']
     assert held['after_true']['value'] < held['before']['value']
+    # d^2 beside its like-for-like floor (the seeds playing the measurement with the fit
+    # markers' samples), not a nominal chi-square
+    d2 = res['d2']
+    assert d2['before']['place'] == 'above' and d2['after_true']['place'] != 'above'
+    assert d2['after_true']['floor']['seeds'] == 3 and d2['after_true']['floor']['n'] == 12
     assert res['window_s'][1] > 0.8  # the whole pass
+
+
+def test_floor_band_takes_the_seed_as_the_unit() -> None:
+    """Figures that agree within each seed but differ between seeds give a wide band (three
+    seeds are three draws, not twelve); the same spread spread evenly over ranks does not."""
+    clustered = [[10.0, 10.1, 10.0, 10.1], [12.0, 12.1, 12.0, 12.1], [14.0, 14.1, 14.0, 14.1]]
+    mixed = [[10.0, 12.1, 14.0, 12.0], [14.1, 10.0, 12.0, 12.1], [12.0, 14.1, 10.1, 14.0]]
+    tight, wide = band_of(mixed, 2), band_of(clustered, 2)
+    assert wide.high - wide.low > 2 * (tight.high - tight.low)
+    assert wide.df < 3 < tight.df
+    # the 5-95 % percentiles of the twelve clustered figures would end at 14.1; the band
+    # for one more seed reaches well past the seeds seen
+    assert wide.high > 17.0 and wide.low < 7.0
+    assert wide.place(16.0) == 'in' and tight.place(16.0) == 'above'
+
+
+def test_rival_lower_pairs_the_markers() -> None:
+    """A rival lower on every marker by more than the markers' scatter is significantly lower;
+    one lower on average through a single marker is not."""
+    rng = np.random.default_rng(3)
+    this = 0.012 + 0.003 * rng.standard_normal(15)
+    assert rival_lower(this, this - 0.002 + 0.0003 * rng.standard_normal(15))['lower']
+    one = this.copy()
+    one[4] -= 0.02
+    res = rival_lower(this, one)
+    assert not res['lower'] and res['markers'] == 15
+    this[:13] = np.nan
+    assert rival_lower(this, this - 0.01) == {'lower': False, 'p': None, 'markers': 2,
+                                              'mean_difference_mm': None}
+
+
+def test_recalibration_table7_after_has_its_own_floor_and_iterations_their_headline(
+        shipped: Library, tmp_path: Path) -> None:
+    """Table 7 after a cohesion fit sits beside the fitted model's own floor (every library
+    seed, pools as large as the figure's), not the baseline's; every evaluated iteration gets
+    its headline beside its own band."""
+    from types import SimpleNamespace
+
+    from dempath_diagnose.decision.statistics import build_layout
+    from dempath_diagnose.recalibration.paper_metrics import before_after
+    from dempath_diagnose.report.recalibration_paper import fitted_model, iteration_headlines
+
+    tool_x, half, cube = tool_geometry(load_scene('reduced_1ms'))
+    starts = np.array(shipped.region['starts'])
+    truth = emulated_run(shipped, 'cohesion', 1e5, 1003)
+    times = np.arange(0.0, 0.6, 0.01)
+    samples = MarkerSamples(np.arange(1, 16), starts, times, np.ones((len(times), 15), bool))
+    meas = played_measurement(truth, samples, 0, 0.0015, np.random.default_rng(3))
+    layout = build_layout(meas.markers, meas.start, tool_x, half, 0.6, 0.6)
+    base = {r.seed: r.filename for r in shipped.runs if not r.candidate}
+    coh = {r.seed: r.filename for r in shipped.runs
+           if r.candidate == 'cohesion' and r.strength == 1e5}
+    before = [(base[s], shipped.records[base[s]]) for s in (1001, 1002)]
+    after = [(coh[s], shipped.records[coh[s]]) for s in (1001, 1002)]
+    floor = [(base[s], shipped.records[base[s]]) for s in sorted(base)]
+    best = SimpleNamespace(params=[SimpleNamespace(name='cohesion', value=1e5)],
+                           effect='cohesion', strengths=(1e5,))
+    own = fitted_model(best, shipped)  # type: ignore[arg-type]
+    assert len(own) == 3
+    paper = before_after(meas, layout, cube, before, after, floor, 0.0015, own)
+    assert paper['pool_seeds'] == paper['floor_pool_seeds'] == 2
+    assert paper['floor_after_pool_seeds'] == 2
+    # cohesive beds vary more: the fitted model's own floor lies well above the baseline's
+    assert paper['floor_after']['mean_nrmse_pct'] > paper['floor']['mean_nrmse_pct'] + 2.0
+    paths = []
+    for name, rec in after:
+        rec.save(tmp_path / f'{name}.npz')
+        paths.append(tmp_path / f'{name}.npz')
+    evaluate = SimpleNamespace(runs={(1e5,): paths})
+    its = iteration_headlines(meas, evaluate, before, cube, 0.0015)
+    assert [it['label'] for it in its] == ['before', 'iteration 1: 1e+05']
+    assert its[0]['place'] == 'above' and its[1]['value_mm'] < its[0]['value_mm']
+
+
+def test_summary_counts_a_fit_inside_its_band_but_beaten_as_not_at_its_floor() -> None:
+    """A wrong fit inside its own band whose rival scores significantly lower is not at its
+    floor; a case whose error before lies inside the band is not seen and counts for neither."""
+    from dempath_diagnose.headline.fall import summary
+
+    def entry(place: str, lower: bool = False) -> dict[str, object]:
+        return {'place': place, 'value': 1.0, 'rival': {'lower': lower}}
+
+    def case(before: str, true: str, wrong: str, beaten: bool) -> dict[str, object]:
+        return {'case': 'c', 'seed': 1, 'candidate': 'cohesion', 'verdict': 'effect_missing',
+                'all': {'before': entry(before), 'after_true': entry(true),
+                        'after_wrong': entry(wrong, beaten)},
+                'held_out': {'before': entry(before), 'after_true': entry(true)}}
+
+    results = [case('above', 'in', 'in', True), case('above', 'in', 'above', True),
+               case('in', 'in', 'in', False)]
+    out = summary(results, table7_like_for_like=True)
+    assert out['effect_seen'] == 2 and out['true_fit_in_floor'] == 2
+    assert out['wrong_fit_in_floor'] == 0 and out['wrong_fit_in_own_band'] == 1
+
+
+def test_d2_floor_measures_each_played_marker_from_its_own_start(shipped: Library) -> None:
+    """The control (the baseline on seed 1001 as the measurement): its d^2 lies inside its
+    like-for-like floor, whose figures are of its size; measured from the figure's marker
+    starts, another seed's particles (millimetres away) gave a floor well above it (in the
+    bench, about four times)."""
+    from dempath_diagnose.decision.emulator import Allowance
+    from dempath_diagnose.headline.d2floor import D2Setup, d2_floor
+    from dempath_diagnose.headline.fall import _diagnose
+
+    tool_x, half, cube = tool_geometry(load_scene('reduced_1ms'))
+    starts = np.array(shipped.region['starts'])
+    setup = FallSetup(np.arange(1.0, 16.0), starts, (3, 8, 13), tool_x, half, cube)
+    truth = emulated_run(shipped, '', 0.0, 1001)
+    times = np.round(np.arange(0.0, float(truth.times[-1]) + 1e-9, 0.005), 6)
+    samples = MarkerSamples(np.arange(1, 16), starts, times, np.ones((len(times), 15), bool))
+    meas = played_measurement(truth, samples, 0, 0.0015, np.random.default_rng(5))
+    decision, _, layout = _diagnose(shipped, meas, 1001, setup)
+    band = d2_floor(shipped, '', 0.0, samples, D2Setup(layout, cube, Allowance(), ranks=2),
+                    fitted=False)
+    figure = float(decision.baseline.chi2)
+    assert band.place(figure) == 'in', (figure, band)
+    # measured from the figure's starts the floor's figures were 6.3-20.6 (median 10.7) against
+    # the figure's 6.7; from each played marker's own start they are 1.4-6.1 (median 5.2)
+    assert band.median < 1.25 * figure, (figure, band.samples)

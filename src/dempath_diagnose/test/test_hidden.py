@@ -21,7 +21,7 @@ from dempath_diagnose.library.store import Library
 from .conftest import SCENE, SPEC
 
 CASES = {
-    'control': HiddenCase('control', {}, '', ('nothing_significant', 'inconclusive'), seed=7),
+    'control': HiddenCase('control', {}, '', ('nothing_significant',), seed=7),
     'tool_speed': HiddenCase('tool_speed', {'tool_speed.speed_scale': 1.4}, 'tool_speed',
                              ('parameter_off',), seed=9),
     'cohesion': HiddenCase('cohesion', {'cohesion.energy_density_j_m3': 8e4}, 'cohesion',

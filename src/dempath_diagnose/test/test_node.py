@@ -110,6 +110,9 @@ def check_fields(msg: Diagnosis, runs: int) -> None:
     assert any(n.startswith('force:draft') for n in msg.statistic_names)
     assert np.all(np.isfinite(msg.measured))  # the force was measured: every statistic is
     assert np.isfinite(msg.mean_nrmse_pct) and msg.mean_nrmse_pct > 0
+    # the headline error on the live topic, beside its like-for-like floor band
+    assert msg.headline_place == 'above', msg.headline_place  # the tool speed is off
+    assert msg.headline_floor_low_mm < msg.headline_floor_high_mm < msg.headline_error_mm
     assert msg.simulations == runs and msg.wall_s > 0
     assert not msg.remaining  # named, not inconclusive
     top = msg.candidates[0]

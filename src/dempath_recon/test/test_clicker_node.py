@@ -9,7 +9,7 @@ import pytest
 
 from dempath import topics
 from dempath_msgs.msg import MarkerPoints3D, PixelPoints, RunEvent
-from dempath_recon.clicker.clicks import Click, clicks_to_csv
+from dempath_recon.clicker.click_csv import Click, clicks_to_csv
 from dempath_recon.errors import ClickError
 from dempath_recon.nodes.clicker import ClickerNode
 from dempath_recon.nodes.reconstructor import ReconstructorNode

@@ -9,14 +9,14 @@ import numpy as np
 import pytest
 
 from dempath.bagio import make_typestore, write_bag
-from dempath_recon.clicker.clicks import (
+from dempath_recon.clicker.click_csv import (
     Click,
     ClickBounds,
-    ClickStore,
     clicks_to_csv,
     parse_markers,
     read_clicks_text,
 )
+from dempath_recon.clicker.clicks import ClickStore
 from dempath_recon.clicker.frames import open_frames
 from dempath_recon.clicker.playback import click_frames, frame_stamps
 from dempath_recon.errors import ClickError

@@ -95,7 +95,7 @@ def test_truncated_jpeg_is_an_error_and_half_size_matches_opencv() -> None:
 class WholeFrameDetector(MarkerDetector):
     """The detector with its chroma computed over the whole frame (the reference)."""
 
-    def _window(self, image: np.ndarray) -> tuple[int, int, np.ndarray]:
+    def _window(self, image: np.ndarray, thr: float) -> tuple[int, int, np.ndarray]:
         from dempath_recon.tracking.detect import chroma
 
         return 0, 0, chroma(image)
@@ -110,8 +110,8 @@ def test_window_around_candidates_gives_the_whole_frame_result(corner: tuple[int
     centres = np.clip(np.asarray(corner, float) + offsets + rng.uniform(-0.5, 0.5, (6, 2)),
                       [4, 4], [1915, 1075])
     jpeg = spot_image((1080, 1920), centres, 4.5, rng, quality=90)
-    for downscale in (1, 2):
-        config = DetectorConfig(downscale=downscale)
+    for downscale, adaptive in ((1, False), (2, False), (2, True)):
+        config = DetectorConfig(downscale=downscale, adaptive=adaptive)
         found = MarkerDetector(config).detect_jpeg(jpeg)
         ref = WholeFrameDetector(config).detect_jpeg(jpeg)
         assert len(ref.uv) >= 4  # the markers the frame shows (some are cut by the border)

@@ -12,7 +12,7 @@ ROOM = Path(dempath_recon.tracking.__file__).parent
 # Bottom to top: a module may import the modules before it, never one after it.
 ORDER = ('merge', 'detect', 'linker', 'associate', 'records', 'release', 'trajectories',
          'state',
-         'one_camera', 'numbering', 'pair_checks', 'pair_numbering', 'stereo')
+         'one_camera', 'numbering', 'pair_checks', 'pair_numbering', 'ray_numbering', 'stereo')
 
 
 def imported_modules(path: Path) -> set[str]:

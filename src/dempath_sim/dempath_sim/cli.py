@@ -21,14 +21,12 @@ from pathlib import Path
 from typing import Any
 
 from dempath.errors import DempathError
-from dempath.outputs import staged_output
 from dempath_sim.effects import effect_table
-from dempath_sim.engine import TriangleMesh
-from dempath_sim.runs import Progress, RunOptions, SimResult, run_scene
-from dempath_sim.runs.vtk import VtkOutput, write_vtk
+from dempath_sim.runs import Progress
+from dempath_sim.runs.folder import SimulateRequest, run_to_folder, write_run_folder
 from dempath_sim.scene import SceneError, SceneSpec, parse_overrides, resolve_scene
 
-SUMMARY = 'summary.json'  # the run's manifest, written last
+__all__ = ['effects_main', 'simulate_main', 'write_run_folder']
 
 
 def _error_line(scene: str, err: Exception) -> str:
@@ -78,56 +76,26 @@ def _progress_bar(quiet: bool) -> tuple[Any, Any]:
     return bar, update
 
 
-def write_run_folder(result: SimResult, out: Path, tool: Any = None,
-                     ) -> tuple[dict[str, Any], VtkOutput | None]:
-    """Write a run's outputs whole into ``out`` (staged beside it and installed at the end, with
-    ``summary.json`` last as the manifest readers check); with ``tool`` ((n, 3, 3) triangles
-    [m]) also the VTK series in ``out/vtk``. Returns the summary and the VTK outputs."""
-    summary = {**result.meta, 'outputs': str(out),
-               'max_draft_force_n': float(max(result.draft_force(), default=0.0))}
-    vtk = None
-    with staged_output(out, SUMMARY) as stage:
-        result.write_model_csv(stage / 'model.csv')
-        result.write_marker_csv(stage / 'markers.csv')
-        result.write_tool_csv(stage / 'tool.csv')
-        result.save_npz(stage / 'result.npz')
-        if tool is not None:
-            vtk = write_vtk(result, tool, stage / 'vtk')
-        (stage / SUMMARY).write_text(json.dumps(summary, indent=2), encoding='utf-8')
-    if vtk is not None:  # the paths where the files now are
-        vtk = VtkOutput(_moved(vtk.bed_series, stage, out), _moved(vtk.tool_series, stage, out),
-                        tuple(_moved(p, stage, out) for p in vtk.bed_files),
-                        tuple(_moved(p, stage, out) for p in vtk.tool_files))
-    return summary, vtk
-
-
-def _moved(path: Path, stage: Path, out: Path) -> Path:
-    """Where a file written under the staging folder lies once installed in ``out``."""
-    return out / path.relative_to(stage)
-
-
 def simulate_main(argv: list[str]) -> int:
     """``dempath simulate SCENE --out DIR``: run a scene offline with a progress bar."""
     args = _simulate_parser().parse_args(argv)
     try:
         scene = resolve_scene(args.scene).with_overrides(
             parse_overrides(args.effect), off=args.off, on=args.on, seed=args.seed)
-        out = args.out or Path(f'sim_{scene.name}_s{scene.seed}')
+        request = SimulateRequest(scene, args.out, args.cache_dir, args.vtk)
         bar, update = _progress_bar(args.quiet)
-        options = RunOptions(cache_dir=args.cache_dir, progress=update)
         if bar is not None:
             with bar:
-                result = run_scene(scene, options)
+                outcome = run_to_folder(request, update)
         else:
-            result = run_scene(scene, options)
-        tool = (TriangleMesh.from_stl(scene.tool.mesh, scale=scene.tool.scale).triangles
-                if args.vtk else None)
-        summary, vtk = write_run_folder(result, out, tool)
-        if vtk is not None:
+            outcome = run_to_folder(request)
+        if outcome.vtk is not None:
+            vtk = outcome.vtk
             print(f'VTK: {vtk.bed_series} and {vtk.tool_series} ({len(vtk.bed_files)} frames)')
     except (DempathError, OSError) as err:
         print(_error_line(args.scene, err), file=sys.stderr)
         return 1
+    result, summary, out = outcome.result, outcome.summary, outcome.folder
     fill = result.meta['fill']
     print(f"{result.meta['run_id']}: {result.meta['n_particles']} particles, bulk density "
           f"{fill['bulk_density_kg_m3']:.0f} kg/m^3 (solid fraction {fill['solid_fraction']:.3f})"

@@ -129,8 +129,11 @@ def test_pair_forces_match_reference() -> None:
     force = np.zeros((80, 3))
     torque = np.zeros((80, 3))
     ht_k, hr_k = ht.copy(), hr.copy()
+    flags = [np.zeros(80, np.uint8) for _ in range(4)]
+    evals = np.zeros(n_chunks, np.int64)
     pair_forces(pos, vel, omg, rad, mass, mat, start, nbr, ht_k, hr_k, tab, dt, True, True,
-                fbuf, tbuf, np.zeros((n_chunks, 3)))
+                fbuf, tbuf, np.zeros((n_chunks, 3)), False, *flags, np.inf, evals)
+    assert evals.sum() == len(nbr)  # nothing asleep: every listed pair is evaluated
     reduce_buffers(fbuf, tbuf, force, torque)
     f_ref = np.zeros((80, 3))
     t_ref = np.zeros((80, 3))
@@ -224,12 +227,12 @@ def test_verlet_halves_match_reference() -> None:
     p, v, w = pos.copy(), vel.copy(), omg.copy()
     stats = np.zeros((2, 4))
     first_half(p, v, w, force, torque, mass, inertia, rad, g, dt, pos, np.full(3, -1.0),
-               np.full(3, 0.01), stats)
+               np.full(3, 0.01), stats, np.zeros(30, np.uint8))
     v_ref = vel + 0.5 * dt * (force / mass[:, None] + g)
     np.testing.assert_allclose(v, v_ref, rtol=1e-14)
     np.testing.assert_allclose(p, pos + dt * v_ref, rtol=1e-14)
     np.testing.assert_allclose(w, omg + 0.5 * dt * torque / inertia[:, None], rtol=1e-14)
     assert stats[:, 0].max() == pytest.approx(np.max(np.sum((dt * v_ref) ** 2, axis=1)))
     assert stats[:, 2].sum() == np.count_nonzero(np.any(p > 0.01, axis=1))
-    second_half(v, w, force, torque, mass, inertia, g, dt)
+    second_half(v, w, force, torque, mass, inertia, g, dt, np.zeros(30, np.uint8))
     np.testing.assert_allclose(v, v_ref + 0.5 * dt * (force / mass[:, None] + g), rtol=1e-14)

@@ -8,7 +8,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from dempath_sim.validation.repose import ReposeCase, preset_case, repose_angles, summarise
+from dempath_sim.validation.pile import repose_angles, summarise
+from dempath_sim.validation.repose import ReposeCase, preset_case
 
 
 def _cone(angle_deg: float, radius: float = 0.002, height: float = 0.05) -> np.ndarray:

@@ -1,4 +1,5 @@
-"""Rendered field recordings: geometry, occlusion by grains, and the bag with its truth."""
+"""Rendered field recordings: geometry, occlusion by grains, the bag with its truth, and which
+markers a rig's cameras can see (coverage without images)."""
 
 from __future__ import annotations
 
@@ -11,13 +12,14 @@ from dempath.bagio import open_bag
 from dempath_twin.render.bag import write_field_recording
 from dempath_twin.render.bed_source import BedRecord
 from dempath_twin.render.camera_frame import FieldCamera, Look, scaled_camera
+from dempath_twin.render.coverage import rig_coverage, truth_coverage
 from dempath_twin.render.recording import (
     FieldScene,
     RecordingConfig,
     lighting,
     render_frame,
 )
-from dempath_twin.rig import paper_rig
+from dempath_twin.rig import carriage_rig, paper_rig
 
 R = 0.006  # grain radius [m]
 
@@ -106,3 +108,57 @@ def test_tool_triangles_are_depth_tested_and_cast_shadows() -> None:
     shadow = ShadowMap(scene, (1.0, 0.0, 0.0))  # light from +X: the grain is behind the tool
     assert shadow.lit(grain + np.array([[R, 0.0, 0.0]]))[0] == 0.0  # in the shadow
     assert shadow.lit(np.array([[0.0, 0.0, 0.2]]))[0] == 1.0
+
+
+def test_look_sets_light_sand_and_marker_colours() -> None:
+    """The renderer's look options (``twin render --light --sand-bgr --marker-bgr``): half the
+    light halves the sand's grey levels; another sand and marker albedo change their pixels
+    (the markers stay bluer than the sand within the detector's documented range)."""
+    rig_cam = scaled_camera(paper_rig().side, 0.5)
+
+    def render(look: Look) -> tuple[np.ndarray, np.ndarray]:
+        cam = FieldCamera(rig_cam, look)
+        rng = np.random.default_rng(0)
+        scene = FieldScene(small_bed(), look, rng)
+        light = lighting(np.array([0.0, 0.02]), rng)[0]
+        image, truth = render_frame(cam, scene, 0.01, light, rng)
+        return image.astype(float), truth.uv
+
+    base = Look(blur_subframes=1, noise_dn=0.0)
+    image, uv = render(base)
+    dim, _ = render(Look(blur_subframes=1, noise_dn=0.0, light=0.5))
+    mid = np.rint(0.5 * (uv[0] + uv[1])).astype(int)  # grains between markers 1 and 2
+    sand = (slice(mid[1] - 3, mid[1] + 4), slice(mid[0] - 3, mid[0] + 4))
+    ratio = dim[sand].mean() / image[sand].mean()
+    assert 0.45 < ratio < 0.55, ratio
+    red, _ = render(Look(blur_subframes=1, noise_dn=0.0, sand_bgr=(0.30, 0.50, 0.75),
+                         marker_bgr=(0.55, 0.25, 0.15)))
+    b, g, r = (red[sand][..., c].mean() / image[sand][..., c].mean() for c in range(3))
+    assert b < 0.8 and r > 1.0, (b, g, r)
+    u, v = np.rint(uv[0]).astype(int)
+    assert red[v, u, 0] < image[v, u, 0] and red[v, u, 0] > red[v, u, 2] + 20
+
+
+def test_coverage_without_images_is_the_renders_truth(tmp_path) -> None:
+    """rig_coverage gives the shares the rendered recording's truth gives, frame for frame."""
+    config = RecordingConfig(scale=0.25, calib_views=0, max_frames=3,
+                             look=Look(blur_subframes=2, supersample=1))
+    write_field_recording(small_bed(), paper_rig(), tmp_path / 'rec', config)
+    truth = truth_coverage(json.loads((tmp_path / 'rec.truth.json').read_text()))
+    quick = rig_coverage(small_bed(), paper_rig(), config)
+    assert quick.frames == truth.frames == 2
+    assert np.allclose(quick.both, truth.both)
+    for cam in ('cam_side', 'cam_front'):
+        assert np.allclose(quick.per_camera[cam], truth.per_camera[cam])
+
+
+def test_the_carriage_rig_sees_over_the_grain_that_hides_a_marker() -> None:
+    """Marker 3 lies under a grain on the fixed side camera's line of sight (30 deg above the
+    surface): that camera never sees it; from the carriage frame, looking steeply down, both
+    cameras see all three markers."""
+    config = RecordingConfig(scale=0.5, calib_views=0, max_frames=3,
+                             look=Look(blur_subframes=1, supersample=1))
+    fixed = rig_coverage(small_bed(), paper_rig(), config)
+    assert fixed.per_camera['cam_side'][2] == 0.0 and 3 not in fixed.reconstructed
+    carriage = rig_coverage(small_bed(), carriage_rig(), config)
+    assert carriage.reconstructed == [1, 2, 3], carriage.to_json()

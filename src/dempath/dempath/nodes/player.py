@@ -2,7 +2,11 @@
 
 The raw CDR bytes of each message are published as they are (header stamps unchanged), /clock
 follows the bag time, and ``/player/events`` (dempath_msgs/RunEvent, transient local) says
-STARTED, then FINISHED or ABORTED, so that pipelines know when the bag is done. A topic whose
+STARTED, then FINISHED or ABORTED, so that pipelines know when the bag is done. FINISHED is
+sent (and the console script exits) only once every subscriber has acknowledged every reliable
+message, or after ``ack_timeout_s``, when the event names the topics whose messages were not all
+acknowledged: on a loaded machine the player used to exit with its last frames still unsent
+(7 frames per camera lost in one run of the demo graph). A topic whose
 message class cannot be imported is skipped with one error line; the rest plays. A bad bag
 logs one error line and an ABORTED event; the node stays up and harms no other node.
 """
@@ -15,6 +19,7 @@ from typing import Any
 
 from builtin_interfaces.msg import Time
 from rcl_interfaces.msg import ParameterDescriptor
+from rclpy.duration import Duration
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 
@@ -38,6 +43,7 @@ PARAMETERS = [
     ('wait_timeout_s', 10.0, 'longest wait for those subscribers [s]'),
     ('clock_hz', 100.0, 'highest /clock rate [Hz]'),
     ('prefetch', 16, 'messages read ahead'),
+    ('ack_timeout_s', 30.0, 'longest wait for subscribers to acknowledge every message [s]'),
 ]
 
 
@@ -49,7 +55,7 @@ class PlayerNode(Node):
         self.declare_parameters('', [(n, d, ParameterDescriptor(description=t))
                                      for n, d, t in PARAMETERS])
         self.finished = threading.Event()
-        self.stats: PlaybackStats | None = None
+        self._stats: PlaybackStats | None = None
         self._event_pub = self.create_publisher(
             RunEvent, topics.PLAYER_EVENTS, reliable_qos(10, latched=True))
         self._clock_pub = self.create_publisher(Clock, topics.CLOCK, 10)
@@ -74,6 +80,15 @@ class PlayerNode(Node):
         self._playback = Playback(self._bag, self.config, sorted(self._topic_pubs))
         threading.Thread(target=self._run, name='player', daemon=True).start()
 
+    @property
+    def stats(self) -> PlaybackStats | None:
+        """What the playback published (None until it has ended; ``finished`` is set then)."""
+        return self._stats
+
+    def published(self) -> dict[str, int]:
+        """Messages published per topic (empty until the playback has ended)."""
+        return dict(self._stats.published) if self._stats is not None else {}
+
     def _end(self, event: int, detail: str, error: bool = False) -> None:
         (self.get_logger().error if error else self.get_logger().info)(detail)
         self._event(event, detail)
@@ -97,17 +112,33 @@ class PlayerNode(Node):
         wait_for_subscribers(self._topic_pubs.values(), self.config.wait_for_subscribers,
                              self.config.wait_timeout_s, self._playback.stop)
         self._event(RunEvent.STARTED, f'playing {len(self._topic_pubs)} topics')
-        self.stats = self._playback.run(self._publish)
+        self._stats = stats = self._playback.run(self._publish)
         self._bag.close()
-        if self.stats.error:
-            self._end(RunEvent.ABORTED, self.stats.error, error=True)
+        if stats.error:
+            self._end(RunEvent.ABORTED, stats.error, error=True)
         elif self._playback.stop.is_set():
             self._end(RunEvent.ABORTED, f'{self.config.bag}: stopped after '
-                      f'{self.stats.total} messages')
+                      f'{stats.total} messages')
         else:
-            self._end(RunEvent.FINISHED, f'{self.config.bag}: published {self.stats.total} '
-                      f'messages on {len(self._topic_pubs)} topics, {self.stats.behind} '
-                      f'behind schedule (max {self.stats.max_lag_s:.3f} s)')
+            unacked = self._wait_for_acks()
+            delivered = 'every message acknowledged' if not unacked else (
+                f'NOT all acknowledged within {self.config.ack_timeout_s:g} s on '
+                + ', '.join(unacked))
+            self._end(RunEvent.FINISHED, f'{self.config.bag}: published {stats.total} '
+                      f'messages on {len(self._topic_pubs)} topics, {stats.behind} '
+                      f'behind schedule (max {stats.max_lag_s:.3f} s); {delivered}',
+                      error=bool(unacked))
+
+    def _wait_for_acks(self) -> list[str]:
+        """Wait (up to ``ack_timeout_s`` in all) until the subscribers have acknowledged every
+        reliable message; the topics still waiting then."""
+        deadline = time.monotonic() + max(self.config.ack_timeout_s, 0.0)
+        late = []
+        for name, pub in sorted(self._topic_pubs.items()):
+            left = max(deadline - time.monotonic(), 0.0)
+            if not pub.wait_for_all_acked(Duration(seconds=left)):
+                late.append(name)
+        return late
 
     def destroy_node(self) -> None:
         """Stop the playback thread, then destroy the node."""

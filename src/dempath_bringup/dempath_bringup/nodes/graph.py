@@ -7,10 +7,11 @@ already in the bag (clicked, ``SOURCE_CLICKED``). The recorder records every top
 (``graph_topics``), the MarkerArrays for Foxglove and ``/diagnostics`` included. All nodes run
 in one process on a :class:`~dempath.nodes.harness.RosHarness` (no launch); :func:`run_graph` is
 the graph step of ``dempath demo`` and what the tests run on the tiny scene. The graph learns
-what it needs through the nodes' public surface (the recorder's ``received_counts``, the
-reconstructor's fitted ``reconstructor``, the comparer's ``last_result``, each detector's
-``core.report()`` counts) and through topics (the simulator's RunEvent). Also the checks of its
-outputs against the field twin's truth.
+what it needs through topics (the simulator's RunEvent) and the nodes' documented read-only
+accessors: the recorder's ``received_counts()``, the player's ``published()``, each detector's
+``handled_frames()`` and ``tracking_counts()``, the reconstructor's fitted ``reconstructor``, the
+simulator's ``run_id`` and ``frames_published``, the comparer's ``last_result``. Also the checks
+of its outputs against the field twin's truth.
 """
 
 from __future__ import annotations
@@ -123,7 +124,7 @@ def _play(harness: Any, recorder: Any, spec: GraphSpec, note: Callable[[str], No
     pixel = [topics.camera_topic(topics.PIXEL_POINTS, c) for c in topics.CAMERAS]
 
     def expected() -> int:
-        published = player.stats.published if player.stats is not None else {}
+        published = player.published()
         return min(int(published.get(t, 0)) for t in pixel)
 
     def done() -> bool:
@@ -197,9 +198,9 @@ def _play_images(harness: Any, recorder: Any, spec: GraphSpec, detectors: dict[s
             f'{c} {detected(c)}' for c in images) + f'; {points} MarkerPoints3D')
         if points != last[0]:
             last[:] = [points, time.monotonic()]
-        if not player.finished.is_set() or player.stats is None:
+        if not player.finished.is_set():
             return False
-        published = player.stats.published
+        published = player.published()
         return all(detected(c) >= published.get(t, 0) for c, t in images.items()) and \
             time.monotonic() - last[1] > SETTLE_S
 
@@ -228,7 +229,8 @@ def _simulate(harness: Any, recorder: Any, spec: GraphSpec,
     # comparer scores inside a callback and a loaded machine can take longer than any grace
 
     def done() -> bool:
-        what = f'{sim.frames} frames' if sim.frames else 'fill or cached packing'
+        frames = sim.frames_published
+        what = f'{frames} frames' if frames else 'fill or cached packing'
         note(f'simulating {spec.scene}: {what}, {time.monotonic() - start:.0f} s')
         if _received(recorder, topics.COMPARE_SCORES) > 0:
             return True
@@ -277,7 +279,7 @@ def run_graph(spec: GraphSpec, note: Callable[[str], None] = lambda text: None) 
         if spec.detect:
             detectors = _start_detectors(harness, spec)
             pixel_frames = _play_images(harness, recorder, spec, detectors, note)
-            detection = {c: n.core.report()[c] for c, n in detectors.items()}
+            detection = {c: n.tracking_counts() for c, n in detectors.items()}
         else:
             pixel_frames = _play(harness, recorder, spec, note)
         play_s = time.monotonic() - start
@@ -285,7 +287,7 @@ def run_graph(spec: GraphSpec, note: Callable[[str], None] = lambda text: None) 
         sim_s = time.monotonic() - start - play_s
         received = recorder.received_counts()
         summary = recorder.finish()
-        run_id, frames = sim.run_id, sim.frames
+        run_id, frames = sim.run_id, sim.frames_published
     scores, markers = recorded_scores(spec.output)
     return GraphResult(spec.output, received, pixel_frames, run_id, frames, scores, markers,
                        summary, time.monotonic() - start, recon.reconstructor,

@@ -63,7 +63,12 @@ class ComparerNode(Node):
         self.create_subscription(ParticleStates, topics.SIM_STATES, self.on_states, 100)
         self.create_subscription(RunEvent, topics.SIM_RUN_EVENTS, self.on_event, 10)
         self.create_service(Trigger, '~/score', self.on_trigger)
-        self.last_result: CompareResult | None = None  # what the last published scores came from
+        self._last_result: CompareResult | None = None
+
+    @property
+    def last_result(self) -> CompareResult | None:
+        """The comparison behind the last published scores (None before the first)."""
+        return self._last_result
 
     def on_markers(self, msg: MarkerPoints3D) -> None:
         """Add one measured time step."""
@@ -94,7 +99,7 @@ class ComparerNode(Node):
     def publish_scores(self, run_id: str | None) -> int:
         """Score, publish scores and markers; returns the number of scores."""
         result = self.core.finish(run_id)
-        self.last_result = result
+        self._last_result = result
         header = Header(frame_id=self.frame_id, stamp=self.get_clock().now().to_msg())
         scores = scores_msg(result, run_id or '', header)
         self.scores_pub.publish(scores)

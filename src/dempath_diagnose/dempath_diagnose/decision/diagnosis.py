@@ -17,11 +17,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dempath.errors import DempathError
-from dempath_diagnose.admission import thin_decision
 from dempath_diagnose.decision.bandtracks import band_table7
 from dempath_diagnose.decision.emulator import Allowance, Emulator, build_emulator
 from dempath_diagnose.decision.measure import check_force_scale
 from dempath_diagnose.decision.statistics import AXES, Layout, build_layout, measured_statistics
+from dempath_diagnose.decision.thin import thin_decision
 from dempath_diagnose.decision.verdict import Decision, decide
 from dempath_diagnose.errors import MeasurementError
 from dempath_diagnose.library.store import Library
@@ -64,10 +64,13 @@ class Diagnosis:
         table7: The paper's Table 7 of the baseline band against the measured markers
             (:func:`~dempath_diagnose.decision.bandtracks.band_table7`).
         headline: The headline error of the baseline beside its like-for-like floor
-            (:func:`~dempath_diagnose.headline.stage.headline_entry`).
+            (:func:`~dempath_diagnose.headline.stage.with_headline`), added above the
+            decision by whoever reports it (the entry point, the node); empty until then.
         adaptive: What simulations beyond the library were run and why (``--budget``;
             :meth:`~dempath_diagnose.adaptive.AdaptiveResult.to_dict`), empty when none were
             allowed.
+        measurement: The measured pass as diagnosed (the markers inside a packed library's
+            region).
     """
 
     decision: Decision
@@ -84,6 +87,7 @@ class Diagnosis:
     table7: dict[str, Any] = field(default_factory=dict)
     headline: dict[str, Any] = field(default_factory=dict)
     adaptive: dict[str, Any] = field(default_factory=dict)
+    measurement: Measurement | None = None
 
     @property
     def floor(self) -> F64:
@@ -130,22 +134,8 @@ def diagnose(meas: Measurement, library: Library, geometry: CaseGeometry,
     decision = thin_decision(decide(emu, y, observed, cov), layout)
     err, z = _marker_map(emu, features, allowance)
     table7 = baseline_table7(meas, library, geometry.cube_m)
-    headline = baseline_headline(meas, library, geometry.cube_m, allowance.noise_m)
     return Diagnosis(decision, layout, emu, y, observed, cov, z, err, dict(meas.problems),
-                     time.monotonic() - t0, len(library.runs), table7, headline)
-
-
-def baseline_headline(meas: Measurement, library: Library, cube: tuple[float, float, float],
-                      noise_m: float) -> dict[str, Any]:
-    """The headline error of the library's baseline beside its floor (``error`` instead when
-    it cannot be scored: fewer than two seeds, no marker with model candidates)."""
-    from dempath_diagnose.headline.stage import headline_entry
-
-    files = [f for runs in library.model_runs('').values() for f in runs]
-    try:
-        return headline_entry(meas, [library.records[f] for f in files], cube, noise_m)
-    except ValueError as err:
-        return {'error': str(err)}
+                     time.monotonic() - t0, len(library.runs), table7, measurement=meas)
 
 
 def _inside_region(meas: Measurement, library: Library) -> Measurement:

@@ -13,7 +13,8 @@ is what a user's pass goes through, with the library of the other seeds only:
    candidate's fit (the one with the lowest d^2 at its best strength), each model on the
    other seeds at its fitted strength (:mod:`.ensemble`), each beside its own floor band
    (:mod:`.floor`: that model on every seed playing the measurement with the same samples,
-   pools of as many seeds);
+   pools of as many seeds); a fit is *at its floor* when it lies at or below its band and the
+   other fit does not score significantly lower, marker by marker (:mod:`.compare`);
 3. the same on the held-out markers alone;
 4. the paper's Table 7 (mean nRMSE over the N best cube candidates, N = 10) before and after
    the true fit, with the same markers, samples, pools and N, and its floor band likewise.
@@ -33,8 +34,10 @@ from numpy.typing import NDArray
 
 from dempath_diagnose.decision.bandtracks import band_table7
 from dempath_diagnose.decision.emulator import Allowance, build_emulator
-from dempath_diagnose.decision.statistics import build_layout, measured_statistics
+from dempath_diagnose.decision.statistics import Layout, build_layout
 from dempath_diagnose.decision.verdict import decide, fit_candidate
+from dempath_diagnose.headline.compare import rival_lower
+from dempath_diagnose.headline.d2floor import D2Setup, d2_floor, fold, observed_statistics
 from dempath_diagnose.headline.ensemble import emulated_run
 from dempath_diagnose.headline.floor import FloorBand, below_reason, floor_band, headline_figure
 from dempath_diagnose.headline.samples import MarkerSamples, played_measurement
@@ -43,6 +46,7 @@ from dempath_diagnose.library.store import Library
 from dempath_diagnose.records import F64, Measurement, PassRecord
 
 NAMED = ('effect_missing', 'parameter_off')
+D2_VERSION = 2  # d^2 floor: displacements from each played marker's own start
 TABLE7_RANKS = 2  # particles per marker start taking turns in Table 7's floor (it is dearer)
 
 
@@ -85,13 +89,6 @@ class FallSetup:
     n_windows: int = 4
 
 
-def fold(library: Library, seed: int) -> Library:
-    """The library without packing seed ``seed``."""
-    keep = [r for r in library.runs if r.seed != seed]
-    return Library(library.folder, library.candidates, keep,
-                   {r.filename: library.records[r.filename] for r in keep}, library.region)
-
-
 def model_runs(library: Library, candidate: str, strength: float,
                seeds: Sequence[int]) -> list[PassRecord]:
     """The model (candidate at strength) on ``seeds``."""
@@ -108,14 +105,27 @@ def scored(meas: Measurement, samples: MarkerSamples, library: Library, candidat
     (``cache``: floor bands already computed, by model and samples)."""
     seeds = library.seeds()
     pool = model_runs(library, candidate, strength, [s for s in seeds if s != seed])
-    value = headline_error(meas, [pool], setup.cube_m).value
+    error = headline_error(meas, [pool], setup.cube_m)
     key = ('headline', candidate, strength, _samples_key(samples))
     band = (cache or {}).get(key) or floor_band(
         samples, model_runs(library, candidate, strength, seeds),
         headline_figure(setup.cube_m), setup.allowance.noise_m, len(pool))
     if cache is not None:
         cache[key] = band
-    return _placed(value, band, 'the headline error', 1e3)
+    out = _placed(error.value, band, 'the headline error', 1e3)
+    out['per_marker_mm'] = [None if not np.isfinite(v) else float(v) * 1e3
+                            for v in error.per_marker]
+    return out
+
+
+def at_floor(entry: dict[str, Any]) -> bool:
+    """A fitted model's headline at or below its floor band, and no rival fitted with the same
+    budget scoring significantly lower (:mod:`.compare`)."""
+    return bool(entry['place'] != 'above' and not entry.get('rival', {}).get('lower', False))
+
+
+def _per_marker(entry: dict[str, Any]) -> F64:
+    return np.array([np.nan if v is None else v for v in entry['per_marker_mm']]) * 1e-3
 
 
 def _samples_key(samples: MarkerSamples) -> tuple[Any, ...]:
@@ -152,9 +162,10 @@ def _placed(value: float, band: FloorBand, name: str, scale: float) -> dict[str,
             'why_below': below_reason(place, name)}
 
 
-def run_case(library: Library, case: FallCase, setup: FallSetup, with_table7: bool = True,
-             cache: FloorCache | None = None) -> dict[str, Any]:
-    """Everything of one case (see the module docstring), JSON-ready (mm, %)."""
+def _measured(library: Library, case: FallCase,
+              setup: FallSetup) -> tuple[Measurement, MarkerSamples, NDArray[np.bool_]]:
+    """The case's measurement (its seed's run, every marker, 1.5 mm noise), its samples and
+    the held-out mask (deterministic: the same on every call)."""
     rng = np.random.default_rng(case.seed)
     truth = emulated_run(library, case.candidate, case.strength, case.seed)
     times = np.round(np.arange(0.0, float(truth.times[-1]) + 1e-9, 0.005), 6)
@@ -162,9 +173,26 @@ def run_case(library: Library, case: FallCase, setup: FallSetup, with_table7: bo
     samples = MarkerSamples(setup.markers.astype(np.int64), setup.starts, times,
                             np.ones((len(times), len(setup.markers)), bool))
     meas = played_measurement(truth, samples, 0, setup.allowance.noise_m, rng)
-    held = np.isin(samples.markers, setup.held_out)
-    fit_meas = Measurement(meas.markers[~held], meas.times, meas.positions[:, ~held])
-    decision, fits = _diagnose(library, fit_meas, case.seed, setup)
+    return meas, samples, np.isin(samples.markers, setup.held_out)
+
+
+def redo_d2(library: Library, case: FallCase, setup: FallSetup,
+            cache: FloorCache | None = None) -> dict[str, Any]:
+    """Only the d^2 entries of a case (for results stored before d^2's floor changed)."""
+    meas, samples, held = _measured(library, case, setup)
+    decision, fits, layout = _diagnose(library, _only(meas, ~held), case.seed, setup)
+    true_fit = next((f for f in fits if f.name == case.candidate), None)
+    return _d2_entries(library, case, samples.subset(~held), layout, setup, decision, true_fit,
+                       cache)
+
+
+def run_case(library: Library, case: FallCase, setup: FallSetup, with_table7: bool = True,
+             cache: FloorCache | None = None) -> dict[str, Any]:
+    """Everything of one case (see the module docstring), JSON-ready (mm, %)."""
+    meas, samples, held = _measured(library, case, setup)
+    times = samples.times
+    fit_meas = _only(meas, ~held)
+    decision, fits, layout = _diagnose(library, fit_meas, case.seed, setup)
     true_fit = next((f for f in fits if f.name == case.candidate), None)
     wrong = min((f for f in fits if f.name != case.candidate), key=lambda f: f.chi2)
     out: dict[str, Any] = {
@@ -185,9 +213,39 @@ def run_case(library: Library, case: FallCase, setup: FallSetup, with_table7: bo
     for part, (m, s) in parts.items():
         out[part] = {key: scored(m, s, library, c, x, case.seed, setup, cache)
                      for key, (c, x) in models.items()}
+        if 'after_true' in out[part]:
+            true_e, wrong_e = out[part]['after_true'], out[part]['after_wrong']
+            true_e['rival'] = rival_lower(_per_marker(true_e), _per_marker(wrong_e))
+            wrong_e['rival'] = rival_lower(_per_marker(wrong_e), _per_marker(true_e))
+    out['d2'] = _d2_entries(library, case, samples.subset(~held), layout, setup, decision,
+                            true_fit, cache)
     if with_table7:
         out['table7'] = {key: table7(meas, samples, library, c, x, case.seed, setup, cache)
                          for key, (c, x) in models.items() if key != 'after_wrong'}
+    return out
+
+
+def _d2_entries(library: Library, case: FallCase, samples: MarkerSamples, layout: Layout,
+               setup: FallSetup, decision: Any, true_fit: Any,
+               cache: FloorCache | None) -> dict[str, Any]:
+    """d^2 before and after the true fit (fit markers), each beside its like-for-like floor
+    (:mod:`.d2floor`: each seed plays the measurement against the emulator of the other two,
+    as the case's seed does in the figure)."""
+    d2setup = D2Setup(layout, setup.cube_m, setup.allowance)
+    out: dict[str, Any] = {}
+    models = [('before', '', 0.0, float(decision.baseline.chi2), False)]
+    if true_fit is not None:
+        models.append(('after_true', case.candidate, float(true_fit.strength),
+                       float(true_fit.chi2), True))
+    for key, cand, x, value, fitted in models:
+        ck = ('d2', D2_VERSION, cand, x, fitted, _samples_key(samples),
+              tuple(tuple(g.members.tolist()) for g in layout.groups),
+              layout.windows.tobytes())
+        band = (cache or {}).get(ck) or d2_floor(library, cand, x, samples, d2setup, fitted)
+        if cache is not None:
+            cache[ck] = band
+        out[key] = _placed(value, band, 'd^2', 1.0)
+    out['version'] = D2_VERSION
     return out
 
 
@@ -196,23 +254,19 @@ def _only(meas: Measurement, keep: NDArray[np.bool_]) -> Measurement:
 
 
 def _diagnose(library: Library, meas: Measurement, seed: int,
-              setup: FallSetup) -> tuple[Any, list[Any]]:
-    """The decision and every candidate's fit on the library without ``seed`` (no force)."""
+              setup: FallSetup) -> tuple[Any, list[Any], Layout]:
+    """The decision, every candidate's fit and the layout, on the library without ``seed``
+    (no force)."""
     lib = fold(library, seed)
     first = lib.records[lib.runs[0].filename]
     end = float(meas.times[-1])
     layout = build_layout(meas.markers, meas.start, setup.tool_x_m, setup.axis_half_width_m,
                           end, float(first.meta.get('tool_stop_s', end)), setup.n_windows)
     emu = build_emulator(lib, layout, setup.cube_m)
-    y, _ = measured_statistics(meas, layout)
-    observed = ~emu.is_force()
-    finite = np.isfinite(y)
-    idx = np.flatnonzero(observed)
-    observed[idx[~finite]] = False
-    y = y[finite]
+    y, observed = observed_statistics(emu, meas, layout)
     cov = emu.fixed_cov(setup.allowance, layout)
     fits = [fit_candidate(emu, c, y, observed, cov) for c in emu.candidates]
-    return decide(emu, y, observed, cov), fits
+    return decide(emu, y, observed, cov), fits, layout
 
 
 def summary(results: Sequence[dict[str, Any]], table7_like_for_like: bool) -> dict[str, Any]:
@@ -220,8 +274,9 @@ def summary(results: Sequence[dict[str, Any]], table7_like_for_like: bool) -> di
     effects = [r for r in results if r['candidate']]
     controls = [r for r in results if not r['candidate']]
     seen = [r for r in effects if r['all']['before']['place'] == 'above']
-    true_in = [r for r in seen if r['all']['after_true']['place'] != 'above']
-    wrong_in = [r for r in seen if r['all']['after_wrong']['place'] != 'above']
+    true_in = [r for r in seen if at_floor(r['all']['after_true'])]
+    wrong_in = [r for r in seen if at_floor(r['all']['after_wrong'])]
+    wrong_band = [r for r in seen if r['all']['after_wrong']['place'] != 'above']
     held_fell = [r for r in seen if r['held_out']['after_true']['value']
                  < r['held_out']['before']['value']]
     t7 = [r for r in effects if 'table7' in r]
@@ -229,11 +284,18 @@ def summary(results: Sequence[dict[str, Any]], table7_like_for_like: bool) -> di
                < r['table7']['before']['value'] - 1e-9]
     return {'cases': len(results), 'effect_cases': len(effects),
             'effect_seen': len(seen), 'true_fit_in_floor': len(true_in),
-            'wrong_fit_in_floor': len(wrong_in),
+            'wrong_fit_in_floor': len(wrong_in), 'wrong_fit_in_own_band': len(wrong_band),
             'control_moved': sum(r['verdict'] in NAMED for r in controls),
             'controls': len(controls), 'held_out_fell': len(held_fell),
             'table7_like_for_like': table7_like_for_like,
             'table7_fell': len(t7_fell), 'table7_cases': len(t7),
+            'd2_floor_like_for_like': all('d2' in r for r in results),
+            'd2_before_above': sum(r['d2']['before']['place'] == 'above'
+                                   for r in effects if 'd2' in r),
+            'd2_true_fit_in_floor': sum(r['d2']['after_true']['place'] != 'above'
+                                        for r in effects if 'after_true' in r.get('d2', {})),
+            'd2_true_fit_below_floor': sum(r['d2']['after_true']['place'] == 'below'
+                                           for r in effects if 'after_true' in r.get('d2', {})),
             'not_seen': sorted({r['case'] for r in effects if r not in seen}),
             'true_fit_above_floor': sorted(f"{r['case']}@{r['seed']}" for r in seen
                                            if r not in true_in),

@@ -9,7 +9,8 @@ from typing import Any
 COLOURS = {'above': 'C3', 'in': 'C2', 'below': 'C0'}
 
 
-def plot_headline(entries: Sequence[tuple[str, dict[str, Any]]], path: Path) -> str:
+def plot_headline(entries: Sequence[tuple[str, dict[str, Any]]], path: Path,
+                  title: str = '') -> str:
     """One row per (label, headline entry): the floor band shaded, the value a dot coloured by
     where it lies (red above the band, green inside, blue below); returns the file name."""
     import matplotlib
@@ -31,6 +32,8 @@ def plot_headline(entries: Sequence[tuple[str, dict[str, Any]]], path: Path) -> 
     ax.set_xlim(left=0.0)
     ax.set_ylim(-0.7, len(rows) - 0.3)
     ax.legend(loc='lower right', fontsize=7)
+    if title:
+        ax.set_title(title, fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=100)
     plt.close(fig)
@@ -59,9 +62,14 @@ def plot_error_fall(results: Sequence[dict[str, Any]], path: Path) -> str:
                     alpha=0.35, lw=4)
             ax.plot(f['value'], i + dy, mark, color=colour, ms=5,
                     label=label if i == 0 else None)
+            if f.get('rival', {}).get('lower'):  # the measurement prefers the other fit
+                ax.annotate('rival lower', (f['value'], i + dy), xytext=(5, -3),
+                            textcoords='offset points', fontsize=6, color=colour)
     ax.set_yticks(range(len(rows)), [f"{r['case']} s{r['seed']}" for r in rows], fontsize=7)
     ax.set_xscale('log')
-    ax.set_xlabel("headline error [mm] (bars: each model's floor band, like for like)")
+    ax.set_xlabel("headline error [mm]; bars: each model's floor band, like for like\n"
+                  "'rival lower': the other fit scores significantly lower, marker by marker",
+                  fontsize=8)
     ax.invert_yaxis()
     ax.legend(fontsize=7, loc='lower right')
     fig.tight_layout()

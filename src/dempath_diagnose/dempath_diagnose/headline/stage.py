@@ -14,9 +14,11 @@ from typing import Any
 
 import numpy as np
 
+from dempath_diagnose.decision.diagnosis import Diagnosis
 from dempath_diagnose.headline.floor import below_reason, floor_band, headline_figure
 from dempath_diagnose.headline.samples import MarkerSamples
 from dempath_diagnose.headline.score import headline_error
+from dempath_diagnose.library.store import Library
 from dempath_diagnose.records import Measurement, PassRecord
 
 
@@ -41,6 +43,26 @@ def headline_entry(meas: Measurement, model: Sequence[PassRecord],
             'floor_mm': band.to_json(1e3), 'place': place,
             'why_below': below_reason(place, 'the headline error'),
             'model_seeds': len(model), 'pool_seeds': len(model) - 1}
+
+
+def baseline_headline(meas: Measurement, library: Library, cube: tuple[float, float, float],
+                      noise_m: float) -> dict[str, Any]:
+    """The headline error of the library's baseline beside its floor (``error`` instead when
+    it cannot be scored: fewer than two seeds, no marker with model candidates)."""
+    files = [f for runs in library.model_runs('').values() for f in runs]
+    try:
+        return headline_entry(meas, [library.records[f] for f in files], cube, noise_m)
+    except ValueError as err:
+        return {'error': str(err)}
+
+
+def with_headline(d: Diagnosis, library: Library, cube: tuple[float, float, float],
+                  noise_m: float) -> Diagnosis:
+    """``d`` with the headline error of the library's baseline on the measurement it diagnosed
+    (what every reported diagnosis carries: the command's, the demo's and the node's)."""
+    assert d.measurement is not None
+    d.headline = baseline_headline(d.measurement, library, cube, noise_m)
+    return d
 
 
 def headline_sentence(entry: dict[str, Any], what: str) -> str:

@@ -297,6 +297,7 @@ def _record(result: Any, keep_depth_m: float, overrides: dict[str, float],
     meta = {'seed': seed, 'overrides': overrides, 'surface_height_m': surface,
             'run_id': result.meta.get('run_id', ''),
             'drive_wall_s': result.meta.get('drive_wall_s', 0.0),
+            'drive_pair_evaluations': result.meta.get('drive_pair_evaluations', 0),
             'tool_stop_s': float(result.meta.get('end_time_s', result.times[-1]))}
     return PassRecord(times=np.asarray(result.snapshot_times, np.float64),
                       ids=np.asarray(result.snapshot_ids)[keep].astype(np.int64),

@@ -26,8 +26,8 @@ from pathlib import Path
 from typing import Any
 
 from dempath.errors import DempathError
-from dempath_diagnose.admission import check_library_scene, scene_identity
 from dempath_diagnose.errors import LibraryError
+from dempath_diagnose.library.scene_identity import check_library_scene, scene_identity
 from dempath_diagnose.library.simulator import (
     LIBRARY_CANDIDATES,
     Candidate,
@@ -405,8 +405,8 @@ class Library:
         region: For a packed library, the marker region it was packed for (None: every
             particle near the surface is there).
         identity: The scene it was built for: name, physics key, a key per part
-            (:func:`~dempath_diagnose.admission.scene_identity`; only the name for an older
-            library).
+            (:func:`~dempath_diagnose.library.scene_identity.scene_identity`; only the name
+            for an older library).
     """
 
     folder: Path

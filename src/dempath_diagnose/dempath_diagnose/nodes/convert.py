@@ -54,6 +54,12 @@ def diagnosis_msg(result: Diagnosis, case_id: str, header: Any) -> DiagnosisMsg:
     out.remaining = list(dec.remaining) if dec.verdict == 'inconclusive' else []
     out.would_separate = list(dec.separators)
     out.marker_problems = [f'marker {m}: {v}' for m, v in sorted(result.problems.items())]
+    head = result.headline or {}
+    out.headline_error_mm = float(head.get('value_mm', math.nan))
+    floor = head.get('floor_mm', {})
+    out.headline_floor_low_mm = float(floor.get('low', math.nan))
+    out.headline_floor_high_mm = float(floor.get('high', math.nan))
+    out.headline_place = str(head.get('place', ''))
     out.simulations = int(result.simulations)
     out.wall_s = float(result.wall_s)
     for fit in dec.ranking:

@@ -21,6 +21,7 @@ from dempath import topics
 from dempath.errors import DempathError
 from dempath.nodes.spin import run_node
 from dempath_diagnose.decision.live import build_live
+from dempath_diagnose.headline.stage import with_headline
 from dempath_diagnose.nodes.convert import diagnosis_msg, force_sample, marker_frame
 from dempath_msgs.msg import Diagnosis, MarkerPoints3D, ParticleStates, RunEvent, ToolForce
 
@@ -80,6 +81,9 @@ class DiagnoserNode(Node):
         try:
             with self.lock:
                 result = self.core.finish()
+            core = self.core
+            result = with_headline(result, core.library, core.geometry.cube_m,
+                                   core.allowance.noise_m)
         except DempathError as err:
             self.get_logger().error(f'cannot diagnose pass {run_id!r}: {err}')  # type: ignore[no-untyped-call]
             return

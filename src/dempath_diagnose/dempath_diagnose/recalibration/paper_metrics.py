@@ -145,17 +145,18 @@ def nearest_tracks(rec: PassRecord, samples: MarkerSamples, noise_m: float = 0.0
 
 def paper_floor(records: Sequence[tuple[str, PassRecord]], layout: Layout,
                 cube: tuple[float, float, float], samples: MarkerSamples,
-                noise_m: float = 0.0) -> PaperFloor:
+                noise_m: float = 0.0, pool_seeds: int | None = None) -> PaperFloor:
     """The floor on the paper's metrics (see the module docstring); needs two seeds or more.
 
     ``samples``: the measured markers' samples, which the seed playing the measurement keeps
     (the floor sees the markers, window and samples its figure sees); ``noise_m``: the
-    measurement noise per axis added to it [m].
+    measurement noise per axis added to it [m]; ``pool_seeds``: seeds in each candidate pool
+    (the figure's; default every other seed).
     """
     means: list[float] = []
     per: dict[int, list[float]] = {}
     for k, (_, rec) in enumerate(records):
-        others = [r for i, r in enumerate(records) if i != k]
+        others = [r for i, r in enumerate(records) if i != k][:pool_seeds]
         t = table7(nearest_tracks(rec, samples, noise_m, k), model_tracks(others, layout, cube),
                    [int(m) for m in layout.markers])
         means.append(t.mean_nrmse)
@@ -171,16 +172,29 @@ def before_after(meas: Measurement, layout: Layout, cube: tuple[float, float, fl
                  before: Sequence[tuple[str, PassRecord]],
                  after: Sequence[tuple[str, PassRecord]],
                  floor_runs: Sequence[tuple[str, PassRecord]], noise_m: float = 0.0,
+                 floor_after_runs: Sequence[tuple[str, PassRecord]] = (),
                  ) -> dict[str, Any]:
-    """Table 7 before, after and the floor, as diagnosis.json / recalibration.json hold them.
+    """Table 7 before, after and each one's own floor, as diagnosis.json / recalibration.json
+    hold them.
 
+    ``floor_runs``: the model before (the baseline) on the seeds its floor plays;
+    ``floor_after_runs``: the model after on its floor's seeds (without them the after figure
+    has no floor of its own: ``floor_after`` is absent). Each floor's candidate pools hold as
+    many seeds as the figure's (``before``'s), where the floor's seeds allow it.
     ``noise_m``: measurement noise per axis of the measured markers [m] (given to the floor).
     """
     measured = measured_tracks(meas)
     markers = [int(m) for m in layout.markers]
+    samples = MarkerSamples.of(meas)
     b = table7(measured, model_tracks(before, layout, cube), markers)
     a = table7(measured, model_tracks(after, layout, cube), markers) if after else b
-    f = paper_floor(floor_runs, layout, cube, MarkerSamples.of(meas), noise_m)
-    return {'before': b.to_json(), 'after': a.to_json(), 'floor': f.to_json(),
-            'table7_before_md': b.markdown, 'table7_after_md': a.markdown,
-            'top_n': TOP_N}
+    f = paper_floor(floor_runs, layout, cube, samples, noise_m, len(before))
+    out = {'before': b.to_json(), 'after': a.to_json(), 'floor': f.to_json(),
+           'table7_before_md': b.markdown, 'table7_after_md': a.markdown,
+           'top_n': TOP_N, 'pool_seeds': len(before),
+           'floor_pool_seeds': min(len(before), len(floor_runs) - 1)}
+    if after and len(floor_after_runs) > 1:
+        fa = paper_floor(floor_after_runs, layout, cube, samples, noise_m, len(after))
+        out['floor_after'] = fa.to_json()
+        out['floor_after_pool_seeds'] = min(len(after), len(floor_after_runs) - 1)
+    return out

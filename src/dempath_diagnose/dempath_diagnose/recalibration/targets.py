@@ -11,34 +11,44 @@
 
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 from collections.abc import Sequence
-from typing import Any
+from pathlib import Path
 
 from dempath_diagnose.decision.emulator import CandidateEmulator
 from dempath_diagnose.decision.verdict import Decision
 from dempath_diagnose.errors import DiagnosisError
 
 MAX_TRIED = 3  # candidates tried in turn after an inconclusive diagnosis
+Effect = tuple[str, float | None]  # a candidate to fit and its start value (None: the scene's)
 
 
-def _effects(texts: Sequence[str], known: Sequence[str]) -> list[tuple[str, float | None]]:
-    out: list[tuple[str, float | None]] = []
+def parse_effects(texts: Sequence[str]) -> tuple[Effect, ...]:
+    """``['NAME', 'NAME=START', ...]`` (``--effect``) -> ((name, start or None), ...).
+
+    Raises:
+        DiagnosisError: A START that is not a number.
+    """
+    out: list[Effect] = []
     for text in texts:
         name, _, value = text.partition('=')
-        if name not in known:
-            raise DiagnosisError(f'--effect {name}: not a candidate of the signature library '
-                                 f'(known: {", ".join(known)})')
         try:
             out.append((name, float(value) if value else None))
         except ValueError as err:
             raise DiagnosisError(f'--effect {text!r}: START must be a number') from err
-    return out
+    return tuple(out)
 
 
-def _from_file(path: Any) -> tuple[str, list[str], list[str]]:
+def _known(effects: Sequence[Effect], known: Sequence[str]) -> list[Effect]:
+    for name, _ in effects:
+        if name not in known:
+            raise DiagnosisError(f'--effect {name}: not a candidate of the signature library '
+                                 f'(known: {", ".join(known)})')
+    return list(effects)
+
+
+def _from_file(path: Path) -> tuple[str, list[str], list[str]]:
     try:
         data = json.loads(path.read_text())
         return (data['verdict'], [r['effect'] for r in data['ranking']],
@@ -48,28 +58,29 @@ def _from_file(path: Any) -> tuple[str, list[str], list[str]]:
         raise DiagnosisError(msg) from err
 
 
-def check_options(args: argparse.Namespace) -> None:
-    """Refuse ``--effect`` names that are not among ``--candidates`` (or bad start values) and
-    an unreadable ``--diagnosis`` before anything is computed or written.
+def check_options(effects: Sequence[Effect], candidates: Sequence[str],
+                  diagnosis: Path | None) -> None:
+    """Refuse ``--effect`` names that are not among ``--candidates`` and an unreadable
+    ``--diagnosis`` before anything is computed or written.
 
     Raises:
         DiagnosisError: One line naming the option and the problem.
     """
-    candidates = [c for c in str(args.candidates).split(',') if c]
-    _effects(args.effect or (), candidates)
-    if args.diagnosis is not None:
-        _from_file(args.diagnosis)
+    _known(effects, candidates)
+    if diagnosis is not None:
+        _from_file(diagnosis)
 
 
-def targets(args: argparse.Namespace, decision: Decision,
-            known: Sequence[str]) -> list[tuple[str, float | None]]:
-    """The candidates to fit, with optional start values (see the module docstring)."""
-    if args.effect:
-        return _effects(args.effect, known)
+def targets(effects: Sequence[Effect], diagnosis: Path | None, decision: Decision,
+            known: Sequence[str]) -> list[Effect]:
+    """The candidates to fit, with optional start values (see the module docstring):
+    ``effects`` when given, else those of ``decision`` (or of the ``diagnosis`` file)."""
+    if effects:
+        return _known(effects, known)
     verdict, ranking, remaining = (decision.verdict, [f.name for f in decision.ranking],
                                    decision.remaining)
-    if args.diagnosis is not None:
-        verdict, ranking, remaining = _from_file(args.diagnosis)
+    if diagnosis is not None:
+        verdict, ranking, remaining = _from_file(diagnosis)
     if verdict == 'nothing_significant':
         return []
     if verdict == 'inconclusive':
@@ -83,12 +94,12 @@ def targets(args: argparse.Namespace, decision: Decision,
     return [(ranking[0], None)]
 
 
-def named(args: argparse.Namespace, decision: Decision) -> bool:
+def named(effects: Sequence[Effect], diagnosis: Path | None, decision: Decision) -> bool:
     """Whether the candidates fitted were asked for (``--effect``) or named by the diagnosis
     (``effect_missing`` / ``parameter_off``): those are fitted even within the floor."""
-    if args.effect:
+    if effects:
         return True
-    verdict = _from_file(args.diagnosis)[0] if args.diagnosis is not None else decision.verdict
+    verdict = _from_file(diagnosis)[0] if diagnosis is not None else decision.verdict
     return verdict in ('effect_missing', 'parameter_off')
 
 

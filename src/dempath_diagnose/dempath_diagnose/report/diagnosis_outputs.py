@@ -219,8 +219,8 @@ def write_xlsx(d: Diagnosis, data: dict[str, Any], path: Path) -> None:
     wb.save(path)
 
 
-def print_ranking(data: dict[str, Any]) -> None:
-    """The ranking as a rich table on the terminal."""
+def print_ranking(data: dict[str, Any], console: Any = None) -> None:
+    """The ranking as a rich table on the terminal (or on ``console``)."""
     from rich.console import Console
     from rich.table import Table
 
@@ -236,9 +236,20 @@ def print_ranking(data: dict[str, Any]) -> None:
         table.add_row(r['effect'], r['kind'], f'{r["probability"]:.3f}',
                       f'{s["value"]:.4g} +- {s["uncertainty"]:.2g} {s["unit"]}{edge}',
                       f'{r["explained_fraction"]:.2f}', f'{r["implausibility"]:.1f}')
-    console = Console()
+    console = console or Console()
     console.print(table)
     for s in data.get('notes', []):
         console.print(f'note: {s}')
     for s in data['summary']:
         console.print(s)
+
+
+def ranking_text(data: dict[str, Any], width: int = 80) -> str:
+    """:func:`print_ranking` as plain text ``width`` columns wide (for the demo's stage lines)."""
+    import io
+
+    from rich.console import Console
+
+    buffer = io.StringIO()
+    print_ranking(data, Console(file=buffer, width=width))
+    return buffer.getvalue()

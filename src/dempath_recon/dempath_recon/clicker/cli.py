@@ -16,13 +16,8 @@ import logging
 import sys
 from pathlib import Path
 
-from dempath_recon.clicker.clicks import (
-    ClickBounds,
-    ClickStore,
-    click_file_lock,
-    parse_markers,
-    read_clicks_text,
-)
+from dempath_recon.clicker.click_csv import ClickBounds, parse_markers, read_clicks_text
+from dempath_recon.clicker.clicks import ClickStore, click_file_lock
 from dempath_recon.clicker.frames import open_frames
 from dempath_recon.clicker.server import ClickServer, ClickSession, Detection, is_loopback
 from dempath_recon.errors import ClickError

@@ -16,7 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dempath import topics
-from dempath_recon.clicker.clicks import Click, ClickBounds, parse_markers, read_clicks_text
+from dempath_recon.clicker.click_csv import Click, ClickBounds, parse_markers, read_clicks_text
 from dempath_recon.clicker.frames import FrameSet, open_frames
 from dempath_recon.errors import ClickError
 

@@ -32,7 +32,8 @@ from importlib import resources
 from typing import Any
 from urllib.parse import unquote, urlsplit
 
-from dempath_recon.clicker.clicks import Click, ClickStore, describe, read_clicks_text
+from dempath_recon.clicker.click_csv import Click, describe, read_clicks_text
+from dempath_recon.clicker.clicks import ClickStore
 from dempath_recon.clicker.frames import FrameSet
 from dempath_recon.errors import ClickError
 

@@ -7,7 +7,8 @@ aniposelib: pixels of the views ``(n_cams, n, 2) px`` -> points ``(n, 3) m`` in 
 
 Method (Hartley & Zisserman, *Multiple View Geometry*, 2nd ed., sec. 12.2 and 4.1):
 
-1. Undistort each view to normalised image coordinates ``(x, y)`` (OpenCV model k1 k2 p1 p2 k3).
+1. Undistort each view to normalised image coordinates ``(x, y)`` (OpenCV model k1 k2 p1 p2 k3;
+   the camera model, its projection and Jacobian are :mod:`dempath_recon.methods.projection`).
 2. Linear (DLT) triangulation, inhomogeneous form: for each view and world point ``X``,
    ``(x r3 - r1) . X = t1 - x t3`` and ``(y r3 - r2) . X = t2 - y t3`` with ``R = [r1; r2; r3]``;
    the stacked rows are solved by least squares, then re-weighted by the estimated depth
@@ -21,29 +22,21 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Sequence
-from typing import Any, NamedTuple, Protocol
+from typing import Any, NamedTuple
 
-import cv2
 import numpy as np
 from numpy.typing import NDArray
 
 from dempath_recon.errors import NotFittedError, PixelInputError, ReconstructionError
+from dempath_recon.methods.projection import (
+    Camera,
+    FloatArray,
+    project_points,
+    project_with_jacobian,
+    undistort_normalized,
+)
 
-FloatArray = NDArray[np.float64]
 logger = logging.getLogger(__name__)
-UNDISTORT_ITERATIONS = 20  # fixed-point steps of cv2.undistortPointsIter (stops earlier at eps)
-UNDISTORT_EPS = 1e-10  # its convergence threshold
-
-
-class Camera(Protocol):
-    """What triangulation needs from a camera (``dempath_calib.camera.CameraModel`` fits)."""
-
-    width: int
-    height: int
-    K: FloatArray
-    dist: FloatArray
-    R: FloatArray
-    t: FloatArray
 
 
 class Triangulation(NamedTuple):
@@ -67,89 +60,6 @@ def split_views(pixels: FloatArray) -> FloatArray:
         msg = f'pixels: expected shape (n, 4) = (xs, ys, xf, yf), got {arr.shape}'
         raise PixelInputError(msg)
     return np.stack([arr[:, 0:2], arr[:, 2:4]])
-
-
-def _distort(cam: Camera, xyz: FloatArray) -> tuple[FloatArray, ...]:
-    """Shared steps of the projection: camera frame, normalised and distorted coordinates."""
-    pc = np.asarray(xyz, dtype=np.float64) @ np.asarray(cam.R).T + np.asarray(cam.t)
-    z = pc[:, 2]
-    with np.errstate(divide='ignore', invalid='ignore'):
-        x, y = pc[:, 0] / z, pc[:, 1] / z
-    k1, k2, p1, p2, k3 = np.asarray(cam.dist, dtype=np.float64)
-    r2 = x * x + y * y
-    radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
-    xd = x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x)
-    yd = y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y
-    return z, x, y, r2, radial, xd, yd
-
-
-def project_points(cam: Camera, xyz: FloatArray) -> FloatArray:
-    """Project world points with the OpenCV distortion model, vectorised in numpy.
-
-    ``u = fx xd + s yd + cx``, ``v = fy yd + cy`` with ``xd = x (1 + k1 r^2 + k2 r^4 + k3 r^6)
-    + 2 p1 x y + p2 (r^2 + 2 x^2)`` and likewise ``yd`` (OpenCV calib3d documentation).
-
-    Args:
-        cam: camera with K (3, 3) px, dist (5,) (k1 k2 p1 p2 k3), R (3, 3), t (3,) m.
-        xyz: (n, 3) world points [m].
-
-    Returns:
-        (n, 2) distorted pixel coordinates [px]; NaN for points at or behind the camera.
-    """
-    z, _, _, _, _, xd, yd = _distort(cam, xyz)
-    K = np.asarray(cam.K)
-    uv = np.stack([K[0, 0] * xd + K[0, 1] * yd + K[0, 2], K[1, 1] * yd + K[1, 2]], axis=1)
-    uv[~(z > 0)] = np.nan
-    return uv
-
-
-def project_with_jacobian(cam: Camera, xyz: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """Projection and its analytic Jacobian with respect to the world point.
-
-    Args:
-        cam: the camera.
-        xyz: (n, 3) world points [m].
-
-    Returns:
-        uv (n, 2) px and J = d uv / d xyz (n, 2, 3) px/m (NaN behind the camera).
-    """
-    z, x, y, r2, radial, xd, yd = _distort(cam, xyz)
-    k1, k2, p1, p2, k3 = np.asarray(cam.dist, dtype=np.float64)
-    dr = k1 + r2 * (2.0 * k2 + 3.0 * k3 * r2)  # d radial / d r^2
-    d_dist = np.empty((len(z), 2, 2))  # d (xd, yd) / d (x, y)
-    d_dist[:, 0, 0] = radial + 2.0 * x * x * dr + 2.0 * p1 * y + 6.0 * p2 * x
-    d_dist[:, 0, 1] = 2.0 * x * y * dr + 2.0 * p1 * x + 2.0 * p2 * y
-    d_dist[:, 1, 0] = 2.0 * x * y * dr + 2.0 * p1 * x + 2.0 * p2 * y
-    d_dist[:, 1, 1] = radial + 2.0 * y * y * dr + 6.0 * p1 * y + 2.0 * p2 * x
-    with np.errstate(divide='ignore', invalid='ignore'):
-        inv_z = 1.0 / z
-    d_norm = np.zeros((len(z), 2, 3))  # d (x, y) / d camera-frame point
-    d_norm[:, 0, 0] = inv_z
-    d_norm[:, 1, 1] = inv_z
-    d_norm[:, 0, 2] = -x * inv_z
-    d_norm[:, 1, 2] = -y * inv_z
-    K = np.asarray(cam.K)
-    jac = K[:2, :2] @ d_dist @ d_norm @ np.asarray(cam.R)
-    uv = np.stack([K[0, 0] * xd + K[0, 1] * yd + K[0, 2], K[1, 1] * yd + K[1, 2]], axis=1)
-    bad = ~(z > 0)
-    uv[bad] = np.nan
-    jac[bad] = np.nan
-    return uv, jac
-
-
-def undistort_normalized(cam: Camera, uv: FloatArray) -> FloatArray:
-    """Distorted pixels (n, 2) px -> normalised image coordinates (n, 2) [-]; NaN stays NaN."""
-    uv = np.asarray(uv, dtype=np.float64)
-    out = np.full(uv.shape, np.nan)
-    ok = np.isfinite(uv).all(axis=1)
-    if ok.any():
-        criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, UNDISTORT_ITERATIONS,
-                    UNDISTORT_EPS)
-        und = cv2.undistortPointsIter(uv[ok].reshape(-1, 1, 2), np.asarray(cam.K),
-                                      np.asarray(cam.dist), None, None,  # type: ignore[call-overload]
-                                      criteria)
-        out[ok] = und.reshape(-1, 2)
-    return out
 
 
 def _linear_system(cams: Sequence[Camera], xn: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -362,3 +272,22 @@ class DLTTriangulator:
         """Pixels (n, 4) px (xs, ys, xf, yf) -> world points (n, 3) m."""
         return triangulate_points(self._cams(), split_views(pixels), refine=self.refine,
                                   with_errors=False).xyz
+
+
+# The camera model the functions above take is part of this module's surface (the tracker imports
+# it from here); it lives in :mod:`dempath_recon.methods.projection`.
+__all__ = [
+    'Camera',
+    'DLTTriangulator',
+    'Triangulation',
+    'project_points',
+    'project_with_jacobian',
+    'projection_jacobian',
+    'refine_points',
+    'reprojection_errors',
+    'solve3',
+    'split_views',
+    'triangulate_linear',
+    'triangulate_points',
+    'undistort_normalized',
+]

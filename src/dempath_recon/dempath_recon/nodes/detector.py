@@ -328,6 +328,11 @@ class DetectorNode(Node):
         self.pub.publish(out)
         self.counts['published'] += 1
 
+    def tracking_counts(self) -> dict[str, Any]:
+        """This camera's detection and tracking counts so far: frames, detected, tracked, lost,
+        reattached and the faults (dropped, undecodable, out_of_order, no_marker, unnumbered)."""
+        return dict(self.core.report()[self.camera])
+
     def handled_frames(self) -> int:
         """Frames the worker has finished with, skipped ones (undecodable, out of order,
         failed) included: whoever waits for the detector waits for this count. With

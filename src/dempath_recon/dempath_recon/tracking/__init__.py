@@ -6,7 +6,8 @@ stamp order), ``detect`` (marker spots in one image), ``linker`` (one camera's t
 ``associate`` (the marker grid, epipolar geometry, the markers' 3D positions), ``records``
 (settings, numbered frames, counts), ``release`` (the publication delay), ``trajectories``
 (numbered tracks to 3D), ``state`` (the tracker's state, one record), ``one_camera``,
-``numbering``, ``pair_checks``, ``pair_numbering`` (functions on that record), ``stereo``
+``numbering``, ``pair_checks``, ``pair_numbering``, ``ray_numbering`` (functions on that
+record), ``stereo``
 (:class:`~dempath_recon.tracking.stereo.StereoMarkerTracker`, the pipeline, and
 ``track_bag``).
 """

@@ -79,6 +79,15 @@ class DetectorConfig:
         window_px: radius of the centroid window [full-size px] (a bit more than the radius).
         min_separation_px: closest two markers may be [full-size px].
         max_markers: keep at most this many spots (the strongest).
+        adaptive: lower the threshold in frames whose sand is quiet: to the sand's median
+            chroma plus ``noise_k`` robust standard deviations (median absolute deviation x
+            1.4826, over every 4th pixel of the part of the frame searched), never above
+            ``threshold`` nor below ``min_threshold``. A half-buried marker, a marker under a
+            colour cast or in a dark, noisy frame keeps less chroma than the fixed threshold
+            asks, while the sand around it stays far below.
+        noise_k: robust standard deviations of the sand's chroma the threshold keeps above
+            its median [-].
+        min_threshold: lowest threshold the adaptation may set [-].
     """
 
     downscale: int = 2
@@ -87,12 +96,16 @@ class DetectorConfig:
     window_px: float = 6.0
     min_separation_px: float = 6.0
     max_markers: int = 64
+    adaptive: bool = False
+    noise_k: float = 8.0
+    min_threshold: float = 0.08
 
     def __post_init__(self) -> None:
         checks = {'downscale': self.downscale in (1, 2), 'threshold': 0 < self.threshold < 1,
                   'sigma_px': 0 < self.sigma_px < 50, 'window_px': 1 <= self.window_px < 100,
                   'min_separation_px': 1 <= self.min_separation_px < 200,
-                  'max_markers': self.max_markers >= 1}
+                  'max_markers': self.max_markers >= 1, 'noise_k': self.noise_k > 0,
+                  'min_threshold': 0 < self.min_threshold <= self.threshold}
         for name, ok in checks.items():
             if not ok:
                 msg = f'{name}: out of range, got {getattr(self, name)!r}'
@@ -168,8 +181,9 @@ class MarkerDetector:
         if s == 2 and not prescaled:
             image = np.asarray(cv2.resize(image, (image.shape[1] // 2, image.shape[0] // 2),
                                           interpolation=cv2.INTER_AREA), np.uint8)
-        ox, oy, c = self._window(image)
-        cand = cv2.findNonZero((c > self.config.threshold).view(np.uint8)) if c.size else None
+        thr = self.threshold_for(image)
+        ox, oy, c = self._window(image, thr)
+        cand = cv2.findNonZero((c > thr).view(np.uint8)) if c.size else None
         if cand is None:
             return Detections.empty()
         # filter only around the candidate pixels (the markers cover a small part of the view);
@@ -182,21 +196,35 @@ class MarkerDetector:
         cols, rows = cand[:, 0, 0], cand[:, 0, 1]
         local = smooth[rows - y0, cols - x0]
         peak = (local >= cv2.dilate(smooth, self._kernel)[rows - y0, cols - x0]) \
-            & (local > 0.5 * self.config.threshold)
+            & (local > 0.5 * thr)
         rows, cols = rows[peak], cols[peak]
         if len(rows) > self.config.max_markers:
             keep = np.argsort(-smooth[rows - y0, cols - x0])[:self.config.max_markers]
             rows, cols = rows[keep], cols[keep]
         if len(rows) == 0:
             return Detections.empty()
-        uv, size, strength = self._refine(c, rows, cols)
+        uv, size, strength = self._refine(c, rows, cols, thr)
         uv += (ox, oy)
         ok = np.isfinite(uv).all(axis=1)
-        conf = np.clip((strength - self.config.threshold) / (2 * self.config.threshold), 0, 1)
+        conf = np.clip((strength - thr) / (2 * thr), 0, 1)
         full = (uv[ok] + 0.5) * s - 0.5  # half-size pixel centre i -> full-size 2i + 0.5
         return Detections(full, conf[ok], size[ok] * s)
 
-    def _window(self, image: NDArray[np.uint8]) -> tuple[int, int, NDArray[np.float32]]:
+    def threshold_for(self, image: NDArray[np.uint8]) -> float:
+        """The chroma threshold of this frame (``DetectorConfig.adaptive``): the sand's median
+        chroma plus ``noise_k`` robust standard deviations, from every 4th pixel of the whole
+        frame (the same whatever part is searched), between ``min_threshold`` and
+        ``threshold``."""
+        cfg = self.config
+        if not cfg.adaptive:
+            return cfg.threshold
+        sample = chroma(np.ascontiguousarray(image[::4, ::4]))
+        med = float(np.median(sample))
+        sigma = 1.4826 * float(np.median(np.abs(sample - med)))
+        return float(np.clip(med + cfg.noise_k * sigma, cfg.min_threshold, cfg.threshold))
+
+    def _window(self, image: NDArray[np.uint8], thr: float,
+                ) -> tuple[int, int, NDArray[np.float32]]:
         """The chroma of the part of ``image`` that can hold markers: ``(x0, y0, chroma)``.
 
         A pixel's chroma exceeds the threshold only where ``B - R > threshold * MIN_SUM_DN``
@@ -208,7 +236,7 @@ class MarkerDetector:
         A frame whose blue pixels spread over most of the view is done whole.
         """
         h, w = image.shape[:2]
-        floor = max(int(np.floor(self.config.threshold * MIN_SUM_DN)) - 1, 0)
+        floor = max(int(np.floor(thr * MIN_SUM_DN)) - 1, 0)
         blue = cv2.subtract(cv2.extractChannel(image, 0), cv2.extractChannel(image, 2))
         x, y, bw, bh = cv2.boundingRect(cv2.threshold(blue, floor, 255, cv2.THRESH_TOZERO)[1])
         if bw == 0 or bh == 0:
@@ -221,13 +249,13 @@ class MarkerDetector:
         return x0, y0, chroma(np.ascontiguousarray(image[y0:y1, x0:x1]))
 
     def _refine(self, c: NDArray[np.float32], rows: NDArray[np.intp], cols: NDArray[np.intp],
-                ) -> tuple[FloatArray, FloatArray, FloatArray]:
+                thr: float) -> tuple[FloatArray, FloatArray, FloatArray]:
         """Iterated weighted centroids around each peak: uv (n, 2), size (n,), peak (n,)."""
         xx, yy = self._offsets
         r = xx.shape[0] // 2
         h, w = c.shape
         pad = np.pad(c, r + 2, mode='edge')
-        base = 0.5 * self.config.threshold
+        base = 0.5 * self.config.threshold  # the spot's core, whatever found it
         out = np.full((len(rows), 2), np.nan)
         size, peak = np.zeros(len(rows)), c[rows, cols].astype(np.float64)
         for k, (y0, x0) in enumerate(zip(rows, cols, strict=True)):

@@ -17,7 +17,13 @@ from numpy.typing import NDArray
 from dempath_recon.tracking.associate import number_by_grid, on_epipolar_line, triangulate_pairs
 from dempath_recon.tracking.linker import UNNUMBERED
 from dempath_recon.tracking.one_camera import grid_anchor, late_grid
-from dempath_recon.tracking.state import MAX_DEPTH_AGE_S, RECENT_S, StereoState, retire
+from dempath_recon.tracking.state import (
+    MAX_DEPTH_AGE_S,
+    RECENT_S,
+    StereoState,
+    at_stamp,
+    retire,
+)
 
 FloatArray = NDArray[np.float64]
 
@@ -62,7 +68,8 @@ def number_new(state: StereoState, camera: str, track_ids: NDArray[np.int64],
     seen = {int(m) for m in markers if m >= 0}
     starts = {t.track_id: t.history[0][0] for t in state.trackers[camera].tracks}
     todo = np.flatnonzero(markers == UNNUMBERED)
-    recent = {m: p for m, (t, p) in state.latest[other].items()
+    recent = {m: at_stamp(state, other, m, (t, p), stamp_s)
+              for m, (t, p) in state.latest[other].items()
               if m not in seen and abs(t - stamp_s) <= RECENT_S}
     lines = Counter(m for k in todo for m in on_epipolar_line(
         state.cameras[camera], state.cameras[other], uv[k], recent, state.config.epipolar_px))

@@ -58,6 +58,8 @@ class StereoState:
         free: each camera's last frame's unnumbered tracks: (stamp s, track ids (k,),
             px (k, 2)), None before its first frame.
         queue: the frames held for the publication delay.
+        residuals: per camera, each checked frame's median distance of its numbered pairs
+            from their epipolar lines [px] (``pair_checks.note_residuals``).
     """
 
     cameras: dict[str, Camera]
@@ -74,6 +76,7 @@ class StereoState:
     pending: dict[str, dict[int, Sighting]]
     free: dict[str, tuple[float, NDArray[np.int64], FloatArray] | None]
     queue: ReleaseQueue
+    residuals: dict[str, list[float]]
 
     @classmethod
     def start(cls, cameras: dict[str, Camera], config: StereoTrackConfig) -> StereoState:
@@ -89,7 +92,8 @@ class StereoState:
             last_stamp=dict.fromkeys(cameras), grid_uv={}, grid_time={},
             late_numbered={n: set() for n in cameras}, refused={n: set() for n in cameras},
             pending={n: {} for n in cameras}, free=dict.fromkeys(cameras),
-            queue=ReleaseQueue(cameras, config.number_delay_frames))
+            queue=ReleaseQueue(cameras, config.number_delay_frames),
+            residuals={n: [] for n in cameras})
 
     def other(self, camera: str) -> str:
         """The other camera's name."""
@@ -139,6 +143,24 @@ def carried_point(state: StereoState, marker: int, stamp_s: float,
     if at is None:
         return None
     return at, state.positions.known.get(marker, anchor or (stamp_s, at))[0]
+
+
+def at_stamp(state: StereoState, camera: str, marker: int, sighting: Sighting,
+             stamp_s: float) -> FloatArray:
+    """(2,) px: ``camera``'s sighting of ``marker`` moved to ``stamp_s`` along its track.
+
+    The two cameras are not synchronised (the front one exposes a few ms after the side
+    one); a marker pushed at 1 m/s moves several pixels in between, which put a right pair
+    4 px off the epipolar line on the bundled render re-encoded with a 1 ms shutter (its
+    number was taken back for good). The sighting moves with its track's velocity (the last
+    link's) when the track is running and was seen at that sighting; otherwise it is kept.
+    """
+    seen_s, uv = sighting
+    for track in state.trackers[camera].tracks:
+        if track.marker == marker and not track.lost and track.last_stamp_s == seen_s \
+                and len(track.history) > 1:
+            return np.asarray(uv + track.velocity * (stamp_s - seen_s), np.float64)
+    return uv
 
 
 def forget_refusals(state: StereoState, camera: str, stamp_s: float) -> None:

@@ -38,6 +38,7 @@ from dempath_recon.tracking.merge import StampMerge
 from dempath_recon.tracking.numbering import number_all_by_grid, number_new
 from dempath_recon.tracking.pair_checks import verify
 from dempath_recon.tracking.pair_numbering import number_pairs
+from dempath_recon.tracking.ray_numbering import number_by_ray
 from dempath_recon.tracking.records import CameraCounts, PixelFrame, StereoTrackConfig
 from dempath_recon.tracking.release import HeldFrame, renumber
 from dempath_recon.tracking.state import (
@@ -161,6 +162,9 @@ class StereoMarkerTracker:
             markers = number_all_by_grid(state, camera, tf.track_ids, tf.uv, events)
         markers = number_new(state, camera, tf.track_ids, markers, tf.uv, stamp_s, events)
         markers = number_pairs(state, camera, tf.track_ids, markers, tf.uv, stamp_s, events)
+        if state.config.ray_numbering:
+            markers = number_by_ray(state, camera, tf.track_ids, markers, tf.uv, stamp_s,
+                                    events)
         markers = verify(state, camera, tf.track_ids, markers, tf.uv, stamp_s, events)
         free_mask = unnumbered_tracks(state, camera, tf.track_ids, markers)
         free = np.flatnonzero(free_mask)

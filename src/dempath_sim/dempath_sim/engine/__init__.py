@@ -18,6 +18,7 @@ from dempath_sim.engine.params import (
     DEFAULT_MAX_OVERLAP_FRACTION,
     SimParams,
 )
+from dempath_sim.engine.sleep import SleepSettings
 from dempath_sim.engine.state import SimState
 from dempath_sim.engine.stl import read_stl
 from dempath_sim.engine.timestep import rayleigh_time_step
@@ -34,6 +35,7 @@ __all__ = [
            'Plane',
            'SimParams',
            'SimState',
+           'SleepSettings',
            'ToolPose',
            'TriangleMesh',
            'box_walls',

@@ -15,6 +15,10 @@ carried over; states of REORDER_MIN or more particles are first put in cell orde
 The plane and tool pass runs over the particles that can reach a plane or the tool until the
 next list build (`reach.BoundaryCandidates`, from the build positions); the candidates are
 found again when the tool has moved more than TOOL_MARGIN_SKINS skins since they were found.
+With ``sleep`` settings (`sleep.SleepSettings`, off by default) grains that stay at rest fall
+asleep: they are not integrated, pairs of sleeping grains are skipped with their springs kept,
+and a moving neighbour, a rim force imbalance or the tool's reach wakes them (`update_sleep`
+after each step).
 The arrays of `SimState` are updated in place; when particles leave the domain box they are
 removed with a warning and a new, compacted state is returned, so always use the returned state.
 """
@@ -22,7 +26,7 @@ removed with a warning and a new, compacted state is returned, so always use the
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 
 import numba
 import numpy as np
@@ -45,6 +49,7 @@ from dempath_sim.engine.neighbors import (
 from dempath_sim.engine.pair_forces import pair_forces, reduce_buffers
 from dempath_sim.engine.params import SimParams
 from dempath_sim.engine.reach import BoundaryCandidates, box_displacement
+from dempath_sim.engine.sleep import SleepSettings, near_tool_box, update_sleep
 from dempath_sim.engine.stability import (
     check_contacts,
     check_drift,
@@ -76,6 +81,9 @@ class Engine:
         removed_count: Particles removed because they left the domain box.
         n_rebuilds: Neighbour-list builds so far.
         slot_overflows: Geometry contacts resolved without history (all slots busy).
+        pair_evaluations: Particle pairs evaluated (distance computed) over all steps so far.
+        n_asleep: Grains asleep after the last step (0 without sleep settings).
+        woken: Grains woken so far.
     """
 
     BLOWUP_COURANT = 0.5  # |v| dt / r above this is an energy blow-up
@@ -87,7 +95,7 @@ class Engine:
 
     def __init__(self, params: SimParams, walls: Sequence[Plane] = (),
                  tool: TriangleMesh | None = None, reorder: bool = True,
-                 candidates: bool = True) -> None:
+                 candidates: bool = True, sleep: SleepSettings | None = None) -> None:
         """Keep the set-up; no allocation until a state is stepped.
 
         Args:
@@ -98,9 +106,12 @@ class Engine:
                 (memory locality; same physics; outputs must then go by `SimState.ids`).
             candidates: Run the plane/tool pass over the particles within reach only (same
                 physics; False tests every particle every step).
+            sleep: Let grains at rest fall asleep (`sleep.py`); None (default): every grain is
+                integrated at every step.
         """
         self.reorder = reorder
         self.candidates = candidates
+        self.sleep = sleep
         self._n_bound = 0  # most particles bound so far (the base of the lost fraction)
         self._screen = 0.0  # overlap / radius below which no contact is unstable at dt
         self.params = params
@@ -127,6 +138,9 @@ class Engine:
         self.removed_count = 0
         self.n_rebuilds = 0
         self.slot_overflows = 0
+        self.pair_evaluations = 0
+        self.n_asleep = 0
+        self.woken = 0
         self._bound: SimState | None = None
 
     # ----------------------------------------------------------------- set-up
@@ -155,9 +169,18 @@ class Engine:
         self._gkey: NDArray[np.int32] = np.full((n, N_SLOTS), -1, np.int32)
         self._ght: F64 = np.zeros((n, N_SLOTS, 3))
         self._ghr: F64 = np.zeros((n, N_SLOTS, 3))
+        self._sleep_arrays(n)
         self._perm_tmp = np.empty(self._ght.nbytes, np.uint8)  # cell-order permutation scratch
         self._scratch()
         self._skin = self.params.skin * (float(state.radii.min()) if n else 0.0)
+        g_dt = float(np.linalg.norm(self._gravity)) * self._dt
+        sleep = self.sleep
+        self._v_sleep = 0.0 if sleep is None else sleep.speed_fraction * g_dt
+        self._w_sleep = 0.0 if sleep is None else sleep.spin_fraction * g_dt
+        self._v_wake = math.inf if sleep is None else sleep.wake_speed_fraction * g_dt
+        self._tool_reach = 0.0 if sleep is None or not n else (
+            sleep.tool_reach_radii * float(state.radii.max()))
+        self.n_asleep = 0
         self._start: NDArray[np.int64] = np.zeros(n + 1, np.int64)
         self._nbr: NDArray[np.int32] = np.zeros(0, np.int32)
         self._ht = np.zeros((0, 3))
@@ -172,12 +195,37 @@ class Engine:
             self.find_contacts(state, np.arange(n))
             self.contact_forces(state, self.tool_pose, dt=0.0)
 
+    def _sleep_arrays(self, n: int) -> None:
+        """Per-grain sleep state (all awake): asleep, rim, touch, wake, near-tool flags and the
+        quiet-step counters."""
+        self._asleep_u8 = np.zeros(n, np.uint8)
+        self._rim_u8 = np.zeros(n, np.uint8)
+        self._touch_u8 = np.zeros(n, np.uint8)
+        self._wake_u8 = np.zeros(n, np.uint8)
+        self._near_u8 = np.zeros(n, np.uint8)
+        self._quiet = np.zeros(n, np.int32)
+        self._sleep_counts = np.zeros(2, np.int64)
+
+    def _sleep_take(self, order: NDArray[np.int64]) -> None:
+        """Move the sleep state with the grains: row k becomes the old row order[k]."""
+        for name in ('_asleep_u8', '_rim_u8', '_quiet'):
+            setattr(self, name, np.ascontiguousarray(getattr(self, name)[order]))
+        n = len(order)
+        for name in ('_touch_u8', '_wake_u8', '_near_u8'):
+            setattr(self, name, np.zeros(n, np.uint8))
+
+    @property
+    def asleep(self) -> NDArray[np.bool_]:
+        """(n,) whether each grain of the bound state is asleep (a copy)."""
+        return self._asleep_u8.astype(bool)
+
     def _scratch(self) -> None:
         nc = self._n_chunks
         self._worst = np.zeros((nc, 4))
         self._stats = np.zeros((nc, 4))
         self._tool_acc = np.zeros((nc, 6))
         self._cand = np.zeros((nc, MAX_CANDIDATES, 9))
+        self._evals = np.zeros(nc, np.int64)
         self._tmp_t = np.zeros((nc, 1, 3))
         self._tmp_r = np.zeros((nc, 1, 3))
 
@@ -194,6 +242,8 @@ class Engine:
             state.reorder(order, self._perm_tmp)
             for a in (self._force, self._torque, self._gkey, self._ght, self._ghr):
                 permute_in_place(a, order, self._perm_tmp)
+            if self.sleep is not None:
+                self._sleep_take(order)
             new_to_old = np.asarray(new_to_old)[order]
         rows = np.diff(self._start)
         cap = int(rows.max()) * 5 // 4 + 4 if rows.size == state.n and rows.size else 0
@@ -226,11 +276,14 @@ class Engine:
             self._packed = (pose, pose.packed())
         g_args = TriangleGrid.kernel_args(self._grid)
         tri_mat = 0 if self.tool is None else self.tool.material
+        sleeping = self.sleep is not None
         with threads_at_most(self._threads):
             pair_forces(state.positions, state.velocities, state.angular_velocities,
                         state.radii, state.masses, state.material, self._start, self._nbr,
                         self._ht, self._hr, self._tab, dt, rolling, cohesion, self._fbuf,
-                        self._tbuf, self._worst)
+                        self._tbuf, self._worst, sleeping, self._asleep_u8, self._rim_u8,
+                        self._touch_u8, self._wake_u8, self._v_wake, self._evals)
+            self.pair_evaluations += int(self._evals.sum())
             reduce_buffers(self._fbuf, self._tbuf, self._force, self._torque)
             self._worst[:, 3] = 0.0
             boundary_forces(state.positions, state.velocities, state.angular_velocities,
@@ -248,10 +301,15 @@ class Engine:
 
     def _boundary_particles(self, state: SimState) -> NDArray[np.int64]:
         """Particles the plane/tool pass must test at this step (see `BoundaryCandidates`)."""
+        idx: NDArray[np.int64]
         if not self.candidates:
-            return np.arange(state.n)
-        return self._reach.particles(self._pos_build, state.radii, self._packed[1], self._gkey,
-                                     self._ght, self._ghr)
+            idx = np.arange(state.n, dtype=np.int64)
+        else:
+            idx = self._reach.particles(self._pos_build, state.radii, self._packed[1],
+                                        self._gkey, self._ght, self._ghr)
+        if self.n_asleep:  # sleeping grains off the rim keep their wall springs untouched
+            idx = idx[(self._asleep_u8[idx] == 0) | (self._rim_u8[idx] != 0)]
+        return idx
 
     def integrate_first_half(self, state: SimState) -> tuple[float, int]:
         """Half kick and drift; returns (max displacement since the list build [m], n_out).
@@ -261,13 +319,16 @@ class Engine:
         """
         first_half(state.positions, state.velocities, state.angular_velocities, self._force,
                    self._torque, state.masses, state.inertias, state.radii, self._gravity,
-                   self._dt, self._pos_build, self._dom_lo, self._dom_hi, self._stats)
+                   self._dt, self._pos_build, self._dom_lo, self._dom_hi, self._stats,
+                   self._asleep_u8)
         return check_drift(state, self._stats, self.BLOWUP_COURANT, self.params, self._dt)
 
     def integrate_second_half(self, state: SimState) -> None:
         """Second half kick with the new forces; advances time and step."""
         second_half(state.velocities, state.angular_velocities, self._force, self._torque,
-                    state.masses, state.inertias, self._gravity, self._dt)
+                    state.masses, state.inertias, self._gravity, self._dt, self._asleep_u8)
+        if self.sleep is not None:
+            self._update_sleep(state)
         state.time += self._dt
         state.step += 1
 
@@ -302,6 +363,22 @@ class Engine:
             self.integrate_second_half(state)
         return state
 
+    def _update_sleep(self, state: SimState) -> None:
+        """Grains quiet for long enough fall asleep; disturbed ones wake (`sleep.update_sleep`)."""
+        sleep = self.sleep
+        assert sleep is not None
+        if self.tool is not None and self._grid is not None:
+            grid = self._grid
+            near_tool_box(state.positions, self._packed[1], grid.lo, grid.lo + grid.dims
+                          * grid.cell, self._tool_reach, self._near_u8)
+        update_sleep(state.velocities, state.angular_velocities, self._force, self._torque,
+                     state.masses, state.radii, self._gravity, self._asleep_u8, self._quiet,
+                     self._rim_u8, self._touch_u8, self._wake_u8, self._near_u8, self._v_sleep,
+                     self._w_sleep, sleep.force_fraction, sleep.wake_force_fraction,
+                     sleep.quiet_steps, self._sleep_counts)
+        self.n_asleep = int(self._sleep_counts[0])
+        self.woken += int(self._sleep_counts[1])
+
     def _tool_moved(self) -> bool:
         """LIGGGHTS' forms: the tool moved half the skin since the list build (LIGGGHTS 3.8
         then rebuilds every list, ending the springs separated pairs keep, see `pair_forces`;
@@ -319,6 +396,10 @@ class Engine:
         new_to_old = np.flatnonzero(keep)
         for name in ('_force', '_torque', '_gkey', '_ght', '_ghr'):  # per-particle buffers
             setattr(self, name, np.ascontiguousarray(getattr(self, name)[keep]))
+        if self.sleep is not None:
+            self._sleep_take(new_to_old)
+        else:
+            self._sleep_arrays(new.n)
         self._n_chunks = max(1, min(self._n_chunks, new.n))
         self._fbuf = np.zeros((self._n_chunks, new.n, 3))
         self._tbuf = np.zeros((self._n_chunks, new.n, 3))
@@ -353,6 +434,55 @@ class Engine:
             state = self.step(state, pose)
             if callback is not None and (k + 1) % callback_every == 0:
                 callback(state, self)
+        return state
+
+    # ----------------------------------------------------------------- checkpoints
+    _STATE_FIELDS = ('positions', 'velocities', 'angular_velocities', 'radii', 'masses',
+                     'inertias', 'material', 'ids')
+    _ENGINE_ARRAYS = ('_force', '_torque', '_gkey', '_ght', '_ghr', '_start', '_nbr', '_ht',
+                      '_hr', '_pos_build', '_tool_build', '_asleep_u8', '_rim_u8', '_quiet')
+    _COUNTERS = ('removed_count', 'n_rebuilds', 'slot_overflows', 'pair_evaluations',
+                 'n_asleep', 'woken', '_n_bound')
+
+    def checkpoint(self, state: SimState) -> dict[str, NDArray[np.generic]]:
+        """Everything needed to go on stepping ``state`` (bound) later: the state, the neighbour
+        list with its springs, the geometry slots, the forces of the last step, the sleep state,
+        the counters and the tool pose (arrays; the caller writes them, e.g. ``np.savez``).
+        `resume` continues the run: the particles' motion to rounding (the tool's force is a
+        sum over its candidates in another grouping until the next candidate search)."""
+        if state is not self._bound:
+            msg = 'Engine.checkpoint: the state is not the one this engine steps'
+            raise SimulationError(msg)
+        out: dict[str, NDArray[np.generic]] = {
+            f'state.{k}': getattr(state, k) for k in self._STATE_FIELDS}
+        out.update({f'engine.{k}': getattr(self, k) for k in self._ENGINE_ARRAYS})
+        out['state.clock'] = np.array([state.time, float(state.step)])
+        out['engine.counters'] = np.array([getattr(self, k) for k in self._COUNTERS], np.int64)
+        pose = self.tool_pose
+        out['engine.tool_pose'] = np.concatenate([
+            np.asarray(pose.position, np.float64).reshape(3),
+            np.asarray(pose.velocity, np.float64).reshape(3),
+            np.eye(3).reshape(9) if pose.rotation is None else np.asarray(pose.rotation).ravel(),
+            np.zeros(3) if pose.angular_velocity is None else np.asarray(pose.angular_velocity)])
+        return out
+
+    def resume(self, data: Mapping[str, NDArray[np.generic]]) -> SimState:
+        """The state of a `checkpoint`, bound to this engine (same parameters, walls, tool and
+        sleep settings as the engine that wrote it) with its list, springs and forces."""
+        saved = {k: np.array(data[f'state.{k}']) for k in self._STATE_FIELDS}
+        state = SimState(**{k: v.copy() for k, v in saved.items()},  # type: ignore[arg-type]
+                         time=float(data['state.clock'][0]), step=int(data['state.clock'][1]))
+        pose = np.asarray(data['engine.tool_pose'], np.float64)
+        self.tool_pose = ToolPose(pose[:3], pose[3:6], pose[6:15].reshape(3, 3), pose[15:18])
+        self.bind(state)  # buffers and a list (reordered: overwritten next)
+        for k, v in saved.items():
+            getattr(state, k)[...] = v
+        for k in self._ENGINE_ARRAYS:
+            setattr(self, k, np.ascontiguousarray(data[f'engine.{k}']))
+        for k, v in zip(self._COUNTERS, np.asarray(data['engine.counters']).tolist(),
+                        strict=True):
+            setattr(self, k, int(v))
+        self._reach.forget()
         return state
 
     # ----------------------------------------------------------------- introspection

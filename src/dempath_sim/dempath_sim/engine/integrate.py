@@ -9,7 +9,8 @@ and the same for omega with T / I (Allen & Tildesley, 2nd ed., 3.2.1; LIGGGHTS `
 Symplectic and time-reversible for conservative forces. The first half-kick also reports, per
 chunk, the largest displacement since the last neighbour-list build, the largest |v| dt / r (a
 blow-up indicator), the number of particles outside the domain box and the number of non-finite
-velocities. No fastmath here, so that the NaN checks hold.
+velocities. No fastmath here, so that the NaN checks hold. Sleeping grains (`asleep`, see
+`sleep.py`) are neither kicked nor moved.
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ from numba import njit, prange
 
 @njit(parallel=True, cache=True)
 def first_half(pos, vel, omg, force, torque, mass, inertia, rad, gravity, dt, pos_build,
-               dom_lo, dom_hi, stats):  # pragma: no cover - compiled
+               dom_lo, dom_hi, stats, asleep):  # pragma: no cover - compiled
     """Half kick and drift; stats (n_chunks, 4) out: max disp^2, max |v|dt/r, n_out, n_nan."""
     n_chunks = stats.shape[0]
     n = pos.shape[0]
@@ -32,6 +33,8 @@ def first_half(pos, vel, omg, force, torque, mass, inertia, rad, gravity, dt, po
         n_out = 0.0
         n_bad = 0.0
         for i in range(c * n // n_chunks, (c + 1) * n // n_chunks):
+            if asleep[i]:
+                continue
             inv_m = 1.0 / mass[i]
             inv_i = 1.0 / inertia[i]
             v2 = 0.0
@@ -58,10 +61,13 @@ def first_half(pos, vel, omg, force, torque, mass, inertia, rad, gravity, dt, po
 
 
 @njit(parallel=True, cache=True)
-def second_half(vel, omg, force, torque, mass, inertia, gravity, dt):  # pragma: no cover
-    """Second half kick with the forces at t + dt."""
+def second_half(vel, omg, force, torque, mass, inertia, gravity, dt,
+                asleep):  # pragma: no cover
+    """Second half kick with the forces at t + dt (sleeping grains: none)."""
     h = 0.5 * dt
     for i in prange(vel.shape[0]):
+        if asleep[i]:
+            continue
         inv_m = 1.0 / mass[i]
         inv_i = 1.0 / inertia[i]
         for q in range(3):

@@ -12,6 +12,10 @@ sphere pair's history while the pair stays in its neighbour list (its ``surfaces
 would clear it, runs only for pairs within ``contactDistanceFactor`` radii, 1 by default, which
 the touching branch takes first), so a pair that parts and touches again before the next list
 build resumes its old springs; the build drops them (`neighbors.transfer_history`).
+With sleeping grains (`sleep.py`) a pair of two sleeping grains, neither on the rim, is skipped
+with its springs kept; a touching pair of one sleeping and one awake grain marks the sleeping one
+as touched (rim at the next step) and, when the awake one moves faster than the wake speed, to be
+woken. `evals` counts the pairs evaluated (their distance computed) per chunk.
 """
 
 from __future__ import annotations
@@ -26,7 +30,8 @@ from dempath_sim.engine.laws.dispatch import TAB_FORMS, resolve_contact
 
 @njit(parallel=True, fastmath=True, cache=True)
 def pair_forces(pos, vel, omg, rad, mass, mat, start, nbr, ht, hr, tab, dt, rolling, cohesion,
-                fbuf, tbuf, worst):  # pragma: no cover - compiled
+                fbuf, tbuf, worst, sleeping, asleep, rim, touch, wake, v_wake,
+                evals):  # pragma: no cover - compiled
     """Accumulate particle-particle forces and torques into per-chunk buffers.
 
     Args:
@@ -41,6 +46,11 @@ def pair_forces(pos, vel, omg, rad, mass, mat, start, nbr, ht, hr, tab, dt, roll
         rolling, cohesion: Switches of the optional laws.
         fbuf, tbuf: (n_chunks, n, 3) force [N] and torque [N m] buffers (overwritten).
         worst: (n_chunks, 3) out: largest overlap / smaller radius and the pair (i, j).
+        sleeping: Whether grains may sleep (False: the flags below are not read).
+        asleep, rim: (n,) uint8 sleeping grains and sleeping grains on the rim.
+        touch, wake: (n,) uint8 out (set, never cleared here): sleeping grains touching an
+            awake one, and those whose awake neighbour moves faster than v_wake [m/s].
+        evals: (n_chunks,) int64 out: pairs evaluated.
     """
     n_chunks = fbuf.shape[0]
     n = pos.shape[0]
@@ -52,9 +62,14 @@ def pair_forces(pos, vel, omg, rad, mass, mat, start, nbr, ht, hr, tab, dt, roll
         w_ratio = 0.0
         w_i = -1
         w_j = -1
+        count = 0
+        v_wake2 = v_wake * v_wake
         for i in range(c * n // n_chunks, (c + 1) * n // n_chunks):
             for k in range(start[i], start[i + 1]):
                 j = nbr[k]
+                if sleeping and asleep[i] and asleep[j] and not (rim[i] or rim[j]):
+                    continue  # frozen pair: same force at every step, springs kept
+                count += 1
                 dx = pos[i, 0] - pos[j, 0]
                 dy = pos[i, 1] - pos[j, 1]
                 dz = pos[i, 2] - pos[j, 2]
@@ -68,6 +83,12 @@ def pair_forces(pos, vel, omg, rad, mass, mat, start, nbr, ht, hr, tab, dt, roll
                             ht[k, q] = 0.0  # then, so that untouched rows stay clean in
                             hr[k, q] = 0.0  # cache and are not written back)
                     continue
+                if sleeping and asleep[i] != asleep[j]:
+                    s_ = i if asleep[i] else j  # the sleeping grain and the awake one
+                    a_ = j if asleep[i] else i
+                    touch[s_] = 1
+                    if vel[a_, 0] ** 2 + vel[a_, 1] ** 2 + vel[a_, 2] ** 2 > v_wake2:
+                        wake[s_] = 1
                 d = math.sqrt(d2)
                 delta = rs - d
                 r_min = min(rad[i], rad[j])
@@ -113,6 +134,7 @@ def pair_forces(pos, vel, omg, rad, mass, mat, start, nbr, ht, hr, tab, dt, roll
         worst[c, 0] = w_ratio
         worst[c, 1] = w_i
         worst[c, 2] = w_j
+        evals[c] = count
 
 
 @njit(parallel=True, cache=True)

@@ -66,11 +66,21 @@ class SimulatorNode(Node):
         self.pub_wrench = self.create_publisher(WrenchStamped, topics.SIM_TOOL_WRENCH, 50)
         self.pub_cloud = self.create_publisher(PointCloud2, topics.SIM_CLOUD, 50)
         self.stop = threading.Event()
-        self.run_id = self.config.scene
-        self.frames = 0
+        self._run_id = self.config.scene
+        self._frames = 0
         self._last_log = 0.0
         self.worker = threading.Thread(target=self.run, name='dempath_sim', daemon=True)
         self.worker.start()
+
+    @property
+    def run_id(self) -> str:
+        """The run id of the run in progress (the scene's name until it is loaded)."""
+        return self._run_id
+
+    @property
+    def frames_published(self) -> int:
+        """ParticleStates frames published so far."""
+        return self._frames
 
     def run(self) -> None:
         """Worker: load the scene, run it, publish events; package errors end the run."""
@@ -78,7 +88,7 @@ class SimulatorNode(Node):
         try:
             scene = self.config.load_scene()
             rid = run_id(scene)
-            self.run_id = rid
+            self._run_id = rid
             self.tool_triangles = TriangleMesh.from_stl(scene.tool.mesh,
                                                         scale=scene.tool.scale).triangles
             self._event(RunEvent.STARTED, f'scene {scene.name} seed {scene.seed}')
@@ -98,18 +108,18 @@ class SimulatorNode(Node):
 
     def _event(self, event: int, detail: str, rid: str | None = None) -> None:
         stamp = self.get_clock().now().to_msg()
-        self.pub_events.publish(convert.run_event(rid or self.run_id, event, detail, stamp))
+        self.pub_events.publish(convert.run_event(rid or self._run_id, event, detail, stamp))
 
     def _publish(self, frame: Frame) -> None:
         stamp = self.get_clock().now().to_msg()
-        self.pub_states.publish(convert.particle_states(frame, self.run_id, stamp))
-        self.pub_force.publish(convert.tool_force(frame, self.run_id, stamp))
+        self.pub_states.publish(convert.particle_states(frame, self._run_id, stamp))
+        self.pub_force.publish(convert.tool_force(frame, self._run_id, stamp))
         self.pub_pose.publish(convert.tool_pose(frame, stamp))
-        if self.frames % self.config.viz_every == 0:
+        if self._frames % self.config.viz_every == 0:
             self.pub_viz.publish(convert.marker_array(frame, self.tool_triangles, stamp))
             self.pub_cloud.publish(convert.particle_cloud(frame, stamp))
         self.pub_wrench.publish(convert.tool_wrench(frame, stamp))
-        self.frames += 1
+        self._frames += 1
 
     def _progress(self, p: Progress) -> None:
         now = time.monotonic()

@@ -28,6 +28,7 @@ from numpy.typing import NDArray
 
 from dempath_sim.effects import PhysicsModel
 from dempath_sim.engine import Engine, SimParams, SimState, ToolPose, TriangleMesh
+from dempath_sim.engine.sleep import SleepSettings
 from dempath_sim.errors import RunStoppedError, SimulationError
 from dempath_sim.runs.backend import Backend, Frame, Progress, RunOptions
 from dempath_sim.runs.bed import FillReport, fill_bed, place_tool, tool_start
@@ -105,7 +106,9 @@ def _prepare_drive(scene: SceneSpec, params: SimParams, model: PhysicsModel, sta
     radii[hit] = state.radii[order[at][hit]]
     path = ToolPath(scene.tool.profile.scaled(model.speed_scale), start,
                     scene.tool.profile_offset_m)
-    engine = Engine(params, bin_walls(scene), mesh)
+    engine = Engine(params, bin_walls(scene), mesh,
+                    sleep=SleepSettings().scaled(scene.sim.sleep_scale) if scene.sim.sleep
+                    else None)
     engine.tool_pose = ToolPose(*path.pose_at(0.0))
     engine.bind(state)
     dt = float(engine.dt or 0.0)
@@ -203,6 +206,7 @@ def run_scene(scene: SceneSpec, options: RunOptions | None = None) -> SimResult:
     t_settle = time.monotonic()
     state = resettle(drive, state, scene.tool.settle_s)
     springs = pass_start_springs(drive.engine)
+    evals_settle = drive.engine.pair_evaluations
     t_drive = time.monotonic()
     state = drive_tool(drive, state, options)
     meta: dict[str, Any] = {
@@ -215,6 +219,9 @@ def run_scene(scene: SceneSpec, options: RunOptions | None = None) -> SimResult:
         'resettle_s': scene.tool.settle_s, 'resettle_wall_s': t_drive - t_settle,
         'pass_start_springs': springs, 'bed_physics': scene.fill.physics,
         'drive_wall_s': time.monotonic() - t_drive,
+        'sleep': scene.sim.sleep, 'resettle_pair_evaluations': evals_settle,
+        'drive_pair_evaluations': drive.engine.pair_evaluations - evals_settle,
+        'asleep_at_end': drive.engine.n_asleep, 'woken': drive.engine.woken,
         'grid_points': drive.selection.grid_points.tolist()}
     result = drive.recorder.result(meta)
     meta['warnings'] = run_warnings(result.tool_force, report)

@@ -262,7 +262,9 @@ def _read_sections(r: Reader, source: str, base_dir: Path | None) -> dict[str, A
             s.number('max_overlap_fraction', 0.0, 1.0, DEFAULT_MAX_OVERLAP_FRACTION,
                      low_open=True),
             s.text('coulomb_limit', 'total', choices=COULOMB_LIMITS),
-            s.text('contact_forms', 'dempath', choices=CONTACT_FORMS)))
+            s.text('contact_forms', 'dempath', choices=CONTACT_FORMS),
+            s.flag('sleep', False),
+            s.number('sleep_scale', 0.0, 1000.0, 1.0, low_open=True)))
     for sub in (f, o, s):
         sub.finish()
     return out

@@ -192,6 +192,8 @@ class NumericsSpec:
     max_overlap_fraction: float = DEFAULT_MAX_OVERLAP_FRACTION
     coulomb_limit: str = 'total'  # 'total' (spring + dashpot) or 'spring' (LIGGGHTS 3.8)
     contact_forms: str = 'dempath'  # 'dempath' or 'liggghts' (see SimParams.contact_forms)
+    sleep: bool = False  # grains at rest sleep during the pass (engine/sleep.py; native engine)
+    sleep_scale: float = 1.0  # the sleep thresholds times this (SleepSettings.scaled)
 
 
 @dataclass(frozen=True)
@@ -269,6 +271,9 @@ class SceneSpec:
         for key in ('effects', 'bed_effects'):
             effects = getattr(self, key) or self.effects
             out[key] = {k: {'enabled': v.enabled, **dict(v.values)} for k, v in effects.items()}
+        for key, default in (('sleep', False), ('sleep_scale', 1.0)):
+            if out['sim'][key] == default:  # added after libraries and run ids were made: left
+                del out['sim'][key]  # out at their defaults, so that those keys stay valid
         return out
 
 

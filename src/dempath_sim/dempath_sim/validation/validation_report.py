@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from dempath_sim.validation import CASES, energy_conservation, impact, incline, repose
+from dempath_sim.validation import CASES, energy_conservation, impact, incline, pile, repose
 from dempath_sim.validation.cross_engine import CrossEngineReport
 
 logger = logging.getLogger(__name__)
@@ -132,7 +132,7 @@ def _energy(rep: Report) -> None:
     rep.lines += ['', 'Bar: < 1 %.', '']
 
 
-def _repose_runs(rep: Report, cases: list[repose.ReposeCase]) -> list[repose.ReposeResult]:
+def _repose_runs(rep: Report, cases: list[repose.ReposeCase]) -> list[pile.ReposeResult]:
     """Run every seed's case on dempath and (when present) LIGGGHTS; per-run rows (with the
     wall time) go to ``rep.figures['repose_runs']``."""
     from dempath_sim.engine.timestep import rayleigh_time_step
@@ -156,7 +156,7 @@ def _repose_runs(rep: Report, cases: list[repose.ReposeCase]) -> list[repose.Rep
     return res
 
 
-def plot_repose(res: list[repose.ReposeResult], path: Path, title: str = '',
+def plot_repose(res: list[pile.ReposeResult], path: Path, title: str = '',
                 labels: list[str] | None = None) -> None:
     """Radial surface profiles h(r) of the piles, with the paper's 30.82 deg slope for scale."""
     import matplotlib.pyplot as plt
@@ -184,7 +184,7 @@ def _repose(rep: Report, cases: list[repose.ReposeCase], preset: str,
             overrides: dict[str, float] | None = None) -> None:
     res = _repose_runs(rep, cases)
     plot_repose(res, rep.out / 'repose.png')
-    summary = repose.summarise(res)
+    summary = pile.summarise(res)
     rep.figures['repose'] = {'preset': preset, 'overrides': overrides or {},
                              'seeds': [c.seed for c in cases], **summary}
     exp, rocky, case = repose.PAPER_EXPERIMENT_DEG, repose.PAPER_ROCKY_DEG, cases[0]

@@ -28,7 +28,7 @@ from dempath.bagio import make_typestore, write_bag
 from dempath.errors import DempathError
 from dempath_twin.images import jpeg_message, stamp_header
 from dempath_twin.render.bed_source import BedRecord, load_bed, run_for_recording
-from dempath_twin.render.camera_frame import Look
+from dempath_twin.render.camera_frame import CLAY_BGR, SAND_BGR, Look
 from dempath_twin.render.recording import (
     CALIB_GAP_S,
     START_NS,
@@ -141,10 +141,34 @@ def _parser() -> argparse.ArgumentParser:
                    help='front camera clock and exposure offset [s]')
     p.add_argument('--start', type=float, default=0.0, help='run time of the first frame [s]')
     p.add_argument('--blur-subframes', type=int, default=3, help='sub-frames per exposure')
+    p.add_argument('--light', type=float, default=1.0,
+                   help='light level relative to the default scene')
+    p.add_argument('--noise', type=float, default=2.0, help='read noise [grey levels]')
+    p.add_argument('--ambient', type=float, default=0.35,
+                   help='share of light reaching shadowed surfaces')
+    p.add_argument('--sand-bgr', type=_bgr, default=SAND_BGR, help='sand albedo B,G,R (0-1)')
+    p.add_argument('--marker-bgr', type=_bgr, default=CLAY_BGR,
+                   help='marker (clay) albedo B,G,R (0-1)')
+    p.add_argument('--marker-diameter', type=float, default=0.008,
+                   help='marker sphere diameter [m]')
     p.add_argument('--seed', type=int, default=0)
     p.add_argument('--hidden-seed', type=int, help='packing seed when SOURCE is a scene')
     p.add_argument('--on', action='append', default=[], help='effect on when SOURCE is a scene')
+    p.add_argument('--rig', default='fixed', choices=('fixed', 'carriage'),
+                   help="the twin's cameras: 'fixed' (paper_rig) or 'carriage' (carriage_rig)")
     return p
+
+
+def _bgr(text: str) -> tuple[float, float, float]:
+    """``'B,G,R'`` albedo in 0-1 (an argparse type)."""
+    parts = text.split(',')
+    try:
+        values = tuple(float(p) for p in parts)
+    except ValueError:
+        values = ()
+    if len(values) != 3:
+        raise argparse.ArgumentTypeError(f'{text!r}: want B,G,R, three numbers in 0-1')
+    return values[0], values[1], values[2]
 
 
 def _bed(args: argparse.Namespace, fps: float) -> BedRecord:
@@ -160,7 +184,7 @@ def _bed(args: argparse.Namespace, fps: float) -> BedRecord:
 
 def render_main(argv: list[str] | None = None) -> int:
     """``dempath twin render SCENE_OR_RUN --out BAG``; one error line and 1 on bad input."""
-    from dempath_twin.rig import paper_rig
+    from dempath_twin.rig import RIGS
 
     args = _parser().parse_args(argv)
     try:
@@ -169,9 +193,13 @@ def render_main(argv: list[str] | None = None) -> int:
                                  front_offset_s=args.front_offset, seed=args.seed,
                                  start_s=args.start,
                                  look=replace(Look(), exposure_s=args.exposure,
-                                              blur_subframes=args.blur_subframes))
+                                              blur_subframes=args.blur_subframes,
+                                              light=args.light, noise_dn=args.noise,
+                                              ambient=args.ambient, sand_bgr=args.sand_bgr,
+                                              marker_bgr=args.marker_bgr,
+                                              marker_diameter_m=args.marker_diameter))
         bed = _bed(args, config.fps)
-        out, truth = write_field_recording(bed, paper_rig(), args.out, config)
+        out, truth = write_field_recording(bed, RIGS[args.rig](), args.out, config)
     except (DempathError, OSError, ValueError) as err:
         print(f'error: {args.source}: {" ".join(str(err).split())}', file=sys.stderr)
         return 1

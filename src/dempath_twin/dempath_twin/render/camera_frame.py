@@ -52,6 +52,10 @@ class Look:
         noise_dn: read noise [grey levels]; shot noise is added on top.
         blur_subframes: sub-frames averaged over the exposure (1 = no motion blur).
         exposure_s: exposure time [s] (motion blur length = speed x exposure).
+        light: light level relative to the default scene (scales the exposure; the shot
+            noise follows the signal) [-].
+        sand_bgr: mean albedo of the sand grains (B, G, R).
+        marker_bgr: albedo of the clay markers (B, G, R).
     """
 
     supersample: int = 2
@@ -61,13 +65,18 @@ class Look:
     noise_dn: float = 2.0
     blur_subframes: int = 3
     exposure_s: float = 0.004
+    light: float = 1.0
+    sand_bgr: tuple[float, float, float] = SAND_BGR
+    marker_bgr: tuple[float, float, float] = CLAY_BGR
 
     def __post_init__(self) -> None:
         checks = {'supersample': 1 <= self.supersample <= 4,
                   'marker_diameter_m': 0 < self.marker_diameter_m < 0.1,
                   'grain_spread': 0 <= self.grain_spread < 0.5, 'ambient': 0 <= self.ambient <= 1,
                   'noise_dn': self.noise_dn >= 0, 'blur_subframes': self.blur_subframes >= 1,
-                  'exposure_s': 0 <= self.exposure_s <= 0.02}
+                  'exposure_s': 0 <= self.exposure_s <= 0.02, 'light': 0 < self.light <= 10,
+                  'sand_bgr': all(0 < c < 1 for c in self.sand_bgr),
+                  'marker_bgr': all(0 < c < 1 for c in self.marker_bgr)}
         for name, ok in checks.items():
             if not ok:
                 msg = f'{name}: out of range, got {getattr(self, name)!r}'
@@ -212,7 +221,7 @@ class FieldCamera:
         gx, gy = light.gradient
         ramp = (1 + gx * (np.arange(w, dtype=np.float32) / w - 0.5))[None, :] \
             * (1 + gy * (np.arange(h, dtype=np.float32) / h - 0.5))[:, None]
-        img = 255.0 * img * ramp[..., None]
+        img = 255.0 * self.look.light * img * ramp[..., None]
         sigma = np.sqrt(self.look.noise_dn ** 2 + 0.05 * np.maximum(img, 0))
         img = img + sigma * rng.standard_normal(img.shape, dtype=np.float32)
         return np.asarray(np.clip(np.rint(img), 0, 255), np.uint8)

@@ -28,8 +28,6 @@ from numpy.typing import NDArray
 
 from dempath_twin.render.bed_source import BedRecord
 from dempath_twin.render.camera_frame import (
-    CLAY_BGR,
-    SAND_BGR,
     FieldCamera,
     Light,
     Look,
@@ -106,7 +104,7 @@ class FieldScene:
 
     Args:
         bed: the run's bed record.
-        look: appearance (marker diameter, grain spread).
+        look: appearance (marker diameter and colour, sand colour, grain spread).
         rng: draws the grains' colours and texture phases.
     """
 
@@ -115,8 +113,8 @@ class FieldScene:
         n = len(bed.radii)
         tone = 1.0 + look.grain_spread * rng.standard_normal((n, 1))
         hue = 1.0 + 0.04 * rng.standard_normal((n, 3))
-        self.albedo = np.clip(np.array(SAND_BGR) * tone * hue, 0.05, 0.95).astype(np.float32)
-        self.albedo[bed.marker_index] = CLAY_BGR
+        self.albedo = np.clip(np.array(look.sand_bgr) * tone * hue, 0.05, 0.95).astype(np.float32)
+        self.albedo[bed.marker_index] = look.marker_bgr
         self.texture = rng.uniform(0, 2 * np.pi, n).astype(np.float32)
         self.radii = bed.radii.copy()
         r_marker = 0.5 * look.marker_diameter_m

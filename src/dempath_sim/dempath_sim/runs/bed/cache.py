@@ -64,6 +64,7 @@ def packing_key(scene: SceneSpec, model: PhysicsModel) -> str:
     to KEY_OVERLAP_FRACTION, whatever the scene says) along with everything about the tool.
     """
     numerics = asdict(replace(scene.sim, max_overlap_fraction=KEY_OVERLAP_FRACTION))
+    del numerics['sleep'], numerics['sleep_scale']  # the pass's options: fills never sleep
     for option in ('coulomb_limit', 'contact_forms'):  # options added after packings were
         if numerics[option] == getattr(NumericsSpec, option):  # shipped: at their defaults
             del numerics[option]  # the keys of those packings stay valid

@@ -1,4 +1,5 @@
-"""Field conditions laid over a rendered recording, for ``detect_track.py --variations``.
+"""Field conditions laid over a rendered recording (``bench/detect_track.py --variations``, and
+the tracking tests on the bundled render).
 
 The twin renders one look (``bags/field_render_reduced_1ms``: 4 ms shutter, its own light and
 noise). Each :class:`Condition` changes that recording's frames the way the field would, with
@@ -21,6 +22,7 @@ from __future__ import annotations
 import hashlib
 import json
 from dataclasses import asdict, dataclass
+from typing import Any
 
 import cv2
 import numpy as np
@@ -164,7 +166,10 @@ def apply(jpeg: bytes, cond: Condition, camera_index: int, k: int, n: int,
         step: (m, 2) each marker's motion from the previous frame [px] (NaN unknown).
     """
     rng = np.random.default_rng([cond.seed, camera_index, k])
-    img = cv2.imdecode(np.frombuffer(jpeg, np.uint8), cv2.IMREAD_COLOR)
+    decoded = cv2.imdecode(np.frombuffer(jpeg, np.uint8), cv2.IMREAD_COLOR)
+    if decoded is None:
+        raise ValueError(f'{len(jpeg)}-byte frame: not a decodable image')
+    img = np.asarray(decoded, np.uint8)
     lin = (img.astype(np.float32) / 255.0) ** GAMMA
     if cond.shutter_ms > RENDER_SHUTTER_MS:
         _streak(lin, uv, step, (cond.shutter_ms - RENDER_SHUTTER_MS) / FRAME_MS)
@@ -173,7 +178,7 @@ def apply(jpeg: bytes, cond: Condition, camera_index: int, k: int, n: int,
     # noise of the light collected (a full-scale pixel collects FULL_WELL electrons)
     flick = 1.0 + cond.flicker * float(rng.uniform(-1.0, 1.0)) if cond.flicker else 1.0
     exposure = flick * cond.shutter_ms / RENDER_SHUTTER_MS
-    gain = _gain_map(cond, k, n, img.shape[:2], exposure)
+    gain = _gain_map(cond, k, n, (img.shape[0], img.shape[1]), exposure)
     lin = lin * (gain[..., None] if isinstance(gain, np.ndarray) else gain)
     lin *= np.array(cond.tint, np.float32)
     if not np.isscalar(gain) or gain != 1.0:
@@ -184,19 +189,59 @@ def apply(jpeg: bytes, cond: Condition, camera_index: int, k: int, n: int,
     if cond.dust and camera_index == 1:
         dust_rng = np.random.default_rng([cond.seed, 999])  # fixed on the lens
         h, w = enc.shape[:2]
-        shade = np.ones((h, w), np.float32)
+        shade: NDArray[np.float32] = np.ones((h, w), np.float32)
         for _ in range(cond.dust):
             cx, cy = dust_rng.uniform(0.2 * w, 0.8 * w), dust_rng.uniform(0.2 * h, 0.8 * h)
             rad, depth = dust_rng.uniform(15, 45), dust_rng.uniform(0.3, 0.6)
             cv2.circle(shade, (int(cx), int(cy)), int(rad), 1.0 - depth, -1, cv2.LINE_AA)
-        shade = cv2.GaussianBlur(shade, (0, 0), 8)
+        shade = np.asarray(cv2.GaussianBlur(shade, (0, 0), 8), np.float32)
         enc *= shade[..., None]
     shift = _shift(rng, cond)
     if cond.shake_px > 0:
         m = np.array([[1.0, 0.0, shift[0]], [0.0, 1.0, shift[1]]], np.float32)
-        enc = cv2.warpAffine(enc, m, (enc.shape[1], enc.shape[0]), flags=cv2.INTER_LINEAR,
-                             borderMode=cv2.BORDER_REFLECT)
+        enc = np.asarray(cv2.warpAffine(enc, m, (enc.shape[1], enc.shape[0]),
+                                        flags=cv2.INTER_LINEAR,
+                                        borderMode=cv2.BORDER_REFLECT), np.float32)
     out = np.clip(enc, 0, 255).astype(np.uint8)
     ok, buf = cv2.imencode('.jpg', out, [cv2.IMWRITE_JPEG_QUALITY, cond.jpeg_quality])
-    assert ok
+    if not ok:
+        raise ValueError(f'{cond.name}: the varied frame cannot be encoded as JPEG')
     return buf.tobytes(), shift
+
+
+Frames = list[tuple[str, int, bytes]]  # (camera, stamp ns, JPEG bytes)
+
+
+def vary_recording(frames: Frames, truth: dict[str, Any], cond: Condition,
+                   ) -> tuple[Frames, dict[str, list[float]]]:
+    """A recording's field frames under ``cond``, and each frame's image shift [px] by
+    ``'camera stamp_ns'`` (add it to the truth's pixels: :func:`moved_truth`).
+
+    Args:
+        frames: (camera, stamp ns, JPEG) of the pass, in any order.
+        truth: the recording's truth (``<bag>.truth.json``: cameras, frames with ``uv``).
+        cond: the condition.
+    """
+    by_key = {(f['camera'], int(f['stamp_ns'])): f for f in truth['frames']}
+    cams = [c['name'] for c in truth['cameras']]
+    per_cam = {c: [f for f in frames if f[0] == c] for c in cams}
+    index = {(c, s): k for c in cams for k, (_, s, _) in enumerate(per_cam[c])}
+    out: Frames = []
+    shifts: dict[str, list[float]] = {}
+    for cam, stamp, data in frames:
+        k = index[(cam, stamp)]
+        uv = np.array(by_key[(cam, stamp)]['uv'], np.float64)
+        prev = by_key.get((cam, per_cam[cam][k - 1][1])) if k else None
+        step = uv - np.array(prev['uv']) if prev else np.full_like(uv, np.nan)
+        jpeg, shift = apply(data, cond, cams.index(cam), k, len(per_cam[cam]), uv, step)
+        out.append((cam, stamp, jpeg))
+        shifts[f'{cam} {stamp}'] = shift.tolist()
+    return out, shifts
+
+
+def moved_truth(truth: dict[str, Any], shifts: dict[str, list[float]]) -> dict[str, Any]:
+    """The truth with each frame's marker pixels moved by its image shift (shake)."""
+    moved = dict(truth)
+    moved['frames'] = [{**f, 'uv': (np.array(f['uv']) + shifts.get(
+        f"{f['camera']} {int(f['stamp_ns'])}", [0.0, 0.0])).tolist()} for f in truth['frames']]
+    return moved

@@ -1,0 +1,188 @@
+"""Tracking and numbering failure modes on real rendered frames under field conditions.
+
+The bundled render (``bags/field_render_reduced_1ms``, all 31 field frames per camera) with a
+field condition laid over its frames (``dempath_twin.render.conditions``), through the real
+detector (OpenCV, libjpeg-turbo) and the offline two-camera tracker, against the render's
+truth. Each test names the failure it guards against; every test also asserts that no
+detection is given another marker's number.
+"""
+
+from __future__ import annotations
+
+import json
+from functools import cache
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from dempath.bagio import open_bag
+from dempath_calib.camera import CameraModel
+from dempath_recon.tracking.associate import MarkerGrid
+from dempath_recon.tracking.records import PixelFrame, StereoTrackConfig
+from dempath_recon.tracking.stereo import StereoMarkerTracker
+from dempath_twin.render.conditions import (
+    VARIATIONS,
+    Condition,
+    Frames,
+    moved_truth,
+    vary_recording,
+)
+
+ROOT = Path(__file__).resolve().parents[1]
+RENDER = ROOT / 'bags' / 'field_render_reduced_1ms'
+TRUTH = RENDER.with_name(RENDER.name + '.truth.json')
+OWNER_PX = 8.0  # a numbered detection belongs to the true marker nearest within this
+MATCH_PX = 3.0  # a detection this near a true centre found that marker
+
+
+@cache
+def recording() -> tuple[Frames, dict[str, Any]]:
+    """The render's field frames (camera, stamp ns, JPEG) in bag order, and its truth."""
+    truth = json.loads(TRUTH.read_text())
+    start = int(truth['calibration_segment']['field_start_ns'])
+    names = [c['name'] for c in truth['cameras']]
+    wanted = [f'/{c}/image_raw/compressed' for c in names]
+    frames: Frames = []
+    with open_bag(RENDER, wanted) as reader:
+        for raw in reader.messages(wanted):
+            msg = reader.deserialize(raw)
+            stamp = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
+            if stamp >= start:
+                frames.append((raw.topic.split('/')[1], stamp, bytes(msg.data)))
+    return frames, truth
+
+
+def condition(name: str) -> Condition:
+    """The bench's variation of that name (never a held-out one: tests tune nothing)."""
+    cond = next(c for c in VARIATIONS if c.name == name)
+    assert not cond.held_out
+    return cond
+
+
+@cache
+def track(cond: Condition, ray: bool = False,
+          ) -> tuple[list[PixelFrame], dict[str, Any], dict[str, Any]]:
+    """The offline path's frames (``release``/``flush``) on the varied render, the truth
+    moved with any image shift, and the tracker's report (``ray``: with the one-camera
+    numbering by the line of sight, an option)."""
+    frames, truth = recording()
+    varied, shifts = vary_recording(frames, truth, cond)
+    cams = {c['name']: CameraModel.from_dict(c) for c in truth['cameras']}
+    config = StereoTrackConfig(grid=MarkerGrid(
+        layout_m=tuple(tuple(p) for p in truth['marker_grid_m'])), ray_numbering=ray)
+    tracker = StereoMarkerTracker(cams, config)
+    out: list[PixelFrame] = []
+    for cam, stamp, data in varied:
+        tracker.update(cam, stamp * 1e-9, data)
+        out += tracker.release()
+    return out + tracker.flush(), moved_truth(truth, shifts), tracker.report()
+
+
+def outcome(out: list[PixelFrame], truth: dict[str, Any],
+            ) -> tuple[dict[tuple[str, int], list[bool]], int]:
+    """Per (camera, marker): numbered right in each frame where at least half of it is
+    visible, in frame order; and how many numbered detections belong to another marker."""
+    ids = np.array(truth['marker_ids'])
+    by_key = {(f['camera'], round(f['stamp_ns'] * 1e-3)): f for f in truth['frames']}
+    right: dict[tuple[str, int], list[bool]] = {}
+    wrong = 0
+    for fr in sorted(out, key=lambda f: f.stamp_s):
+        t = by_key[(fr.camera, round(fr.stamp_s * 1e6))]
+        uv, vis = np.array(t['uv']), np.array(t['visible'])
+        d = np.linalg.norm(fr.uv[:, None] - uv[None], axis=2) if len(fr.uv) else \
+            np.zeros((0, len(uv)))
+        for i, m in enumerate(ids):
+            if vis[i] >= 0.5:
+                hits = np.flatnonzero(d[:, i] < MATCH_PX)
+                right.setdefault((fr.camera, int(m)), []).append(
+                    any(fr.markers[h] == m for h in hits))
+        for k in np.flatnonzero(fr.markers >= 0):
+            j = int(np.argmin(d[k]))
+            wrong += int(d[k, j] < OWNER_PX and ids[j] != fr.markers[k])
+    return right, wrong
+
+
+@pytest.mark.slow
+def test_marker_only_one_camera_sees_is_numbered_by_its_line_of_sight() -> None:
+    """Marker 11 comes out of the heap in the side camera for the last 9 frames while the
+    front camera sees at most 17 % of it: no epipolar line and no pair can number it. The
+    bed carried it onto the side camera's line of sight (15-23 mm off; every other marker
+    three times as far or more): with ``ray_numbering`` (an option) numbered 11 from its
+    fourth steady frame on, by the one camera, and no detection gets another marker's number;
+    without it (the default) marker 11 stays unnumbered there, never misnumbered."""
+    out, truth, _ = track(condition('as_rendered'), ray=True)
+    right, wrong = outcome(out, truth)
+    assert wrong == 0
+    last = right[('cam_side', 11)]
+    assert len(last) >= 8
+    assert sum(last) >= len(last) - 2, last  # the first steady frames may wait
+    assert last[-5:] == [True] * 5, last
+    out, truth, _ = track(condition('as_rendered'))
+    right, wrong = outcome(out, truth)
+    assert wrong == 0 and not any(right[('cam_side', 11)][-5:])
+
+
+@pytest.mark.slow
+def test_pair_of_unsynchronised_cameras_is_checked_at_one_instant() -> None:
+    """With a 1 ms shutter (sharp, fast markers) the front camera's point, exposed 3 ms
+    after the side one, lay 4 px off the side point's epipolar line: the check took marker 1's
+    number back for good, and the side camera left it unnumbered for 28 frames while the
+    front saw all of it. Moved to the side frame's instant along its track, the pair passes:
+    marker 1 stays numbered in nearly every side frame, no wrong number."""
+    out, truth, _ = track(condition('bright_sun_shutter_1ms'))
+    right, wrong = outcome(out, truth)
+    assert wrong == 0
+    side1 = right[('cam_side', 1)]
+    assert sum(side1) >= len(side1) - 2, side1
+
+
+def test_adaptive_threshold_finds_markers_the_colour_cast_weakened() -> None:
+    """Under a reddish cast (``reddish_sand``: blue x0.85, red x1.1) half-buried markers keep
+    less chroma than the fixed threshold (0.15) asks: 95.6 % of the markers at least half
+    visible are found. The frame's threshold from its sand (``DetectorConfig.adaptive``: the
+    sand's median chroma plus 8 robust standard deviations, at least 0.08) finds more of them,
+    but also spots far from every marker (68 in these 62 frames, none with the fixed
+    threshold), and on the other variations the tracker then gave wrong numbers: the
+    adaptation is an option, off by default."""
+    from dataclasses import replace
+
+    from dempath_recon.tracking.detect import DetectorConfig, MarkerDetector
+
+    frames, truth = recording()
+    varied, shifts = vary_recording(frames, truth, condition('reddish_sand'))
+    moved = moved_truth(truth, shifts)
+    by_key = {(f['camera'], int(f['stamp_ns'])): f for f in moved['frames']}
+    found, strays = {}, {}
+    for adaptive in (False, True):
+        detector = MarkerDetector(replace(DetectorConfig(), adaptive=adaptive))
+        want = hit = stray = 0
+        for cam, stamp, data in varied:
+            det = detector.detect_jpeg(data)
+            t = by_key[(cam, stamp)]
+            uv, vis = np.array(t['uv']), np.array(t['visible'])
+            d = np.linalg.norm(det.uv[:, None] - uv[None], axis=2) if len(det.uv) else \
+                np.full((0, len(uv)), np.inf)
+            want += int((vis >= 0.5).sum())
+            hit += int(((d < MATCH_PX).any(axis=0) & (vis >= 0.5)).sum())
+            stray += int((d.min(axis=1) > 3 * OWNER_PX).sum()) if len(det.uv) else 0
+        found[adaptive], strays[adaptive] = hit / want, stray
+    assert found[False] < 0.97 and found[True] > found[False] + 0.02, found
+    assert strays[False] == 0 and strays[True] > 0, strays
+
+
+@pytest.mark.slow
+def test_cameras_moved_against_the_calibration_are_reported() -> None:
+    """Camera shake (the image moves up to 3 px a frame, the calibration stays) puts the
+    numbered pairs 2.5 px off their epipolar lines (0.76 px as rendered): both cameras report
+    frames of drift and say the cameras may have moved; the unshaken render reports none."""
+    *_, shaken = track(condition('shake_3px'))
+    *_, still = track(condition('as_rendered'))
+    for cam in ('cam_side', 'cam_front'):
+        assert still[cam]['drift_frames'] == 0, still[cam]
+        assert still[cam]['pair_residual_px'] < 1.2, still[cam]
+        assert shaken[cam]['drift_frames'] > 10, shaken[cam]
+        assert shaken[cam]['pair_residual_px'] > 1.5, shaken[cam]
+    out, *_ = track(condition('shake_3px'))
+    assert any('may have moved since the calibration' in e for f in out for e in f.events)
