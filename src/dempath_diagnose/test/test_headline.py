@@ -186,3 +186,50 @@ def test_recalibration_table7_after_has_its_own_floor_and_iterations_their_headl
     its = iteration_headlines(meas, evaluate, before, cube, 0.0015)
     assert [it['label'] for it in its] == ['before', 'iteration 1: 1e+05']
     assert its[0]['place'] == 'above' and its[1]['value_mm'] < its[0]['value_mm']
+
+
+def test_summary_counts_a_fit_inside_its_band_but_beaten_as_not_at_its_floor() -> None:
+    """A wrong fit inside its own band whose rival scores significantly lower is not at its
+    floor; a case whose error before lies inside the band is not seen and counts for neither."""
+    from dempath_diagnose.headline.fall import summary
+
+    def entry(place: str, lower: bool = False) -> dict[str, object]:
+        return {'place': place, 'value': 1.0, 'rival': {'lower': lower}}
+
+    def case(before: str, true: str, wrong: str, beaten: bool) -> dict[str, object]:
+        return {'case': 'c', 'seed': 1, 'candidate': 'cohesion', 'verdict': 'effect_missing',
+                'all': {'before': entry(before), 'after_true': entry(true),
+                        'after_wrong': entry(wrong, beaten)},
+                'held_out': {'before': entry(before), 'after_true': entry(true)}}
+
+    results = [case('above', 'in', 'in', True), case('above', 'in', 'above', True),
+               case('in', 'in', 'in', False)]
+    out = summary(results, table7_like_for_like=True)
+    assert out['effect_seen'] == 2 and out['true_fit_in_floor'] == 2
+    assert out['wrong_fit_in_floor'] == 0 and out['wrong_fit_in_own_band'] == 1
+
+
+def test_d2_floor_measures_each_played_marker_from_its_own_start(shipped: Library) -> None:
+    """The control (the baseline on seed 1001 as the measurement): its d^2 lies inside its
+    like-for-like floor, whose figures are of its size; measured from the figure's marker
+    starts, another seed's particles (millimetres away) gave a floor well above it (in the
+    bench, about four times)."""
+    from dempath_diagnose.decision.emulator import Allowance
+    from dempath_diagnose.headline.d2floor import D2Setup, d2_floor
+    from dempath_diagnose.headline.fall import _diagnose
+
+    tool_x, half, cube = tool_geometry(load_scene('reduced_1ms'))
+    starts = np.array(shipped.region['starts'])
+    setup = FallSetup(np.arange(1.0, 16.0), starts, (3, 8, 13), tool_x, half, cube)
+    truth = emulated_run(shipped, '', 0.0, 1001)
+    times = np.round(np.arange(0.0, float(truth.times[-1]) + 1e-9, 0.005), 6)
+    samples = MarkerSamples(np.arange(1, 16), starts, times, np.ones((len(times), 15), bool))
+    meas = played_measurement(truth, samples, 0, 0.0015, np.random.default_rng(5))
+    decision, _, layout = _diagnose(shipped, meas, 1001, setup)
+    band = d2_floor(shipped, '', 0.0, samples, D2Setup(layout, cube, Allowance(), ranks=2),
+                    fitted=False)
+    figure = float(decision.baseline.chi2)
+    assert band.place(figure) == 'in', (figure, band)
+    # measured from the figure's starts the floor's figures were 6.3-20.6 (median 10.7) against
+    # the figure's 6.7; from each played marker's own start they are 1.4-6.1 (median 5.2)
+    assert band.median < 1.25 * figure, (figure, band.samples)
