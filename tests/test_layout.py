@@ -116,7 +116,9 @@ ROOMS = {
     'dempath_recon': ('errors', 'methods', 'tracking', 'clicker'),
     'dempath_twin': ('errors', 'rig', 'images', 'board', 'field', 'render'),
     'dempath_diagnose': ('errors', 'records', 'admission', 'library', 'decision', 'headline',
-                         'recalibration', 'report'),
+                         'recalibration', 'report', 'next_runs', 'adaptive', 'entry'),
+    'dempath_bringup': ('frames', 'truth', 'calibstep', 'figures', 'launchgraph', 'nodes',
+                        'context', 'stages', 'report', 'analysis'),
 }
 # Known crossings still to mend, each named by file: (package, file under the package) -> rooms
 # (none now: a new one is named here with the reason, and mended).

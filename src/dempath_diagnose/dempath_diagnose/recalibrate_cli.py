@@ -15,12 +15,14 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Sequence
+from contextlib import ExitStack
 from pathlib import Path
 
 from dempath.errors import DempathError
 from dempath_diagnose.cli_options import diagnose_parser, diagnose_request
 from dempath_diagnose.entry.recalibration import run_recalibration, summary_lines
 from dempath_diagnose.entry.requests import RecalibrationRequest
+from dempath_diagnose.recalibration.progress import fan_out, printer
 from dempath_diagnose.recalibration.targets import parse_effects
 
 
@@ -50,8 +52,14 @@ def recalibrate_main(argv: Sequence[str] | None = None) -> int:
         request = RecalibrationRequest(
             diagnose=diagnose_request(args, budget=0), diagnosis_file=args.diagnosis,
             effects=parse_effects(args.effect), also=tuple(args.also), budget=args.budget,
-            seeds_per_eval=args.seeds_per_eval, publish_progress=args.publish_progress)
-        data = run_recalibration(request).data
+            seeds_per_eval=args.seeds_per_eval)
+        with ExitStack() as stack:
+            callbacks = [printer()]
+            if args.publish_progress:  # the ROS publisher beside the terminal lines
+                from dempath_diagnose.nodes.progress_publisher import progress_publisher
+
+                callbacks.append(stack.enter_context(progress_publisher(args.out.name)))
+            data = run_recalibration(request, progress=fan_out(callbacks)).data
     except (DempathError, ValueError) as err:
         print(f'error: {err}', file=sys.stderr)
         return 1

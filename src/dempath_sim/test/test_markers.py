@@ -123,10 +123,11 @@ def marker_depth(pos: np.ndarray, rad: np.ndarray, index: list[int]) -> float:
 
 def test_the_raked_deck_scene_picks_the_decks_surface_grains() -> None:
     """Issue 29's bin compares dempath's markers with a hand-written deck's "existing surface
-    grains"; dempath's default rule took grains ~3 mm deeper, which move ~18 % less outward
-    beside the tine (docs/liggghts.md). The deck's scene file picks by the deck's rule: on rough
-    beds of the deck's grains its markers are the deck's (``deck_setup.pick_markers``) at most
-    grid points and sit as high, while the default rule's sit over a millimetre deeper."""
+    grains"; dempath's default rule took grains 2-3 mm deeper, which move less outward beside
+    the tine (the issue's gap, docs/liggghts.md). The deck's scene file picks by the deck's
+    rule: on rough beds of the deck's grains its markers are the deck's
+    (``deck_setup.pick_markers``) at most grid points and sit as high, while the default rule's
+    sit over a millimetre deeper."""
     spec = load_scene(RAKED_TINE.scene_file()).markers
     assert spec.pick == 'top'
     same, depths = [], []

@@ -26,7 +26,7 @@ from dempath_diagnose.recalibration.loop import (
     recalibrate,
     unchanged,
 )
-from dempath_diagnose.recalibration.progress import Callback, fan_out, printer
+from dempath_diagnose.recalibration.progress import Callback, printer
 from dempath_diagnose.recalibration.targets import (
     also_candidates,
     budgets,
@@ -68,7 +68,8 @@ def run_recalibration(request: RecalibrationRequest, diagnosis: DiagnosisOutcome
         request: What to fit and how.
         diagnosis: A diagnosis of the same measurement, scene and library already computed
             (the demo's); None: computed here from ``request.diagnose``.
-        progress: Called with each iteration's progress (default: a line on stderr).
+        progress: Called with each iteration's progress (default: a line on stderr; the
+            command adds the ROS publisher of ``--publish-progress`` to it).
 
     Raises:
         DempathError: Bad input (one line naming it) before anything is written.
@@ -96,7 +97,7 @@ def run_recalibration(request: RecalibrationRequest, diagnosis: DiagnosisOutcome
     is_named = named(request.effects, request.diagnosis_file, d.decision)
     with ExitStack() as stack:
         executor = _executor(request, stack) if todo else serial_executor
-        callback = _callback(request, progress, stack)
+        callback = progress or printer()
         for (name, start), budget in zip(todo, budgets(request.budget, request.seeds_per_eval,
                                                        len(todo)), strict=False):
             cands = [emus[name], *also]
@@ -133,16 +134,6 @@ def _executor(request: RecalibrationRequest, stack: ExitStack) -> Any:
     client_log.setLevel(logging.CRITICAL)
     sweep = DaskSweep(request.diagnose.scheduler, request.diagnose.workers)
     return dask_executor(stack.enter_context(sweep).client)
-
-
-def _callback(request: RecalibrationRequest, progress: Callback | None,
-              stack: ExitStack) -> Callback:
-    callbacks = [progress or printer()]
-    if request.publish_progress:
-        from dempath_diagnose.nodes.progress_publisher import progress_publisher
-
-        callbacks.append(stack.enter_context(progress_publisher(request.out.name)))
-    return fan_out(callbacks)
 
 
 def _write(request: RecalibrationRequest, base: DiagnosisOutcome,

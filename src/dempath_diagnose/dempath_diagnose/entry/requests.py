@@ -91,7 +91,6 @@ class RecalibrationRequest:
         also: Existing parameters of the scene refitted beside the effect (CMA-ES).
         budget: At most this many simulations.
         seeds_per_eval: Library packing seeds per real evaluation (paired with the baseline).
-        publish_progress: Publish RecalibrationProgress on /diagnosis/recalibration.
     """
 
     diagnose: DiagnoseRequest
@@ -100,7 +99,6 @@ class RecalibrationRequest:
     also: tuple[str, ...] = ()
     budget: int = 12
     seeds_per_eval: int = 2
-    publish_progress: bool = False
 
     def __post_init__(self) -> None:
         if self.budget <= 0:

@@ -96,9 +96,9 @@ def number_by_ray(state: StereoState, camera: str, track_ids: NDArray[np.int64],
             continue
         # a marker this camera gave out since the track started ran beside it: not this one
         start = track.history[0][0]
-        own = {m: p for m, p in places.items()
-               if state.latest[camera].get(m, (-np.inf, None))[0] < start}
-        number, note = _nearest(state, cam, centre, uv[k], own, stamp_s)
+        unseen = {m: p for m, p in places.items()
+                  if state.latest[camera].get(m, (-np.inf, None))[0] < start}
+        number, note = _nearest(state, cam, centre, uv[k], unseen, stamp_s)
         if number < 0 or (tid, number) in state.refused[camera]:
             continue
         _give(state, camera, track, number)
