@@ -21,7 +21,8 @@ engine). A checkpoint (state, neighbour list, springs, sleep state, recorded tra
 every ``--checkpoint-min`` minutes of wall time and at the end of each stage. Progress lines
 give the stage, simulated time, steps per second, grains asleep and the estimated hours left at
 the current rate. Last line: one JSON object with the wall time of each stage (this process and
-earlier ones), peak resident memory, and the marker statistics at the end (mean displacement of
+earlier ones, counted up to each one's last checkpoint: the work a kill loses is not counted),
+peak resident memory, and the marker statistics at the end (mean displacement of
 the axis and the lateral markers, mean draft while the tool moves).
 
     nice -n 19 .venv/bin/python bench/paper_full_pass.py --work /tmp/paper_pass [--no-sleep]
