@@ -8,7 +8,8 @@ X lateral, Y up, Z tool travel.
 
 One `Engine.step` is the named stages of a velocity-Verlet step (see `integrate.py`):
 `integrate_first_half` (half kick + drift, domain and blow-up checks, see `stability.py`),
-`find_contacts` (neighbour-list rebuild when a particle moved more than skin / 2, history
+`find_contacts` (neighbour-list rebuild when a particle moved more than skin / 2, or with
+``local_rebuild`` when grains moved a skin relative to their neighbours, see `rebuild.py`; history
 carried over into rows for the touching pairs only, see `history.py`; states of REORDER_MIN or
 more particles are first put in cell order, see `SimState.reorder`: index order changes, ids
 follow the particles),
@@ -42,7 +43,7 @@ from dempath_sim.engine.kernel_threads import prefer_openmp_layer, threads_at_mo
 from dempath_sim.engine.laws.dispatch import build_pair_table
 from dempath_sim.engine.mesh import TriangleGrid, TriangleMesh, build_triangle_grid, mesh_margin
 from dempath_sim.engine.neighbors import (
-    build_neighbor_list,
+    build_neighbor_cells,
     cell_order,
     overlapping_pairs,
     permute_in_place,
@@ -50,6 +51,7 @@ from dempath_sim.engine.neighbors import (
 from dempath_sim.engine.pair_forces import pair_forces, reduce_buffers
 from dempath_sim.engine.params import SimParams
 from dempath_sim.engine.reach import BoundaryCandidates, box_displacement
+from dempath_sim.engine.rebuild import ListKeeper
 from dempath_sim.engine.sleep import SleepSettings, near_tool_box, update_sleep
 from dempath_sim.engine.stability import (
     check_contacts,
@@ -96,7 +98,8 @@ class Engine:
 
     def __init__(self, params: SimParams, walls: Sequence[Plane] = (),
                  tool: TriangleMesh | None = None, reorder: bool = True,
-                 candidates: bool = True, sleep: SleepSettings | None = None) -> None:
+                 candidates: bool = True, sleep: SleepSettings | None = None,
+                 local_rebuild: bool = False) -> None:
         """Keep the set-up; no allocation until a state is stepped.
 
         Args:
@@ -109,10 +112,14 @@ class Engine:
                 physics; False tests every particle every step).
             sleep: Let grains at rest fall asleep (`sleep.py`); None (default): every grain is
                 integrated at every step.
+            local_rebuild: Keep the neighbour list past skin / 2 of travel while the grains
+                that moved that far moved together with their neighbours (`rebuild.py`; same
+                contacts, fewer builds near a tool).
         """
         self.reorder = reorder
         self.candidates = candidates
         self.sleep = sleep
+        self.local_rebuild = local_rebuild
         self._n_bound = 0  # most particles bound so far (the base of the lost fraction)
         self._screen = 0.0  # overlap / radius below which no contact is unstable at dt
         self.params = params
@@ -174,6 +181,7 @@ class Engine:
         self._perm_tmp = np.empty(self._ght.nbytes, np.uint8)  # cell-order permutation scratch
         self._scratch()
         self._skin = self.params.skin * (float(state.radii.min()) if n else 0.0)
+        self._keeper = ListKeeper(self._skin, self.local_rebuild)
         g_dt = float(np.linalg.norm(self._gravity)) * self._dt
         sleep = self.sleep
         self._v_sleep = 0.0 if sleep is None else sleep.speed_fraction * g_dt
@@ -247,7 +255,8 @@ class Engine:
             new_to_old = np.asarray(new_to_old)[order]
         rows = np.diff(self._start)
         cap = int(rows.max()) * 5 // 4 + 4 if rows.size == state.n and rows.size else 0
-        start, nbr = build_neighbor_list(state.positions, state.radii, self._skin, cap)
+        start, nbr, grid = build_neighbor_cells(state.positions, state.radii, self._skin, cap)
+        self._keeper.built(grid, float(state.radii.max()) if state.n else 0.0)
         self._hist.carry(np.asarray(new_to_old), self._start, self._nbr, start, nbr,
                          state.positions, state.radii, self._n_chunks)
         self._start, self._nbr = start, nbr
@@ -358,7 +367,7 @@ class Engine:
             moved, n_out = self.integrate_first_half(state)
             if n_out:
                 state = self._remove_outside(state)
-            elif moved > 0.5 * self._skin or tool_moved:
+            elif tool_moved or self._keeper.must_build(moved, state.positions, self._pos_build):
                 self.find_contacts(state, np.arange(state.n))
             self.contact_forces(state, self.tool_pose, self._dt)
             self.integrate_second_half(state)
@@ -489,6 +498,7 @@ class Engine:
                         strict=True):
             setattr(self, k, int(v))
         self._reach.forget()
+        self._keeper.built(None, 0.0)  # the build's cells are not this order's: whole-bed rule
         return state
 
     # ----------------------------------------------------------------- introspection
@@ -501,6 +511,12 @@ class Engine:
     def n_pairs(self) -> int:
         """Entries of the neighbour list (pairs within the skin)."""
         return int(self._nbr.size)
+
+    @property
+    def kept_lists(self) -> int:
+        """Steps at which ``local_rebuild`` kept a list the whole-bed rule would have rebuilt
+        (since the last bind)."""
+        return self._keeper.kept_steps if self._bound is not None else 0
 
     @property
     def loaded_springs(self) -> int:

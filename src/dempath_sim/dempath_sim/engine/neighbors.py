@@ -15,6 +15,7 @@ it, or when a row overflows, a second pass writes the CSR list directly (counts 
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit, prange
@@ -168,6 +169,18 @@ def cell_order(pos: NDArray[np.float64], rad: NDArray[np.float64],
     return order
 
 
+class CellGrid(NamedTuple):
+    """The cells of a list build: particle i of a state in cell order lies in cell c for
+    cell_start[c] <= i < cell_start[c + 1] (``in_order``; otherwise the ranges index the
+    build's sort order, not the particles)."""
+
+    lo: NDArray[np.float64]  # (3,) lower corner [m]
+    cell: float  # edge [m]
+    dims: NDArray[np.int64]  # (3,) cells per axis
+    cell_start: NDArray[np.int64]  # (n_cells + 1,) first sorted particle of each cell
+    in_order: bool  # the particles were in cell order at the build
+
+
 def build_neighbor_list(pos: NDArray[np.float64], rad: NDArray[np.float64],
                         skin: float, cap: int = 0) -> tuple[NDArray[np.int64], NDArray[np.int32]]:
     """Half neighbour list of spheres within r_i + r_j + skin.
@@ -183,10 +196,18 @@ def build_neighbor_list(pos: NDArray[np.float64], rad: NDArray[np.float64],
         (start (n+1,) int64, nbr (m,) int32): the neighbours j > i of i are
         nbr[start[i]:start[i+1]].
     """
+    start, nbr, _ = build_neighbor_cells(pos, rad, skin, cap)
+    return start, nbr
+
+
+def build_neighbor_cells(pos: NDArray[np.float64], rad: NDArray[np.float64], skin: float,
+                         cap: int = 0) -> tuple[NDArray[np.int64], NDArray[np.int32],
+                                                CellGrid | None]:
+    """`build_neighbor_list` and the cells it sorted the particles into (None for n = 0)."""
     n = len(rad)
     start = np.zeros(n + 1, np.int64)
     if n == 0:
-        return start, np.zeros(0, np.int32)
+        return start, np.zeros(0, np.int32), None
     lo, cell, dims = cell_grid(pos, rad, skin)
     _, cell_start, order = sort_into_cells(pos, lo, cell, dims)
     forward = bool(np.array_equal(order, np.arange(n)))  # the engine sorted the particles
@@ -205,7 +226,7 @@ def build_neighbor_list(pos: NDArray[np.float64], rad: NDArray[np.float64],
     else:
         scan_pairs(spos, srad, r_max, skin, lo, cell, dims, cell_start, order, start, nbr,
                    table, True, forward)
-    return start, nbr
+    return start, nbr, CellGrid(lo, cell, dims, cell_start, forward)
 
 
 def overlapping_pairs(positions: NDArray[np.float64], radii: NDArray[np.float64],
