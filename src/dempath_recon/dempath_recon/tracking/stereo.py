@@ -161,7 +161,7 @@ class StereoMarkerTracker:
         forget_refusals(state, camera, stamp_s)
         markers = tf.markers
         if camera not in state.grid_uv:
-            markers = number_all_by_grid(state, camera, tf.track_ids, tf.uv, events)
+            markers = number_all_by_grid(state, camera, tf.track_ids, tf.uv, stamp_s, events)
         markers = number_new(state, camera, tf.track_ids, markers, tf.uv, stamp_s, events)
         markers = number_pairs(state, camera, tf.track_ids, markers, tf.uv, stamp_s, events)
         if state.config.ray_numbering:
@@ -171,6 +171,7 @@ class StereoMarkerTracker:
         free_mask = unnumbered_tracks(state, camera, tf.track_ids, markers)
         free = np.flatnonzero(free_mask)
         state.free[camera] = (stamp_s, tf.track_ids[free], tf.uv[free])
+        state.last_tracks[camera] = (stamp_s, tf.track_ids, tf.uv)
         counts.tracked += int((markers >= 0).sum())
         for m, p in zip(markers, tf.uv, strict=True):
             if m >= 0:
