@@ -10,7 +10,7 @@ import dempath_recon.tracking
 
 ROOM = Path(dempath_recon.tracking.__file__).parent
 # Bottom to top: a module may import the modules before it, never one after it.
-ORDER = ('merge', 'detect', 'linker', 'associate', 'records', 'release', 'trajectories',
+ORDER = ('merge', 'split', 'detect', 'linker', 'associate', 'records', 'release', 'trajectories',
          'state',
          'one_camera', 'numbering', 'pair_checks', 'pair_numbering', 'ray_numbering', 'stereo')
 
