@@ -8,34 +8,23 @@ import numpy as np
 import pytest
 
 from dempath_sim.engine import Engine, SimState
-from dempath_sim.engine.materials import Interaction, Material
 from dempath_sim.engine.params import SimParams
 from dempath_sim.engine.walls import box_walls
 
-RADIUS = 2.0e-3  # m
+from .sand_beds import lattice_bed, lattice_centres, sand_params
+
 LO, HI = (-0.016, 0.0, -0.016), (0.016, 0.1, 0.032)  # m
 
 
 def _params(forms: str) -> SimParams:
-    """The paper's soft sand (Table 6) with rolling resistance, steel walls."""
-    return SimParams((Material('sand', 2650.0, 1.7e6, 0.25), Material('steel', 7800.0, 2.1e11,
-                                                                      0.3)),
-                     {(0, 0): Interaction(0.3, 0.71, 0.59, rolling_resistance=0.26),
-                      (0, 1): Interaction(0.3, 0.4, 0.3, rolling_resistance=0.26)},
-                     contact_forms=forms)
+    return sand_params(forms)
 
 
 def _falling_lattice(params: SimParams) -> SimState:
     """About 450 grains on a jittered lattice, dropped into the bin: contacts form and part."""
-    rng = np.random.default_rng(3)
-    step = 2.1 * RADIUS
-    xs = np.arange(LO[0] + 1.2 * RADIUS, HI[0] - RADIUS, step)
-    ys = 1.2 * RADIUS + step * np.arange(8)
-    zs = np.arange(LO[2] + 1.2 * RADIUS, HI[2] - RADIUS, step)
-    pos = np.stack(np.meshgrid(xs, ys, zs, indexing='ij'), axis=-1).reshape(-1, 3)
-    pos += rng.uniform(-0.05, 0.05, size=pos.shape) * RADIUS
-    vel = rng.normal(scale=0.05, size=pos.shape)
-    return SimState.from_spheres(pos, RADIUS, 0, params, velocities=vel)
+    centres = lattice_centres(LO, HI, 8, 2.1, 0.05, 3)
+    vel = np.random.default_rng(3).normal(scale=0.05, size=centres.shape)
+    return lattice_bed(params, centres, vel)
 
 
 def _engine(params: SimParams) -> Engine:

@@ -7,16 +7,12 @@ from __future__ import annotations
 import numpy as np
 
 from dempath_sim.engine import Engine, SimState, ToolPose, TriangleMesh
-from dempath_sim.engine.materials import Interaction, Material
 from dempath_sim.engine.neighbors import build_neighbor_list
-from dempath_sim.engine.params import SimParams
 from dempath_sim.engine.walls import box_walls
 
-RADIUS = 2.0e-3  # m
-PARAMS = SimParams((Material('sand', 2650.0, 1.7e6, 0.25), Material('steel', 7800.0, 2.1e11,
-                                                                    0.3)),
-                   {(0, 0): Interaction(0.3, 0.71, 0.59, rolling_resistance=0.26),
-                    (0, 1): Interaction(0.3, 0.4, 0.3, rolling_resistance=0.26)})
+from .sand_beds import RADIUS, lattice_bed, lattice_centres, sand_params
+
+PARAMS = sand_params()
 LO, HI = (-0.016, 0.0, -0.016), (0.016, 0.1, 0.064)  # m
 START = np.array([0.0, 0.004, LO[2] + 0.003])  # the plate's lower edge, its start [m]
 SPEED = 1.0  # m/s along +Z
@@ -24,15 +20,9 @@ SPEED = 1.0  # m/s along +Z
 
 def _bed() -> SimState:
     """About 1,000 grains on a jittered lattice, barely touching, at rest (they sag a little)."""
-    rng = np.random.default_rng(4)
-    step = 2.02 * RADIUS
-    xs = np.arange(LO[0] + 1.05 * RADIUS, HI[0] - RADIUS, step)
-    ys = 1.05 * RADIUS + step * np.arange(6)
-    zs = np.arange(LO[2] + 1.05 * RADIUS, HI[2] - RADIUS, step)
-    pos = np.stack(np.meshgrid(xs, ys, zs, indexing='ij'), axis=-1).reshape(-1, 3)
-    pos += rng.uniform(-0.005, 0.005, size=pos.shape) * RADIUS
+    pos = lattice_centres(LO, HI, 6, 2.02, 0.005, 4)
     in_slot = (np.abs(pos[:, 2] - START[2]) < 2 * RADIUS) & (pos[:, 1] > START[1] - RADIUS)
-    return SimState.from_spheres(pos[~in_slot], RADIUS, 0, PARAMS)
+    return lattice_bed(PARAMS, pos[~in_slot])
 
 
 def _plate() -> TriangleMesh:
