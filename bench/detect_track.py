@@ -49,11 +49,12 @@ import numpy as np
 from dempath.bagio import open_bag
 from dempath_calib.camera import CameraModel
 from dempath_recon.tracking.associate import MarkerGrid
-from dempath_recon.tracking.detect import MarkerDetector, decode_jpeg
+from dempath_recon.tracking.detect import decode_jpeg
 from dempath_recon.tracking.merge import StampMerge
 from dempath_recon.tracking.stereo import (
     StereoMarkerTracker,
     StereoTrackConfig,
+    camera_detectors,
     triangulate_tracks,
 )
 from dempath_twin.render.coverage import coverage_of
@@ -79,7 +80,7 @@ def read_frames(bag: Path, start_ns: int, cams: list[str]) -> list[tuple[str, in
 def run(frames: list[tuple[str, int, bytes]], cams: dict[str, CameraModel],
         threads: int, config: StereoTrackConfig) -> tuple[list, float, dict]:
     """Detect in every frame (on ``threads`` threads), then track; frames and wall time."""
-    detectors = {c: MarkerDetector(config.detector) for c in cams}
+    detectors = camera_detectors(cams, config)
     tracker = StereoMarkerTracker(cams, config)
     t0, c0 = time.perf_counter(), time.process_time()
     with ThreadPoolExecutor(threads) as pool:
@@ -96,14 +97,14 @@ def run(frames: list[tuple[str, int, bytes]], cams: dict[str, CameraModel],
 def stage_times(frames: list[tuple[str, int, bytes]], cams: dict[str, CameraModel],
                 config: StereoTrackConfig) -> dict[str, float]:
     """One thread's CPU time per frame [ms] of decode, detection and tracking."""
-    detector = MarkerDetector(config.detector)
+    detectors = camera_detectors(cams, config)
     tracker = StereoMarkerTracker(cams, config)
     spent = dict.fromkeys(('decode', 'detect', 'track'), 0.0)
     for cam, stamp, data in frames:
         t0 = time.thread_time()
         image = decode_jpeg(data, config.detector.downscale)
         t1 = time.thread_time()
-        det = detector.detect(image, prescaled=True)
+        det = detectors[cam].detect(image, prescaled=True)
         t2 = time.thread_time()
         tracker.update_detections(cam, stamp * 1e-9, det)
         t3 = time.thread_time()

@@ -38,6 +38,7 @@ import simplejpeg
 from numpy.typing import NDArray
 
 from dempath_recon.errors import ReconstructionError
+from dempath_recon.tracking.split import split_touching
 
 LOG = logging.getLogger(__name__)
 FloatArray = NDArray[np.float64]
@@ -88,6 +89,10 @@ class DetectorConfig:
         noise_k: robust standard deviations of the sand's chroma the threshold keeps above
             its median [-].
         min_threshold: lowest threshold the adaptation may set [-].
+        marker_diameter_px: a marker's expected diameter in the image [full-size px] (from the
+            calibration and the markers' depth: ``StereoMarkerTracker`` sets it per camera);
+            blobs larger than one marker are split into the touching markers they hold
+            (:mod:`~dempath_recon.tracking.split`). 0: no splitting.
     """
 
     downscale: int = 2
@@ -99,13 +104,15 @@ class DetectorConfig:
     adaptive: bool = False
     noise_k: float = 8.0
     min_threshold: float = 0.08
+    marker_diameter_px: float = 0.0
 
     def __post_init__(self) -> None:
         checks = {'downscale': self.downscale in (1, 2), 'threshold': 0 < self.threshold < 1,
                   'sigma_px': 0 < self.sigma_px < 50, 'window_px': 1 <= self.window_px < 100,
                   'min_separation_px': 1 <= self.min_separation_px < 200,
                   'max_markers': self.max_markers >= 1, 'noise_k': self.noise_k > 0,
-                  'min_threshold': 0 < self.min_threshold <= self.threshold}
+                  'min_threshold': 0 < self.min_threshold <= self.threshold,
+                  'marker_diameter_px': 0 <= self.marker_diameter_px < 200}
         for name, ok in checks.items():
             if not ok:
                 msg = f'{name}: out of range, got {getattr(self, name)!r}'
@@ -204,6 +211,10 @@ class MarkerDetector:
         if len(rows) == 0:
             return Detections.empty()
         uv, size, strength = self._refine(c, rows, cols, thr)
+        if self.config.marker_diameter_px > 0:
+            uv, source = split_touching(c, uv, 0.5 * self.config.threshold,
+                                        0.5 * self.config.marker_diameter_px / s)
+            size, strength = size[source], strength[source]
         uv += (ox, oy)
         ok = np.isfinite(uv).all(axis=1)
         conf = np.clip((strength - thr) / (2 * thr), 0, 1)

@@ -24,8 +24,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dempath import topics
-from dempath.bagio import make_typestore, write_bag
+from dempath.bagio import write_bag
 from dempath.errors import DempathError
+from dempath.typestore import make_typestore
 from dempath_twin.images import jpeg_message, stamp_header
 from dempath_twin.render.bed_source import BedRecord, load_bed, run_for_recording
 from dempath_twin.render.camera_frame import CLAY_BGR, SAND_BGR, Look
