@@ -80,35 +80,12 @@ def track(cond: Condition, ray: bool = False,
     return out + tracker.flush(), moved_truth(truth, shifts), tracker.report()
 
 
-def outcome(out: list[PixelFrame], truth: dict[str, Any],
+def outcome(out: list[PixelFrame], truth: dict[str, Any], one_camera: bool = False,
             ) -> tuple[dict[tuple[str, int], list[bool]], int]:
     """Per (camera, marker): numbered right in each frame where at least half of it is
-    visible, in frame order; and how many numbered detections belong to another marker."""
+    visible (``one_camera``: and the other camera sees less than a fifth of it, so no pair can
+    number it), in frame order; and how many numbered detections belong to another marker."""
     ids = np.array(truth['marker_ids'])
-    by_key = {(f['camera'], round(f['stamp_ns'] * 1e-3)): f for f in truth['frames']}
-    right: dict[tuple[str, int], list[bool]] = {}
-    wrong = 0
-    for fr in sorted(out, key=lambda f: f.stamp_s):
-        t = by_key[(fr.camera, round(fr.stamp_s * 1e6))]
-        uv, vis = np.array(t['uv']), np.array(t['visible'])
-        d = np.linalg.norm(fr.uv[:, None] - uv[None], axis=2) if len(fr.uv) else \
-            np.zeros((0, len(uv)))
-        for i, m in enumerate(ids):
-            if vis[i] >= 0.5:
-                hits = np.flatnonzero(d[:, i] < MATCH_PX)
-                right.setdefault((fr.camera, int(m)), []).append(
-                    any(fr.markers[h] == m for h in hits))
-        for k in np.flatnonzero(fr.markers >= 0):
-            j = int(np.argmin(d[k]))
-            wrong += int(d[k, j] < OWNER_PX and ids[j] != fr.markers[k])
-    return right, wrong
-
-
-def one_camera_outcome(out: list[PixelFrame], truth: dict[str, Any],
-                       ) -> tuple[dict[tuple[str, int], list[bool]], int]:
-    """As :func:`outcome`, but only the frames where the other camera sees less than a fifth
-    of the marker (no pair can number it there)."""
-    ids = truth['marker_ids']
     frames = {c: [f for f in truth['frames'] if f['camera'] == c]
               for c in ('cam_side', 'cam_front')}
     other = {'cam_side': 'cam_front', 'cam_front': 'cam_side'}
@@ -118,12 +95,14 @@ def one_camera_outcome(out: list[PixelFrame], truth: dict[str, Any],
     wrong = 0
     for fr in sorted(out, key=lambda f: f.stamp_s):
         k = index[(fr.camera, round(fr.stamp_s * 1e6))]
-        t, o = frames[fr.camera][k], frames[other[fr.camera]][k]
-        uv, vis, ovis = np.array(t['uv']), np.array(t['visible']), np.array(o['visible'])
+        t = frames[fr.camera][k]
+        uv, vis = np.array(t['uv']), np.array(t['visible'])
+        unseen = np.array(frames[other[fr.camera]][k]['visible']) < 0.2 if one_camera else \
+            np.ones(len(ids), bool)
         d = np.linalg.norm(fr.uv[:, None] - uv[None], axis=2) if len(fr.uv) else \
             np.zeros((0, len(uv)))
         for i, m in enumerate(ids):
-            if vis[i] >= 0.5 and ovis[i] < 0.2:
+            if vis[i] >= 0.5 and unseen[i]:
                 hits = np.flatnonzero(d[:, i] < MATCH_PX)
                 right.setdefault((fr.camera, int(m)), []).append(
                     any(fr.markers[h] == m for h in hits))
@@ -144,7 +123,7 @@ def test_a_marker_one_camera_loses_keeps_its_number() -> None:
     rig's recording has no such marker, so that case is no longer exercised here.)"""
     for ray in (False, True):
         out, truth, _ = track(condition('as_rendered'), ray=ray)
-        right, wrong = one_camera_outcome(out, truth)
+        right, wrong = outcome(out, truth, one_camera=True)
         assert wrong == 0
         for m in (1, 2):
             seen = right[('cam_front', m)]
