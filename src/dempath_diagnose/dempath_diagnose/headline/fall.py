@@ -231,7 +231,17 @@ def run_case(library: Library, case: FallCase, setup: FallSetup, with_table7: bo
     fit_meas = _only(meas, ~held)
     decision, fits, layout = _diagnose(library, fit_meas, case.seed, setup)
     true_fit = next((f for f in fits if f.name == case.candidate), None)
-    wrong = min((f for f in fits if f.name != case.candidate), key=lambda f: f.chi2)
+    wrong, skipped = None, []
+    for f in sorted((f for f in fits if f.name != case.candidate), key=lambda f: f.chi2):
+        try:  # the best wrong fit whose model can be scored on these markers
+            scored(meas, samples, library, f.name, f.strength, case.seed, setup, cache)
+        except ValueError as err:
+            skipped.append({'candidate': f.name, 'strength': f.strength, 'why': str(err)})
+            continue
+        wrong = f
+        break
+    if wrong is None:
+        raise ValueError(f'{case.name}: no wrong candidate could be scored ({skipped})')
     out: dict[str, Any] = {
         'case': case.name, 'candidate': case.candidate, 'strength': case.strength,
         'seed': case.seed, 'verdict': decision.verdict,
@@ -246,7 +256,8 @@ def run_case(library: Library, case: FallCase, setup: FallSetup, with_table7: bo
         out['true_fit'] = {'strength': true_fit.strength, 'sd': true_fit.strength_sd,
                            'd2': true_fit.chi2}
     models['after_wrong'] = (wrong.name, wrong.strength)
-    out['wrong_fit'] = {'candidate': wrong.name, 'strength': wrong.strength, 'd2': wrong.chi2}
+    out['wrong_fit'] = {'candidate': wrong.name, 'strength': wrong.strength, 'd2': wrong.chi2,
+                        'skipped': skipped}
     for part, (m, s) in parts.items():
         out[part] = {key: scored(m, s, library, c, x, case.seed, setup, cache)
                      for key, (c, x) in models.items()}
