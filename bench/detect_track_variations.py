@@ -21,6 +21,7 @@ with the other camera's points heard at once or one frame late).
 
 from __future__ import annotations
 
+import hashlib
 import json
 import pickle
 import time
@@ -53,8 +54,13 @@ Frames = list[tuple[str, int, bytes]]
 def vary(frames: Frames, truth: dict[str, Any], cond: Condition, cache: Path,
          ) -> tuple[Frames, dict[str, Any]]:
     """The recording's frames under ``cond`` and the truth moved with any image shift (cached
-    in ``cache`` by the condition's hash)."""
-    path = cache / f'{cond.name}-{cond.key()}.v2.pkl'
+    in ``cache`` by the condition's hash and the source frames' digest: a re-rendered bundled
+    recording must not meet the varied frames of the one before)."""
+    digest = hashlib.sha1()
+    for cam, stamp, data in frames:
+        digest.update(f'{cam} {stamp} '.encode())
+        digest.update(data)
+    path = cache / f'{cond.name}-{cond.key()}-{digest.hexdigest()[:12]}.v3.pkl'
     if path.is_file():
         out, shifts = pickle.loads(path.read_bytes())
     else:
