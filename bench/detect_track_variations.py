@@ -266,9 +266,10 @@ def summary(scores: list[dict[str, Any]]) -> dict[str, Any]:
 
 def run_all(frames: Frames, truth: dict[str, Any], cams: dict[str, CameraModel],
             config: StereoTrackConfig, cache: Path) -> dict[str, Any]:
-    """Every variation (one JSON line each), then the held-out and tuned summaries."""
+    """Every variation (one JSON line each, the held-out ones first), then the held-out and
+    tuned summaries."""
     rows = []
-    for cond in VARIATIONS:
+    for cond in sorted(VARIATIONS, key=lambda c: not c.held_out):  # the held-out set first
         row = run_variation(frames, truth, cams, config, cond, cache)
         rows.append(row)
         print(json.dumps({k: v for k, v in row.items() if k not in ('raw', 'condition')}),
