@@ -16,7 +16,7 @@ demo: $(VENV)/.installed
 	$(BIN)/dempath demo --data bags
 
 test: $(VENV)/.installed
-	$(BIN)/python -m pytest -n 2
+	$(BIN)/python -m pytest -n 2 --durations=15
 
 lint: $(VENV)/.installed
 	$(BIN)/ruff check src tests bench

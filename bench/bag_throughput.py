@@ -28,11 +28,12 @@ from typing import Any
 
 from sensor_msgs.msg import CompressedImage, Image
 
-from dempath.bagio import make_typestore, open_bag, write_bag
+from dempath.bagio import open_bag, write_bag
 from dempath.nodes.harness import RosHarness
 from dempath.nodes.pipeline import replay_and_record
 from dempath.nodes.player import PlayerNode
 from dempath.testbags import images
+from dempath.typestore import make_typestore
 
 WIDTH, HEIGHT, CAMERAS = 1920, 1080, ('cam_side', 'cam_front')
 

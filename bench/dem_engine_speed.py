@@ -104,15 +104,17 @@ def insert_tool(state: SimState, depth: float, tip_z: float) -> tuple[SimState, 
 
 
 def timed_run(state: SimState, tip: np.ndarray, steps: int, skin: float,
-              sleep: SleepSettings | None = None) -> dict[str, float]:
+              sleep: SleepSettings | None = None,
+              local_rebuild: bool = False) -> dict[str, float]:
     """Run with the moving chisel; return the speed and the seconds spent in each stage.
 
     ``sleep``: let grains at rest sleep (changes results slightly; see engine/sleep.py).
+    ``local_rebuild``: keep the list while grains moved together (engine/rebuild.py).
     """
     tool = TriangleMesh.from_stl(CHISEL, material=1)
     params = dataclasses.replace(PARAMS, skin=skin)
     engine = Engine(params, walls=box_walls(BIN_LO, BIN_HI, material=1), tool=tool,
-                    sleep=sleep)
+                    sleep=sleep, local_rebuild=local_rebuild)
     speed = np.array([0.0, 0.0, 1.0])
     t_start = state.time
 
@@ -132,6 +134,7 @@ def timed_run(state: SimState, tip: np.ndarray, steps: int, skin: float,
             return out
         setattr(engine, name, timed)
     rebuilds0 = engine.n_rebuilds
+    kept0 = engine.kept_lists
     evals0 = engine.pair_evaluations
     t0 = time.perf_counter()
     cpu0 = time.process_time()
@@ -142,7 +145,7 @@ def timed_run(state: SimState, tip: np.ndarray, steps: int, skin: float,
     return {'particles': state.n, 'steps': steps, 'seconds': wall,
             'particle_steps_per_s': state.n * steps / wall, 'cpu_seconds': cpu,
             'particle_steps_per_cpu_s': state.n * steps / cpu, 'dt': engine.dt,
-            'rebuilds': engine.n_rebuilds - rebuilds0,
+            'rebuilds': engine.n_rebuilds - rebuilds0, 'kept_lists': engine.kept_lists - kept0,
             'pair_evaluations_per_step': (engine.pair_evaluations - evals0) / steps,
             'asleep_at_end': engine.n_asleep, 'draft_force_n': float(
                 engine.tool_force[2]), 'contacts': engine.n_contacts,
@@ -192,6 +195,9 @@ def main() -> None:
                         help='neighbour skin / smallest radius')
     parser.add_argument('--sleep', action='store_true',
                         help='grains at rest sleep (engine/sleep.py; changes results slightly)')
+    parser.add_argument('--local-rebuild', action='store_true',
+                        help='keep the neighbour list while grains moved together '
+                             '(engine/rebuild.py; same contacts)')
     args = parser.parse_args()
     logging.basicConfig(level=logging.INFO, format='%(message)s')
     log = logging.getLogger('bench')
@@ -204,10 +210,10 @@ def main() -> None:
     if args.shuffle:
         state = state.subset(np.random.default_rng(1).permutation(state.n))
     result = timed_run(state, tip, args.steps, args.skin,
-                       SleepSettings() if args.sleep else None)
+                       SleepSettings() if args.sleep else None, args.local_rebuild)
     per_particle = result['particle_bytes'] + result['pair_bytes'] * result['pairs'] / state.n
     result.update({'threads': numba.get_num_threads(), 'skin': args.skin,
-                   'shuffled': args.shuffle,
+                   'shuffled': args.shuffle, 'local_rebuild': args.local_rebuild,
                    'rolling': PARAMS.rolling_enabled,
                    'bytes_per_particle': per_particle,
                    'bytes_per_contact': result['pair_bytes'],

@@ -9,7 +9,8 @@ without start-up and file output). Then the cross-engine comparison on a small s
 each seed unless ``--fill`` says otherwise) gives ``cross_engine_ratio`` (difference of the
 engines / packing-seed spread). Last line: one JSON object.
 
-    .venv/bin/python bench/dem_vs_liggghts.py [--steps 600] [--np 2] [--skip-cross] [--sleep]
+    .venv/bin/python bench/dem_vs_liggghts.py [--steps 600] [--np 2] [--skip-cross] [--sleep] \\
+        [--local-rebuild]
     .venv/bin/python bench/dem_vs_liggghts.py --skip-speed --cross-scene builtin:reduced_1ms \\
         --seeds 3 --cache-dir /tmp/xe/packings --json-out docs/cross_engine_reduced.json
     .venv/bin/python bench/dem_vs_liggghts.py --skip-speed --cross-scene builtin:reduced_1ms \\
@@ -168,6 +169,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument('--sleep', action='store_true',
                         help="dempath's grains at rest sleep (engine/sleep.py: changes results "
                              'slightly; the figure with the result-changing saving on)')
+    parser.add_argument('--local-rebuild', action='store_true',
+                        help='dempath keeps its neighbour list while grains moved together '
+                             '(engine/rebuild.py: same contacts, sums in another order)')
     parser.add_argument('--skip-speed', action='store_true',
                         help='only the cross-engine part (speed keys are NaN)')
     parser.add_argument('--fill', choices=('shared_pour', 'insert_pack', 'shared_packing'),
@@ -204,7 +208,7 @@ def speed(args: argparse.Namespace, work: Path) -> dict[str, object]:
         sb.PARAMS = sb.without_rolling(sb.PARAMS)
     sleep = SleepSettings() if args.sleep else None
     dem = sb.timed_run(state.subset(np.ones(state.n, bool)), tip, args.steps, sb.PARAMS.skin,
-                       sleep)
+                       sleep, args.local_rebuild)
     lig = liggghts_run(sb, state, tip, dem['dt'], args.steps, args.nprocs, work)
     per_particle = dem['particle_bytes'] + dem['pair_bytes'] * dem['pairs'] / dem['particles']
     log.info('dempath %.3g, LIGGGHTS %.3g particle-steps/s', dem['particle_steps_per_s'],
@@ -212,6 +216,7 @@ def speed(args: argparse.Namespace, work: Path) -> dict[str, object]:
     return {'particles': dem['particles'], 'steps': args.steps, 'dt_s': dem['dt'],
             'dempath_threads': numba.get_num_threads(), 'rolling': not args.no_rolling,
             'dempath_sleep': args.sleep, 'dempath_asleep_at_end': dem['asleep_at_end'],
+            'dempath_local_rebuild': args.local_rebuild, 'dempath_rebuilds': dem['rebuilds'],
             'dempath_pair_evaluations_per_step': dem['pair_evaluations_per_step'],
             'dempath_particle_steps_per_s': dem['particle_steps_per_s'], **lig,
             'ratio': dem['particle_steps_per_s'] / lig['liggghts_particle_steps_per_s'],

@@ -47,7 +47,19 @@ def model_figures(out: Path) -> dict[str, Any]:
             'changed': recal['changed'], 'value': s['value'], 'uncertainty': s['uncertainty'],
             'd2_before': round(recal['error_before'], 2),
             'd2_after': round(recal['error_after'], 2), 'floor_k': recal['floor']['k'],
-            'error_reduction': recal['error_reduction'], 'simulations': recal['simulations']}
+            'error_reduction': recal['error_reduction'], 'simulations': recal['simulations'],
+            'stopped_on': recal.get('stopped_on'),
+            'd2_floor_band': ([round(b[k], 2) for k in ('low', 'high')]
+                              if (b := (recal.get('floor_bands') or [None])[-1]) else None)}
+        paper = recal.get('paper') or {}
+        for key in ('headline', 'headline_held_out'):
+            entry = paper.get(key) or {}
+            figures[key] = {k: {'value_mm': round(e['value_mm'], 2), 'place': e['place'],
+                                'floor_mm': [round(e['floor_mm'][b], 2) for b in ('low', 'high')]}
+                            for k, e in entry.items()
+                            if isinstance(e, dict) and e.get('value_mm') is not None}
+            if entry.get('markers'):
+                figures[key]['markers'] = entry['markers']
     return figures
 
 

@@ -3,8 +3,9 @@
 Each doc figure has the command that makes it; this runs them in order (each bench caches what
 it can, so a second run redoes only what changed) and copies the results into docs/:
 
-- ``marker_coverage``: bench/marker_coverage.py on the bundled rendered recording (JSON only;
-  the error fall's ``markers_reconstructed``);
+- ``marker_coverage``: bench/marker_coverage.py --detected on the bundled rendered recording
+  (JSON only; the error fall's ``markers_reconstructed``, through the demo's detection and
+  reconstruction);
 - ``error_fall``: bench/error_fall.py -> docs/error_fall.png and the per-case table
   (out/figures/error_fall.md, the table in docs/figures.md);
 - ``demo_report``: bench/demo.py with ``DEMPATH_SCREENSHOTS=1`` (a fresh ``dempath demo`` run)
@@ -39,7 +40,7 @@ def steps() -> dict[str, tuple[list[str], dict[str, str], list[tuple[Path, Path]
     shots = {'DEMPATH_SCREENSHOTS': '1'}
     repose = OUT / 'repose'
     return {
-        'marker_coverage': ([PY, 'bench/marker_coverage.py', '--out',
+        'marker_coverage': ([PY, 'bench/marker_coverage.py', '--detected', '--out',
                              str(OUT / 'marker_coverage.json')], {}, []),
         'error_fall': ([PY, 'bench/error_fall.py', '--cache', 'out/bench_error_fall',
                         '--figure', 'docs/error_fall.png', '--markdown',

@@ -15,57 +15,37 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import shutil
-import signal
-import subprocess
-import sys
 import tempfile
 import time
 from pathlib import Path
 
-DASK = str(Path(sys.executable).parent / 'dask')
-
-
-def _isolated() -> bool:
-    probe = subprocess.run(['unshare', '--mount', '--propagation', 'private', 'sh', '-c',
-                            'mount -t tmpfs tmpfs /tmp'], capture_output=True, check=False)
-    return shutil.which('unshare') is not None and probe.returncode == 0
-
-
-def _worker(address: str, name: str, home: Path, isolated: bool, log: Path) -> subprocess.Popen:
-    run = (f'mkdir -p {home}/cache && cd {home} && HOME={home} TMPDIR={home} '
-           f'DEMPATH_CACHE_DIR={home}/cache NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 '
-           f'exec {DASK} worker {address} --nthreads 1 --no-dashboard --name {name}')
-    cmd = (['unshare', '--mount', '--propagation', 'private', 'sh', '-c',
-            f'mount -t tmpfs tmpfs /tmp && {run}'] if isolated else ['sh', '-c', run])
-    return subprocess.Popen(cmd, stdout=log.open('wb'), stderr=subprocess.STDOUT,
-                            start_new_session=True)
+from dempath_diagnose.library.dask_processes import (
+    lone_worker_command,
+    namespaces_allowed,
+    start_group,
+    start_scheduler,
+    stop_groups,
+    wait_for_workers,
+)
 
 
 def build_once(args: argparse.Namespace, n_workers: int, work: Path) -> dict[str, float]:
     """A fresh library with ``n_workers`` lone workers; its wall time and runs."""
-    from distributed import Client
-
     from dempath_diagnose.library.simulator import load_scene, pass_travel_s
     from dempath_diagnose.library.store import LibrarySpec, build_library, design
     from dempath_diagnose.library.sweep import DaskSweep
 
     work.mkdir(parents=True)
-    port_file = work / 'scheduler.json'
-    procs = [subprocess.Popen([DASK, 'scheduler', '--port', '0', '--no-dashboard',
-                               '--scheduler-file', str(port_file)],
-                              stdout=(work / 'scheduler.log').open('wb'),
-                              stderr=subprocess.STDOUT, start_new_session=True)]
-    isolated = _isolated()
+    proc, address = start_scheduler(work)
+    procs = [proc]
+    isolated = namespaces_allowed(Path('/tmp'))
     try:
-        while not port_file.is_file():
-            time.sleep(0.1)
-        address = json.loads(port_file.read_text())['address']
         for k in range(n_workers):
             home = Path(f'/tmp/lone-{k}') if isolated else work / f'lone-{k}'
-            procs.append(_worker(address, f'lone{k}', home, isolated, work / f'worker{k}.log'))
-        with Client(address, timeout=30) as client:
-            client.wait_for_workers(n_workers, timeout=120)
+            procs.append(start_group(lone_worker_command(address, home, f'lone{k}',
+                                                         Path('/tmp') if isolated else None),
+                                     work / f'worker{k}.log'))
+        wait_for_workers(address, n_workers)
         scene = load_scene(args.scene)
         spec = LibrarySpec(seeds=tuple(int(s) for s in args.seeds.split(',')),
                            candidates=tuple(args.candidates.split(',')),
@@ -78,13 +58,7 @@ def build_once(args: argparse.Namespace, n_workers: int, work: Path) -> dict[str
         return {'workers': n_workers, 'runs': len(design(scene, spec)[1]),
                 'wall_s': round(wall, 1), 'isolated': isolated}
     finally:
-        for p in reversed(procs):
-            if p.poll() is None:
-                os.killpg(p.pid, signal.SIGTERM)
-                try:
-                    p.wait(10)
-                except subprocess.TimeoutExpired:
-                    os.killpg(p.pid, signal.SIGKILL)
+        stop_groups(procs)
 
 
 def main() -> None:

@@ -10,12 +10,13 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rosbags.typesys import get_types_from_msg
 
 from dempath import topics
-from dempath.bagio import make_typestore, open_bag, write_bag
+from dempath.bagio import open_bag, write_bag
 from dempath.cli import main as dempath
 from dempath.nodes.harness import RosHarness
 from dempath.nodes.player import PlayerNode
 from dempath.nodes.recorder import RecorderNode
 from dempath.testbags import START_NS, pixel_points
+from dempath.typestore import make_typestore
 from dempath_msgs.msg import RunEvent
 
 LATCHED = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE,

@@ -21,12 +21,13 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import CameraInfo, CompressedImage
 
 from dempath import topics
-from dempath.bagio import make_typestore, open_bag, write_bag
+from dempath.bagio import open_bag, write_bag
 from dempath.nodes.harness import RosHarness
 from dempath.nodes.pipeline import replay_and_record
 from dempath.nodes.player import PlayerNode
 from dempath.nodes.recorder import RecorderNode
 from dempath.testbags import START_NS, header, images, pixel_points
+from dempath.typestore import make_typestore
 from dempath_msgs.msg import RunEvent
 
 LATCHED = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE,

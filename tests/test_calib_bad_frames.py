@@ -10,7 +10,8 @@ from typing import Any
 
 import pytest
 
-from dempath.bagio import make_typestore, open_bag
+from dempath.bagio import open_bag
+from dempath.typestore import make_typestore
 from dempath_calib.cli import calibrate_main
 from dempath_calib.errors import InputSourceError
 from dempath_calib.sources import BagSource

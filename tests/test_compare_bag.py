@@ -9,7 +9,8 @@ from typing import Any
 import numpy as np
 import pytest
 
-from dempath.bagio import make_typestore, write_bag
+from dempath.bagio import write_bag
+from dempath.typestore import make_typestore
 from dempath_compare.cli import compare_main
 from dempath_compare.loaders import load_source
 from dempath_compare.pipeline import compare_paths

@@ -11,8 +11,9 @@ from mcap.reader import make_reader
 from rosbags.highlevel import AnyReader
 
 from dempath import topics
-from dempath.bagio import make_typestore, write_bag
+from dempath.bagio import write_bag
 from dempath.frames import SCENE_IN_WORLD, Transform, check_tree, matrix_from_quaternion
+from dempath.typestore import make_typestore
 from dempath_bringup.frames import marker_grid_centre
 from dempath_bringup.nodes.graph import GraphResult, GraphSpec, field_truth_error, run_graph
 from dempath_sim.scene.loader import resolve_scene

@@ -83,12 +83,19 @@ def test_demo_diagnoses_recalibrates_and_reports(demo_out: tuple[Path, int, str]
                     '4. Diagnosis', '5. Recalibration', 'Table 7, before'):
         assert section in page, section
     assert 'tool_speed' in page
-    # each error before and after beside its own like-for-like floor, or beside none: d^2's
-    # chi^2 mean is named as the loop's nominal stop, not printed as a floor
+    # each error before and after beside its own like-for-like floor, or beside none: with
+    # two library seeds no like-for-like d^2 band can be computed (it needs three), so the
+    # loop's stop is named as the nominal chi^2 mean, not printed as a floor
     assert 'floor before' in page and 'floor after' in page
+    assert recal['stopped_on'] == 'the nominal chi^2 mean k'
     assert f"nominal chi<sup>2</sup> mean k = {recal['floor']['k']:g}" in page
+    # the grid's middle column is held out of the diagnosis and the fit, scored apart
+    assert diagnosis['held_out'] == [3, 8, 13] and '8' not in diagnosis['markers_in_windows']
     paper = recal.get('paper')
     if paper:
+        held = paper['headline_held_out']
+        assert held['markers'] == [3, 8, 13] and 'value_mm' in held['before']
+        assert 'held-out markers 3, 8, 13 (not fitted)' in page
         assert f"{paper['floor']['mean_nrmse_pct']:.2f} +- " in page
         if paper.get('floor_after'):
             assert f"{paper['floor_after']['mean_nrmse_pct']:.2f} +- " in page

@@ -8,12 +8,13 @@ with a ``package.xml`` is checked, whichever exist.
 
 from __future__ import annotations
 
-import ast
 import re
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import pytest
+
+from .import_reading import imported_names
 
 ROOT = Path(__file__).resolve().parents[1]
 FLOORS = {  # package -> floor; a package may import its own floor and the ones below
@@ -50,17 +51,8 @@ def imported_packages(folder: Path) -> dict[str, set[str]]:
     """dempath package -> the files under ``folder`` importing it (any depth, lazy included)."""
     found: dict[str, set[str]] = {}
     for path in folder.rglob('*.py'):
-        for node in ast.walk(ast.parse(path.read_text(), str(path))):
-            if isinstance(node, ast.Import):
-                names = [a.name for a in node.names]
-            elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
-                names = [node.module]
-            else:
-                continue
-            for name in names:
-                top = name.split('.')[0]
-                if top in FLOORS:
-                    found.setdefault(top, set()).add(str(path.relative_to(ROOT)))
+        for top in {name.split('.')[0] for name in imported_names(path)} & set(FLOORS):
+            found.setdefault(top, set()).add(str(path.relative_to(ROOT)))
     return found
 
 
@@ -127,19 +119,8 @@ CROSSINGS: dict[tuple[str, str], set[str]] = {}
 
 def own_parts(path: Path, package: str) -> set[str]:
     """The parts of ``package`` (dotted; the first name after it) a file imports, lazy too."""
-    found = set()
-    for node in ast.walk(ast.parse(path.read_text(), str(path))):
-        if isinstance(node, ast.Import):
-            names = [a.name for a in node.names]
-        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module == package:
-            names = [f'{package}.{a.name}' for a in node.names]
-        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
-            names = [node.module]
-        else:
-            continue
-        found |= {n[len(package) + 1:].split('.')[0] for n in names
-                  if n.startswith(f'{package}.')}
-    return found
+    return {n[len(package) + 1:].split('.')[0] for n in imported_names(path)
+            if n.startswith(f'{package}.')}
 
 
 def part_files(package: str, part: str) -> list[Path]:

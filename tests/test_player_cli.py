@@ -6,10 +6,11 @@ from pathlib import Path
 
 import pytest
 
-from dempath.bagio import make_typestore, write_bag
+from dempath.bagio import write_bag
 from dempath.cli import main as dempath
 from dempath.nodes.harness import unique_domain_id
 from dempath.testbags import pixel_points
+from dempath.typestore import make_typestore
 
 
 @pytest.fixture

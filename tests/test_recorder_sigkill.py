@@ -14,11 +14,12 @@ from mcap.exceptions import McapError
 from mcap.records import Message
 from mcap.stream_reader import StreamReader
 
-from dempath.bagio import make_typestore, open_bag
+from dempath.bagio import open_bag
 from dempath.cli import main as dempath
 from dempath.errors import BagError
 from dempath.nodes.harness import RosHarness
 from dempath.testbags import pixel_points
+from dempath.typestore import make_typestore
 from dempath_msgs.msg import PixelPoints
 
 TOPIC = '/cam_side/pixel_points'

@@ -20,6 +20,8 @@ from pathlib import Path
 import pytest
 from catkin_pkg.package import parse_package
 
+from .import_reading import imported_names
+
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGES = tuple(sorted(p.name for p in (ROOT / 'src').iterdir() if (p / 'setup.py').is_file()))
 ROSDEP_KEYS = {  # rosdep key -> where it lives in rosdistro (python.yaml unless base.yaml)
@@ -75,16 +77,8 @@ def setup_keywords(pkg: str) -> dict[str, object]:
 
 def third_party_imports(pkg: str) -> set[str]:
     """Top-level modules imported by the package's code (not its tests), lazy imports too."""
-    found = set()
-    for path in (ROOT / 'src' / pkg / pkg).rglob('*.py'):
-        for node in ast.walk(ast.parse(path.read_text(), str(path))):
-            if isinstance(node, ast.Import):
-                names = [a.name for a in node.names]
-            elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
-                names = [node.module]
-            else:
-                continue
-            found |= {n.split('.')[0] for n in names}
+    found = {name.split('.')[0] for path in (ROOT / 'src' / pkg / pkg).rglob('*.py')
+             for name in imported_names(path)}
     return {m for m in found if m not in sys.stdlib_module_names and m != '__future__'
             and not m.startswith('dempath') and m not in ROS_MODULES and not m.endswith('_msgs')
             and not m.endswith('_srvs') and m not in TEST_ONLY and m != 'compression'}

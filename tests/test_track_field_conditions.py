@@ -80,48 +80,54 @@ def track(cond: Condition, ray: bool = False,
     return out + tracker.flush(), moved_truth(truth, shifts), tracker.report()
 
 
-def outcome(out: list[PixelFrame], truth: dict[str, Any],
+def outcome(out: list[PixelFrame], truth: dict[str, Any], one_camera: bool = False,
             ) -> tuple[dict[tuple[str, int], list[bool]], int]:
     """Per (camera, marker): numbered right in each frame where at least half of it is
-    visible, in frame order; and how many numbered detections belong to another marker."""
+    visible (``one_camera``: and the other camera sees less than a fifth of it, so no pair can
+    number it), in frame order; and how many numbered detections belong to another marker."""
     ids = np.array(truth['marker_ids'])
-    by_key = {(f['camera'], round(f['stamp_ns'] * 1e-3)): f for f in truth['frames']}
+    frames = {c: [f for f in truth['frames'] if f['camera'] == c]
+              for c in ('cam_side', 'cam_front')}
+    other = {'cam_side': 'cam_front', 'cam_front': 'cam_side'}
+    index = {(f['camera'], round(f['stamp_ns'] * 1e-3)): k for c in frames
+             for k, f in enumerate(frames[c])}
     right: dict[tuple[str, int], list[bool]] = {}
     wrong = 0
     for fr in sorted(out, key=lambda f: f.stamp_s):
-        t = by_key[(fr.camera, round(fr.stamp_s * 1e6))]
+        k = index[(fr.camera, round(fr.stamp_s * 1e6))]
+        t = frames[fr.camera][k]
         uv, vis = np.array(t['uv']), np.array(t['visible'])
+        unseen = np.array(frames[other[fr.camera]][k]['visible']) < 0.2 if one_camera else \
+            np.ones(len(ids), bool)
         d = np.linalg.norm(fr.uv[:, None] - uv[None], axis=2) if len(fr.uv) else \
             np.zeros((0, len(uv)))
         for i, m in enumerate(ids):
-            if vis[i] >= 0.5:
+            if vis[i] >= 0.5 and unseen[i]:
                 hits = np.flatnonzero(d[:, i] < MATCH_PX)
                 right.setdefault((fr.camera, int(m)), []).append(
                     any(fr.markers[h] == m for h in hits))
-        for k in np.flatnonzero(fr.markers >= 0):
-            j = int(np.argmin(d[k]))
-            wrong += int(d[k, j] < OWNER_PX and ids[j] != fr.markers[k])
+        for h in np.flatnonzero(fr.markers >= 0):
+            j = int(np.argmin(d[h]))
+            wrong += int(d[h, j] < OWNER_PX and ids[j] != fr.markers[h])
     return right, wrong
 
 
 @pytest.mark.slow
-def test_marker_only_one_camera_sees_is_numbered_by_its_line_of_sight() -> None:
-    """Marker 11 comes out of the heap in the side camera for the last 9 frames while the
-    front camera sees at most 17 % of it: no epipolar line and no pair can number it. The
-    bed carried it onto the side camera's line of sight (15-23 mm off; every other marker
-    three times as far or more): with ``ray_numbering`` (an option) numbered 11 from its
-    fourth steady frame on, by the one camera, and no detection gets another marker's number;
-    without it (the default) marker 11 stays unnumbered there, never misnumbered."""
-    out, truth, _ = track(condition('as_rendered'), ray=True)
-    right, wrong = outcome(out, truth)
-    assert wrong == 0
-    last = right[('cam_side', 11)]
-    assert len(last) >= 8
-    assert sum(last) >= len(last) - 2, last  # the first steady frames may wait
-    assert last[-5:] == [True] * 5, last
-    out, truth, _ = track(condition('as_rendered'))
-    right, wrong = outcome(out, truth)
-    assert wrong == 0 and not any(right[('cam_side', 11)][-5:])
+def test_a_marker_one_camera_loses_keeps_its_number() -> None:
+    """Near the end of the pass the heave hides markers 1 and 2 from the side camera for five
+    frames each while the front camera sees them: no pair can number them there, and the
+    tracker keeps the numbers they had (every such frame numbered right), with or without the
+    one-camera numbering by the line of sight (``ray_numbering``, an option); no detection
+    gets another marker's number. (On the fixed rig's recording of session 12, marker 11 came
+    out of the heap in one camera only and only ``ray_numbering`` numbered it; the carriage
+    rig's recording has no such marker, so that case is no longer exercised here.)"""
+    for ray in (False, True):
+        out, truth, _ = track(condition('as_rendered'), ray=ray)
+        right, wrong = outcome(out, truth, one_camera=True)
+        assert wrong == 0
+        for m in (1, 2):
+            seen = right[('cam_front', m)]
+            assert len(seen) >= 4 and all(seen), (ray, m, seen)
 
 
 @pytest.mark.slow
@@ -175,14 +181,16 @@ def test_adaptive_threshold_finds_markers_the_colour_cast_weakened() -> None:
 @pytest.mark.slow
 def test_cameras_moved_against_the_calibration_are_reported() -> None:
     """Camera shake (the image moves up to 3 px a frame, the calibration stays) puts the
-    numbered pairs 2.5 px off their epipolar lines (0.76 px as rendered): both cameras report
-    frames of drift and say the cameras may have moved; the unshaken render reports none."""
+    numbered pairs 2.3-2.7 px off their epipolar lines (0.3-0.5 px as rendered): both cameras
+    report frames of drift (3-4 of 31: the shaken pairs lose their numbers, so fewer frames
+    are judged than on the fixed rig's recording, where it was more than 10) and say the
+    cameras may have moved; the unshaken render reports none."""
     *_, shaken = track(condition('shake_3px'))
     *_, still = track(condition('as_rendered'))
     for cam in ('cam_side', 'cam_front'):
         assert still[cam]['drift_frames'] == 0, still[cam]
         assert still[cam]['pair_residual_px'] < 1.2, still[cam]
-        assert shaken[cam]['drift_frames'] > 10, shaken[cam]
+        assert shaken[cam]['drift_frames'] >= 3, shaken[cam]
         assert shaken[cam]['pair_residual_px'] > 1.5, shaken[cam]
     out, *_ = track(condition('shake_3px'))
     assert any('may have moved since the calibration' in e for f in out for e in f.events)

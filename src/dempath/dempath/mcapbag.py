@@ -31,9 +31,9 @@ from rosbags.rosbag2.metadata import dump_qos_v9
 from rosbags.rosbag2.storage_mcap import McapReader
 from rosbags.typesys import TypesysError, get_types_from_msg
 
-from dempath.bagio import make_typestore
 from dempath.errors import BagError, OutputError
 from dempath.mcapwrite import McapStreamWriter
+from dempath.typestore import make_typestore
 
 LOG = logging.getLogger(__name__)
 

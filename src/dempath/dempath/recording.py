@@ -26,11 +26,11 @@ from typing import Any
 import yaml
 from rosbags.typesys.store import Typestore
 
-from dempath.bagio import make_typestore, message_definition
 from dempath.errors import DempathError, OutputError
 from dempath.frames import TF, TF_STATIC, TF_TYPE, load_frames, pose_tf_cdr, tf_message
 from dempath.mcapbag import COMPRESSIONS, McapBagWriter
 from dempath.topics import is_dempath_topic
+from dempath.typestore import make_typestore, message_definition
 
 LOG = logging.getLogger(__name__)
 _INFINITE = {'sec': 9223372036, 'nsec': 854775807}  # rmw's "infinite" duration

@@ -12,18 +12,11 @@ from rosbags.rosbag2 import Reader, StoragePlugin, Writer
 from rosbags.typesys import get_types_from_idl, get_types_from_msg
 
 from dempath import mcapread
-from dempath.bagio import (
-    dempath_msg_dir,
-    ensure_type,
-    filter_bag,
-    make_typestore,
-    message_definition,
-    open_bag,
-    write_bag,
-)
+from dempath.bagio import filter_bag, open_bag, write_bag
 from dempath.errors import BagError
 from dempath.mcapbag import McapBagWriter
 from dempath.testbags import START_NS, images, pixel_points
+from dempath.typestore import dempath_msg_dir, ensure_type, make_typestore, message_definition
 
 BLOB_MSG = 'std_msgs/Header header\nfloat64[3] xyz\nstring note\n'
 

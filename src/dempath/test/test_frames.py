@@ -10,7 +10,6 @@ import pytest
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
-from dempath.bagio import make_typestore
 from dempath.frames import (
     SCENE_IN_WORLD,
     Transform,
@@ -23,6 +22,7 @@ from dempath.frames import (
     scene_transforms,
 )
 from dempath.recording import BagRecorder, RecorderConfig
+from dempath.typestore import make_typestore
 
 
 def random_rotation(rng: np.random.Generator) -> np.ndarray:

@@ -10,10 +10,11 @@ import pytest
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
-from dempath.bagio import make_typestore, message_definition, open_bag
+from dempath.bagio import open_bag
 from dempath.errors import BagError, OutputError
 from dempath.mcapbag import McapBagWriter, check_output_dir, recover_bag, write_metadata
 from dempath.testbags import pixel_points
+from dempath.typestore import make_typestore, message_definition
 
 TOPIC, MSGTYPE = '/cam_side/pixel_points', 'dempath_msgs/msg/PixelPoints'
 

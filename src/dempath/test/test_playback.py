@@ -8,10 +8,11 @@ from pathlib import Path
 
 import pytest
 
-from dempath.bagio import RawMessage, make_typestore, open_bag, write_bag
+from dempath.bagio import RawMessage, open_bag, write_bag
 from dempath.mcapbag import McapBagWriter
 from dempath.playback import Playback, PlayerConfig
 from dempath.testbags import START_NS, pixel_points
+from dempath.typestore import make_typestore
 
 
 @pytest.fixture

@@ -121,9 +121,15 @@ def _recalibration(ctx: DemoContext, figs: dict[str, str | None]) -> str:
 def _errors_table(ctx: DemoContext, data: dict[str, Any]) -> str:
     """Each error before and after the recalibration, beside its own like-for-like floor where
     one was computed (a floor computed another way is not printed beside a figure)."""
-    f = data['floor']
+    bands = data.get('floor_bands') or []
+
+    def d2band(iteration0: bool) -> str:
+        b = next((b for b in (bands if iteration0 else bands[::-1])
+                  if (b['iteration'] == 0) == iteration0), None)
+        return '-' if b is None else f"{max(b['low'], 0.0):.1f}-{b['high']:.1f}"
+
     rows = [["d<sup>2</sup> of the diagnosis' group statistics", f"{data['error_before']:.1f}",
-             f"{data['error_after']:.1f}", '-', '-']]
+             f"{data['error_after']:.1f}", d2band(True), d2band(False)]]
     paper = data.get('paper')
     if paper:
         pb, pa = paper['before'], paper['after']
@@ -137,6 +143,7 @@ def _errors_table(ctx: DemoContext, data: dict[str, Any]) -> str:
         rows.append([f"mean nRMSE [%], the library's seeds (pools of {pools})",
                      f"{pb['mean_nrmse_pct']:.2f}", f"{pa['mean_nrmse_pct']:.2f}",
                      band(paper['floor']), band(paper.get('floor_after'))])
+        rows += headline_rows(paper)
     after = ctx.after.table7 if ctx.after is not None else None
     for speed, value in need(ctx.comparison, 'comparison').table7.mean_nrmse.items():
         new = after.mean_nrmse.get(speed) if after is not None else None
@@ -147,13 +154,42 @@ def _errors_table(ctx: DemoContext, data: dict[str, Any]) -> str:
     body = ''.join('<tr>' + ''.join(f'<td>{c if i == 0 else _e(c)}</td>'
                                     for i, c in enumerate(row)) + '</tr>' for row in rows)
     reduction = 100 * (data.get('error_reduction') or 0.0)
+    stop = ('The recalibration stops when d<sup>2</sup> enters the like-for-like band of the '
+            'model at the best strengths so far (each library seed playing the measurement with '
+            "the diagnosis' markers, samples, layout and covariance)." if bands else
+            'No like-for-like d<sup>2</sup> band could be computed here (more than one strength '
+            'fitted): the recalibration stopped at the nominal chi<sup>2</sup> mean k = '
+            f"{data['floor']['k']:g}, by which {reduction:.0f} % of the error above it was "
+            'removed.')
     return (f'<table><tr>{head}</tr>{body}</table><p>Each floor is its own model played as the '
             'measurement with the same markers, samples, noise and pool size (the model before: '
-            "the library's baseline; after: the fitted model). d<sup>2</sup> has no "
-            'like-for-like floor here (bench/error_fall.py measures it): the recalibration '
-            f"stops at the nominal chi<sup>2</sup> mean k = {f['k']:g}, by which "
-            f"{reduction:.0f} % of the error above it was removed. The recording's own Table 7 "
-            "is not printed beside a floor: its candidate pool is not the floor's.</p>")
+            f"the library's baseline; after: the fitted model). {stop} The held-out markers "
+            'were left out of the diagnosis and the fit: their fall checks the fit on data it '
+            "did not see. The recording's own Table 7 is not printed beside a floor: its "
+            "candidate pool is not the floor's.</p>")
+
+
+def headline_rows(paper: dict[str, Any]) -> list[list[str]]:
+    """Rows of the headline error before and after, each beside its own floor band: on the
+    markers the diagnosis and the fit used, and on the held-out markers (left out of both:
+    the held-out check of the fit)."""
+    def cell(entry: dict[str, Any] | None) -> tuple[str, str]:
+        if not entry or entry.get('value_mm') is None:
+            return '-', '-'
+        f = entry['floor_mm']
+        return f"{entry['value_mm']:.2f} ({entry['place']})", f"{f['low']:.2f}-{f['high']:.2f}"
+
+    rows = []
+    for key, what in (('headline', 'headline error [mm], the markers fitted'),
+                      ('headline_held_out', 'headline error [mm], held-out markers')):
+        entry = paper.get(key)
+        if not entry:
+            continue
+        if key == 'headline_held_out':
+            what += f" {', '.join(map(str, entry['markers']))} (not fitted)"
+        (b, fb), (a, fa) = cell(entry.get('before')), cell(entry.get('after'))
+        rows.append([what, b, a, fb, fa])
+    return rows
 
 
 def write_report(ctx: DemoContext, figs: dict[str, str | None], folder: Path,

@@ -63,6 +63,9 @@ def diagnose_parser(prog: str, description: str) -> argparse.ArgumentParser:
                    help="packed: particles within this of a marker's cube are kept [m]")
     p.add_argument('--export-box', help='packed: keep the particles starting in this box, '
                    'X0,Y0,Z0,X1,Y1,Z1 [m] (scene frame), besides those near the markers')
+    p.add_argument('--held-out', default='', metavar='M,M,...',
+                   help='markers left out of the diagnosis and the fit, scored apart before '
+                        'and after (a held-out check of the fit)')
     return p
 
 
@@ -89,7 +92,8 @@ def diagnose_request(args: argparse.Namespace, budget: int) -> DiagnoseRequest:
                             args.discrepancy_force),
         serial=args.serial, scheduler=args.scheduler, workers=args.workers, budget=budget,
         model=args.model, model_map=args.model_map, export_library=args.export_library,
-        export_margin=args.export_margin, export_box=box)
+        export_margin=args.export_margin, export_box=box,
+        held_out=ints(args.held_out, '--held-out'))
 
 
 def floats(text: str, what: str, n: int) -> list[float]:

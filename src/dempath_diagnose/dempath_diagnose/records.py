@@ -7,7 +7,7 @@ when the tool starts to move.
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -114,3 +114,11 @@ class Measurement:
     def has_force(self) -> bool:
         """Whether a force was measured."""
         return len(self.force_times) > 0
+
+    def split(self, held_out: tuple[int, ...]) -> tuple[Measurement, Measurement]:
+        """(this pass without the markers ``held_out``, those markers alone without the force):
+        the markers a fit uses and the ones it is checked on."""
+        held = np.isin(self.markers, held_out)
+        fit = replace(self, markers=self.markers[~held], positions=self.positions[:, ~held])
+        rest = Measurement(self.markers[held], self.times, self.positions[:, held])
+        return fit, rest

@@ -1,11 +1,17 @@
 """Shared fixtures of the dempath_diagnose tests: a small signature library on the tiny scene.
 
 The library (3 seeds; cohesion, tool speed and tool friction at one strength each) and the
-packings are built once per test session in a temporary folder: about a dozen tiny runs.
+packings are built once per test session in a temporary folder: about a dozen tiny runs. Under
+pytest-xdist the workers build it once between them (the first takes a lock on a folder of the
+run that every worker sees, the others wait for it) and each copies it into its own cache, so the
+tests of one worker never see what another's tests add to theirs.
 """
 
 from __future__ import annotations
 
+import fcntl
+import os
+import shutil
 from pathlib import Path
 
 import pytest
@@ -27,11 +33,21 @@ def cache(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 @pytest.fixture(scope='session')
-def tiny_library(cache: Path) -> Library:
-    """The tiny scene's test library (built once per session)."""
+def tiny_library(cache: Path, tmp_path_factory: pytest.TempPathFactory) -> Library:
+    """The tiny scene's test library (built once per session, shared by the xdist workers)."""
     scene = load_scene(SCENE)
-    folder = build_library(scene, SPEC, cache / 'library', cache_dir=cache / 'packings')
-    return Library.load(folder)
+    if 'PYTEST_XDIST_WORKER' not in os.environ:
+        return Library.load(build_library(scene, SPEC, cache / 'library',
+                                          cache_dir=cache / 'packings'))
+    shared = tmp_path_factory.getbasetemp().parent / 'diagnose-shared'  # every worker's, this run
+    shared.mkdir(exist_ok=True)
+    with (shared / 'build.lock').open('w') as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)  # released when the file closes
+        folder = build_library(scene, SPEC, shared / 'library', cache_dir=shared / 'packings')
+    shutil.copytree(shared / 'packings', cache / 'packings', dirs_exist_ok=True)
+    own = cache / 'library' / folder.name
+    shutil.copytree(folder, own, dirs_exist_ok=True)
+    return Library.load(own)
 
 
 @pytest.fixture(scope='session')

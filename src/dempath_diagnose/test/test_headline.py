@@ -193,8 +193,9 @@ def test_summary_counts_a_fit_inside_its_band_but_beaten_as_not_at_its_floor() -
     floor; a case whose error before lies inside the band is not seen and counts for neither."""
     from dempath_diagnose.headline.fall import summary
 
-    def entry(place: str, lower: bool = False) -> dict[str, object]:
-        return {'place': place, 'value': 1.0, 'rival': {'lower': lower}}
+    def entry(place: str, lower: bool = False, fell: bool = True) -> dict[str, object]:
+        return {'place': place, 'value': 1.0, 'rival': {'lower': lower},
+                'fall': {'lower': fell}}
 
     def case(before: str, true: str, wrong: str, beaten: bool) -> dict[str, object]:
         return {'case': 'c', 'seed': 1, 'candidate': 'cohesion', 'verdict': 'effect_missing',
@@ -207,6 +208,33 @@ def test_summary_counts_a_fit_inside_its_band_but_beaten_as_not_at_its_floor() -
     out = summary(results, table7_like_for_like=True)
     assert out['effect_seen'] == 2 and out['true_fit_in_floor'] == 2
     assert out['wrong_fit_in_floor'] == 0 and out['wrong_fit_in_own_band'] == 1
+
+
+def test_a_fit_that_does_not_lower_the_error_is_not_at_its_floor(shipped: Library) -> None:
+    """Modelled on the held-out case rolling resistance 0.39 on seed 1002: the error before
+    lies just above the baseline's band; the best wrong fit (cohesion) ends inside its own,
+    wider band without lowering the error marker by marker. Counted at its floor before (the
+    wrong fit in floor the bench must not have); now 'no_fall', and two fits that both fall
+    into their bands with neither preferred say 'cannot separate'."""
+    from dempath_diagnose.headline.fall import separation, state, with_falls
+
+    rng = np.random.default_rng(1)
+    before = 0.0139 + 0.002 * rng.standard_normal(15)
+    part = {'before': {'place': 'above', 'per_marker_mm': list(before * 1e3)},
+            'after_true': {'place': 'above', 'per_marker_mm': list(before * 1e3),
+                           'rival': {'lower': False}},
+            'after_wrong': {'place': 'in', 'rival': {'lower': False},
+                            'per_marker_mm': list((before - 0.0002
+                                                   + 0.002 * rng.standard_normal(15)) * 1e3)}}
+    with_falls(part)
+    assert state(part['after_wrong']) == 'no_fall'
+    assert separation({'all': part}) == 'neither'
+    fell = before - 0.004 + 0.0003 * rng.standard_normal(15)
+    for key in ('after_true', 'after_wrong'):
+        part[key].update(place='in', per_marker_mm=list(fell * 1e3))
+    with_falls(part)
+    assert state(part['after_true']) == 'at_floor'
+    assert separation({'all': part}) == 'cannot_separate'
 
 
 def test_d2_floor_measures_each_played_marker_from_its_own_start(shipped: Library) -> None:

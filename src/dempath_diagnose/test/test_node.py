@@ -127,7 +127,8 @@ def test_cli_reads_a_bag_of_marker_points(cache: Path, tiny_library: Library,
     """The tool-speed case as a bag of MarkerPoints3D (the reconstructor's output): named."""
     import json
 
-    from dempath.bagio import make_typestore, write_bag
+    from dempath.bagio import write_bag
+    from dempath.typestore import make_typestore
     from dempath_diagnose.cli import diagnose_main
 
     from .conftest import SPEC

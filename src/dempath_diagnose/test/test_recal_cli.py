@@ -142,7 +142,9 @@ def test_also_refits_tool_friction_beside_tool_speed(
 def test_recalibration_from_a_packed_library(cache: Path, tiny_library: Library,
                                              geometry: CaseGeometry, tmp_path: Path) -> None:
     """A packed library (what the demo ships) has no run files: the 'before' runs of Table 7
-    come from the loaded records, and the fit, the paper's metrics and the figures are written."""
+    come from the loaded records, and the fit, the paper's metrics and the figures are written.
+    As the demo does, markers 3, 8 and 13 are held out of the diagnosis and the fit and scored
+    apart before and after; the loop is judged by the like-for-like d^2 band."""
     from dempath_diagnose.decision.measure import load_tracks
     from dempath_diagnose.library.packed import export_library
 
@@ -153,11 +155,19 @@ def test_recalibration_from_a_packed_library(cache: Path, tiny_library: Library,
     argv = argv_for(cache, 'tool_speed', out)
     k = argv.index('--library-root')
     argv[k:k + 2] = ['--library', str(packed)]
-    assert recalibrate_main([*argv, '--budget', '2']) == 0
+    assert recalibrate_main([*argv, '--budget', '2', '--held-out', '3,8,13']) == 0
     data = json.loads((out / 'recalibration.json').read_text())
     assert data['effect'] == 'tool_speed' and data['changed'], data
     paper = data['paper']
     assert len(paper['before']['markers']) == len(paper['after']['markers']) >= 10
+    held = paper['headline_held_out']
+    assert held['markers'] == [3, 8, 13]
+    assert held['after']['value_mm'] < held['before']['value_mm'], held
+    assert set(held['before']['per_marker_mm']) == {'3', '8', '13'}
+    diag = json.loads((out / 'diagnosis.json').read_text())
+    assert diag['held_out'] == [3, 8, 13] and '8' not in diag['markers_in_windows']
+    assert data['stopped_on'] == 'the like-for-like d^2 floor band', data['floor_bands']
+    assert data['floor_bands'][0]['iteration'] == 0 and data['floor_bands'][0]['seeds'] == 3
     assert all(np.isfinite(paper[k]['mean_nrmse_pct']) for k in ('before', 'after', 'floor'))
     assert not paper['after_is_before']  # the after runs are the fitted model's own
     assert (out / 'trajectories.png').stat().st_size > 0

@@ -16,11 +16,18 @@ from pathlib import Path
 
 import pytest
 
+from dempath_diagnose.library.dask_processes import (
+    DASK,
+    Group,
+    start_group,
+    start_scheduler,
+    stop_groups,
+    wait_for_workers,
+)
 from dempath_diagnose.library.store import Library
 from dempath_diagnose.recalibrate_cli import recalibrate_main
 
 from .test_recal_cli import argv_for
-from .test_sweep import _start, stop_all, wait_workers
 
 
 def _default_sigint() -> None:
@@ -31,21 +38,16 @@ def _default_sigint() -> None:
 
 
 @pytest.fixture
-def one_worker(tmp_path: Path) -> Iterator[tuple[str, list[subprocess.Popen[bytes]]]]:
+def one_worker(tmp_path: Path) -> Iterator[tuple[str, list[Group]]]:
     """A `dask scheduler` and one single-thread `dask worker` (runs one after the other)."""
-    port_file = tmp_path / 'scheduler.json'
-    procs = [_start(['scheduler', '--port', '0', '--no-dashboard', '--scheduler-file',
-                     str(port_file)], tmp_path / 'scheduler.log')]
+    proc, address = start_scheduler(tmp_path)
+    procs = [proc]
     try:
-        deadline = time.monotonic() + 60
-        while not port_file.is_file() and time.monotonic() < deadline:
-            time.sleep(0.1)
-        address = json.loads(port_file.read_text())['address']
-        procs.append(_start(['worker', address, '--nthreads', '1', '--no-dashboard'],
-                            tmp_path / 'worker.log'))
+        procs.append(start_group([DASK, 'worker', address, '--nthreads', '1', '--no-dashboard'],
+                                 tmp_path / 'worker.log'))
         yield address, procs
     finally:
-        stop_all(procs)
+        stop_groups(procs)
 
 
 def _when_a_run_is_stored(runs: Path, timeout_s: float = 1200.0) -> list[Path]:
@@ -62,14 +64,14 @@ def _when_a_run_is_stored(runs: Path, timeout_s: float = 1200.0) -> list[Path]:
 @pytest.mark.timeout(1800)  # a guard, not a timing: the whole command runs twice
 def test_scheduler_lost_mid_sweep_keeps_runs_and_a_rerun_resumes(
         cache: Path, tiny_library: Library, tmp_path: Path,
-        one_worker: tuple[str, list[subprocess.Popen[bytes]]],
+        one_worker: tuple[str, list[Group]],
         capsys: pytest.CaptureFixture[str]) -> None:
     """The scheduler killed after the first of two runs: one error line, the stored run kept,
     the best scene so far written; a rerun on the same --out does not redo the stored run."""
     import threading
 
     address, procs = one_worker
-    wait_workers(address, 1)
+    wait_for_workers(address, 1)
     out = tmp_path / 'recal'
     argv = [a for a in argv_for(cache, 'tool_speed', out) if a != '--serial']
     stored: list[Path] = []

@@ -7,6 +7,8 @@ the same seed covariance the objective assumes.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -190,3 +192,34 @@ def test_a_named_candidate_is_fitted_even_within_the_floor() -> None:
     fitted = recalibrate(obj, ce, evaluate, budget=6, seeds_per_eval=SEEDS, named=True)
     assert fitted.changed and fitted.after < fitted.before - 3.84, fitted
     assert abs(fitted.params[0].value - 1.0) <= 2 * fitted.params[0].sd
+
+
+def test_the_loop_stops_on_the_like_for_like_band_not_the_chi2_mean() -> None:
+    """With a like-for-like d^2 band the loop judges each iteration by it, not by the nominal
+    chi^2 mean k = 6: a band below k keeps it fitting where the mean stopped it (d^2 4.9 after
+    two iterations), a band above k stops it a step earlier (7.0); the bands it was judged by
+    are recorded, iteration 0 the model as it is. Without a band it stops at k (old code)."""
+    from dempath_diagnose.headline.floor import FloorBand
+
+    obj, ce = setup(0.8)
+    nominal = recalibrate(obj, ce, evaluator(), budget=18, seeds_per_eval=SEEDS)
+    assert nominal.stop == 'floor' and nominal.floor_bands == [] and len(nominal.steps) == 3
+    asked: list[tuple[float, ...]] = []
+
+    def band_of(high: float):
+        def band(x: tuple[float, ...]) -> FloorBand:
+            asked.append(x)
+            return FloorBand(low=0.1, high=high, median=high / 2, samples=(high / 2,) * 12,
+                             pool_seeds=2, seeds=3, df=4.0)
+        return band
+
+    tight = recalibrate(replace(obj, floor_band=band_of(1.0)), ce, evaluator(), budget=18,
+                        seeds_per_eval=SEEDS)
+    assert asked[0] == (0.0,)  # iteration 0: the model as it is
+    assert len(tight.steps) > len(nominal.steps) and tight.after < nominal.after
+    assert tight.stop != 'floor' and all(b['place'] == 'above' for b in tight.floor_bands)
+    assert [b['iteration'] for b in tight.floor_bands] == list(range(len(tight.steps)))
+    wide = recalibrate(replace(obj, floor_band=band_of(10.0)), ce, evaluator(), budget=18,
+                       seeds_per_eval=SEEDS)
+    assert wide.stop == 'floor' and len(wide.steps) == 2
+    assert wide.floor_bands[-1]['place'] == 'in' and wide.floor_bands[-1]['high'] == 10.0

@@ -5,7 +5,6 @@ from __future__ import annotations
 import os
 import shutil
 import signal
-import subprocess
 import sys
 import time
 from collections.abc import Callable, Iterator
@@ -14,9 +13,15 @@ from pathlib import Path
 
 import pytest
 
+from dempath_diagnose.library.dask_processes import (
+    DASK,
+    Group,
+    start_group,
+    start_scheduler,
+    stop_groups,
+    wait_for_workers,
+)
 from dempath_diagnose.library.sweep import DaskSweep, local_layout
-
-DASK = str(Path(sys.executable).parent / 'dask')
 
 
 @dataclass(frozen=True)
@@ -44,65 +49,28 @@ def shipped(tasks: list[StoreTask]) -> list[Callable[[], str]]:
     return [lambda t=t: t() for t in tasks]
 
 
-def _start(args: list[str], log: Path) -> subprocess.Popen[bytes]:
-    return subprocess.Popen([DASK, *args], stdout=log.open('wb'), stderr=subprocess.STDOUT,
-                            start_new_session=True)
-
-
 @pytest.fixture
-def scheduler(tmp_path: Path) -> Iterator[tuple[str, list[subprocess.Popen[bytes]]]]:
+def scheduler(tmp_path: Path) -> Iterator[tuple[str, list[Group]]]:
     """A `dask scheduler` and two single-thread `dask worker` processes; stopped after."""
     if not shutil.which(DASK):
         pytest.fail(f'{DASK}: the dask CLI is missing (pinned in requirements.txt)')
-    port_file = tmp_path / 'scheduler.json'
-    procs = [_start(['scheduler', '--port', '0', '--no-dashboard', '--scheduler-file',
-                     str(port_file)], tmp_path / 'scheduler.log')]
+    proc, address = start_scheduler(tmp_path)
+    procs = [proc]
     try:
-        for _ in range(300):
-            if port_file.is_file():
-                break
-            time.sleep(0.1)
-        import json
-
-        address = json.loads(port_file.read_text())['address']
         for k in range(2):
-            procs.append(_start(['worker', address, '--nthreads', '1', '--no-dashboard',
-                                 '--name', f'w{k}'], tmp_path / f'worker{k}.log'))
+            procs.append(start_group([DASK, 'worker', address, '--nthreads', '1',
+                                      '--no-dashboard', '--name', f'w{k}'],
+                                     tmp_path / f'worker{k}.log'))
         yield address, procs
     finally:
-        for p in reversed(procs):
-            if p.poll() is None:
-                p.terminate()
-                try:
-                    p.wait(10)
-                except subprocess.TimeoutExpired:
-                    p.kill()
-
-
-def stop_all(procs: list[subprocess.Popen[bytes]]) -> None:
-    """Stop the processes' groups started here (last first): SIGTERM, SIGKILL after 10 s."""
-    for p in reversed(procs):
-        if p.poll() is None:
-            os.killpg(p.pid, signal.SIGTERM)
-            try:
-                p.wait(10)
-            except subprocess.TimeoutExpired:
-                os.killpg(p.pid, signal.SIGKILL)
-
-
-def wait_workers(address: str, n: int) -> None:
-    """Wait until ``n`` workers have joined the scheduler."""
-    from distributed import Client
-
-    with Client(address, timeout=30) as client:
-        client.wait_for_workers(n, timeout=60)
+        stop_groups(procs)
 
 
 def test_sweep_on_a_scheduler_given_by_address(
-        scheduler: tuple[str, list[subprocess.Popen[bytes]]], tmp_path: Path) -> None:
+        scheduler: tuple[str, list[Group]], tmp_path: Path) -> None:
     """Every task runs on the external cluster and reports done once."""
     address, _ = scheduler
-    wait_workers(address, 2)
+    wait_for_workers(address, 2)
     tasks = [StoreTask(tmp_path / f'run{k}.txt', 0.1) for k in range(6)]
     finished: list[int] = []
     with DaskSweep(address) as sweep:
@@ -112,11 +80,11 @@ def test_sweep_on_a_scheduler_given_by_address(
 
 
 def test_killed_worker_is_retried_and_nothing_finished_is_lost(
-        scheduler: tuple[str, list[subprocess.Popen[bytes]]], tmp_path: Path) -> None:
+        scheduler: tuple[str, list[Group]], tmp_path: Path) -> None:
     """A worker killed mid-run: its task is retried on the other worker; files already stored
     are kept untouched."""
     address, procs = scheduler
-    wait_workers(address, 2)
+    wait_for_workers(address, 2)
     tasks = [StoreTask(tmp_path / f'run{k}.txt', 1.5) for k in range(4)]
     finished: list[int] = []
     with DaskSweep(address) as sweep:

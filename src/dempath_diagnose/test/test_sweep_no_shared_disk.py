@@ -13,15 +13,20 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
-import subprocess
-import time
 from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 
 from dempath_diagnose.cli import diagnose_main
+from dempath_diagnose.library.dask_processes import (
+    lone_worker_command,
+    namespaces_allowed,
+    start_group,
+    start_scheduler,
+    stop_groups,
+    wait_for_workers,
+)
 from dempath_diagnose.library.simulator import load_scene
 from dempath_diagnose.library.store import Library, LibrarySpec, LibraryTask, RunFailure, RunSpec
 from dempath_diagnose.recalibrate_cli import recalibrate_main
@@ -30,7 +35,6 @@ from dempath_sim.runs.portable import pack_scene
 from .conftest import SCENE
 from .test_hidden import case_files
 from .test_recal_cli import argv_for
-from .test_sweep import DASK, _start, stop_all
 
 
 def _masked_folder(basetemp: Path) -> Path:
@@ -39,52 +43,25 @@ def _masked_folder(basetemp: Path) -> Path:
     return next((p for p in basetemp.parents if p.name.startswith('pytest-of-')), basetemp)
 
 
-def _namespaces_allowed(masked: Path) -> bool:
-    """Whether this machine lets us give a process its own mount namespace over ``masked``."""
-    if not shutil.which('unshare'):
-        return False
-    probe = subprocess.run(['unshare', '--mount', '--propagation', 'private', 'sh', '-c',
-                            f'mount -t tmpfs tmpfs {masked}'], capture_output=True, check=False)
-    return probe.returncode == 0
-
-
-def _worker_command(address: str, home: Path, masked: Path | None) -> list[str]:
-    run = (f'mkdir -p {home}/cache && cd {home} && HOME={home} TMPDIR={home} '
-           f'DEMPATH_CACHE_DIR={home}/cache exec {DASK} worker {address} --nthreads 1 '
-           '--no-dashboard --name lone')
-    if masked is not None:
-        return ['unshare', '--mount', '--propagation', 'private', 'sh', '-c',
-                f'mount -t tmpfs tmpfs {masked} && {run}']
-    return ['sh', '-c', run]
-
-
 @pytest.fixture(scope='module')
 def lone_worker(tmp_path_factory: pytest.TempPathFactory,
                 ) -> Iterator[tuple[str, bool]]:
     """(scheduler address, whether the worker's /tmp is its own): a `dask scheduler` and one
     single-thread `dask worker` without the client's disk."""
     tmp = tmp_path_factory.mktemp('lone')
-    port_file = tmp / 'scheduler.json'
-    procs = [_start(['scheduler', '--port', '0', '--no-dashboard', '--scheduler-file',
-                     str(port_file)], tmp / 'scheduler.log')]
     masked = _masked_folder(tmp_path_factory.getbasetemp())
-    isolated = _namespaces_allowed(masked)
+    isolated = namespaces_allowed(masked)
     home = masked / 'worker-home' if isolated else tmp / 'worker-home'
+    proc, address = start_scheduler(tmp)
+    procs = [proc]
     try:
-        deadline = time.monotonic() + 60
-        while not port_file.is_file() and time.monotonic() < deadline:
-            time.sleep(0.1)
-        address = json.loads(port_file.read_text())['address']
-        procs.append(subprocess.Popen(_worker_command(address, home, masked if isolated else None),
-                                      stdout=(tmp / 'worker.log').open('wb'),
-                                      stderr=subprocess.STDOUT, start_new_session=True))
-        from distributed import Client
-
-        with Client(address, timeout=30) as client:
-            client.wait_for_workers(1, timeout=120)
+        procs.append(start_group(lone_worker_command(address, home, 'lone',
+                                                     masked if isolated else None),
+                                 tmp / 'worker.log'))
+        wait_for_workers(address, 1)
         yield address, isolated
     finally:
-        stop_all(procs)
+        stop_groups(procs)
 
 
 def _worker_sees(address: str, path: Path) -> bool:

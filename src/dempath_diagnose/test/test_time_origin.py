@@ -15,7 +15,8 @@ import numpy as np
 import pytest
 
 from dempath import topics
-from dempath.bagio import make_typestore, write_bag
+from dempath.bagio import write_bag
+from dempath.typestore import make_typestore
 from dempath_diagnose.decision.measure import load_tracks
 from dempath_diagnose.errors import MeasurementError
 

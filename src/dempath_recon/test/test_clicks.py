@@ -8,7 +8,8 @@ import cv2
 import numpy as np
 import pytest
 
-from dempath.bagio import make_typestore, write_bag
+from dempath.bagio import write_bag
+from dempath.typestore import make_typestore
 from dempath_recon.clicker.click_csv import (
     Click,
     ClickBounds,

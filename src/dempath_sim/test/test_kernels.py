@@ -8,11 +8,12 @@ import numpy as np
 import pytest
 
 from dempath_sim.engine.boundary import MAX_CANDIDATES, N_SLOTS, boundary_forces
+from dempath_sim.engine.history import PairHistory
 from dempath_sim.engine.integrate import first_half, second_half
 from dempath_sim.engine.laws.dispatch import build_pair_table
 from dempath_sim.engine.materials import Interaction, Material
 from dempath_sim.engine.mesh import closest_point_triangle, closest_point_triangle_numpy
-from dempath_sim.engine.neighbors import build_neighbor_list, transfer_history
+from dempath_sim.engine.neighbors import build_neighbor_list
 from dempath_sim.engine.pair_forces import pair_forces, reduce_buffers
 from dempath_sim.engine.params import SimParams
 
@@ -81,9 +82,10 @@ def test_neighbor_list_matches_brute_force() -> None:
         np.testing.assert_array_equal(nbr_c, nbr)
 
 
-def test_transfer_history_follows_pairs_through_removal() -> None:
+def test_carried_springs_follow_pairs_through_removal() -> None:
     """Springs of overlapping pairs follow their pair when a particle is removed; a pair stored
-    (j, i) flips sign; a pair that no longer overlaps starts at zero."""
+    (j, i) flips sign; a pair that no longer overlaps starts at zero (and has no row); the rows
+    of each chunk lie together in list order."""
     rng = np.random.default_rng(5)
     pos = rng.uniform(0.0, 0.01, size=(60, 3))
     rad = np.full(60, 1e-3)
@@ -95,10 +97,16 @@ def test_transfer_history_follows_pairs_through_removal() -> None:
     order = rng.permutation(len(new_to_old))  # also reorder the survivors
     new_to_old = new_to_old[order]
     nstart, nnbr = build_neighbor_list(pos[new_to_old], rad, 5e-4)
-    nht = np.empty((len(nnbr), 3))
-    nhr = np.empty((len(nnbr), 3))
-    transfer_history(new_to_old, start, nbr, ht, ht, nstart, nnbr, nht, nhr, pos[new_to_old],
-                     rad)
+    hist = PairHistory()
+    hist.restore({'ht': ht, 'hr': -ht}, start, 2)  # one row per entry, as stored before
+    hist.carry(new_to_old, start, nbr, nstart, nnbr, pos[new_to_old], rad, 3)
+    nht, nhr = hist.by_entry()
+    np.testing.assert_array_equal(nhr, -nht)
+    for c in range(3):  # dense rows from the region's base, increasing with the entry
+        rows = hist.slot[nstart[c * 59 // 3]:nstart[(c + 1) * 59 // 3]]
+        rows = rows[rows >= 0]
+        assert len(rows) == hist.live[c] and hist.tail[c] == rows[-1] + 1
+        np.testing.assert_array_equal(np.diff(rows), 1)
     old = {(i, int(nbr[k])): ht[k] for i in range(60) for k in range(start[i], start[i + 1])}
     n_kept = 0
     for i in range(len(new_to_old)):
@@ -128,12 +136,15 @@ def test_pair_forces_match_reference() -> None:
     tbuf = np.zeros((n_chunks, 80, 3))
     force = np.zeros((80, 3))
     torque = np.zeros((80, 3))
-    ht_k, hr_k = ht.copy(), hr.copy()
+    hist = PairHistory()
+    hist.restore({'ht': ht, 'hr': hr}, start, n_chunks)
     flags = [np.zeros(80, np.uint8) for _ in range(4)]
     evals = np.zeros(n_chunks, np.int64)
-    pair_forces(pos, vel, omg, rad, mass, mat, start, nbr, ht_k, hr_k, tab, dt, True, True,
-                fbuf, tbuf, np.zeros((n_chunks, 3)), False, *flags, np.inf, evals)
+    pair_forces(pos, vel, omg, rad, mass, mat, start, nbr, hist.slot, hist.ht, hist.hr,
+                hist.tail, hist.live, tab, dt, True, True, fbuf, tbuf, np.zeros((n_chunks, 3)),
+                False, *flags, np.inf, evals)
     assert evals.sum() == len(nbr)  # nothing asleep: every listed pair is evaluated
+    ht_k, hr_k = hist.by_entry()
     reduce_buffers(fbuf, tbuf, force, torque)
     f_ref = np.zeros((80, 3))
     t_ref = np.zeros((80, 3))
@@ -144,7 +155,7 @@ def test_pair_forces_match_reference() -> None:
             d = np.linalg.norm(pos[i] - pos[j])
             delta = rad[i] + rad[j] - d
             if delta <= 0:
-                np.testing.assert_array_equal(ht_k[k], 0.0)
+                assert hist.slot[k] == -1  # parted: springs reset, row freed
                 continue
             n_touch += 1
             n = (pos[i] - pos[j]) / d

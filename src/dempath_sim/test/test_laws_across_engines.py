@@ -25,7 +25,7 @@ from dempath_sim.engine.params import SimParams
 from dempath_sim.engine.state import SimState
 from dempath_sim.engine.walls import Plane
 from dempath_sim.liggghts import commands as cmd
-from dempath_sim.liggghts.deck import write_data
+from dempath_sim.liggghts.fill_deck import write_data
 from dempath_sim.liggghts.install import LiggghtsInstall
 from dempath_sim.liggghts.runner import run_deck
 

@@ -11,10 +11,11 @@ from dempath.dumpio import frames_by_id, read_dump, read_print
 from dempath_sim.engine.materials import Interaction, Material
 from dempath_sim.engine.params import SimParams
 from dempath_sim.liggghts import commands as cmd
-from dempath_sim.liggghts.deck import fill_plan, layer_templates, primes_from, velocity_expression
 from dempath_sim.liggghts.errors import DumpError, LiggghtsNotFoundError, LiggghtsRunError
+from dempath_sim.liggghts.fill_deck import fill_plan, layer_templates, primes_from
 from dempath_sim.liggghts.install import LiggghtsInstall, ensure_liggghts, find_liggghts
 from dempath_sim.liggghts.runner import run_deck
+from dempath_sim.liggghts.tool_deck import velocity_expression
 from dempath_sim.runs.identity import run_identity
 from dempath_sim.scene import bundled_scene
 from dempath_sim.scene.profiles import SpeedProfile, ToolPath
@@ -197,7 +198,7 @@ def test_liggghts_accepts_the_contact_model_with_every_effect(liggghts: Liggghts
 def test_packing_data_file_round_trips_through_liggghts(liggghts: LiggghtsInstall,
                                                         tmp_path: Path) -> None:
     """A dempath packing written as a data file is read by LIGGGHTS with ids, sizes, positions."""
-    from dempath_sim.liggghts.deck import write_data
+    from dempath_sim.liggghts.fill_deck import write_data
 
     rng = np.random.default_rng(3)
     ids = np.arange(1, 11, dtype=np.int64) * 7

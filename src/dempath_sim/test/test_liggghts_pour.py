@@ -11,7 +11,7 @@ import pytest
 
 from dempath.dumpio import frames_by_id, read_dump
 from dempath_sim.engine.timestep import rayleigh_time_step
-from dempath_sim.liggghts.deck import POUR_DUMP, settle_lines
+from dempath_sim.liggghts.fill_deck import POUR_DUMP, settle_lines
 from dempath_sim.liggghts.install import LiggghtsInstall
 from dempath_sim.runs.bed.pour import pour
 from dempath_sim.runs.physics import build_params

@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from dempath import topics
-from dempath.bagio import make_typestore, open_bag, write_bag
+from dempath.bagio import open_bag, write_bag
+from dempath.typestore import make_typestore
 from dempath_twin.errors import TwinError
 from dempath_twin.field import markers as ft
 from dempath_twin.rig import paper_rig

@@ -78,7 +78,8 @@ def run_diagnosis(request: DiagnoseRequest) -> DiagnosisOutcome:
     from dempath_diagnose.report.diagnosis_outputs import write_outputs
 
     extra: dict[str, Any] = {'scene': outcome.scene.name, 'library': str(outcome.library.folder),
-                             'allowance': vars(request.allowance), 'backend': request.backend}
+                             'allowance': vars(request.allowance), 'backend': request.backend,
+                             'held_out': list(request.held_out)}
     if result.adaptive:
         extra['adaptive'] = result.adaptive
     if request.export_library is not None:
@@ -110,6 +111,16 @@ def measurement_of(request: DiagnoseRequest, scene: SceneSpec) -> Measurement:
     for marker, problem in sorted(meas.problems.items()):
         print(f'warning: {request.measured}: marker {marker}: {problem} (left out)',
               file=sys.stderr)
+    if request.held_out:
+        meas, held = meas.split(request.held_out)
+        missing = sorted(set(request.held_out) - {int(m) for m in held.markers})
+        if missing or len(meas.markers) < 2:
+            msg = (f'--held-out {",".join(map(str, request.held_out))}: '
+                   + (f'marker(s) {missing} not in {request.measured}' if missing else
+                      f'leaves {len(meas.markers)} marker(s) to diagnose'))
+            raise MeasurementError(msg)
+        print(f'markers {", ".join(map(str, request.held_out))} held out of the diagnosis and '
+              'the fit (scored apart)', file=sys.stderr)
     if request.force is not None:
         t, f = load_force(request.force)
         check_force_time_base(request.force, t, meas.times)

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import sys
 from contextlib import ExitStack
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -84,7 +84,8 @@ def run_recalibration(request: RecalibrationRequest, diagnosis: DiagnosisOutcome
     base = diagnosis if diagnosis is not None else diagnosis_of(ask)
     scene, spec, library, d = base.scene, base.spec, base.library, base.diagnosis
     write_outputs(d, request.out, {'scene': scene.name, 'library': str(library.folder),
-                                   'allowance': vars(ask.allowance)})
+                                   'allowance': vars(ask.allowance),
+                                   'held_out': list(ask.held_out)})
     emus = {c.candidate.name: c for c in d.emulator.candidates}
     todo = targets(request.effects, request.diagnosis_file, d.decision, list(emus))
     also = also_candidates(request.also, emus, [name for name, _ in todo])
@@ -107,7 +108,8 @@ def run_recalibration(request: RecalibrationRequest, diagnosis: DiagnosisOutcome
                                      None if ask.scheduler and not ask.serial else 'same')
             if len(todo) > 1:
                 print(f'inconclusive: trying {name} ({budget} simulations)', file=sys.stderr)
-            results.append((recalibrate(objective, cands, evaluate, budget,
+            own = replace(objective, floor_band=d2_band(library, d, cands, cube, ask))
+            results.append((recalibrate(own, cands, evaluate, budget,
                                         request.seeds_per_eval, callback, start,
                                         named=is_named), evaluate))
             if results[-1][0].stop in ('interrupted', 'scheduler_lost'):
@@ -116,6 +118,37 @@ def run_recalibration(request: RecalibrationRequest, diagnosis: DiagnosisOutcome
             top = emus[d.decision.ranking[0].name]
             results.append((unchanged(objective, [top]), None))
     return _write(request, base, results, cube)
+
+
+def d2_band(library: Any, d: Any, cands: list[Any], cube: tuple[float, float, float],
+            ask: Any) -> Any:
+    """The like-for-like d^2 band the loop stops on (:mod:`dempath_diagnose.headline.d2floor`):
+    the model at the strengths (the baseline at the scene's own value, else the candidate
+    fitted again) played as the measurement by each library seed with the diagnosis' markers,
+    samples, layout and covariance; cached by strength. None (the nominal chi^2 mean) when more
+    than one strength is fitted; a band that cannot be computed (the library lacks the
+    candidate's runs) is None too."""
+    from dempath_diagnose.headline.d2floor import D2Setup, d2_floor
+    from dempath_diagnose.headline.samples import MarkerSamples
+
+    if len(cands) != 1 or d.measurement is None:
+        return None
+    cand = cands[0].candidate
+    setup = D2Setup(d.layout, cube, ask.allowance)
+    samples = MarkerSamples.of(d.measurement)
+    cache: dict[float, Any] = {}
+
+    def band(x: tuple[float, ...]) -> Any:
+        if x[0] not in cache:
+            base = x[0] == cand.current
+            try:
+                cache[x[0]] = d2_floor(library, '' if base else cand.name, x[0], samples,
+                                       setup, fitted=not base)
+            except (KeyError, ValueError, LookupError):
+                cache[x[0]] = None
+        return cache[x[0]]
+
+    return band
 
 
 def _executor(request: RecalibrationRequest, stack: ExitStack) -> Any:
@@ -159,9 +192,10 @@ def _write(request: RecalibrationRequest, base: DiagnosisOutcome,
         from dempath_diagnose.report.recalibration_paper import paper_and_trajectories
 
         ask = request.diagnose
-        meas = load_tracks(ask.measured, ask.origin)
+        meas, held = load_tracks(ask.measured, ask.origin).split(ask.held_out)
         paper, figures = paper_and_trajectories(best, evaluate, base.library, base.diagnosis,
-                                                cube, meas, ask.allowance.noise_m, out)
+                                                cube, meas, ask.allowance.noise_m, out,
+                                                held if ask.held_out else None)
         extra['paper'] = paper
     data = write_all(best, scene, out, extra, figures)
     return RecalibrationOutcome(request, base, best, data, scene_file)
@@ -177,8 +211,7 @@ def summary_lines(data: dict[str, Any]) -> list[str]:
              f'{paper["after"]["mean_nrmse_pct"]:.2f} % (floor before '
              f'{paper["floor"]["mean_nrmse_pct"]:.2f} %{after_floor})') if paper else ''
     lines = [f'{data["effect"]}: {data["stop_reason"]}; error d^2 {data["error_before"]:.1f} -> '
-             f'{data["error_after"]:.1f} (nominal stop: chi^2 mean k = {data["floor"]["k"]})'
-             f'{nrmse}']
+             f'{data["error_after"]:.1f} ({d2_floor_text(data)}){nrmse}']
     head = (paper or {}).get('headline', {})
     if head.get('before', {}).get('value_mm') is not None and \
             head.get('after', {}).get('value_mm') is not None:
@@ -186,4 +219,21 @@ def summary_lines(data: dict[str, Any]) -> list[str]:
 
         lines += [headline_sentence(head['before'], 'before'),
                   headline_sentence(head['after'], 'after')]
+    held = (paper or {}).get('headline_held_out')
+    if held:
+        from dempath_diagnose.headline.stage import held_out_sentence
+
+        lines += [line for line in [held_out_sentence(held)] if line]
     return lines
+
+
+def d2_floor_text(data: dict[str, Any]) -> str:
+    """What the loop judged d^2 by: the last like-for-like band, or the nominal chi^2 mean."""
+    bands = data.get('floor_bands') or []
+    if not bands:
+        return f'stopped on the nominal chi^2 mean k = {data["floor"]["k"]}: no like-for-like ' \
+            'band could be computed'
+    b = bands[-1]
+    return (f"like-for-like floor band {max(b['low'], 0.0):.1f}-{b['high']:.1f} of the model at "
+            f"{', '.join(f'{v:.4g}' for v in b['strengths'])} ({b['seeds']} seeds played "
+            'the measurement)')

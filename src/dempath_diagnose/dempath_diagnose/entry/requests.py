@@ -49,6 +49,8 @@ class DiagnoseRequest:
         export_library: Also pack the library into this file for the measured markers' region.
         export_margin: Packed: particles within this of a marker's cube are kept [m].
         export_box: Packed: also keep the particles starting in this box, X0,Y0,Z0,X1,Y1,Z1 [m].
+        held_out: Markers left out of the diagnosis and of any fit built on it, scored apart
+            before and after the fit (the held-out check).
     """
 
     measured: Path
@@ -74,10 +76,13 @@ class DiagnoseRequest:
     export_library: Path | None = None
     export_margin: float = DEFAULT_MARGIN_M
     export_box: Box | None = None
+    held_out: tuple[int, ...] = ()
 
     def __post_init__(self) -> None:
         if self.budget < 0:
             raise DiagnosisError(f'--budget {self.budget}: must be >= 0')
+        if len(set(self.held_out)) != len(self.held_out) or any(m < 1 for m in self.held_out):
+            raise DiagnosisError(f'--held-out {self.held_out}: distinct marker numbers >= 1')
 
 
 @dataclass(frozen=True)

@@ -13,8 +13,10 @@ is what a user's pass goes through, with the library of the other seeds only:
    candidate's fit (the one with the lowest d^2 at its best strength), each model on the
    other seeds at its fitted strength (:mod:`.ensemble`), each beside its own floor band
    (:mod:`.floor`: that model on every seed playing the measurement with the same samples,
-   pools of as many seeds); a fit is *at its floor* when it lies at or below its band and the
-   other fit does not score significantly lower, marker by marker (:mod:`.compare`);
+   pools of as many seeds); a fit is *at its floor* when it lies at or below its band, scores
+   significantly lower than the model before the fit and the other fit does not score
+   significantly lower, marker by marker (:mod:`.compare`); when both fits are at their floors
+   the case says the measurement *cannot separate* them (:func:`separation`);
 3. the same on the held-out markers alone;
 4. the paper's Table 7 (mean nRMSE over the N best cube candidates, N = 10) before and after
    the true fit, with the same markers, samples, pools and N, and its floor band likewise.
@@ -118,10 +120,45 @@ def scored(meas: Measurement, samples: MarkerSamples, library: Library, candidat
     return out
 
 
+def state(entry: dict[str, Any]) -> str:
+    """Where a fitted model's headline ends: 'above' its floor band; 'beaten' (inside, but a
+    rival fitted with the same budget scores significantly lower, :mod:`.compare`); 'no_fall'
+    (inside, but not significantly lower than the model before the fit, marker by marker: the
+    error did not fall, the fitted model's wider band holds it); else 'at_floor'."""
+    if entry['place'] == 'above':
+        return 'above'
+    if entry.get('rival', {}).get('lower', False):
+        return 'beaten'
+    if not entry['fall']['lower']:
+        return 'no_fall'
+    return 'at_floor'
+
+
 def at_floor(entry: dict[str, Any]) -> bool:
-    """A fitted model's headline at or below its floor band, and no rival fitted with the same
-    budget scoring significantly lower (:mod:`.compare`)."""
-    return bool(entry['place'] != 'above' and not entry.get('rival', {}).get('lower', False))
+    """A fitted model's headline at or below its floor band, significantly lower than before
+    the fit, and no rival fitted with the same budget scoring significantly lower."""
+    return state(entry) == 'at_floor'
+
+
+def with_falls(part: dict[str, Any]) -> dict[str, Any]:
+    """``part`` ('all' or 'held_out' of a case) with each fit's ``fall``: does the fitted model
+    score significantly lower than the model before, marker by marker (:mod:`.compare`)?"""
+    for key in ('after_true', 'after_wrong'):
+        if key in part:
+            part[key]['fall'] = rival_lower(_per_marker(part['before']), _per_marker(part[key]))
+    return part
+
+
+def separation(result: dict[str, Any]) -> str:
+    """What a case's two fits show: 'true_at_floor', 'wrong_at_floor', 'cannot_separate' (both
+    fits at their floors and neither scores significantly lower: the measurement cannot tell
+    the true effect from its rival) or 'neither'."""
+    a = result['all']
+    true = 'after_true' in a and at_floor(a['after_true'])
+    wrong = at_floor(a['after_wrong'])
+    if true and wrong:
+        return 'cannot_separate'
+    return 'true_at_floor' if true else 'wrong_at_floor' if wrong else 'neither'
 
 
 def _per_marker(entry: dict[str, Any]) -> F64:
@@ -194,7 +231,17 @@ def run_case(library: Library, case: FallCase, setup: FallSetup, with_table7: bo
     fit_meas = _only(meas, ~held)
     decision, fits, layout = _diagnose(library, fit_meas, case.seed, setup)
     true_fit = next((f for f in fits if f.name == case.candidate), None)
-    wrong = min((f for f in fits if f.name != case.candidate), key=lambda f: f.chi2)
+    wrong, skipped = None, []
+    for f in sorted((f for f in fits if f.name != case.candidate), key=lambda f: f.chi2):
+        try:  # the best wrong fit whose model can be scored on these markers
+            scored(meas, samples, library, f.name, f.strength, case.seed, setup, cache)
+        except ValueError as err:
+            skipped.append({'candidate': f.name, 'strength': f.strength, 'why': str(err)})
+            continue
+        wrong = f
+        break
+    if wrong is None:
+        raise ValueError(f'{case.name}: no wrong candidate could be scored ({skipped})')
     out: dict[str, Any] = {
         'case': case.name, 'candidate': case.candidate, 'strength': case.strength,
         'seed': case.seed, 'verdict': decision.verdict,
@@ -209,7 +256,8 @@ def run_case(library: Library, case: FallCase, setup: FallSetup, with_table7: bo
         out['true_fit'] = {'strength': true_fit.strength, 'sd': true_fit.strength_sd,
                            'd2': true_fit.chi2}
     models['after_wrong'] = (wrong.name, wrong.strength)
-    out['wrong_fit'] = {'candidate': wrong.name, 'strength': wrong.strength, 'd2': wrong.chi2}
+    out['wrong_fit'] = {'candidate': wrong.name, 'strength': wrong.strength, 'd2': wrong.chi2,
+                        'skipped': skipped}
     for part, (m, s) in parts.items():
         out[part] = {key: scored(m, s, library, c, x, case.seed, setup, cache)
                      for key, (c, x) in models.items()}
@@ -217,6 +265,7 @@ def run_case(library: Library, case: FallCase, setup: FallSetup, with_table7: bo
             true_e, wrong_e = out[part]['after_true'], out[part]['after_wrong']
             true_e['rival'] = rival_lower(_per_marker(true_e), _per_marker(wrong_e))
             wrong_e['rival'] = rival_lower(_per_marker(wrong_e), _per_marker(true_e))
+        with_falls(out[part])
     out['d2'] = _d2_entries(library, case, samples.subset(~held), layout, setup, decision,
                             true_fit, cache)
     if with_table7:
@@ -274,8 +323,10 @@ def summary(results: Sequence[dict[str, Any]], table7_like_for_like: bool) -> di
     effects = [r for r in results if r['candidate']]
     controls = [r for r in results if not r['candidate']]
     seen = [r for r in effects if r['all']['before']['place'] == 'above']
-    true_in = [r for r in seen if at_floor(r['all']['after_true'])]
-    wrong_in = [r for r in seen if at_floor(r['all']['after_wrong'])]
+    true_in = [r for r in seen if separation(r) == 'true_at_floor']
+    wrong_in = [r for r in seen if separation(r) == 'wrong_at_floor']
+    mixed = [r for r in seen if separation(r) == 'cannot_separate']
+    no_fall = [r for r in seen if state(r['all']['after_wrong']) == 'no_fall']
     wrong_band = [r for r in seen if r['all']['after_wrong']['place'] != 'above']
     held_fell = [r for r in seen if r['held_out']['after_true']['value']
                  < r['held_out']['before']['value']]
@@ -284,7 +335,8 @@ def summary(results: Sequence[dict[str, Any]], table7_like_for_like: bool) -> di
                < r['table7']['before']['value'] - 1e-9]
     return {'cases': len(results), 'effect_cases': len(effects),
             'effect_seen': len(seen), 'true_fit_in_floor': len(true_in),
-            'wrong_fit_in_floor': len(wrong_in), 'wrong_fit_in_own_band': len(wrong_band),
+            'wrong_fit_in_floor': len(wrong_in), 'cannot_separate': len(mixed),
+            'wrong_fit_in_own_band': len(wrong_band), 'wrong_fit_no_fall': len(no_fall),
             'control_moved': sum(r['verdict'] in NAMED for r in controls),
             'controls': len(controls), 'held_out_fell': len(held_fell),
             'table7_like_for_like': table7_like_for_like,
@@ -297,9 +349,10 @@ def summary(results: Sequence[dict[str, Any]], table7_like_for_like: bool) -> di
             'd2_true_fit_below_floor': sum(r['d2']['after_true']['place'] == 'below'
                                            for r in effects if 'after_true' in r.get('d2', {})),
             'not_seen': sorted({r['case'] for r in effects if r not in seen}),
-            'true_fit_above_floor': sorted(f"{r['case']}@{r['seed']}" for r in seen
+            'true_fit_not_at_floor': sorted(f"{r['case']}@{r['seed']}" for r in seen
                                            if r not in true_in),
-            'wrong_fit_in_floor_cases': sorted(f"{r['case']}@{r['seed']}" for r in wrong_in)}
+            'wrong_fit_in_floor_cases': sorted(f"{r['case']}@{r['seed']}" for r in wrong_in),
+            'cannot_separate_cases': sorted(f"{r['case']}@{r['seed']}" for r in mixed)}
 
 
 def finite(value: float) -> float | None:

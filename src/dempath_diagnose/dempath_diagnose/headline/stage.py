@@ -75,3 +75,17 @@ def headline_sentence(entry: dict[str, Any], what: str) -> str:
             f"{f['high']:.2f} mm, the model played as the measurement with the same markers "
             f"and samples, pools of {entry['pool_seeds']} seed(s)): {where}")
     return line + (f"; {entry['why_below']}" if entry['why_below'] else '')
+
+
+def held_out_sentence(entry: dict[str, Any]) -> str:
+    """One line of the held-out check: the held-out markers' headline error before and after
+    the fit, each beside its floor band ('' when either could not be scored)."""
+    before, after = entry.get('before') or {}, entry.get('after') or {}
+    if before.get('value_mm') is None or after.get('value_mm') is None:
+        return ''
+    fb, fa = before['floor_mm'], after['floor_mm']
+    markers = ', '.join(map(str, entry['markers']))
+    return (f'held-out markers {markers} (left out of the diagnosis and the fit): headline '
+            f"error {before['value_mm']:.2f} mm ({before['place']} its floor band "
+            f"{fb['low']:.2f}-{fb['high']:.2f}) -> {after['value_mm']:.2f} mm "
+            f"({after['place']} {fa['low']:.2f}-{fa['high']:.2f})")

@@ -9,9 +9,11 @@ chaos of a few packings cancels and does not steer the fit. After each real eval
 emulator is corrected by the observed bias (real minus emulated statistics at those strengths,
 Kennedy & O'Hagan's discrepancy in its simplest, constant form) and the search runs again.
 
-Stops: at the floor (d^2 no longer above the mean of chi^2_k, :mod:`objective`), at the budget of
-simulations, when the error stops falling (an iteration removes less than ``MIN_GAIN`` of the
-error above the floor), on a lost scheduler or on Ctrl-C (the best strengths so far are kept).
+Stops: at the floor (d^2 no longer above the like-for-like floor band of the model at the best
+strengths so far, :mod:`objective`; the nominal mean of chi^2_k only where no band can be
+computed), at the budget of simulations, when the error stops falling (an iteration removes
+less than ``MIN_GAIN`` of the error above the nominal floor), on a lost scheduler or on Ctrl-C
+(the best strengths so far are kept).
 A candidate whose simulation fails (an unstable run) is scored as failed and the next proposal
 moves half way back towards the scene's current values.
 """
@@ -22,6 +24,7 @@ import math
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 from scipy.stats import chi2
@@ -102,6 +105,9 @@ class Recalibration:
         bias, bias_var: (k,) real minus emulated statistics at the best real evaluation, and
             the variance of that seed mean (None before any real evaluation): the emulator's
             error there, which the strengths' uncertainty carries.
+        floor_bands: The like-for-like d^2 band the loop judged each iteration by (the model
+            at that iteration's best strengths; iteration 0: the model as it is), JSON-ready;
+            empty when the loop stopped on the nominal chi^2 mean.
     """
 
     params: list[Param]
@@ -115,6 +121,7 @@ class Recalibration:
     note: str = ''
     bias: F64 | None = None
     bias_var: F64 | None = None
+    floor_bands: list[dict[str, Any]] = field(default_factory=list)
 
     @property
     def effect(self) -> str:
@@ -193,7 +200,7 @@ def recalibrate(objective: Objective, cands: CandidateEmulator | Sequence[Candid
     out = unchanged(objective, cands)
     if progress is not None:
         progress(out.progress(0.0))
-    if out.before <= objective.floor.k and not named:
+    if not _above_floor(objective, out, out.before, out.steps[0].strengths) and not named:
         _finish(out, progress)
         return out
     out.stop = ''
@@ -304,7 +311,7 @@ def _loop(out: Recalibration, objective: Objective, cands: Sequence[CandidateEmu
                 progress(out.progress(per_eval * max(0, (budget - used) // per)))
             if last_fail:
                 continue
-            if out.after <= objective.floor.k:
+            if not _above_floor(objective, out, out.after, out.strengths):
                 out.stop = 'floor'
                 return
             if prev_best - out.after < MIN_GAIN * max(objective.floor.above(prev_best), 1e-12):
@@ -312,6 +319,20 @@ def _loop(out: Recalibration, objective: Objective, cands: Sequence[CandidateEmu
                 return
     except KeyboardInterrupt:
         out.stop = 'interrupted'
+
+
+def _above_floor(objective: Objective, out: Recalibration, error: float,
+                 strengths: tuple[float, ...]) -> bool:
+    """Whether ``error`` lies above the like-for-like floor band of the model at ``strengths``
+    (recorded in ``out.floor_bands``), or above the nominal chi^2 mean where no band can be
+    computed."""
+    band = objective.floor_band(strengths) if objective.floor_band is not None else None
+    if band is None:
+        return error > objective.floor.k
+    place = band.place(error)
+    out.floor_bands.append({'iteration': len(out.steps) - 1, 'strengths': list(strengths),
+                            'error': error, 'place': place, **band.to_json(1.0)})
+    return place == 'above'
 
 
 def _emulated_diff(cands: Sequence[CandidateEmulator], x: F64) -> F64:

@@ -4,13 +4,19 @@ The error of a model at strength x is the Mahalanobis distance d^2(x) of the mea
 statistics from the model's prediction under the diagnosis' covariance (seed + one-particle
 sampling + measurement noise + model-discrepancy allowance, plus the emulator's own variance): the
 likelihood of :mod:`~dempath_diagnose.decision.verdict`, not a new one. What the true model itself
-gives over packing seeds is d^2 ~ chi^2_k (k observed statistics): the floor is its mean k and its
-band the central 95 % of chi^2_k. An error is *significantly above the floor* when d^2 exceeds the
-95 % quantile. No simulation runs here.
+gives over packing seeds is d^2 ~ chi^2_k (k observed statistics) only if the covariance is exactly
+right: that nominal floor is its mean k and its band the central 95 % of chi^2_k. The diagnosis'
+covariance carries a discrepancy allowance that dominates it, so a fitted model's d^2 lies far
+below chi^2_k; the loop therefore stops on the *like-for-like* band when one is given
+(``floor_band``: the model at the strengths played as the measurement by every library seed,
+the same markers, samples, layout and covariance, :mod:`dempath_diagnose.headline.d2floor`),
+and on the nominal mean k only when none can be computed (more than one strength fitted, or no
+library runs of the candidate). No simulation runs here.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -19,7 +25,10 @@ from scipy import stats
 
 from dempath_diagnose.decision.emulator import CandidateEmulator, Emulator
 from dempath_diagnose.decision.verdict import gauss_logpdf
+from dempath_diagnose.headline.floor import FloorBand
 from dempath_diagnose.records import F64
+
+BandOf = Callable[[tuple[float, ...]], FloorBand | None]  # strengths -> like-for-like d^2 band
 
 SIGNIFICANT = 0.95  # chi^2 quantile above which an error is significantly above the floor
 
@@ -59,12 +68,15 @@ class Objective:
         y: (k_obs,) measured statistics.
         observed: (k,) which statistics were measured.
         cov: (k, k) fixed covariance of the diagnosis.
+        floor_band: The like-for-like d^2 band of the model at given strengths (None: the
+            loop stops at the nominal chi^2 mean).
     """
 
     emulator: Emulator
     y: F64
     observed: NDArray[np.bool_]
     cov: F64
+    floor_band: BandOf | None = None
 
     @property
     def floor(self) -> Floor:

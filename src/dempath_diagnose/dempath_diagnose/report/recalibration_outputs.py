@@ -35,6 +35,10 @@ def to_json(r: Recalibration) -> dict[str, Any]:
             'parameters': params,
             'error_before': r.before, 'error_after': r.after,
             'floor': {'k': f.k, 'low': f.low, 'high': f.high, 'significant': f.significant},
+            'floor_bands': [{k: v for k, v in b.items() if k != 'samples'}
+                            for b in r.floor_bands],
+            'stopped_on': ('the like-for-like d^2 floor band' if r.floor_bands
+                           else 'the nominal chi^2 mean k'),
             'error_reduction': r.reduction, 'failures': r.failures,
             'simulations': r.steps[-1].simulations,
             'steps': [{**vars(s), 'strengths': list(s.strengths)} for s in r.steps]}

@@ -22,11 +22,14 @@ from dempath_diagnose.report.recalibration_figures import plot_trajectories
 
 def paper_and_trajectories(best: Recalibration, evaluate: Any, library: Any, d: Any,
                            cube: tuple[float, float, float], meas: Measurement, noise_m: float,
-                           out: Path) -> tuple[dict[str, Any], tuple[str, ...]]:
+                           out: Path, held: Measurement | None = None,
+                           ) -> tuple[dict[str, Any], tuple[str, ...]]:
     """(the ``paper`` entry of recalibration.json, figure file names written into ``out``).
 
-    ``meas`` is the measured pass as read (markers only), ``noise_m`` the measurement noise per
-    axis [m] of the floor's stand-in measurements.
+    ``meas`` is the measured pass as read (markers only) without the held-out markers,
+    ``held`` those markers (left out of the diagnosis and the fit; their headline error before
+    and after is the held-out check), ``noise_m`` the measurement noise per axis [m] of the
+    floor's stand-in measurements.
     """
     before = evaluate.baseline_records()
     after_files = evaluate.runs.get(best.strengths, []) if best.changed else []
@@ -38,6 +41,10 @@ def paper_and_trajectories(best: Recalibration, evaluate: Any, library: Any, d: 
     paper['after_is_before'] = not after
     paper['headline'] = headlines(meas, [r for _, r in before], [r for _, r in after], cube,
                                   noise_m)
+    if held is not None and len(held.markers):
+        paper['headline_held_out'] = {
+            'markers': [int(m) for m in held.markers],
+            **headlines(held, [r for _, r in before], [r for _, r in after], cube, noise_m)}
     paper['headline_iterations'] = iteration_headlines(meas, evaluate, before, cube, noise_m)
     fig = plot_trajectories(meas, d.layout, cube, [r for _, r in before],
                             [r for _, r in after], out / 'trajectories.png')

@@ -209,6 +209,15 @@ def depth(cam: Camera, xyz: FloatArray) -> float:
     return float((np.asarray(cam.R) @ np.asarray(xyz, np.float64) + np.asarray(cam.t))[2])
 
 
+def marker_diameter_px(cam: Camera, grid: MarkerGrid, diameter_m: float) -> float:
+    """A marker's diameter in ``cam``'s image [px]: ``f * D / Z`` at the median depth of the
+    grid points (the markers start on them and stay within a few cm)."""
+    _, xyz = grid.points()
+    z = float(np.median([depth(cam, p) for p in xyz]))
+    f = 0.5 * float(np.asarray(cam.K)[0, 0] + np.asarray(cam.K)[1, 1])
+    return f * diameter_m / z if z > 0 else 0.0
+
+
 def back_project(cam: Camera, uv: FloatArray, at_depth: float) -> FloatArray:
     """The world point (3,) m on the line of sight through ``uv`` (2,) px at a depth [m]."""
     xn = undistort_normalized(cam, np.asarray(uv, np.float64).reshape(1, 2))[0]

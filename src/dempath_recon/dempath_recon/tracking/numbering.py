@@ -14,7 +14,13 @@ from collections import Counter
 import numpy as np
 from numpy.typing import NDArray
 
-from dempath_recon.tracking.associate import number_by_grid, on_epipolar_line, triangulate_pairs
+from dempath_recon.tracking.associate import (
+    epipolar_distance,
+    number_by_grid,
+    on_epipolar_line,
+    triangulate_pairs,
+)
+from dempath_recon.tracking.grid_pairs import number_pairs_by_grid
 from dempath_recon.tracking.linker import UNNUMBERED
 from dempath_recon.tracking.one_camera import grid_anchor, late_grid
 from dempath_recon.tracking.state import (
@@ -29,11 +35,24 @@ FloatArray = NDArray[np.float64]
 
 
 def number_all_by_grid(state: StereoState, camera: str, track_ids: NDArray[np.int64],
-                       uv: FloatArray, events: list[str]) -> NDArray[np.int32]:
-    """Number this camera's tracks by the projected grid, once enough detections fit it."""
+                       uv: FloatArray, stamp_s: float, events: list[str]) -> NDArray[np.int32]:
+    """Number the tracks by the grid: both cameras' at once from pairs matched to the grid in
+    3D (:func:`~dempath_recon.tracking.grid_pairs.number_pairs_by_grid`) when the other camera's
+    last frame is at most 1.5 frame periods old and not numbered by the grid yet, or numbered
+    only provisionally (alone, before this camera's first frame: its numbers are replaced).
+    Failing that (too few pairs fit the grid, or no frame of the other camera), this camera
+    alone by the projected grid, once enough detections fit it (provisionally while the other
+    camera has sent no frame)."""
+    need = min(state.config.min_grid_markers, len(state.config.grid.points()[0]))
+    other = state.other(camera)
+    if other not in state.grid_uv or other in state.provisional:
+        joint = number_both_by_grid(state, camera, track_ids, uv, stamp_s, need, events)
+        if joint is not None:
+            return joint
+    if state.last_stamp[other] is None:
+        state.provisional.add(camera)
     numbers, grid_uv = number_by_grid(state.cameras[camera], uv, state.config.grid,
                                       state.config.grid_gate_px)
-    need = min(state.config.min_grid_markers, len(state.config.grid.points()[0]))
     found = int((numbers >= 0).sum())
     if found < need:
         events.append(f'{camera}: {found} of {len(uv)} detections fit the marker grid; '
@@ -49,6 +68,73 @@ def number_all_by_grid(state: StereoState, camera: str, track_ids: NDArray[np.in
     return numbers
 
 
+def number_both_by_grid(state: StereoState, camera: str, track_ids: NDArray[np.int64],
+                        uv: FloatArray, stamp_s: float, need: int, events: list[str],
+                        ) -> NDArray[np.int32] | None:
+    """Both cameras' tracks numbered together (this frame's and the other camera's last
+    frame's unnumbered ones), when at least ``need`` markers pair up on the grid; None
+    otherwise. The other camera's numbered points become its latest, so the pair checks of
+    this frame check them and record the markers' 3D positions."""
+    other = state.other(camera)
+    last = state.last_tracks[other]
+    if last is None or abs(last[0] - stamp_s) > 1.5 / state.config.fps or not len(last[1]):
+        return None
+    t_o, ids_o, uv_o = last
+    if other not in state.provisional:  # only its unnumbered tracks are free
+        numbered = {t.track_id for t in state.trackers[other].tracks if t.marker >= 0}
+        keep = np.array([int(t) not in numbered for t in ids_o], bool)
+        ids_o, uv_o = ids_o[keep], uv_o[keep]
+    mine, theirs = number_pairs_by_grid(state.cameras[camera], state.cameras[other], uv, uv_o,
+                                        state.config.grid, state.config.epipolar_px)
+    found = int((mine >= 0).sum())
+    if found < need:
+        return None
+    alone = one_camera_grid(state, camera, uv, mine, uv_o, theirs)
+    theirs = one_camera_grid(state, other, uv_o, theirs, uv, mine)
+    mine = alone
+    if other in state.provisional:  # its own grid's numbers give way to the pairs'
+        for tid in ids_o.tolist():
+            state.trackers[other].number(int(tid), UNNUMBERED)
+        state.latest[other].clear()
+        state.provisional.discard(other)
+    for cam, ids, nums, pts in ((camera, track_ids, mine, uv), (other, ids_o, theirs, uv_o)):
+        for tid, m in zip(ids, nums, strict=True):
+            if m >= 0:
+                state.trackers[cam].number(int(tid), int(m))
+        state.grid_uv[cam] = dict(zip(state.config.grid.points()[0].tolist(), number_by_grid(
+            state.cameras[cam], pts, state.config.grid, state.config.grid_gate_px)[1],
+            strict=True))
+    for m, p in zip(theirs, uv_o, strict=True):
+        if m >= 0:
+            state.latest[other][int(m)] = (t_o, p)
+    state.grid_time[camera], state.grid_time[other] = stamp_s, t_o
+    events.append(f"{camera}: {found} of {len(uv)} detections numbered with {other}'s "
+                  'by the grid in 3D')
+    return mine
+
+
+def one_camera_grid(state: StereoState, camera: str, uv: FloatArray, numbers: NDArray[np.int32],
+                    uv_o: FloatArray, numbers_o: NDArray[np.int32]) -> NDArray[np.int32]:
+    """``numbers`` (the pairs' numbers of ``camera``'s detections ``uv``) with the markers only
+    this camera sees numbered by its projected grid: a detection the pairs left unnumbered
+    takes its grid number when no pair took that number and no unnumbered detection of the
+    other camera (``uv_o``, ``numbers_o``) lies on its epipolar line (such a pair was left
+    unnumbered as unsure)."""
+    single, _ = number_by_grid(state.cameras[camera], uv, state.config.grid,
+                               state.config.grid_gate_px)
+    free_o = uv_o[numbers_o < 0]
+    partnered = (epipolar_distance(state.cameras[camera], state.cameras[state.other(camera)],
+                                   uv, free_o) <= state.config.epipolar_px).any(axis=1) \
+        if len(free_o) and len(uv) else np.zeros(len(uv), bool)
+    used = set(numbers[numbers >= 0].tolist())
+    out = numbers.copy()
+    for i in np.flatnonzero((numbers < 0) & (single >= 0) & ~partnered).tolist():
+        if int(single[i]) not in used:
+            out[i] = single[i]
+            used.add(int(single[i]))
+    return out
+
+
 def number_new(state: StereoState, camera: str, track_ids: NDArray[np.int64],
                markers: NDArray[np.int32], uv: FloatArray, stamp_s: float, events: list[str],
                ) -> NDArray[np.int32]:
@@ -60,7 +146,10 @@ def number_new(state: StereoState, camera: str, track_ids: NDArray[np.int64],
     numbered only when exactly one candidate passes, and a candidate whose epipolar line
     passes more than one unnumbered detection of this frame is no candidate. Failing that,
     a marker this camera has never seen that appears alone at its fitted grid point takes
-    that number. Numbers given here are taken back if a later pair contradicts them
+    that number, unless the other camera sees that marker now (then its epipolar line
+    decides, and it did not pass: on a tuning render a side track took marker 2's grid point
+    while the front saw 2 elsewhere, and followed marker 1 for 6 frames). Numbers given here
+    are taken back if a later pair contradicts them
     (:func:`~dempath_recon.tracking.pair_checks.verify`).
     """
     markers = markers.copy()
@@ -81,7 +170,8 @@ def number_new(state: StereoState, camera: str, track_ids: NDArray[np.int64],
                  and state.latest[camera].get(m, (-np.inf, None))[0] < starts.get(tid, 0.0)}
         number = pick(state, camera, tid, uv[k], cands, stamp_s, events)
         if number < 0 and starts.get(tid) == stamp_s:  # only a track's first frame
-            number = late_grid(state, camera, uv, k, seen)
+            # a marker the other camera sees now is numbered only on its epipolar line
+            number = late_grid(state, camera, uv, k, seen | set(recent))
             if number >= 0:
                 state.counts[camera].numbered_by_grid_late += 1
                 events.append(f'{camera}: track {tid} numbered marker {number}: it appeared '

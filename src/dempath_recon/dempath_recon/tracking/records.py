@@ -49,6 +49,10 @@ class StereoTrackConfig:
             marker that comes back is often numbered a few frames later, when the other
             camera sees it too). 0 gives every frame out as it is numbered on arrival (what
             ``update`` returns, whatever this is).
+        marker_diameter_m: the markers' diameter [m] (the paper's clay spheres: about 8 mm);
+            with the calibration and the grid's depth it gives each camera's detector the
+            expected size of a marker in the image, by which touching markers are split
+            (``DetectorConfig.marker_diameter_px``, unless that is set). 0: no splitting.
         ray_numbering: number a marker only one camera sees by the line of sight the bed
             carried it onto (``ray_numbering``). Off by default: on the re-rendered held-out
             recordings (another run, another look) it gave more wrong-pair 3D points (13 against
@@ -66,6 +70,7 @@ class StereoTrackConfig:
     doubt_link_px: float = 5.0
     max_speed_m_s: float = 2.0
     number_delay_frames: int = 5
+    marker_diameter_m: float = 0.008
     ray_numbering: bool = False
 
     def __post_init__(self) -> None:
@@ -74,6 +79,9 @@ class StereoTrackConfig:
             if not getattr(self, name) > 0:
                 msg = f'{name}: must be > 0, got {getattr(self, name)!r}'
                 raise ValueError(msg)
+        if not 0 <= self.marker_diameter_m < 0.1:
+            msg = f'marker_diameter_m: must be in [0, 0.1), got {self.marker_diameter_m!r}'
+            raise ValueError(msg)
         if self.number_delay_frames < 0:
             msg = f'number_delay_frames: must be >= 0, got {self.number_delay_frames!r}'
             raise ValueError(msg)

@@ -60,6 +60,10 @@ class StereoState:
         queue: the frames held for the publication delay.
         residuals: per camera, each checked frame's median distance of its numbered pairs
             from their epipolar lines [px] (``pair_checks.note_residuals``).
+        last_tracks: each camera's last frame's tracks: (stamp s, track ids (k,), px (k, 2)),
+            None before its first frame.
+        provisional: cameras numbered by their own grid before the other camera's first
+            frame; the grid numbering of both cameras at once renumbers them.
     """
 
     cameras: dict[str, Camera]
@@ -77,6 +81,8 @@ class StereoState:
     free: dict[str, tuple[float, NDArray[np.int64], FloatArray] | None]
     queue: ReleaseQueue
     residuals: dict[str, list[float]]
+    last_tracks: dict[str, tuple[float, NDArray[np.int64], FloatArray] | None]
+    provisional: set[str]
 
     @classmethod
     def start(cls, cameras: dict[str, Camera], config: StereoTrackConfig) -> StereoState:
@@ -93,7 +99,8 @@ class StereoState:
             late_numbered={n: set() for n in cameras}, refused={n: set() for n in cameras},
             pending={n: {} for n in cameras}, free=dict.fromkeys(cameras),
             queue=ReleaseQueue(cameras, config.number_delay_frames),
-            residuals={n: [] for n in cameras})
+            residuals={n: [] for n in cameras}, last_tracks=dict.fromkeys(cameras),
+            provisional=set())
 
     def other(self, camera: str) -> str:
         """The other camera's name."""

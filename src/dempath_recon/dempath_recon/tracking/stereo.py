@@ -26,6 +26,7 @@ one camera's evidence (``one_camera``), the pair checks before anything is given
 from __future__ import annotations
 
 import logging
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -33,7 +34,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dempath_recon.methods.triangulate import Camera
+from dempath_recon.tracking.associate import marker_diameter_px
 from dempath_recon.tracking.detect import Detections, ImageDecodeError, MarkerDetector
+from dempath_recon.tracking.linker import UNNUMBERED
 from dempath_recon.tracking.merge import StampMerge
 from dempath_recon.tracking.numbering import number_all_by_grid, number_new
 from dempath_recon.tracking.pair_checks import verify
@@ -51,7 +54,7 @@ from dempath_recon.tracking.state import (
 from dempath_recon.tracking.trajectories import marker_histories, triangulate_tracks
 
 __all__ = ['CameraCounts', 'PixelFrame', 'StereoMarkerTracker', 'StereoTrackConfig',
-           'marker_histories', 'track_bag', 'triangulate_tracks']
+           'camera_detectors', 'marker_histories', 'track_bag', 'triangulate_tracks']
 LOG = logging.getLogger(__name__)
 FloatArray = NDArray[np.float64]
 
@@ -69,7 +72,7 @@ class StereoMarkerTracker:
     def __init__(self, cameras: dict[str, Camera], config: StereoTrackConfig | None = None,
                  ) -> None:
         self.state = StereoState.start(cameras, config or StereoTrackConfig())
-        self.detector = MarkerDetector(self.state.config.detector)
+        self.detectors = camera_detectors(cameras, self.state.config)
 
     @property
     def cameras(self) -> dict[str, Camera]:
@@ -111,7 +114,7 @@ class StereoMarkerTracker:
         """One compressed frame of ``camera``; never raises for bad images (counts them)."""
         counts = self.counts[camera]
         try:
-            det = self.detector.detect_jpeg(jpeg)
+            det = self.detectors[camera].detect_jpeg(jpeg)
         except ImageDecodeError as err:
             index = counts.frames + counts.undecodable + counts.out_of_order  # of this camera
             counts.undecodable += 1
@@ -124,7 +127,7 @@ class StereoMarkerTracker:
 
     def update_image(self, camera: str, stamp_s: float, image: NDArray[np.uint8]) -> PixelFrame:
         """One decoded BGR frame (full size) of ``camera``."""
-        return self.update_detections(camera, stamp_s, self.detector.detect(image))
+        return self.update_detections(camera, stamp_s, self.detectors[camera].detect(image))
 
     def update_detections(self, camera: str, stamp_s: float, det: Detections) -> PixelFrame:
         """One frame's detections of ``camera``: link, number, check against the other camera.
@@ -159,16 +162,18 @@ class StereoMarkerTracker:
         forget_refusals(state, camera, stamp_s)
         markers = tf.markers
         if camera not in state.grid_uv:
-            markers = number_all_by_grid(state, camera, tf.track_ids, tf.uv, events)
+            markers = number_all_by_grid(state, camera, tf.track_ids, tf.uv, stamp_s, events)
         markers = number_new(state, camera, tf.track_ids, markers, tf.uv, stamp_s, events)
         markers = number_pairs(state, camera, tf.track_ids, markers, tf.uv, stamp_s, events)
         if state.config.ray_numbering:
             markers = number_by_ray(state, camera, tf.track_ids, markers, tf.uv, stamp_s,
                                     events)
         markers = verify(state, camera, tf.track_ids, markers, tf.uv, stamp_s, events)
+        markers = withhold_crowded(det, tf.uv, markers)
         free_mask = unnumbered_tracks(state, camera, tf.track_ids, markers)
         free = np.flatnonzero(free_mask)
         state.free[camera] = (stamp_s, tf.track_ids[free], tf.uv[free])
+        state.last_tracks[camera] = (stamp_s, tf.track_ids, tf.uv)
         counts.tracked += int((markers >= 0).sum())
         for m, p in zip(markers, tf.uv, strict=True):
             if m >= 0:
@@ -201,6 +206,34 @@ class StereoMarkerTracker:
         frame, late = renumber(held, state.trackers[held.camera].tracks, state.config.fps)
         state.counts[held.camera].numbered_late += late
         return frame
+
+
+def withhold_crowded(det: Detections, uv: FloatArray, markers: NDArray[np.int32],
+                     ) -> NDArray[np.int32]:
+    """``markers`` with the points of crowded spots (``Detections.crowded``: two touching
+    markers left in one spot, its centre between them) unnumbered; the track keeps its
+    number. ``uv`` (k, 2) are the frame's points, each one of ``det``'s."""
+    if det.crowded is None or not det.crowded.any():
+        return markers
+    big = {tuple(p) for p in det.uv[det.crowded].tolist()}
+    out = markers.copy()
+    out[[tuple(p) in big for p in uv.tolist()]] = UNNUMBERED
+    return out
+
+
+def camera_detectors(cameras: dict[str, Camera], config: StereoTrackConfig,
+                     ) -> dict[str, MarkerDetector]:
+    """Each camera's detector: ``config.detector`` with the markers' expected diameter in that
+    camera's image (``marker_diameter_px`` from the calibration, the grid's depth and
+    ``config.marker_diameter_m``, unless the detector's settings give one)."""
+    out = {}
+    for name, cam in cameras.items():
+        det = config.detector
+        if det.marker_diameter_px == 0 and config.marker_diameter_m > 0:
+            det = replace(det, marker_diameter_px=marker_diameter_px(
+                cam, config.grid, config.marker_diameter_m))
+        out[name] = MarkerDetector(det)
+    return out
 
 
 def track_bag(bag: Path, cameras: dict[str, Camera], config: StereoTrackConfig | None = None,

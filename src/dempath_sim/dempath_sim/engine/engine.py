@@ -8,9 +8,11 @@ X lateral, Y up, Z tool travel.
 
 One `Engine.step` is the named stages of a velocity-Verlet step (see `integrate.py`):
 `integrate_first_half` (half kick + drift, domain and blow-up checks, see `stability.py`),
-`find_contacts` (neighbour-list rebuild when a particle moved more than skin / 2, history
-carried over; states of REORDER_MIN or more particles are first put in cell order, see
-`SimState.reorder`: index order changes, ids follow the particles),
+`find_contacts` (neighbour-list rebuild when a particle moved more than skin / 2, or with
+``local_rebuild`` when grains moved a skin relative to their neighbours, see `rebuild.py`; history
+carried over into rows for the touching pairs only, see `history.py`; states of REORDER_MIN or
+more particles are first put in cell order, see `SimState.reorder`: index order changes, ids
+follow the particles),
 `contact_forces` (particle-particle, particle-plane, particle-tool), `integrate_second_half`.
 The plane and tool pass runs over the particles that can reach a plane or the tool until the
 next list build (`reach.BoundaryCandidates`, from the build positions); the candidates are
@@ -34,21 +36,22 @@ from numpy.typing import NDArray
 
 from dempath_sim.engine.allocator import keep_freed_memory
 from dempath_sim.engine.boundary import MAX_CANDIDATES, N_SLOTS, boundary_forces
+from dempath_sim.engine.history import PairHistory
 from dempath_sim.engine.integrate import first_half, second_half
 from dempath_sim.engine.kernel_cache import refresh_own_kernel_cache
 from dempath_sim.engine.kernel_threads import prefer_openmp_layer, threads_at_most
 from dempath_sim.engine.laws.dispatch import build_pair_table
 from dempath_sim.engine.mesh import TriangleGrid, TriangleMesh, build_triangle_grid, mesh_margin
 from dempath_sim.engine.neighbors import (
-    build_neighbor_list,
+    build_neighbor_cells,
     cell_order,
     overlapping_pairs,
     permute_in_place,
-    transfer_history,
 )
 from dempath_sim.engine.pair_forces import pair_forces, reduce_buffers
 from dempath_sim.engine.params import SimParams
 from dempath_sim.engine.reach import BoundaryCandidates, box_displacement
+from dempath_sim.engine.rebuild import ListKeeper
 from dempath_sim.engine.sleep import SleepSettings, near_tool_box, update_sleep
 from dempath_sim.engine.stability import (
     check_contacts,
@@ -95,7 +98,8 @@ class Engine:
 
     def __init__(self, params: SimParams, walls: Sequence[Plane] = (),
                  tool: TriangleMesh | None = None, reorder: bool = True,
-                 candidates: bool = True, sleep: SleepSettings | None = None) -> None:
+                 candidates: bool = True, sleep: SleepSettings | None = None,
+                 local_rebuild: bool = False) -> None:
         """Keep the set-up; no allocation until a state is stepped.
 
         Args:
@@ -108,10 +112,14 @@ class Engine:
                 physics; False tests every particle every step).
             sleep: Let grains at rest fall asleep (`sleep.py`); None (default): every grain is
                 integrated at every step.
+            local_rebuild: Keep the neighbour list past skin / 2 of travel while the grains
+                that moved that far moved together with their neighbours (`rebuild.py`; same
+                contacts, fewer builds near a tool).
         """
         self.reorder = reorder
         self.candidates = candidates
         self.sleep = sleep
+        self.local_rebuild = local_rebuild
         self._n_bound = 0  # most particles bound so far (the base of the lost fraction)
         self._screen = 0.0  # overlap / radius below which no contact is unstable at dt
         self.params = params
@@ -173,6 +181,7 @@ class Engine:
         self._perm_tmp = np.empty(self._ght.nbytes, np.uint8)  # cell-order permutation scratch
         self._scratch()
         self._skin = self.params.skin * (float(state.radii.min()) if n else 0.0)
+        self._keeper = ListKeeper(self._skin, self.local_rebuild)
         g_dt = float(np.linalg.norm(self._gravity)) * self._dt
         sleep = self.sleep
         self._v_sleep = 0.0 if sleep is None else sleep.speed_fraction * g_dt
@@ -183,8 +192,7 @@ class Engine:
         self.n_asleep = 0
         self._start: NDArray[np.int64] = np.zeros(n + 1, np.int64)
         self._nbr: NDArray[np.int32] = np.zeros(0, np.int32)
-        self._ht = np.zeros((0, 3))
-        self._hr = np.zeros((0, 3))
+        self._hist = PairHistory()
         grid = self._grid = None if self.tool is None else build_triangle_grid(
             self.tool, mesh_margin(state.radii))
         self._reach = BoundaryCandidates(
@@ -247,12 +255,11 @@ class Engine:
             new_to_old = np.asarray(new_to_old)[order]
         rows = np.diff(self._start)
         cap = int(rows.max()) * 5 // 4 + 4 if rows.size == state.n and rows.size else 0
-        start, nbr = build_neighbor_list(state.positions, state.radii, self._skin, cap)
-        ht = np.empty((len(nbr), 3))
-        hr = np.empty((len(nbr), 3))
-        transfer_history(new_to_old.astype(np.int64), self._start, self._nbr, self._ht, self._hr,
-                         start, nbr, ht, hr, state.positions, state.radii)
-        self._start, self._nbr, self._ht, self._hr = start, nbr, ht, hr
+        start, nbr, grid = build_neighbor_cells(state.positions, state.radii, self._skin, cap)
+        self._keeper.built(grid, float(state.radii.max()) if state.n else 0.0)
+        self._hist.carry(np.asarray(new_to_old), self._start, self._nbr, start, nbr,
+                         state.positions, state.radii, self._n_chunks)
+        self._start, self._nbr = start, nbr
         self._pos_build = state.positions.copy()
         self._tool_build = self.tool_pose.packed()
         self._reach.forget()
@@ -277,11 +284,14 @@ class Engine:
         g_args = TriangleGrid.kernel_args(self._grid)
         tri_mat = 0 if self.tool is None else self.tool.material
         sleeping = self.sleep is not None
+        hist = self._hist
         with threads_at_most(self._threads):
+            hist.make_room(self._start)
             pair_forces(state.positions, state.velocities, state.angular_velocities,
                         state.radii, state.masses, state.material, self._start, self._nbr,
-                        self._ht, self._hr, self._tab, dt, rolling, cohesion, self._fbuf,
-                        self._tbuf, self._worst, sleeping, self._asleep_u8, self._rim_u8,
+                        hist.slot, hist.ht, hist.hr, hist.tail, hist.live, self._tab, dt,
+                        rolling, cohesion, self._fbuf, self._tbuf, self._worst, sleeping,
+                        self._asleep_u8, self._rim_u8,
                         self._touch_u8, self._wake_u8, self._v_wake, self._evals)
             self.pair_evaluations += int(self._evals.sum())
             reduce_buffers(self._fbuf, self._tbuf, self._force, self._torque)
@@ -357,7 +367,7 @@ class Engine:
             moved, n_out = self.integrate_first_half(state)
             if n_out:
                 state = self._remove_outside(state)
-            elif moved > 0.5 * self._skin or tool_moved:
+            elif tool_moved or self._keeper.must_build(moved, state.positions, self._pos_build):
                 self.find_contacts(state, np.arange(state.n))
             self.contact_forces(state, self.tool_pose, self._dt)
             self.integrate_second_half(state)
@@ -439,8 +449,8 @@ class Engine:
     # ----------------------------------------------------------------- checkpoints
     _STATE_FIELDS = ('positions', 'velocities', 'angular_velocities', 'radii', 'masses',
                      'inertias', 'material', 'ids')
-    _ENGINE_ARRAYS = ('_force', '_torque', '_gkey', '_ght', '_ghr', '_start', '_nbr', '_ht',
-                      '_hr', '_pos_build', '_tool_build', '_asleep_u8', '_rim_u8', '_quiet')
+    _ENGINE_ARRAYS = ('_force', '_torque', '_gkey', '_ght', '_ghr', '_start', '_nbr',
+                      '_pos_build', '_tool_build', '_asleep_u8', '_rim_u8', '_quiet')
     _COUNTERS = ('removed_count', 'n_rebuilds', 'slot_overflows', 'pair_evaluations',
                  'n_asleep', 'woken', '_n_bound')
 
@@ -456,6 +466,7 @@ class Engine:
         out: dict[str, NDArray[np.generic]] = {
             f'state.{k}': getattr(state, k) for k in self._STATE_FIELDS}
         out.update({f'engine.{k}': getattr(self, k) for k in self._ENGINE_ARRAYS})
+        out.update({f'engine.hist.{k}': v for k, v in self._hist.arrays().items()})
         out['state.clock'] = np.array([state.time, float(state.step)])
         out['engine.counters'] = np.array([getattr(self, k) for k in self._COUNTERS], np.int64)
         pose = self.tool_pose
@@ -479,10 +490,15 @@ class Engine:
             getattr(state, k)[...] = v
         for k in self._ENGINE_ARRAYS:
             setattr(self, k, np.ascontiguousarray(data[f'engine.{k}']))
+        self._hist.restore({k: data[f'engine.hist.{k}'] for k in ('slot', 'ht', 'hr')}
+                           if 'engine.hist.slot' in data else  # by-entry springs (before)
+                           {'ht': data['engine._ht'], 'hr': data['engine._hr']},
+                           self._start, self._n_chunks)
         for k, v in zip(self._COUNTERS, np.asarray(data['engine.counters']).tolist(),
                         strict=True):
             setattr(self, k, int(v))
         self._reach.forget()
+        self._keeper.built(None, 0.0)  # the build's cells are not this order's: whole-bed rule
         return state
 
     # ----------------------------------------------------------------- introspection
@@ -497,9 +513,20 @@ class Engine:
         return int(self._nbr.size)
 
     @property
+    def kept_lists(self) -> int:
+        """Steps at which ``local_rebuild`` kept a list the whole-bed rule would have rebuilt
+        (since the last bind)."""
+        return self._keeper.kept_steps if self._bound is not None else 0
+
+    @property
     def loaded_springs(self) -> int:
         """Particle pairs whose tangential spring is loaded now (their contact history)."""
-        return int(np.count_nonzero(np.any(self._ht != 0.0, axis=1)))
+        return self._hist.loaded()
+
+    @property
+    def pair_springs(self) -> tuple[F64, F64]:
+        """(tangential [m], rolling [N m]) springs (m, 3) by neighbour-list entry (a copy)."""
+        return self._hist.by_entry()
 
     @property
     def n_contacts(self) -> int:
@@ -518,6 +545,6 @@ class Engine:
             per_particle += sum(a.nbytes for a in (
                 st.positions, st.velocities, st.angular_velocities, st.radii, st.masses,
                 st.inertias, st.material, st.ids))
-        pairs = self._nbr.nbytes + self._ht.nbytes + self._hr.nbytes
+        pairs = self._nbr.nbytes + self._hist.nbytes()
         return {'particle_arrays': int(per_particle), 'pair_arrays': int(pairs),
                 'pairs': int(self._nbr.size)}

@@ -1,5 +1,5 @@
 # mypy: disable-error-code="no-untyped-def"
-"""Cell-list half neighbour list (Verlet list with a skin) and contact-history transfer.
+"""Cell-list half neighbour list (Verlet list with a skin); the springs follow in `history.py`.
 
 Pairs (i, j), j > i, with |x_i - x_j| < r_i + r_j + skin are stored in CSR form (`start` (n+1,),
 `nbr` (m,)). Cells have edge `cell` (about two typical radii plus the skin); particle i searches
@@ -15,6 +15,7 @@ it, or when a row overflows, a second pass writes the CSR list directly (counts 
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit, prange
@@ -168,6 +169,18 @@ def cell_order(pos: NDArray[np.float64], rad: NDArray[np.float64],
     return order
 
 
+class CellGrid(NamedTuple):
+    """The cells of a list build: particle i of a state in cell order lies in cell c for
+    cell_start[c] <= i < cell_start[c + 1] (``in_order``; otherwise the ranges index the
+    build's sort order, not the particles)."""
+
+    lo: NDArray[np.float64]  # (3,) lower corner [m]
+    cell: float  # edge [m]
+    dims: NDArray[np.int64]  # (3,) cells per axis
+    cell_start: NDArray[np.int64]  # (n_cells + 1,) first sorted particle of each cell
+    in_order: bool  # the particles were in cell order at the build
+
+
 def build_neighbor_list(pos: NDArray[np.float64], rad: NDArray[np.float64],
                         skin: float, cap: int = 0) -> tuple[NDArray[np.int64], NDArray[np.int32]]:
     """Half neighbour list of spheres within r_i + r_j + skin.
@@ -183,10 +196,18 @@ def build_neighbor_list(pos: NDArray[np.float64], rad: NDArray[np.float64],
         (start (n+1,) int64, nbr (m,) int32): the neighbours j > i of i are
         nbr[start[i]:start[i+1]].
     """
+    start, nbr, _ = build_neighbor_cells(pos, rad, skin, cap)
+    return start, nbr
+
+
+def build_neighbor_cells(pos: NDArray[np.float64], rad: NDArray[np.float64], skin: float,
+                         cap: int = 0) -> tuple[NDArray[np.int64], NDArray[np.int32],
+                                                CellGrid | None]:
+    """`build_neighbor_list` and the cells it sorted the particles into (None for n = 0)."""
     n = len(rad)
     start = np.zeros(n + 1, np.int64)
     if n == 0:
-        return start, np.zeros(0, np.int32)
+        return start, np.zeros(0, np.int32), None
     lo, cell, dims = cell_grid(pos, rad, skin)
     _, cell_start, order = sort_into_cells(pos, lo, cell, dims)
     forward = bool(np.array_equal(order, np.arange(n)))  # the engine sorted the particles
@@ -205,59 +226,7 @@ def build_neighbor_list(pos: NDArray[np.float64], rad: NDArray[np.float64],
     else:
         scan_pairs(spos, srad, r_max, skin, lo, cell, dims, cell_start, order, start, nbr,
                    table, True, forward)
-    return start, nbr
-
-
-@njit(parallel=True, cache=True)
-def transfer_history(new_to_old, old_start, old_nbr, old_ht, old_hr, start, nbr, ht,
-                     hr, pos, rad):  # pragma: no cover - compiled
-    """Copy the springs of pairs present in the old list and overlapping now into the new list
-    (others start at 0).
-
-    Only old pairs with a non-zero spring are looked up, each in the new row of its lower
-    index; pairs with zero springs would copy zeros, so the result is the same as looking up
-    every new pair, for about half the work. A pair that no longer overlaps at the new
-    positions starts at 0: with dempath's forms its spring would be reset at this step's force
-    pass anyway; with LIGGGHTS' forms, whose springs outlive a separation until the next list
-    build (see `pair_forces`), this is LIGGGHTS 3.8's rule at a build (its neighbour build
-    keeps the history of touching pairs only).
-
-    Args:
-        new_to_old: (n,) index of each new particle in the old arrays (a subset, any order).
-        old_start, old_nbr, old_ht, old_hr: The previous list and its (m_old, 3) histories.
-        start, nbr: The new list; ht, hr: its (m, 3) histories (written).
-        pos, rad: (n, 3) positions [m] and (n,) radii [m] of the new particles.
-    """
-    n_old = old_start.shape[0] - 1
-    old_to_new = np.full(n_old, -1, np.int64)
-    for i in range(new_to_old.shape[0]):
-        old_to_new[new_to_old[i]] = i
-    for k in prange(ht.shape[0]):
-        for d in range(3):
-            ht[k, d] = 0.0
-            hr[k, d] = 0.0
-    for oi in prange(n_old):
-        ni = old_to_new[oi]
-        if ni < 0:
-            continue
-        for q in range(old_start[oi], old_start[oi + 1]):
-            if (old_ht[q, 0] == 0.0 and old_ht[q, 1] == 0.0 and old_ht[q, 2] == 0.0
-                    and old_hr[q, 0] == 0.0 and old_hr[q, 1] == 0.0 and old_hr[q, 2] == 0.0):
-                continue
-            nj = old_to_new[old_nbr[q]]
-            if nj < 0:
-                continue
-            rs = rad[ni] + rad[nj]
-            if ((pos[ni, 0] - pos[nj, 0]) ** 2 + (pos[ni, 1] - pos[nj, 1]) ** 2
-                    + (pos[ni, 2] - pos[nj, 2]) ** 2) >= rs * rs:
-                continue  # separated: the spring is not carried over
-            a, b, sign = (ni, nj, 1.0) if ni < nj else (nj, ni, -1.0)  # (j, i): springs flip
-            for k in range(start[a], start[a + 1]):
-                if nbr[k] == b:
-                    for d in range(3):
-                        ht[k, d] = sign * old_ht[q, d]
-                        hr[k, d] = sign * old_hr[q, d]
-                    break
+    return start, nbr, CellGrid(lo, cell, dims, cell_start, forward)
 
 
 def overlapping_pairs(positions: NDArray[np.float64], radii: NDArray[np.float64],

@@ -11,7 +11,10 @@ LIGGGHTS' forms (``SimParams.contact_forms == 'liggghts'``, TAB_FORMS): LIGGGHTS
 sphere pair's history while the pair stays in its neighbour list (its ``surfacesClose``, which
 would clear it, runs only for pairs within ``contactDistanceFactor`` radii, 1 by default, which
 the touching branch takes first), so a pair that parts and touches again before the next list
-build resumes its old springs; the build drops them (`neighbors.transfer_history`).
+build resumes its old springs; the build drops them (`history.carry_sources`).
+The springs lie in rows for the touching pairs only (`history.py`): entry k's row is slot[k]; a
+pair that starts touching takes the row at its chunk's tail, one that parts (dempath's forms)
+frees its row.
 With sleeping grains (`sleep.py`) a pair of two sleeping grains, neither on the rim, is skipped
 with its springs kept; a touching pair of one sleeping and one awake grain marks the sleeping one
 as touched (rim at the next step) and, when the awake one moves faster than the wake speed, to be
@@ -29,8 +32,8 @@ from dempath_sim.engine.laws.dispatch import TAB_FORMS, resolve_contact
 
 
 @njit(parallel=True, fastmath=True, cache=True)
-def pair_forces(pos, vel, omg, rad, mass, mat, start, nbr, ht, hr, tab, dt, rolling, cohesion,
-                fbuf, tbuf, worst, sleeping, asleep, rim, touch, wake, v_wake,
+def pair_forces(pos, vel, omg, rad, mass, mat, start, nbr, slot, ht, hr, tail, live, tab, dt,
+                rolling, cohesion, fbuf, tbuf, worst, sleeping, asleep, rim, touch, wake, v_wake,
                 evals):  # pragma: no cover - compiled
     """Accumulate particle-particle forces and torques into per-chunk buffers.
 
@@ -40,7 +43,10 @@ def pair_forces(pos, vel, omg, rad, mass, mat, start, nbr, ht, hr, tab, dt, roll
         mat: (n,) int32 material indices.
         start: (n + 1,) int64 CSR offsets of the half neighbour list.
         nbr: (m,) int32 neighbour j > i of each list entry.
-        ht, hr: (m, 3) tangential [m] and rolling [N m] spring histories per list entry.
+        slot: (m,) int32 history row of each list entry, -1 for none (updated).
+        ht, hr: (rows, 3) tangential [m] and rolling [N m] springs (`history.PairHistory`).
+        tail: (n_chunks,) int64 next free row of each chunk's region (advanced).
+        live: (n_chunks,) int64 out: entries with a row after the pass, per chunk.
         tab: Pair table (see contact.build_pair_table).
         dt: Time step [s].
         rolling, cohesion: Switches of the optional laws.
@@ -63,11 +69,15 @@ def pair_forces(pos, vel, omg, rad, mass, mat, start, nbr, ht, hr, tab, dt, roll
         w_i = -1
         w_j = -1
         count = 0
+        row_next = tail[c]
+        rows = 0
         v_wake2 = v_wake * v_wake
         for i in range(c * n // n_chunks, (c + 1) * n // n_chunks):
             for k in range(start[i], start[i + 1]):
                 j = nbr[k]
                 if sleeping and asleep[i] and asleep[j] and not (rim[i] or rim[j]):
+                    if slot[k] >= 0:
+                        rows += 1
                     continue  # frozen pair: same force at every step, springs kept
                 count += 1
                 dx = pos[i, 0] - pos[j, 0]
@@ -76,13 +86,21 @@ def pair_forces(pos, vel, omg, rad, mass, mat, start, nbr, ht, hr, tab, dt, roll
                 d2 = dx * dx + dy * dy + dz * dz
                 rs = rad[i] + rad[j]
                 if d2 >= rs * rs:
-                    if (ht[k, 0] != 0.0 or ht[k, 1] != 0.0 or ht[k, 2] != 0.0
-                            or hr[k, 0] != 0.0 or hr[k, 1] != 0.0 or hr[k, 2] != 0.0) \
-                            and tab[mat[i], mat[j], TAB_FORMS] == 0.0:
-                        for q in range(3):  # just separated: springs reset (written only
-                            ht[k, q] = 0.0  # then, so that untouched rows stay clean in
-                            hr[k, q] = 0.0  # cache and are not written back)
+                    if slot[k] >= 0:
+                        if tab[mat[i], mat[j], TAB_FORMS] == 0.0:
+                            slot[k] = -1  # just separated: springs reset (row freed)
+                        else:
+                            rows += 1
                     continue
+                s = slot[k]
+                if s < 0:  # a new contact: the next row of the chunk, springs from zero
+                    s = row_next
+                    row_next += 1
+                    slot[k] = s
+                    for q in range(3):
+                        ht[s, q] = 0.0
+                        hr[s, q] = 0.0
+                rows += 1
                 if sleeping and asleep[i] != asleep[j]:
                     s_ = i if asleep[i] else j  # the sleeping grain and the awake one
                     a_ = j if asleep[i] else i
@@ -114,7 +132,7 @@ def pair_forces(pos, vel, omg, rad, mass, mat, start, nbr, ht, hr, tab, dt, roll
                 fx, fy, fz, mx, my, mz, _ = resolve_contact(
                     tab, mat[i], mat[j], delta, r_eff, m_eff, area, nx, ny, nz, vx, vy, vz,
                     omg[i, 0] - omg[j, 0], omg[i, 1] - omg[j, 1], omg[i, 2] - omg[j, 2],
-                    ht, hr, k, dt, rolling)
+                    ht, hr, s, dt, rolling)
                 fb[i, 0] += fx
                 fb[i, 1] += fy
                 fb[i, 2] += fz
@@ -135,6 +153,8 @@ def pair_forces(pos, vel, omg, rad, mass, mat, start, nbr, ht, hr, tab, dt, roll
         worst[c, 1] = w_i
         worst[c, 2] = w_j
         evals[c] = count
+        tail[c] = row_next
+        live[c] = rows
 
 
 @njit(parallel=True, cache=True)

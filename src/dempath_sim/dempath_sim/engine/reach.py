@@ -25,9 +25,11 @@ def reach_candidates(pos_build, rad, planes, plane_reach, tool_ref, g_lo, g_hi, 
 
     A particle within plane_reach + r of a plane, or whose centre lies within tool_reach of the
     triangle grid's box (tool frame of the pose tool_ref), both at the build positions, is kept.
-    With particles at most skin / 2 from pos_build and tool points at most D from their place
-    at tool_ref, plane_reach >= skin / 2 and tool_reach >= skin / 2 + D make the others unable
-    to touch: their slots would be cleared by the full pass this step, so they are here.
+    With particles at most d from pos_build and tool points at most D from their place at
+    tool_ref, plane_reach >= d and tool_reach >= d + D make the others unable to touch: their
+    slots would be cleared by the full pass this step, so they are here. The engine passes
+    plane_reach = skin and tool_reach = skin + D: d is skin / 2 under the whole-bed rebuild
+    rule and below one skin with the kept list of `rebuild.py`.
 
     Args:
         pos_build: (n, 3) positions at the neighbour-list build [m]; rad: (n,) radii [m].

@@ -26,7 +26,8 @@ from dempath_sim.engine.state import SimState
 from dempath_sim.engine.stl import read_stl
 from dempath_sim.engine.timestep import rayleigh_time_step
 from dempath_sim.errors import RunStoppedError, SceneError
-from dempath_sim.liggghts import deck as dk
+from dempath_sim.liggghts import fill_deck as fd
+from dempath_sim.liggghts import tool_deck as td
 from dempath_sim.liggghts.commands import write_ascii_stl
 from dempath_sim.liggghts.errors import DeckError
 from dempath_sim.liggghts.runner import RunOutput, run_deck
@@ -50,7 +51,7 @@ def scene_time_step(scene: SceneSpec, model: PhysicsModel) -> float:
     """The scene's time step, or rayleigh_safety x the Rayleigh step of the finest sphere [s]."""
     if scene.sim.time_step_s is not None:
         return scene.sim.time_step_s
-    d_min = min(min(dk.layer_templates(layer, model.coarse_grain if layer.coarse_grained
+    d_min = min(min(fd.layer_templates(layer, model.coarse_grain if layer.coarse_grained
                                        else 1.0)[0]) for layer in scene.layers)
     shear = model.particle_youngs_modulus_pa / (2 * (1 + model.particle_poisson))
     nu = model.particle_poisson
@@ -92,27 +93,27 @@ def _pour_deck(scene: SceneSpec, params: SimParams, workdir: Path, friction: str
     dt = dempath_time_step(params, loose)
     big = 2.0 * float(loose.radii.max())
     top = float((loose.positions[:, 1] + loose.radii).max())
-    box = dk.box_bounds(scene, top, 2 * big, tool_sweep(scene, model))
+    box = fd.box_bounds(scene, top, 2 * big, tool_sweep(scene, model))
     order = np.argsort(loose.ids)
-    dk.write_data(str(workdir / dk.POUR_DATA), loose.ids[order].astype(np.int64) + 1,
+    fd.write_data(str(workdir / fd.POUR_DATA), loose.ids[order].astype(np.int64) + 1,
                   loose.positions[order], loose.velocities[order],
                   loose.angular_velocities[order], loose.radii[order],
                   model.particle_density_kg_m3, len(params.materials), box)
-    text = dk.pour_fill_deck(scene, params, dt, 0.3 * big, friction=friction)
+    text = fd.pour_fill_deck(scene, params, dt, 0.3 * big, friction=friction)
     return text, dt, np.asarray(loose.extra['layer'], dtype=np.int32)[order], box
 
 
 def _insert_deck(scene: SceneSpec, params: SimParams, friction: str,
-                 ) -> tuple[str, float, dk.FillPlan, Box]:
+                 ) -> tuple[str, float, fd.FillPlan, Box]:
     """The insert/pack fill deck, its dt [s] (dividing the output interval), plan and box."""
     model = scene.physics_model()
     dt0 = scene_time_step(scene, model)
     dt = scene.output.interval_s / max(1, math.ceil(scene.output.interval_s / dt0))
-    plan = dk.fill_plan(scene, model.coarse_grain, target_solid_fraction(scene, model))
+    plan = fd.fill_plan(scene, model.coarse_grain, target_solid_fraction(scene, model))
     extent = tool_sweep(scene, model)
-    text = dk.insert_fill_deck(scene, params, dt, plan, friction, extent)
+    text = fd.insert_fill_deck(scene, params, dt, plan, friction, extent)
     big = max(max(d) for d in plan.diameters)
-    return text, dt, plan, dk.box_bounds(scene, plan.top, 2 * big, extent)
+    return text, dt, plan, fd.box_bounds(scene, plan.top, 2 * big, extent)
 
 
 def fill_liggghts(scene: SceneSpec, workdir: Path, nprocs: int = 1,
@@ -142,12 +143,12 @@ def fill_liggghts(scene: SceneSpec, workdir: Path, nprocs: int = 1,
         expected = sum(plan.counts)
     (workdir / 'in.fill').write_text(text)
     run = run_deck(workdir / 'in.fill', nprocs=nprocs)
-    frame = read_dump(workdir / dk.FILL_DUMP)[-1]
+    frame = read_dump(workdir / fd.FILL_DUMP)[-1]
     ids = frame.column('id').astype(np.int64)
     pos = frame.data[:, [frame.columns.index(c) for c in ('x', 'y', 'z')]]
     radii = frame.column('radius')
     cols = [frame.columns.index(c) for c in ('vx', 'vy', 'vz', 'omegax', 'omegay', 'omegaz')]
-    dk.write_data(str(workdir / dk.BED_DATA), ids, pos, frame.data[:, cols[:3]],
+    fd.write_data(str(workdir / fd.BED_DATA), ids, pos, frame.data[:, cols[:3]],
                   frame.data[:, cols[3:]], radii, model.particle_density_kg_m3,
                   len(params.materials), box)
     if len(ids) < 0.99 * expected:
@@ -206,9 +207,9 @@ def bed_from_packing(scene: SceneSpec, state: SimState, surface_y: float,
     model = scene.physics_model()
     dt = dempath_time_step(build_params(scene, model), state)
     workdir.mkdir(parents=True, exist_ok=True)
-    box = dk.box_bounds(scene, 0.0, 4 * float(state.radii.max()), tool_sweep(scene, model))
+    box = fd.box_bounds(scene, 0.0, 4 * float(state.radii.max()), tool_sweep(scene, model))
     ids = state.ids.astype(np.int64) + 1
-    dk.write_data(str(workdir / dk.BED_DATA), ids, state.positions, state.velocities,
+    fd.write_data(str(workdir / fd.BED_DATA), ids, state.positions, state.velocities,
                   state.angular_velocities, state.radii, model.particle_density_kg_m3, 3, box)
     report = {'surface_height_m': surface_y, 'n_particles': float(state.n), 'dt_s': dt,
               'from_dempath_packing': 1.0}
@@ -302,17 +303,17 @@ def _run_scene(scene: SceneSpec, workdir: Path, nprocs: int, friction: str,
     ids, roles, marker_ids = sel.tracked(scene.output.candidates)
     path = tool_path(scene, model, bed.report['surface_height_m'])
     tris = read_stl(scene.tool.mesh) * scene.tool.scale + np.asarray(path.start_position_m)
-    write_ascii_stl(str(workdir / dk.TOOL_STL), tris.tolist(), 'tool')
+    write_ascii_stl(str(workdir / td.TOOL_STL), tris.tolist(), 'tool')
     slot = slot_ids(bed, tris, scene.tool.placement, str(scene.tool.mesh))
     dt = bed.report['dt_s']
     every = round(scene.output.interval_s / dt)
     snap = round(scene.output.snapshot_interval_s / dt)
     travel = path.time_to_travel(scene.tool.travel_m)
     stop = travel if options.follow_s > 0 else math.inf
-    stage = dk.ToolStage(path, ids, 0, slot, travel + options.follow_s, dt, every, snap,
+    stage = td.ToolStage(path, ids, 0, slot, travel + options.follow_s, dt, every, snap,
                          settle_steps=round(scene.tool.settle_s / dt), stop_s=stop)
     params = build_params(scene, model)
-    (workdir / 'in.tool').write_text(dk.tool_deck(scene, params, stage, friction))
+    (workdir / 'in.tool').write_text(td.tool_deck(scene, params, stage, friction))
     _check_stop(options, 'pass')
     t0 = time.monotonic()
     run = run_deck(workdir / 'in.tool', nprocs=nprocs)
@@ -320,13 +321,13 @@ def _run_scene(scene: SceneSpec, workdir: Path, nprocs: int, friction: str,
     return _result(workdir, stage, ids, roles, marker_ids, bed, run, scene, meta)
 
 
-def _result(workdir: Path, stage: dk.ToolStage, ids: NDArray[np.int64],
+def _result(workdir: Path, stage: td.ToolStage, ids: NDArray[np.int64],
             roles: NDArray[np.uint8], marker_ids: NDArray[np.int32], bed: SettledBed,
             run: RunOutput, scene: SceneSpec, extra: dict[str, float]) -> SimResult:
-    frames = read_dump(workdir / dk.TRACKED_DUMP)
+    frames = read_dump(workdir / td.TRACKED_DUMP)
     data = frames_by_id(frames, ids, ('x', 'y', 'z', 'vx', 'vy', 'vz'))
     times = (np.array([f.step for f in frames], dtype=np.float64) - stage.start_step) * stage.dt
-    tool = read_print(workdir / dk.TOOL_FILE, 10)
+    tool = read_print(workdir / td.TOOL_FILE, 10)
     force = np.zeros((len(times), 9))
     k = np.searchsorted(times, tool[:, 0] - 0.5 * stage.dt)
     ok = k < len(times)
@@ -347,11 +348,11 @@ def _result(workdir: Path, stage: dk.ToolStage, ids: NDArray[np.int64],
                      snapshot_radii=bed.radii.astype(np.float64), meta=meta)
 
 
-def _snapshots(workdir: Path, stage: dk.ToolStage, bed_ids: NDArray[np.int64],
+def _snapshots(workdir: Path, stage: td.ToolStage, bed_ids: NDArray[np.int64],
                ) -> tuple[NDArray[np.float64], NDArray[np.float32]]:
     """(ns,) times [s] and (ns, N, 3) float32 positions of the whole-bed dump (NaN where a
     particle is gone: the tool's slot, lost from the box); empty without snapshots."""
-    path = workdir / dk.SNAPSHOT_DUMP
+    path = workdir / td.SNAPSHOT_DUMP
     if not stage.snapshot_every or not path.is_file():
         return np.zeros(0), np.zeros((0, len(bed_ids), 3), np.float32)
     frames = read_dump(path)

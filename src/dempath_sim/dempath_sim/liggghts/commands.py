@@ -16,10 +16,13 @@ from collections.abc import Sequence
 
 from dempath_sim.engine.params import SimParams
 from dempath_sim.liggghts.errors import DeckError
+from dempath_sim.scene.spec import SceneSpec
 
 # LIGGGHTS refuses Young's moduli below 5 MPa in SI units unless 'soft_particles yes' is given
 # (global_properties.cpp); the paper's sand (Table 6: 1.70 MPa) needs it.
 SOFT_LIMIT_PA = 5e6
+
+SPLIT = '* 1 *'  # MPI grid: split X and Z only (bed below, empty tool space above)
 
 
 def fmt(x: float) -> str:
@@ -170,3 +173,17 @@ def write_ascii_stl(path: str, triangles: Sequence[Sequence[Sequence[float]]],
     out.append(f'endsolid {name}')
     with open(path, 'w') as fh:
         fh.write('\n'.join(out) + '\n')
+
+
+def physics(params: SimParams, dt: float, friction: str) -> list[str]:
+    """Materials, contact law, gravity, time step and the integrator."""
+    return [*materials(params, friction), *pair_style(params), *gravity(params),
+            f'timestep {fmt(dt)}', 'fix integr all nve/sphere']
+
+
+def bin_walls(scene: SceneSpec, params: SimParams, wall_type: int) -> list[str]:
+    """Floor and four side walls of the bin as primitive planes (open top)."""
+    w, floor = scene.bin.width_x_m / 2, -scene.bed_thickness_m
+    planes = (('y', floor), ('x', -w), ('x', w), ('z', 0.0), ('z', scene.bin.length_z_m))
+    return [plane_wall(f'wall{k}', params, axis, off, wall_type)
+            for k, (axis, off) in enumerate(planes)]

@@ -21,7 +21,8 @@ from typing import Any
 
 import numpy as np
 
-from dempath.bagio import make_typestore, write_bag
+from dempath.bagio import write_bag
+from dempath.typestore import make_typestore
 from dempath_twin.field import markers as ft
 from dempath_twin.rig import paper_rig
 

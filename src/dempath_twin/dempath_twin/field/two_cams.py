@@ -25,7 +25,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dempath import topics
-from dempath.bagio import make_typestore, write_bag
+from dempath.bagio import write_bag
+from dempath.typestore import make_typestore
 from dempath_twin.field.markers import background
 from dempath_twin.images import jpeg_message, stamp_header
 

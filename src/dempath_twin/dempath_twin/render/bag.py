@@ -24,11 +24,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dempath import topics
-from dempath.bagio import make_typestore, write_bag
+from dempath.bagio import write_bag
 from dempath.errors import DempathError
+from dempath.typestore import make_typestore
 from dempath_twin.images import jpeg_message, stamp_header
 from dempath_twin.render.bed_source import BedRecord, load_bed, run_for_recording
 from dempath_twin.render.camera_frame import CLAY_BGR, SAND_BGR, Look
+from dempath_twin.render.coverage import on_surface
 from dempath_twin.render.recording import (
     CALIB_GAP_S,
     START_NS,
@@ -117,7 +119,11 @@ def write_field_recording(bed: BedRecord, rig: Any, out: Path,
         shutil.rmtree(out)
     write_bag(out, messages(), typestore=store)
     calib_truth['field_start_ns'] = START_NS + round(t0 * 1e9)
-    save_truth(out, truth_json(truth, bed, _origin(bed), rig, config, calib_truth))
+    data = truth_json(truth, bed, _origin(bed), rig, config, calib_truth)
+    data['on_surface'] = on_surface(bed, config).astype(int).tolist()
+    data['on_surface_means'] = ('per frame and marker: at least half its disc seen from '
+                                'straight above, grains only (dempath_twin.render.coverage)')
+    save_truth(out, data)
     return out, truth
 
 

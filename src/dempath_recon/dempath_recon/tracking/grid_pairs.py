@@ -1,0 +1,122 @@
+"""The markers' first numbers decided by both cameras at once: pairs of detections on each
+other's epipolar lines, triangulated and matched to the grid in 3D.
+
+One camera alone numbers its detections by the projected grid in the image, where an oblique
+view packs the grid's rows close (13 px apart on a 25 mm grid seen from the side at 0.9 m) and
+markers the bed has already moved sit 5-10 px from their grid points: on a tuning render of
+another run one camera took marker 10 for 5 and the other 8 for 7, from the first frame to the
+last. In 3D the same markers lie within 10 mm of their grid points, a third of the pitch.
+
+So every pair (a detection of camera a, one of camera b) within ``epipolar_px`` of the other's
+epipolar line is triangulated, the grid is shifted by the 3D offset most grid points agree on
+(a vote, as the image grid is shifted in :func:`~dempath_recon.tracking.associate.number_by_grid`:
+the grid's height above the calibration board is not known; shifts of half a pitch or more are
+not tried, since a grid shifted by a pitch fits as well when markers are missing), and markers
+and pairs are matched one to one by ``scipy.optimize.linear_sum_assignment`` on a cost of the
+3D distance plus the epipolar distance (in units of their gates): camera a's detections first
+(each marker's cheapest pair through each), then camera b's given a's, a marker left unmatched
+when that is cheaper (``LEAVE``). A pair is a candidate only within ``GATE_SHARE`` of the grid's
+pitch of its grid point and when no other grid point is nearly as near (``MARGIN_SHARE``); the
+rest wait (a marker covered at the start is numbered later, by the epipolar line or as a pair).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.optimize import linear_sum_assignment
+
+from dempath_recon.methods.triangulate import Camera
+from dempath_recon.tracking.associate import MarkerGrid, epipolar_distance, triangulate_pairs
+
+FloatArray = NDArray[np.float64]
+GATE_SHARE = 0.4  # a pair farther than this share of the grid's pitch from a grid point is not it
+LEAVE = 2.0  # cost of leaving a marker unmatched: a pair at the gate and on the epipolar line's
+# edge costs 2 (the 3D distance and the epipolar distance in units of their gates)
+MAX_SHIFT_SHARE = 0.5  # the grid's 3D shift is below this share of the pitch
+MARGIN_SHARE = 0.2  # the next grid point must be this share of the pitch farther than the nearest
+
+
+def grid_pitch(grid: MarkerGrid) -> float:
+    """The grid's smallest distance between two grid points [m]."""
+    _, xyz = grid.points()
+    if len(xyz) < 2:
+        return float('inf')
+    d = np.linalg.norm(xyz[:, None] - xyz[None], axis=2)
+    return float(d[np.triu_indices(len(xyz), 1)].min())
+
+
+def number_pairs_by_grid(cam_a: Camera, cam_b: Camera, uv_a: FloatArray, uv_b: FloatArray,
+                         grid: MarkerGrid, epipolar_px: float,
+                         ) -> tuple[NDArray[np.int32], NDArray[np.int32]]:
+    """Marker numbers of camera a's (n, 2) and camera b's (k, 2) detections (-1: none, unsure).
+
+    Args:
+        cam_a, cam_b: the two cameras (world frame).
+        uv_a, uv_b: the detections of one frame of each camera [px].
+        grid: the marker grid (world frame, up to an unknown shift).
+        epipolar_px: largest distance of a pair from the epipolar line [px].
+    """
+    out_a = np.full(len(uv_a), -1, np.int32)
+    out_b = np.full(len(uv_b), -1, np.int32)
+    numbers, g = grid.points()
+    if not len(uv_a) or not len(uv_b) or not len(g):
+        return out_a, out_b
+    epi = epipolar_distance(cam_a, cam_b, uv_a, uv_b)
+    ia, ib = np.nonzero(epi <= epipolar_px)
+    if not len(ia):
+        return out_a, out_b
+    xyz, _ = triangulate_pairs(cam_a, cam_b, uv_a[ia], uv_b[ib])
+    pitch = grid_pitch(grid)
+    gate = GATE_SHARE * pitch
+    shift = _shift(xyz, g, gate, pitch)
+    dist = np.linalg.norm(xyz[None] - (g + shift)[:, None], axis=2)  # (markers, pairs)
+    second = np.sort(dist, axis=0)[1] if len(g) > 1 else np.full(len(ia), np.inf)
+    sure = (dist < gate) & (second[None] >= dist + MARGIN_SHARE * pitch)
+    cost = np.where(sure, dist / gate + epi[ia, ib][None] / epipolar_px, np.inf)
+    # camera a's detections first (each marker's cheapest pair through each), then b's given a's
+    side = _assign(np.stack([_cheapest(cost, ia == i) for i in range(len(uv_a))], axis=1))
+    cost_b = np.full((len(g), len(uv_b)), np.inf)
+    for m, i in side.items():
+        through = np.flatnonzero(ia == i)
+        cost_b[m, ib[through]] = cost[m, through]
+    for m, j in _assign(cost_b).items():
+        out_a[side[m]], out_b[j] = numbers[m], numbers[m]
+    return out_a, out_b
+
+
+def _cheapest(cost: FloatArray, among: NDArray[np.bool_]) -> FloatArray:
+    """(markers,) each marker's cheapest cost among the pairs ``among`` (inf: none)."""
+    return np.asarray(cost[:, among].min(axis=1) if among.any() else
+                      np.full(len(cost), np.inf), np.float64)
+
+
+def _assign(cost: FloatArray) -> dict[int, int]:
+    """marker row -> detection column, one to one (``linear_sum_assignment``), a marker left
+    without a detection when that costs less than its cheapest possible link (``LEAVE``)."""
+    n, k = cost.shape
+    full = np.full((n, k + n), np.inf)
+    full[:, :k] = cost
+    full[np.arange(n), k + np.arange(n)] = LEAVE
+    rows, cols = linear_sum_assignment(np.where(np.isfinite(full), full, 1e6))
+    return {int(r): int(c) for r, c in zip(rows, cols, strict=True)
+            if c < k and np.isfinite(cost[r, c])}
+
+
+def _shift(xyz: FloatArray, grid_xyz: FloatArray, gate: float, pitch: float) -> FloatArray:
+    """(3,) the 3D offset of the grid on which most grid points find a pair within ``gate``,
+    refined by the mean residual of those pairs."""
+    offsets = np.vstack([np.zeros((1, 3)), (xyz[None] - grid_xyz[:, None]).reshape(-1, 3)])
+    # the grid repeats itself: a shift by a pitch fits as well when markers are missing, so
+    # only shifts below half a pitch are tried (the grid's height is known to a few mm)
+    offsets = offsets[np.linalg.norm(offsets, axis=1) < MAX_SHIFT_SHARE * pitch]
+    # (offsets, grid points, pairs): each grid point's nearest pair under each offset
+    d = np.linalg.norm(grid_xyz[None, :, None] + offsets[:, None, None] - xyz[None, None],
+                       axis=3).min(axis=2)
+    score = np.clip(1.0 - (d / gate) ** 2, 0.0, None).sum(axis=1)
+    shift = offsets[int(np.argmax(score))]  # the first of equal scores: the same every run
+    d = np.linalg.norm(grid_xyz[:, None] + shift - xyz[None], axis=2)
+    near = d.min(axis=1) < gate
+    if near.any():
+        shift = shift + np.mean(xyz[d.argmin(axis=1)[near]] - (grid_xyz[near] + shift), axis=0)
+    return np.asarray(shift, np.float64)
