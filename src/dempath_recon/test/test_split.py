@@ -86,3 +86,18 @@ def test_three_markers_in_a_row_give_three() -> None:
             spot_image(SHAPE, truth, RADIUS, rng))
         assert len(found.uv) == 3
         assert nearest(found.uv, truth).max() < 0.8
+
+
+def test_a_pair_left_in_one_spot_is_not_numbered() -> None:
+    """Two 8 px markers 4.5 px apart left in one spot (its centre between them): its number
+    is withheld; a lone marker's is kept."""
+    from dempath_recon.tracking.stereo import withhold_crowded
+
+    rng = np.random.default_rng(1)
+    truth = np.array([[100.0, 80.0], [104.5, 80.5], [220.0, 160.0]])
+    detector = MarkerDetector(DetectorConfig(marker_diameter_px=2 * RADIUS))
+    found = detector.detect_jpeg(spot_image(SHAPE, truth, RADIUS, rng))
+    assert len(found.uv) == 2
+    lone = int(np.argmin(np.linalg.norm(found.uv - truth[2], axis=1)))
+    markers = withhold_crowded(found, found.uv[::-1], np.array([4, 7], np.int32))
+    assert markers.tolist() == ([4, -1] if lone == 1 else [-1, 7])

@@ -360,7 +360,8 @@ class DetectorNode(Node):
                 'work_queue': self.work.maxsize, **self.latency.figures(), **core}
 
     def publish_diagnostics(self) -> None:
-        """Counts of this camera as one DiagnosticStatus (WARN on any fault or a silent camera)."""
+        """Counts of this camera as one DiagnosticStatus (WARN on any fault, a silent camera,
+        or pairs off their epipolar lines: the cameras moved since the calibration)."""
         c = self.figures()
         faults = sum(int(c[k]) for k in ('missing_in', 'undecodable', 'failed', 'skipped',
                                          'dropped_behind', 'dropped_stale', 'gap_frames',
@@ -374,8 +375,13 @@ class DetectorNode(Node):
                   if self.last_arrival_s is not None else 0.0)
         if silent > self.silent_s:
             message = f'no frame for {silent:.1f} s; ' + message
+        drift = int(c.get('drift_frames', 0))
+        if drift:
+            message = (f"{drift} frames with pairs {float(c['pair_residual_px']):.1f} px "
+                       'from their epipolar lines: cameras moved since the calibration? '
+                       + message)
         status = DiagnosticStatus(
-            level=DiagnosticStatus.WARN if faults or silent > self.silent_s
+            level=DiagnosticStatus.WARN if faults or drift or silent > self.silent_s
             else DiagnosticStatus.OK,
             name=f'dempath_detector: {self.camera}', hardware_id=self.camera, message=message,
             values=[KeyValue(key=k, value=str(v)) for k, v in c.items()])

@@ -42,6 +42,12 @@ from dempath_recon.tracking.split import split_touching
 
 LOG = logging.getLogger(__name__)
 FloatArray = NDArray[np.float64]
+CROWDED_SIZE = 0.38  # a spot whose radius of gyration exceeds this share of a marker's diameter
+# holds two markers the splitting did not part (single markers on the tuning renders: at most
+# 0.39, 99 % below 0.35; touching pairs left whole: 0.38-0.45)
+TYPICAL_SIZE = 0.29  # a lone marker's radius of gyration as a share of its diameter (median on
+# the tuning renders 0.29, the bundled render 0.27)
+MIN_SPOTS = 5  # spots a frame needs for its median size to count
 MIN_SUM_DN = 60.0  # below this B + G + R (mean 20 grey levels) the chroma is mostly noise
 
 
@@ -56,11 +62,14 @@ class Detections(NamedTuple):
         uv: (n, 2) centres [px] in full-size image coordinates.
         confidence: (n,) 0..1, from the chroma contrast of the spot.
         size_px: (n,) radius of gyration of the spot [px] (full size).
+        crowded: (n,) whether the spot is larger than one marker (two touching markers the
+            splitting did not part, its centre between them), or None (not known).
     """
 
     uv: FloatArray
     confidence: FloatArray
     size_px: FloatArray
+    crowded: NDArray[np.bool_] | None = None
 
     @classmethod
     def empty(cls) -> Detections:
@@ -211,15 +220,30 @@ class MarkerDetector:
         if len(rows) == 0:
             return Detections.empty()
         uv, size, strength = self._refine(c, rows, cols, thr)
-        if self.config.marker_diameter_px > 0:
-            uv, source = split_touching(c, uv, 0.5 * self.config.threshold,
-                                        0.5 * self.config.marker_diameter_px / s)
-            size, strength = size[source], strength[source]
+        diameter = self.marker_size(size * s)
+        if diameter > 0:
+            radius = 0.5 * diameter / s
+            uv, source, parted = split_touching(c, uv, 0.5 * self.config.threshold, radius)
+            # a fitted marker's size is one disc's radius of gyration, not its blob's
+            size = np.where(parted, radius / np.sqrt(2.0), size[source])
+            strength = strength[source]
         uv += (ox, oy)
         ok = np.isfinite(uv).all(axis=1)
         conf = np.clip((strength - thr) / (2 * thr), 0, 1)
         full = (uv[ok] + 0.5) * s - 0.5  # half-size pixel centre i -> full-size 2i + 0.5
-        return Detections(full, conf[ok], size[ok] * s)
+        size = size[ok] * s
+        crowded = size > CROWDED_SIZE * diameter if diameter > 0 else None
+        return Detections(full, conf[ok], size, crowded)
+
+    def marker_size(self, size_px: FloatArray) -> float:
+        """A marker's diameter in this frame [full-size px]: ``marker_diameter_px``, or more
+        when the frame's spots say its markers are larger (the median spot's radius of
+        gyration over ``TYPICAL_SIZE``, from ``MIN_SPOTS`` spots on): markers bigger than the
+        configured size would otherwise all look like touching pairs. 0: no splitting."""
+        wanted = self.config.marker_diameter_px
+        if wanted <= 0 or len(size_px) < MIN_SPOTS:
+            return wanted
+        return max(wanted, float(np.median(size_px)) / TYPICAL_SIZE)
 
     def threshold_for(self, image: NDArray[np.uint8]) -> float:
         """The chroma threshold of this frame (``DetectorConfig.adaptive``): the sand's median

@@ -146,7 +146,10 @@ def number_new(state: StereoState, camera: str, track_ids: NDArray[np.int64],
     numbered only when exactly one candidate passes, and a candidate whose epipolar line
     passes more than one unnumbered detection of this frame is no candidate. Failing that,
     a marker this camera has never seen that appears alone at its fitted grid point takes
-    that number. Numbers given here are taken back if a later pair contradicts them
+    that number, unless the other camera sees that marker now (then its epipolar line
+    decides, and it did not pass: on a tuning render a side track took marker 2's grid point
+    while the front saw 2 elsewhere, and followed marker 1 for 6 frames). Numbers given here
+    are taken back if a later pair contradicts them
     (:func:`~dempath_recon.tracking.pair_checks.verify`).
     """
     markers = markers.copy()
@@ -167,7 +170,8 @@ def number_new(state: StereoState, camera: str, track_ids: NDArray[np.int64],
                  and state.latest[camera].get(m, (-np.inf, None))[0] < starts.get(tid, 0.0)}
         number = pick(state, camera, tid, uv[k], cands, stamp_s, events)
         if number < 0 and starts.get(tid) == stamp_s:  # only a track's first frame
-            number = late_grid(state, camera, uv, k, seen)
+            # a marker the other camera sees now is numbered only on its epipolar line
+            number = late_grid(state, camera, uv, k, seen | set(recent))
             if number >= 0:
                 state.counts[camera].numbered_by_grid_late += 1
                 events.append(f'{camera}: track {tid} numbered marker {number}: it appeared '

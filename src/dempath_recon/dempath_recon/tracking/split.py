@@ -189,7 +189,7 @@ def split_blob(patch: NDArray[np.float32], origin: tuple[int, int], base: float,
 
 
 def split_touching(chroma: NDArray[np.float32], uv: FloatArray, base: float, radius: float,
-                   ) -> tuple[FloatArray, NDArray[np.intp]]:
+                   ) -> tuple[FloatArray, NDArray[np.intp], NDArray[np.bool_]]:
     """Markers of a chroma window with touching ones split apart.
 
     Args:
@@ -199,9 +199,10 @@ def split_touching(chroma: NDArray[np.float32], uv: FloatArray, base: float, rad
         radius: expected marker radius [detector px].
 
     Returns:
-        ``(uv, source)``: (m, 2) centres with each split blob's detections replaced by its
-        fitted markers, and (m,) the index in ``uv`` each came from (the blob's first
-        detection for a split one), in the order of ``uv``.
+        ``(uv, source, split)``: (m, 2) centres with each split blob's detections replaced by
+        its fitted markers, (m,) the index in ``uv`` each came from (the blob's first
+        detection for a split one), in the order of ``uv``, and (m,) whether it is a fitted
+        marker of a split blob.
     """
     mask = (chroma > base).view(np.uint8)
     _, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
@@ -213,6 +214,7 @@ def split_touching(chroma: NDArray[np.float32], uv: FloatArray, base: float, rad
     single = np.pi * radius ** 2
     out: list[FloatArray] = []
     source: list[int] = []
+    split: list[bool] = []
     done: set[int] = set()
     for i in range(len(uv)):
         lab = int(label[i])
@@ -231,10 +233,14 @@ def split_touching(chroma: NDArray[np.float32], uv: FloatArray, base: float, rad
             if centres is not None:
                 out += list(centres)
                 source += [int(members[0])] * len(centres)
+                split += [True] * len(centres)
                 continue
             out += [uv[j] for j in members]
             source += members.tolist()
+            split += [False] * len(members)
             continue
         out.append(uv[i])
         source.append(i)
-    return np.array(out, np.float64).reshape(-1, 2), np.array(source, np.intp)
+        split.append(False)
+    return (np.array(out, np.float64).reshape(-1, 2), np.array(source, np.intp),
+            np.array(split, bool))

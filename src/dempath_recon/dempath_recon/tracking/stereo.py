@@ -36,6 +36,7 @@ from numpy.typing import NDArray
 from dempath_recon.methods.triangulate import Camera
 from dempath_recon.tracking.associate import marker_diameter_px
 from dempath_recon.tracking.detect import Detections, ImageDecodeError, MarkerDetector
+from dempath_recon.tracking.linker import UNNUMBERED
 from dempath_recon.tracking.merge import StampMerge
 from dempath_recon.tracking.numbering import number_all_by_grid, number_new
 from dempath_recon.tracking.pair_checks import verify
@@ -168,6 +169,7 @@ class StereoMarkerTracker:
             markers = number_by_ray(state, camera, tf.track_ids, markers, tf.uv, stamp_s,
                                     events)
         markers = verify(state, camera, tf.track_ids, markers, tf.uv, stamp_s, events)
+        markers = withhold_crowded(det, tf.uv, markers)
         free_mask = unnumbered_tracks(state, camera, tf.track_ids, markers)
         free = np.flatnonzero(free_mask)
         state.free[camera] = (stamp_s, tf.track_ids[free], tf.uv[free])
@@ -204,6 +206,19 @@ class StereoMarkerTracker:
         frame, late = renumber(held, state.trackers[held.camera].tracks, state.config.fps)
         state.counts[held.camera].numbered_late += late
         return frame
+
+
+def withhold_crowded(det: Detections, uv: FloatArray, markers: NDArray[np.int32],
+                     ) -> NDArray[np.int32]:
+    """``markers`` with the points of crowded spots (``Detections.crowded``: two touching
+    markers left in one spot, its centre between them) unnumbered; the track keeps its
+    number. ``uv`` (k, 2) are the frame's points, each one of ``det``'s."""
+    if det.crowded is None or not det.crowded.any():
+        return markers
+    big = {tuple(p) for p in det.uv[det.crowded].tolist()}
+    out = markers.copy()
+    out[[tuple(p) in big for p in uv.tolist()]] = UNNUMBERED
+    return out
 
 
 def camera_detectors(cameras: dict[str, Camera], config: StereoTrackConfig,
