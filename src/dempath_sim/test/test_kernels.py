@@ -14,7 +14,7 @@ from dempath_sim.engine.laws.dispatch import build_pair_table
 from dempath_sim.engine.materials import Interaction, Material
 from dempath_sim.engine.mesh import closest_point_triangle, closest_point_triangle_numpy
 from dempath_sim.engine.neighbors import build_neighbor_list
-from dempath_sim.engine.pair_forces import pair_forces, reduce_buffers
+from dempath_sim.engine.pair_forces import chunk_windows, pair_forces, reduce_buffers
 from dempath_sim.engine.params import SimParams
 
 MATS = (Material('sand', 2650.0, 5.0e6, 0.25), Material('steel', 7800.0, 2.1e11, 0.3))
@@ -132,8 +132,11 @@ def test_pair_forces_match_reference() -> None:
     tab = build_pair_table(PARAMS)
     dt = 1e-6
     n_chunks = 3
-    fbuf = np.zeros((n_chunks, 80, 3))
-    tbuf = np.zeros((n_chunks, 80, 3))
+    fbuf = np.full((n_chunks, 80, 3), np.nan)  # rows outside a chunk's window are never read
+    tbuf = np.full((n_chunks, 80, 3), np.nan)
+    window = np.zeros((n_chunks, 2), np.int64)
+    chunk_windows(start, nbr, window)
+    assert window[0, 0] == 0 and window[-1, 1] == 80
     force = np.zeros((80, 3))
     torque = np.zeros((80, 3))
     hist = PairHistory()
@@ -141,11 +144,11 @@ def test_pair_forces_match_reference() -> None:
     flags = [np.zeros(80, np.uint8) for _ in range(4)]
     evals = np.zeros(n_chunks, np.int64)
     pair_forces(pos, vel, omg, rad, mass, mat, start, nbr, hist.slot, hist.ht, hist.hr,
-                hist.tail, hist.live, tab, dt, True, True, fbuf, tbuf, np.zeros((n_chunks, 3)),
-                False, *flags, np.inf, evals)
+                hist.tail, hist.live, tab, dt, True, True, fbuf, tbuf, window,
+                np.zeros((n_chunks, 3)), False, *flags, np.inf, evals)
     assert evals.sum() == len(nbr)  # nothing asleep: every listed pair is evaluated
     ht_k, hr_k = hist.by_entry()
-    reduce_buffers(fbuf, tbuf, force, torque)
+    reduce_buffers(fbuf, tbuf, window, force, torque)
     f_ref = np.zeros((80, 3))
     t_ref = np.zeros((80, 3))
     n_touch = 0

@@ -48,7 +48,7 @@ from dempath_sim.engine.neighbors import (
     overlapping_pairs,
     permute_in_place,
 )
-from dempath_sim.engine.pair_forces import pair_forces, reduce_buffers
+from dempath_sim.engine.pair_forces import chunk_windows, pair_forces, reduce_buffers
 from dempath_sim.engine.params import SimParams
 from dempath_sim.engine.reach import BoundaryCandidates, box_displacement
 from dempath_sim.engine.rebuild import ListKeeper
@@ -260,10 +260,16 @@ class Engine:
         self._hist.carry(np.asarray(new_to_old), self._start, self._nbr, start, nbr,
                          state.positions, state.radii, self._n_chunks)
         self._start, self._nbr = start, nbr
+        self._chunk_windows()
         self._pos_build = state.positions.copy()
         self._tool_build = self.tool_pose.packed()
         self._reach.forget()
         self.n_rebuilds += 1
+
+    def _chunk_windows(self) -> None:
+        """The buffer rows each force chunk writes over the current list (see `pair_forces`)."""
+        self._window = np.zeros((self._n_chunks, 2), np.int64)
+        chunk_windows(self._start, self._nbr, self._window)
 
     def contact_forces(self, state: SimState, pose: ToolPose, dt: float) -> None:
         """Forces and torques of all contacts into the engine's force/torque arrays.
@@ -290,11 +296,11 @@ class Engine:
             pair_forces(state.positions, state.velocities, state.angular_velocities,
                         state.radii, state.masses, state.material, self._start, self._nbr,
                         hist.slot, hist.ht, hist.hr, hist.tail, hist.live, self._tab, dt,
-                        rolling, cohesion, self._fbuf, self._tbuf, self._worst, sleeping,
-                        self._asleep_u8, self._rim_u8,
-                        self._touch_u8, self._wake_u8, self._v_wake, self._evals)
+                        rolling, cohesion, self._fbuf, self._tbuf, self._window, self._worst,
+                        sleeping, self._asleep_u8, self._rim_u8, self._touch_u8,
+                        self._wake_u8, self._v_wake, self._evals)
             self.pair_evaluations += int(self._evals.sum())
-            reduce_buffers(self._fbuf, self._tbuf, self._force, self._torque)
+            reduce_buffers(self._fbuf, self._tbuf, self._window, self._force, self._torque)
             self._worst[:, 3] = 0.0
             boundary_forces(state.positions, state.velocities, state.angular_velocities,
                             state.radii, state.masses, state.material, self._planes,
@@ -494,6 +500,7 @@ class Engine:
                            if 'engine.hist.slot' in data else  # by-entry springs (before)
                            {'ht': data['engine._ht'], 'hr': data['engine._hr']},
                            self._start, self._n_chunks)
+        self._chunk_windows()
         for k, v in zip(self._COUNTERS, np.asarray(data['engine.counters']).tolist(),
                         strict=True):
             setattr(self, k, int(v))
