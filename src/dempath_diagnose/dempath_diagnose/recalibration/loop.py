@@ -145,8 +145,10 @@ class Recalibration:
                  ) -> Progress:
         """The progress record of the last step."""
         s = self.steps[-1]
-        return Progress(self.effect, s.iteration, s.error, self.after, self.floor.k,
-                        self.floor.significant,
+        band = self.floor_bands[-1] if self.floor_bands else None  # the last band judged by
+        return Progress(self.effect, s.iteration, s.error, self.after,
+                        band['median'] if band else self.floor.k,
+                        band['high'] if band else self.floor.significant,
                         tuple(f'{p.name}.{p.parameter}' for p in self.params), s.strengths,
                         s.simulations, eta_s, state, detail)
 

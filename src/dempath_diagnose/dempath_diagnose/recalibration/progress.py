@@ -34,8 +34,10 @@ class Progress:
         iteration: 0 for the scene as it is, then 1, 2, ...
         error: d^2 of the real runs at this iteration (inf for a failed run).
         best_error: Lowest d^2 so far.
-        floor: What the true model gives over packing seeds (mean of chi^2_k).
-        floor_significant: d^2 above this is significantly above the floor.
+        floor: What the model gives over packing seeds: the median of the last like-for-like
+            d^2 band the loop judged by (the mean of chi^2_k before one, or without one).
+        floor_significant: d^2 above this is significantly above the floor (that band's top,
+            or chi^2_k's 95 % quantile).
         names: ``effect.parameter`` of each fitted strength.
         values: The strengths at this iteration (SI units, as ``names``).
         simulations: Simulations used so far.
@@ -76,7 +78,7 @@ def progress_line(p: Progress) -> str:
     tail = f'ETA {p.eta_s:.0f} s' if p.state is State.RUNNING else p.state.name.lower()
     detail = f' ({p.detail})' if p.detail else ''
     return (f'recalibrate {p.effect} iteration {p.iteration}: {values}; error d^2 {err} '
-            f'(best {p.best_error:.1f}, floor {p.floor:.0f}, significant above '
+            f'(best {p.best_error:.1f}, floor {p.floor:.1f}, significant above '
             f'{p.floor_significant:.1f}); {p.simulations} simulations; {tail}{detail}')
 
 
