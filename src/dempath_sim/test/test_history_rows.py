@@ -28,9 +28,8 @@ def _falling_lattice(params: SimParams) -> SimState:
 
 
 def _engine(params: SimParams) -> Engine:
-    engine = Engine(params, box_walls(LO, HI, material=1))
-    engine.SERIAL_BELOW = 0  # several force chunks (regions) even for a small bed
-    return engine
+    """One force chunk (a small bed runs serially; several chunks: test_kernels.py)."""
+    return Engine(params, box_walls(LO, HI, material=1))
 
 
 @pytest.mark.parametrize('forms', ['dempath', 'liggghts'])
@@ -40,18 +39,18 @@ def test_rows_placed_anywhere_give_the_same_run(forms: str) -> None:
     forms the rows in use are exactly the touching pairs."""
     params = _params(forms)
     plain = _engine(params)
-    a = plain.run(_falling_lattice(params), 700)
+    a = plain.run(_falling_lattice(params), 450)
     moved = _engine(params)
     state = _falling_lattice(params)
     moved.bind(state)
     hist = moved._hist
     hist.make_room = lambda start: hist.compact(start, len(hist.tail))  # type: ignore[method-assign]
-    b = moved.run(state, 700)
-    assert hist.compactions >= 700 and plain.n_rebuilds > 3
+    b = moved.run(state, 450)
+    assert hist.compactions >= 450 and plain.n_rebuilds > 3
     np.testing.assert_array_equal(a.positions, b.positions)
     np.testing.assert_array_equal(a.angular_velocities, b.angular_velocities)
     np.testing.assert_array_equal(plain.forces[0], moved.forces[0])
-    assert plain.n_contacts > a.n  # a packed bed, not a few collisions
+    assert plain.n_contacts > 0.8 * a.n  # a bed settling, not a few collisions
     if forms == 'dempath':
         assert int(plain._hist.live.sum()) == plain.n_contacts
         assert int((plain._hist.slot >= 0).sum()) == plain.n_contacts
