@@ -21,6 +21,7 @@ with the other camera's points heard at once or one frame late).
 
 from __future__ import annotations
 
+import hashlib
 import json
 import pickle
 import time
@@ -53,8 +54,13 @@ Frames = list[tuple[str, int, bytes]]
 def vary(frames: Frames, truth: dict[str, Any], cond: Condition, cache: Path,
          ) -> tuple[Frames, dict[str, Any]]:
     """The recording's frames under ``cond`` and the truth moved with any image shift (cached
-    in ``cache`` by the condition's hash)."""
-    path = cache / f'{cond.name}-{cond.key()}.v2.pkl'
+    in ``cache`` by the condition's hash and the source frames' digest: a re-rendered bundled
+    recording must not meet the varied frames of the one before)."""
+    digest = hashlib.sha1()
+    for cam, stamp, data in frames:
+        digest.update(f'{cam} {stamp} '.encode())
+        digest.update(data)
+    path = cache / f'{cond.name}-{cond.key()}-{digest.hexdigest()[:12]}.v3.pkl'
     if path.is_file():
         out, shifts = pickle.loads(path.read_bytes())
     else:
@@ -260,9 +266,10 @@ def summary(scores: list[dict[str, Any]]) -> dict[str, Any]:
 
 def run_all(frames: Frames, truth: dict[str, Any], cams: dict[str, CameraModel],
             config: StereoTrackConfig, cache: Path) -> dict[str, Any]:
-    """Every variation (one JSON line each), then the held-out and tuned summaries."""
+    """Every variation (one JSON line each, the held-out ones first), then the held-out and
+    tuned summaries."""
     rows = []
-    for cond in VARIATIONS:
+    for cond in sorted(VARIATIONS, key=lambda c: not c.held_out):  # the held-out set first
         row = run_variation(frames, truth, cams, config, cond, cache)
         rows.append(row)
         print(json.dumps({k: v for k, v in row.items() if k not in ('raw', 'condition')}),

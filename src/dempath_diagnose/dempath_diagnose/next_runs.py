@@ -8,8 +8,9 @@ situations leave the answer open that more simulations can close (issue 32):
   scene's value (``ModelFit.at_range_edge``): the data ask for more than the library spans. The
   next strength comes from the emulator's trend: along the end segment of the paired response,
   extended as a straight line, the strength whose prediction fits the measured statistics best
-  (generalised least squares under the fit's covariance), at least past the current range and
-  at most one library span beyond the last simulated strength, inside the physical range.
+  (generalised least squares under the covariance of the last simulated strength), at least
+  past the current range and at most one library span beyond the last simulated strength,
+  inside the physical range.
 - **Between rivals.** Two or more answers are not ruled out and none is named. Where a
   contender's fitted strength lies between the simulated strengths, its prediction there is an
   interpolation, with the emulator's variance on top; a run at the fitted strength replaces the
@@ -99,7 +100,8 @@ def trend_strength(d: Diagnosis, ce: CandidateEmulator, high: bool) -> float:
     obs = d.observed
     r = d.measured - (d.emulator.mu0 + diffs[end])[obs]
     s = slope[obs]
-    total = d.cov[np.ix_(obs, obs)] + np.diag(ce.diff_var[end][obs])
+    own = d.emulator.own_cov(d.cov, ce, np.array([_x(ce, float(knots[end]))]))[0]
+    total = own[np.ix_(obs, obs)] + np.diag(ce.diff_var[end][obs])
     w_s = np.linalg.solve(total, s)
     denom = float(s @ w_s)
     direction = 1.0 if high else -1.0

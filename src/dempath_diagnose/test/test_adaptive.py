@@ -80,8 +80,9 @@ def test_speed_past_the_span_is_run_and_named(cache: Path, tiny_library: Library
 def test_control_spends_nothing_and_budget_zero_changes_nothing(
         cache: Path, tiny_library: Library, geometry: CaseGeometry, tmp_path: Path) -> None:
     """Nothing missing: the library already says so, so no simulation is run; budget 0 is
-    today's diagnosis."""
-    meas = _measurement(*case_files(cache, 'control'))
+    today's diagnosis. The control's markers alone (its draft lies near tool friction's, so
+    with the force the answer may be open: test_hidden)."""
+    meas = load_tracks(case_files(cache, 'control')[0])
     library = _own_copy(tiny_library, tmp_path)
     first, final, _, result = _refine(meas, library, geometry, 6, cache)
     assert first.decision.verdict == 'nothing_significant'

@@ -123,3 +123,48 @@ def test_a_strength_beyond_the_range_is_flagged_at_its_edge() -> None:
     assert beyond.name == 'a' and beyond.at_range_edge
     assert beyond.strength_range == (0.0, 1.25) and beyond.best == 1.25
     assert inside.name == 'a' and not inside.at_range_edge
+
+
+def test_a_candidate_that_scatters_more_is_judged_by_its_own_scatter() -> None:
+    """Candidate a's grains scatter 9x the baseline's variance at strength 1 (a cohesive bed):
+    data drawn there, 2.5 of the baseline's sd off a's mean on every statistic, rule a out
+    under the baseline's scatter and name it under its own (issue 32: strong cohesion ruled out
+    at its own fit)."""
+    from dataclasses import replace
+
+    sig = np.array([0.02, 0.03, 0.02, 0.03, 0.02, 0.03])
+    emu = make_emulator({'a': list(sig), 'b': [0, 0, 0.02, 0.03, 0, 0]})
+    k = len(NAMES)
+    wide = np.eye(k) * 9 * SD**2
+    own = [replace(c, sampling=np.array([np.zeros((k, k)), wide if c.candidate.name == 'a'
+                                         else np.zeros((k, k))])) for c in emu.candidates]
+    y = sig + 2.5 * SD * np.array([1, -1, 1, -1, 1, -1])
+    pooled = decide(emu, y, np.ones(k, bool), np.eye(k) * SD**2)
+    fair = decide(replace(emu, candidates=own, base_sampling=np.zeros((k, k))), y,
+                  np.ones(k, bool), np.eye(k) * SD**2)
+    assert pooled.ranking[0].name == 'a' and pooled.ranking[0].ruled_out
+    assert fair.verdict == 'effect_missing' and fair.ranking[0].name == 'a'
+    assert not fair.ranking[0].ruled_out and fair.ranking[0].probability >= 0.8
+
+
+def test_spread_levels_find_the_group_that_varies_more() -> None:
+    """Three seeds per group, 40 statistics: a group drawn with 6x the variance gets a level
+    near 6 times the others'; with the pool weighted infinitely every level is 1; a group of
+    one run keeps the pool's."""
+    from dempath_diagnose.decision.emulator import spread_levels
+
+    rng = np.random.default_rng(3)
+    scale = rng.uniform(0.5, 2.0, 40)  # each statistic its own unit
+
+    def group(var: float, n: int = 3) -> np.ndarray:
+        x = rng.normal(size=(n, 40)) * scale * np.sqrt(var)
+        return x - x.mean(0)
+
+    groups = [group(1.0) for _ in range(6)] + [group(6.0), group(1.0, 1)]
+    raw = spread_levels(groups, prior_dof=0.0)
+    assert 3.5 < raw[6] / np.median(raw[:6]) < 10.0
+    assert np.all(np.abs(np.log(raw[:6])) < np.log(2.0))
+    assert raw[7] == 1.0
+    assert np.allclose(spread_levels(groups, prior_dof=float('inf')), 1.0)
+    shrunk = spread_levels(groups, prior_dof=2.0)
+    assert 1.0 < shrunk[6] / np.median(shrunk[:6]) < raw[6] / np.median(raw[:6])

@@ -11,8 +11,15 @@ force statistics, so that what an unmeasured force would show can be said). Then
 - the emulator's own variance: the seed variance of the paired differences over the number of
   seeds, interpolated alike;
 - the seed covariance: residuals of every model's runs about that model's seed mean, pooled,
-  shrunk with Ledoit-Wolf (few seeds, many statistics);
-- the sampling covariance of one particle per cube (mean over the runs);
+  shrunk with Ledoit-Wolf (few seeds, many statistics), with a level per strength
+  (heteroscedastic seeds: a cohesive bed varies more from seed to seed than a loose one, a slow
+  tool's less): the seed covariance at strength x is s(x) times the pooled shape, s estimated at
+  each simulated strength from its own seeds over every statistic (:func:`spread_levels`),
+  shrunk towards the pooled level and interpolated in strength;
+- the sampling covariance of one particle per cube: each model and strength its own (the mean
+  over its seeds; the grains of a cohesive bed scatter eight times more about their
+  neighbourhood's motion than a loose bed's on the tiny scene), interpolated in strength; the
+  mean over every run where one figure is wanted (the floor);
 - measurement noise ``noise_m`` per axis over the markers of the group;
 - the model-discrepancy allowance: ``discrepancy_m + discrepancy_rel * |mu0|`` for the marker
   statistics and ``discrepancy_force_rel * |mu0|`` for the draft, as an independent sd.
@@ -20,7 +27,7 @@ force statistics, so that what an unmeasured force would show can be said). Then
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -32,6 +39,8 @@ from dempath_diagnose.records import F64
 from dempath_sim.effects.candidates import LOG_SCALE
 
 EXTEND = 0.25  # the prior range reaches this fraction of the library's span beyond it
+SPREAD_PRIOR_DOF = 0.0  # the pooled seed spread's weight on one strength's own level [dof]
+OWN_SAMPLING = True  # each strength its own grain scatter (False: the mean over every run)
 
 
 @dataclass(frozen=True)
@@ -67,6 +76,10 @@ class CandidateEmulator:
         diffs: (j, k) mean paired differences at the knots.
         diff_var: (j, k) variance of those means.
         prior: (lo, hi) strength range of the prior (untransformed).
+        spread: (j,) seed-spread level at the knots, relative to the pooled seed covariance
+            (None: 1 everywhere, the pooled covariance at every strength).
+        sampling: (j, k, k) one-particle sampling covariance at the knots (None: the pooled
+            one at every strength).
     """
 
     candidate: Candidate
@@ -74,6 +87,8 @@ class CandidateEmulator:
     diffs: F64
     diff_var: F64
     prior: tuple[float, float]
+    spread: F64 | None = None
+    sampling: F64 | None = None
 
     def transform(self, x: F64) -> F64:
         """Strength -> the axis of interpolation (log for LOG_SCALE effects)."""
@@ -87,6 +102,28 @@ class CandidateEmulator:
         var = np.column_stack([_interp(u, self.knots, self.diff_var[:, i]).clip(0.0)
                                for i in range(self.diffs.shape[1])])
         return mean, var
+
+    def spread_at(self, x: F64) -> F64:
+        """(n,) seed-spread level at strengths x: interpolated in log between the knots, held
+        at the end knots' levels beyond them (one strength's seeds say nothing of the trend)."""
+        u = self.transform(np.atleast_1d(x))
+        if self.spread is None:
+            return np.ones(len(u))
+        return np.asarray(np.exp(np.interp(u, self.knots, np.log(self.spread))), np.float64)
+
+    def sampling_at(self, x: F64) -> F64 | None:
+        """(n, k, k) sampling covariance at strengths x: linear between the knots (a mixture
+        of covariances stays one), held at the end knots' beyond them; None when the knots have
+        none (the pooled one applies)."""
+        if self.sampling is None:
+            return None
+        u = np.clip(self.transform(np.atleast_1d(x)), self.knots[0], self.knots[-1])
+        hi = np.clip(np.searchsorted(self.knots, u, side='right'), 1, len(self.knots) - 1)
+        lo = hi - 1
+        gap = self.knots[hi] - self.knots[lo]
+        w = np.where(gap > 0, (u - self.knots[lo]) / np.where(gap > 0, gap, 1.0), 0.0)
+        return np.asarray((1.0 - w)[:, None, None] * self.sampling[lo]
+                          + w[:, None, None] * self.sampling[hi], np.float64)
 
 
 def _interp(u: F64, knots: F64, values: F64) -> F64:
@@ -116,6 +153,9 @@ class Emulator:
         baseline_runs: (S, k) baseline vectors per seed (for the floor and the plots).
         features0: (S, m, K, 3) baseline per-marker features (for the error map).
         feature_var: (m, K, 3) mean within-cube variance per marker.
+        base_spread: Seed-spread level of the baseline's runs relative to ``seed_cov``.
+        base_sampling: (k, k) sampling covariance of the baseline's runs (None: the mean over
+            every run, ``sampling_cov``).
     """
 
     names: list[str]
@@ -127,6 +167,25 @@ class Emulator:
     features0: F64
     feature_var: F64
     runs: dict[str, F64] = field(default_factory=dict)
+    base_spread: float = 1.0
+    base_sampling: F64 | None = None
+
+    def own_cov(self, cov: F64, cand: CandidateEmulator | None, x: F64) -> F64:
+        """(n, k, k) ``cov`` (built on the pooled seed and sampling covariances) with the
+        seed spread's level and the sampling covariance of the model at strengths x (the
+        baseline's for ``cand`` None)."""
+        n = len(np.atleast_1d(x))
+        level: F64
+        if cand is None:
+            level = np.full(n, self.base_spread)
+            samp = self.sampling_cov if self.base_sampling is None else self.base_sampling
+            own = np.broadcast_to(samp, (n, *samp.shape))
+        else:
+            level = cand.spread_at(x)
+            at = cand.sampling_at(x)
+            own = np.broadcast_to(self.sampling_cov, (n, *cov.shape)) if at is None else at
+        return (cov[None] + (level - 1.0)[:, None, None] * self.seed_cov[None]
+                + own - self.sampling_cov[None])
 
     def is_force(self) -> NDArray[np.bool_]:
         """(k,) True for the draft statistics."""
@@ -158,30 +217,85 @@ def build_emulator(library: Library, layout: Layout,
     ((_, base_files),) = library.model_runs('').items()
     b = np.array([stats[f].vector for f in base_files])
     mu0 = b.mean(0)
-    residuals = [b - mu0]
-    emulators = []
+    residuals = [b - mu0]  # one group per model and strength: the baseline's first
+    base_sampling = np.mean([stats[f].sampling_cov for f in base_files], axis=0)
+    responses = []
     for cand in library.candidates:
         runs = library.model_runs(cand.name)
         knots, diffs, dvar = [0.0], [np.zeros(len(mu0))], [np.zeros(len(mu0))]
+        sampling = [base_sampling]
         for x, files in sorted(runs.items()):
             c = np.array([stats[f].vector for f in files])
             d = c - b[:len(c)]
             knots.append(x)
+            sampling.append(np.mean([stats[f].sampling_cov for f in files], axis=0))
             diffs.append(d.mean(0))
             dvar.append(d.var(0, ddof=1) / len(d) if len(d) > 1 else np.abs(d.mean(0)) ** 2)
             residuals.append(c - c.mean(0))
         knots[0] = cand.current
+        responses.append((cand, knots, diffs, dvar, sampling))
+    levels = spread_levels(residuals)
+    emulators, g = [], 1
+    for cand, knots, diffs, dvar, sampling in responses:
+        spread = np.concatenate([levels[:1], levels[g:g + len(knots) - 1]])
+        g += len(knots) - 1
         order = np.argsort(knots)
         emu = CandidateEmulator(cand, np.zeros(0), np.array(diffs)[order],
-                                np.array(dvar)[order], _prior(cand, knots))
-        emu = CandidateEmulator(cand, emu.transform(np.array(knots)[order]), emu.diffs,
-                                emu.diff_var, emu.prior)
-        emulators.append(emu)
-    seed_cov = _shrunk_cov(np.concatenate(residuals), len(library.candidates) + 1)
+                                np.array(dvar)[order], _prior(cand, knots), spread[order],
+                                np.array(sampling)[order] if OWN_SAMPLING else None)
+        emulators.append(replace(emu, knots=emu.transform(np.array(knots)[order])))
+    unit = [r / np.sqrt(level) for r, level in zip(residuals, levels, strict=True)]
+    seed_cov = _shrunk_cov(np.concatenate(unit), len(library.candidates) + 1)
     sampling = np.mean([s.sampling_cov for s in stats.values()], axis=0)
     feats = np.array([stats[f].features for f in base_files])
     fvar = np.nanmean([stats[f].feature_var for f in base_files], axis=0)
-    return Emulator(layout.names(True), mu0, seed_cov, sampling, emulators, b, feats, fvar)
+    return Emulator(layout.names(True), mu0, seed_cov, sampling, emulators, b, feats, fvar,
+                    base_spread=float(levels[0]),
+                    base_sampling=base_sampling if OWN_SAMPLING else None)
+
+
+def spread_levels(groups: list[F64], prior_dof: float | None = None) -> F64:
+    """Seed-spread level of each group of runs (one model at one strength) relative to the rest.
+
+    Model: the seed covariance of group g is ``level_g`` times a common shape. With a handful of
+    seeds per group one statistic's variance says little (2 degrees of freedom with 3 seeds), but
+    every statistic of the group shares the level: the level is the median over the statistics
+    of the group's variance over the common variance, divided by the median of chi^2_dof / dof
+    (the median of a variance ratio when the level is 1); the common variance is the pool of
+    every group's squares divided by its level (three alternations from levels of 1). Each
+    level is then shrunk towards the pool's in log, with the weight dof / (dof + ``prior_dof``):
+    the pool is worth ``prior_dof`` degrees of freedom of one group (a group of one run keeps the
+    pool's level). The levels are scaled to a geometric mean of 1 over the groups.
+
+    Args:
+        groups: Residuals (n_g, k) of each group about its own seed mean.
+        prior_dof: The pool's weight (None: SPREAD_PRIOR_DOF; infinity: every level 1, the
+            pooled covariance at every strength).
+
+    Returns:
+        (G,) levels.
+    """
+    from scipy import stats as st
+
+    nu0 = SPREAD_PRIOR_DOF if prior_dof is None else prior_dof
+    dof = np.array([max(len(r) - 1, 0) for r in groups], np.float64)
+    if not np.isfinite(nu0) or not np.any(dof > 0):
+        return np.ones(len(groups))
+    ss = np.array([np.sum(r**2, axis=0) for r in groups])
+    levels: F64 = np.ones(len(groups))
+    raw: F64 = np.ones(len(groups))
+    for _ in range(3):
+        common = np.sum(ss / levels[:, None], axis=0) / dof.sum()
+        useful = common > 1e-12 * max(float(common.max()), 1e-300)
+        for g in np.flatnonzero(dof > 0):
+            ratio = ss[g, useful] / dof[g] / common[useful]
+            raw[g] = float(np.median(ratio)) / (st.chi2.median(dof[g]) / dof[g])
+        raw = np.clip(raw, 1e-3, 1e3)
+        weight = np.where(dof > 0, dof / np.maximum(dof + nu0, 1e-300), 0.0)
+        levels = np.exp(np.log(raw) * weight)
+        levels /= np.exp(np.average(np.log(levels), weights=np.maximum(dof, 1e-9)))
+    levels[dof == 0] = 1.0
+    return levels
 
 
 def _prior(cand: Candidate, knots: list[float]) -> tuple[float, float]:

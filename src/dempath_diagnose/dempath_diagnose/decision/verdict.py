@@ -1,20 +1,24 @@
 """The decision: model probabilities, history-matching implausibility and the verdict.
 
 Every candidate and the baseline ("nothing missing") is a model. The likelihood of the measured
-statistics y under a candidate at strength x is Gaussian, N(y; mu0 + D(x), C + V(x)), with C the
-strength-independent covariance (seed + sampling + noise + discrepancy, :mod:`.emulator`) and
-V(x) the emulator's variance. The prior is a spike and slabs: the baseline (no free strength) and
-each candidate's strength range (uniform, GRID points; log-uniform for LOG_SCALE effects), equal
-prior mass each. A candidate contains the baseline (its strength at the current value), so the
-answers are made mutually exclusive by what the data can resolve: the strengths at which a
-candidate's prediction lies within one standard deviation of the baseline's (Mahalanobis distance
-of D(x) under C + V(x) at most NULL_SD, a Kullback-Leibler divergence of at most half a nat) are
-the baseline, and their posterior mass counts for "nothing missing"; a candidate's probability is
-the posterior mass of its strengths that the data can tell from the baseline. Without this, the
-probability of "nothing missing" is spread over every candidate near its current value and the
-baseline rarely exceeds 1 / (candidates + 1) even when nothing is missing. (A point mass on the
-null beside a continuous prior is the spike-and-slab prior of Bayesian tests of nested models,
-Mitchell & Beauchamp 1988, JASA 83, 1023; the uniform slab keeps each candidate's Occam factor.)
+statistics y under a candidate at strength x is Gaussian, N(y; mu0 + D(x), C(x) + V(x)), with C(x)
+the covariance of seed, sampling, noise and discrepancy (:mod:`.emulator`) and V(x) the emulator's
+variance. The seed part of C(x) takes the level of the seed spread at x
+(:func:`~dempath_diagnose.decision.emulator.spread_levels`) and the sampling part the grain scatter
+of the model at x: a cohesive bed's grains scatter more about their neighbourhood's motion, and its
+beds vary more from seed to seed, than a loose bed's (the baseline takes its own). The prior is a
+spike and slabs: the baseline (no free strength) and each candidate's strength range (uniform, GRID
+points; log-uniform for LOG_SCALE effects), equal prior mass each. A candidate contains the
+baseline (its strength at the current value), so the answers are made mutually exclusive by what
+the data can resolve: the strengths at which a candidate's prediction lies within one standard
+deviation of the baseline's (Mahalanobis distance of D(x) under C + V(x) at most NULL_SD, a
+Kullback-Leibler divergence of at most half a nat) are the baseline, and their posterior mass
+counts for "nothing missing"; a candidate's probability is the posterior mass of its strengths that
+the data can tell from the baseline. Without this, the probability of "nothing missing" is spread
+over every candidate near its current value and the baseline rarely exceeds 1 / (candidates + 1)
+even when nothing is missing. (A point mass on the null beside a continuous prior is the
+spike-and-slab prior of Bayesian tests of nested models, Mitchell & Beauchamp 1988, JASA 83, 1023;
+the uniform slab keeps each candidate's Occam factor.)
 
 Implausibility (Vernon, Goldstein & Bower 2010, multivariate form): d^2 = r^T (C+V)^-1 r at the
 best strength, converted to the Gaussian sigma of the same tail probability under chi^2(k); a
@@ -127,9 +131,10 @@ def sigma_of(d2: float, k: int) -> float:
 def fit_baseline(emu: Emulator, y: F64, obs: NDArray[np.bool_], cov: F64) -> ModelFit:
     """The baseline model's fit."""
     r = y - emu.mu0[obs]
-    logp, d2 = gauss_logpdf(r, cov[np.ix_(obs, obs)])
+    own = emu.own_cov(cov, None, np.zeros(1))[0]
+    logp, d2 = gauss_logpdf(r, own[np.ix_(obs, obs)])
     return ModelFit('baseline', 'baseline', logp, sigma_of(d2, int(obs.sum())), np.nan,
-                    np.nan, np.nan, emu.mu0.copy(), np.diag(cov).copy(), d2)
+                    np.nan, np.nan, emu.mu0.copy(), np.diag(own).copy(), d2)
 
 
 def fit_candidate(emu: Emulator, cand: CandidateEmulator, y: F64, obs: NDArray[np.bool_],
@@ -140,11 +145,11 @@ def fit_candidate(emu: Emulator, cand: CandidateEmulator, y: F64, obs: NDArray[n
     xs = np.asarray(np.geomspace(lo, hi, GRID) if cand.candidate.name in LOG_SCALE
                     else np.linspace(lo, hi, GRID), np.float64)
     diffs, dvar = cand.predict(xs)
+    own = emu.own_cov(cov, cand, xs)  # the seed spread and grain scatter at each strength
     logps, d2s, shift2 = np.empty(GRID), np.empty(GRID), np.empty(GRID)
-    sub = cov[np.ix_(obs, obs)]
     for i in range(GRID):
         r = y - (emu.mu0 + diffs[i])[obs]
-        total = sub + np.diag(dvar[i][obs])
+        total = own[i][np.ix_(obs, obs)] + np.diag(dvar[i][obs])
         logps[i], d2s[i] = gauss_logpdf(r, total)
         shift2[i] = gauss_logpdf(diffs[i][obs], total)[1]
     null = shift2 <= NULL_SD**2
@@ -161,7 +166,9 @@ def fit_candidate(emu: Emulator, cand: CandidateEmulator, y: F64, obs: NDArray[n
     edge = best in (0, GRID - 1) and not np.isclose(xs[best], c.current, rtol=1e-9, atol=0.0)
     return ModelFit(c.name, c.kind, _log_mass(logps[~null]),
                     sigma_of(float(np.min(d2s)), int(obs.sum())), strength, sd, float(xs[best]),
-                    emu.mu0 + diffs[best], np.diag(cov) + dvar[best], float(d2s[best]),
+                    emu.mu0 + diffs[best],
+                    np.diag(own[best]) + dvar[best],
+                    float(d2s[best]),
                     unit=c.unit, parameter=c.parameter, log_null=_log_mass(logps[null]),
                     strength_range=(float(lo), float(hi)), at_range_edge=bool(edge))
 

@@ -125,7 +125,8 @@ def fit_discs(patch: NDArray[np.float32], origin: tuple[int, int], start: FloatA
         return jac
 
     p0 = np.concatenate([[level, low, radius], start.ravel()])
-    fit = least_squares(residual, p0, jac=jacobian, method='lm', max_nfev=40 * (k + 1))
+    fit = least_squares(residual, p0, jac=jacobian, method='lm', max_nfev=20 * (k + 1),
+                        xtol=1e-4, ftol=1e-4)
     return BlobFit(fit.x[3:].reshape(k, 2), float(fit.x[0]), float(2 * fit.cost))
 
 
