@@ -43,10 +43,12 @@ def tiny_library(cache: Path, tmp_path_factory: pytest.TempPathFactory) -> Libra
     shared.mkdir(exist_ok=True)
     with (shared / 'build.lock').open('w') as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)  # released when the file closes
+        # build_library rewrites the folder's design.json even when every run is stored, so the
+        # copy is made under the lock too (else another worker's call can truncate it meanwhile)
         folder = build_library(scene, SPEC, shared / 'library', cache_dir=shared / 'packings')
-    shutil.copytree(shared / 'packings', cache / 'packings', dirs_exist_ok=True)
-    own = cache / 'library' / folder.name
-    shutil.copytree(folder, own, dirs_exist_ok=True)
+        shutil.copytree(shared / 'packings', cache / 'packings', dirs_exist_ok=True)
+        own = cache / 'library' / folder.name
+        shutil.copytree(folder, own, dirs_exist_ok=True)
     return Library.load(own)
 
 

@@ -223,3 +223,17 @@ def test_the_loop_stops_on_the_like_for_like_band_not_the_chi2_mean() -> None:
                        seeds_per_eval=SEEDS)
     assert wide.stop == 'floor' and len(wide.steps) == 2
     assert wide.floor_bands[-1]['place'] == 'in' and wide.floor_bands[-1]['high'] == 10.0
+
+
+def test_progress_line_never_prints_the_nominal_chi2_as_a_floor() -> None:
+    """Before a like-for-like band exists the line says so (the chi^2 mean is named nominal);
+    once one is judged by, the band's median and top are the floor shown."""
+    from dempath_diagnose.recalibration.progress import Progress, progress_line
+
+    common = ('cohesion', 0, 165.6, 165.6)
+    nominal = progress_line(Progress(*common, 20.0, 31.4, ('cohesion.x',), (0.0,), 0, 0.0))
+    assert 'no like-for-like floor yet; nominal chi^2 mean 20.0' in nominal
+    assert 'floor band' not in nominal
+    band = progress_line(Progress(*common, 4.2, 18.4, ('cohesion.x',), (1e5,), 4, 0.0,
+                                  like_for_like=True))
+    assert 'floor band median 4.2, top 18.4' in band and 'nominal' not in band

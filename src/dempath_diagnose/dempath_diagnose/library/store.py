@@ -295,10 +295,13 @@ def build_library(scene: SceneSpec, spec: LibrarySpec, root: Path | None = None,
     folder = library_dir(scene, spec, root, backend)
     (folder / 'runs').mkdir(parents=True, exist_ok=True)
     candidates, runs = design(scene, spec)
-    (folder / 'design.json').write_text(json.dumps({
+    text = json.dumps({
         **scene_identity(scene), 'spec': asdict(spec), 'version': LIBRARY_VERSION,
         'backend': backend, 'candidates': [asdict(c) for c in candidates],
-        'runs': [asdict(r) for r in runs]}, indent=1))
+        'runs': [asdict(r) for r in runs]}, indent=1)
+    staged = folder / f'design.json.{os.getpid()}.tmp'  # a reader never sees half a design
+    staged.write_text(text)
+    staged.replace(folder / 'design.json')
     todo = [r for r in runs if not (folder / 'runs' / r.filename).is_file()]
     there = cache_dir if worker_cache == 'same' else worker_cache
     assert not isinstance(there, str)

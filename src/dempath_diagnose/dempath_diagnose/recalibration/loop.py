@@ -150,7 +150,7 @@ class Recalibration:
                         band['median'] if band else self.floor.k,
                         band['high'] if band else self.floor.significant,
                         tuple(f'{p.name}.{p.parameter}' for p in self.params), s.strengths,
-                        s.simulations, eta_s, state, detail)
+                        s.simulations, eta_s, state, detail, band is not None)
 
 
 def check_strength(cand: CandidateEmulator, value: float) -> None:

@@ -44,6 +44,8 @@ class Progress:
         eta_s: Estimated time left [s] (0 when finished).
         state: RUNNING, then FINISHED, INTERRUPTED or FAILED.
         detail: The stop reason or the failure ('' while running).
+        like_for_like: Whether ``floor`` comes from a like-for-like band (the model at its
+            strengths played as the measurement); False: the nominal chi^2_k, shown as such.
     """
 
     effect: str
@@ -58,6 +60,7 @@ class Progress:
     eta_s: float
     state: State = State.RUNNING
     detail: str = ''
+    like_for_like: bool = False
 
 
 Callback = Callable[[Progress], None]
@@ -77,9 +80,12 @@ def progress_line(p: Progress) -> str:
     err = 'failed' if math.isinf(p.error) else f'{p.error:.1f}'
     tail = f'ETA {p.eta_s:.0f} s' if p.state is State.RUNNING else p.state.name.lower()
     detail = f' ({p.detail})' if p.detail else ''
+    floor = (f'floor band median {p.floor:.1f}, top {p.floor_significant:.1f}'
+             if p.like_for_like else
+             f'no like-for-like floor yet; nominal chi^2 mean {p.floor:.1f}')
     return (f'recalibrate {p.effect} iteration {p.iteration}: {values}; error d^2 {err} '
-            f'(best {p.best_error:.1f}, floor {p.floor:.1f}, significant above '
-            f'{p.floor_significant:.1f}); {p.simulations} simulations; {tail}{detail}')
+            f'(best {p.best_error:.1f}; {floor}); {p.simulations} simulations; '
+            f'{tail}{detail}')
 
 
 def printer(stream: TextIO | None = None) -> Callback:

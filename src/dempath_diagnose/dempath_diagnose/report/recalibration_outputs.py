@@ -50,10 +50,12 @@ def scene_comments(r: Recalibration, scene_name: str) -> list[str]:
     if r.changed:
         lines += [f'Changed: {p.name}.{p.parameter} {p.current:g} -> {p.value:.6g} {p.unit} '
                   f'(+- {p.sd:.2g}; effect switched on if it was off).' for p in r.params]
+        band = r.floor_bands[-1] if r.floor_bands else None
+        floor = (f"the fitted model's like-for-like band {band['low']:.1f}-{band['high']:.1f}"
+                 if band else f'nominal floor chi^2 mean {r.floor.k}, no like-for-like band')
         lines.append(f'Why: the diagnosis named {r.effect}; with it the error d^2 of the group '
-                     f'statistics fell from {r.before:.1f} to {r.after:.1f} (floor '
-                     f'{r.floor.k}, significant above {r.floor.significant:.1f}); stopped: '
-                     f'{STOPS.get(r.stop, r.stop)}.')
+                     f'statistics fell from {r.before:.1f} to {r.after:.1f} ({floor}); '
+                     f'stopped: {STOPS.get(r.stop, r.stop)}.')
     else:
         lines.append('Nothing changed: ' + STOPS.get(r.stop, r.stop) + '.')
     return lines
