@@ -27,7 +27,7 @@ from dempath_bringup.calibstep import (
 )
 from dempath_bringup.nodes.graph import GraphSpec, run_graph
 from dempath_bringup.stages import START_MARGIN_S, detection_lines
-from dempath_bringup.truth import render_truth_errors
+from dempath_bringup.truth import render_truth_errors, surface_coverage
 from dempath_calib.outputs import save_result
 
 # calibration and three graph runs with the model: long on a loaded machine
@@ -109,6 +109,10 @@ def test_graph_detects_reconstructs_and_records_everything(
                    for c in ('cam_side', 'cam_front'))
     seen = (np.array(side) & np.array(front)).sum(0)
     assert result.scored_markers >= int(np.sum(seen >= len(side) / 3)), seen
+    # issue 26: on the bundled twin at least 13 of 15 markers become 3D in >= 80 % of the frames
+    # the truth has them on the surface (the carriage rig; the fixed rig gave 8)
+    got, total = surface_coverage(result.bag, TRUTH) or (0, 0)
+    assert total == 15 and got >= 13, (got, total)
 
 
 def test_camera_topic_stopping_mid_pass(calibrated: tuple[CalibrationRun, Path],

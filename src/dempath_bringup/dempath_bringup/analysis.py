@@ -326,6 +326,11 @@ def report_stage(ctx: DemoContext) -> str:
                       f"{coverage['frames']} frames: {len(coverage['reconstructed'])} of "
                       f"{len(coverage['present'])} "
                       f"({', '.join(map(str, coverage['reconstructed']))})")
+    if ctx.surface_coverage is not None:
+        got, total = ctx.surface_coverage
+        detection += (f"; counted over the frames in which the twin's truth has each marker on "
+                      f'the surface (a marker buried by the heave no camera can see): {got} of '
+                      f'{total}')
     meta = {'title': f'{ctx.field_bag.name} against scene {ctx.scene}',
             'what': (f'Field recording {ctx.field_bag}, calibration from {ctx.calib_source}, '
                      f'model scene {ctx.scene}.'),

@@ -121,6 +121,8 @@ class DemoContext:
         calibration, graph, comparison, diagnosis, recalibration, after: the stages' results
             (None until the stage has run, or when it was skipped).
         traj_rms_mm: RMS of the reconstructed markers from the recording's truth [mm].
+        surface_coverage: (reconstructed, markers) over the frames the truth has each marker
+            on the surface (a rendered twin's truth only).
         measured_csv: The recorded 3D markers as the diagnosis reads them.
         stage_s: Seconds of each finished stage.
     """
@@ -136,6 +138,7 @@ class DemoContext:
     calibration: CalibrationStage | None = None
     graph: GraphResult | None = None
     traj_rms_mm: float | None = None
+    surface_coverage: tuple[int, int] | None = None
     comparison: ComparisonStage | None = None
     measured_csv: Path | None = None
     diagnosis: DiagnosisStage | None = None

@@ -102,6 +102,13 @@ def graph_stage(ctx: DemoContext) -> str:
         ctx.traj_rms_mm = err[2]
         lines.append(f"reconstructed vs the recording's true markers: mean {err[0]:.2f} mm, "
                      f'max {err[1]:.2f} mm, RMS {err[2]:.2f} mm')
+    if truth_json(ctx.field_bag).is_file():
+        from dempath_bringup.truth import surface_coverage
+
+        ctx.surface_coverage = surface_coverage(bag, truth_json(ctx.field_bag))
+        if ctx.surface_coverage is not None:
+            lines.append('markers reconstructed in at least 80 % of the frames the truth has '
+                         'them on the surface: {} of {}'.format(*ctx.surface_coverage))
     return '\n'.join(lines)
 
 

@@ -33,6 +33,38 @@ def render_truth_error(bag: Path, truth_json: Path) -> tuple[float, float, float
             float(np.sqrt(np.nanmean(err_mm ** 2))))
 
 
+def surface_coverage(bag: Path, truth_json: Path, share: float = 0.8) -> tuple[int, int] | None:
+    """(markers reconstructed, markers): markers with a 3D point in the bag in at least
+    ``share`` of the frames in which the recording's truth has them on the surface (a marker
+    buried by the heave cannot be seen by any camera); None when the truth does not say.
+
+    3D frames are matched to the side camera's truth frames by stamp (within ``MATCH_S``).
+    """
+    from dempath import topics
+    from dempath.bagio import open_bag
+
+    data = json.loads(truth_json.read_text())
+    if 'on_surface' not in data:
+        return None
+    side = data['cameras'][0]['name']
+    stamps = np.array([f['stamp_ns'] for f in data['frames'] if f['camera'] == side], np.int64)
+    up = np.asarray(data['on_surface'], bool)[:len(stamps)]
+    column = {int(m): j for j, m in enumerate(data['marker_ids'])}
+    seen = np.zeros_like(up)
+    with open_bag(bag, [topics.MARKER_POINTS]) as reader:
+        for raw in reader.messages([topics.MARKER_POINTS]):
+            msg = reader.deserialize(raw)
+            t_ns = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
+            k = int(np.argmin(np.abs(stamps[:len(up)] - t_ns))) if len(up) else -1
+            if k < 0 or abs(int(stamps[k]) - t_ns) > MATCH_S * 1e9:
+                continue
+            for m in msg.marker_ids:
+                if int(m) in column:
+                    seen[k, column[int(m)]] = True
+    shares = (seen & up).sum(0) / np.maximum(up.sum(0), 1)
+    return int((shares >= share).sum()), len(column)
+
+
 def render_truth_errors(bag: Path, truth_json: Path) -> NDArray[np.float64]:
     """Distance [mm] of every 3D marker point of the bag from its true position, (n,).
 
