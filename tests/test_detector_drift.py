@@ -14,11 +14,12 @@ from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import CompressedImage
 
 from dempath import topics
-from dempath.bagio import open_bag
 from dempath_calib.camera import StereoCalibration
 from dempath_msgs.msg import PixelPoints
 from dempath_recon.nodes.detector import DetectorNode
 from dempath_twin.render.conditions import Condition, vary_recording
+
+from .render_frames import field_images, stamp_ns
 
 ROOT = Path(__file__).resolve().parents[1]
 RENDER = ROOT / 'bags' / 'field_render_reduced_1ms'
@@ -28,18 +29,8 @@ RELIABLE = QoSProfile(history=HistoryPolicy.KEEP_ALL, reliability=ReliabilityPol
 
 def shaken_frames(truth: dict) -> list[tuple[str, int, bytes]]:
     """(camera, stamp ns, JPEG) of the first field frames, each image moved by up to 3 px."""
-    start_ns = int(truth['calibration_segment']['field_start_ns'])
-    topic_cam = {topics.camera_topic(topics.IMAGE_COMPRESSED, c): c for c in topics.CAMERAS}
-    frames: list[tuple[str, int, bytes]] = []
-    seen = dict.fromkeys(topics.CAMERAS, 0)
-    with open_bag(RENDER, list(topic_cam)) as reader:
-        for raw in reader.messages(list(topic_cam)):
-            msg = reader.deserialize(raw)
-            cam = topic_cam[raw.topic]
-            stamp = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
-            if stamp >= start_ns and seen[cam] < FRAMES:
-                seen[cam] += 1
-                frames.append((cam, stamp, bytes(msg.data)))
+    frames = [(cam, stamp_ns(msg), bytes(msg.data))
+              for cam, _, msg in field_images(RENDER, FRAMES)]
     return vary_recording(frames, truth, Condition('shake_3px', shake_px=3.0, seed=9))[0]
 
 

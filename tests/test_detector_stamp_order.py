@@ -20,11 +20,13 @@ from sensor_msgs.msg import CompressedImage
 from std_msgs.msg import Header
 
 from dempath import topics
-from dempath.bagio import RawMessage, open_bag, write_bag
+from dempath.bagio import RawMessage, write_bag
 from dempath_calib.camera import StereoCalibration
 from dempath_msgs.msg import PixelPoints
 from dempath_recon.nodes.detector import DetectorNode
 from dempath_recon.tracking.stereo import track_bag
+
+from .render_frames import field_images, stamp_ns
 
 ROOT = Path(__file__).resolve().parents[1]
 RENDER = ROOT / 'bags' / 'field_render_reduced_1ms'
@@ -39,28 +41,13 @@ Points = dict[tuple[str, int], dict[int, tuple[float, float]]]  # (camera, stamp
 def images() -> list[tuple[str, CompressedImage, RawMessage]]:
     """(camera, message, serialized message) of the render's first field frames, in bag
     order."""
-    truth = json.loads(TRUTH.read_text())
-    start_ns = int(truth['calibration_segment']['field_start_ns'])
-    topic_cam = {topics.camera_topic(topics.IMAGE_COMPRESSED, c): c for c in topics.CAMERAS}
     out: list[tuple[str, CompressedImage, RawMessage]] = []
-    seen = dict.fromkeys(topics.CAMERAS, 0)
-    with open_bag(RENDER, list(topic_cam)) as reader:
-        for raw in reader.messages(list(topic_cam)):
-            msg = reader.deserialize(raw)
-            cam = topic_cam[raw.topic]
-            if msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec >= start_ns \
-                    and seen[cam] < FRAMES:
-                seen[cam] += 1
-                header = Header(stamp=Time(sec=msg.header.stamp.sec,
-                                           nanosec=msg.header.stamp.nanosec),
-                                frame_id=msg.header.frame_id)
-                out.append((cam, CompressedImage(header=header, format=msg.format,
-                                                 data=bytes(msg.data)), raw))
+    for cam, raw, msg in field_images(RENDER, FRAMES):
+        header = Header(stamp=Time(sec=msg.header.stamp.sec, nanosec=msg.header.stamp.nanosec),
+                        frame_id=msg.header.frame_id)
+        out.append((cam, CompressedImage(header=header, format=msg.format,
+                                         data=bytes(msg.data)), raw))
     return out
-
-
-def stamp_ns(msg: CompressedImage | PixelPoints) -> int:
-    return int(msg.header.stamp.sec) * 10**9 + int(msg.header.stamp.nanosec)
 
 
 def run_nodes(ros_harness, calib: Path,

@@ -34,7 +34,6 @@ from sensor_msgs.msg import CompressedImage
 from std_msgs.msg import Header
 
 from dempath import topics
-from dempath.bagio import open_bag
 from dempath_calib.camera import StereoCalibration
 from dempath_msgs.msg import MarkerPoints3D, PixelPoints, RunEvent
 from dempath_recon.nodes.convert import s_to_stamp, stamp_to_s
@@ -42,6 +41,8 @@ from dempath_recon.nodes.detector import DetectorNode
 from dempath_recon.nodes.passgate import PassNode
 from dempath_recon.nodes.reconstructor import ReconstructorNode
 from dempath_sim.scene.profiles import PAPER_1_5MS
+
+from .render_frames import field_images
 
 pytestmark = pytest.mark.timeout(300)
 ROOT = Path(__file__).resolve().parents[1]
@@ -58,15 +59,10 @@ class Render:
 
     def __init__(self) -> None:
         truth = json.loads(TRUTH.read_text())
-        start_ns = int(truth['calibration_segment']['field_start_ns'])
         self.rig = StereoCalibration.from_dict(truth['calibration_segment']['rig'])
         self.jpeg: dict[str, list[bytes]] = {c: [] for c in topics.CAMERAS}
-        topic_cam = {topics.camera_topic(topics.IMAGE_COMPRESSED, c): c for c in topics.CAMERAS}
-        with open_bag(RENDER, list(topic_cam)) as reader:
-            for raw in reader.messages(list(topic_cam)):
-                msg = reader.deserialize(raw)
-                if msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec >= start_ns:
-                    self.jpeg[topic_cam[raw.topic]].append(bytes(msg.data))
+        for cam, _, msg in field_images(RENDER):
+            self.jpeg[cam].append(bytes(msg.data))
         side = [f for f in truth['frames'] if f['camera'] == 'cam_side']
         self.xyz = [np.asarray(f['xyz'], np.float64) for f in side]  # (15, 3) per frame [m]
         self.ids = np.asarray(truth['marker_ids'])

@@ -17,7 +17,6 @@ from typing import Any
 import numpy as np
 import pytest
 
-from dempath.bagio import open_bag
 from dempath_calib.camera import CameraModel
 from dempath_recon.tracking.associate import MarkerGrid
 from dempath_recon.tracking.records import PixelFrame, StereoTrackConfig
@@ -30,6 +29,8 @@ from dempath_twin.render.conditions import (
     vary_recording,
 )
 
+from .render_frames import field_images, stamp_ns
+
 ROOT = Path(__file__).resolve().parents[1]
 RENDER = ROOT / 'bags' / 'field_render_reduced_1ms'
 TRUTH = RENDER.with_name(RENDER.name + '.truth.json')
@@ -41,16 +42,8 @@ MATCH_PX = 3.0  # a detection this near a true centre found that marker
 def recording() -> tuple[Frames, dict[str, Any]]:
     """The render's field frames (camera, stamp ns, JPEG) in bag order, and its truth."""
     truth = json.loads(TRUTH.read_text())
-    start = int(truth['calibration_segment']['field_start_ns'])
-    names = [c['name'] for c in truth['cameras']]
-    wanted = [f'/{c}/image_raw/compressed' for c in names]
-    frames: Frames = []
-    with open_bag(RENDER, wanted) as reader:
-        for raw in reader.messages(wanted):
-            msg = reader.deserialize(raw)
-            stamp = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
-            if stamp >= start:
-                frames.append((raw.topic.split('/')[1], stamp, bytes(msg.data)))
+    frames: Frames = [(cam, stamp_ns(msg), bytes(msg.data))
+                      for cam, _, msg in field_images(RENDER)]
     return frames, truth
 
 
