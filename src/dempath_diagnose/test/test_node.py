@@ -53,15 +53,18 @@ def test_streaming_and_batch_measurements_agree(cache: Path) -> None:
 def test_node_publishes_a_diagnosis_when_the_pass_ends(ros_harness: Any, cache: Path,
                                                        tiny_library: Library,
                                                        tmp_path: Path) -> None:
-    """The tool-speed case played on the topics: a Diagnosis naming tool_speed first, with what
-    diagnosis.json holds; the recorder records it to MCAP."""
+    """The tool-speed case played on the topics, one marker held out: a Diagnosis naming
+    tool_speed first from the others, with what diagnosis.json holds and the held-out marker's
+    headline error apart; the recorder records it to MCAP."""
     from dempath.bagio import open_bag
     from dempath.nodes.recorder import RecorderNode
 
     markers, force = case_files(cache, 'tool_speed')
     meas = load_tracks(markers)
     t_force, f = load_force(force)
-    node = ros_harness.start(DiagnoserNode, scene=SCENE, library=str(tiny_library.folder))
+    held = int(meas.markers[len(meas.markers) // 2])
+    node = ros_harness.start(DiagnoserNode, scene=SCENE, library=str(tiny_library.folder),
+                             held_out=str(held))
     recorder = ros_harness.start(RecorderNode, output=str(tmp_path / 'bag'),
                                  topics=[topics.DIAGNOSIS])
     assert ros_harness.spin_until(lambda: topics.DIAGNOSIS in recorder._topic_subs,
@@ -87,6 +90,11 @@ def test_node_publishes_a_diagnosis_when_the_pass_ends(ros_harness: Any, cache: 
     assert msg.candidates[0].probability >= 0.8
     assert msg.candidates[0].strength_parameter == 'speed_scale'
     check_fields(msg, len(tiny_library.runs))
+    # the held-out marker: scored apart, beside its own like-for-like floor band
+    assert list(msg.held_out_markers) == [held]
+    assert msg.held_out_place in ('above', 'in', 'below')
+    assert msg.held_out_floor_low_mm < msg.held_out_floor_high_mm
+    assert np.isfinite(msg.held_out_headline_error_mm)
     assert ros_harness.spin_until(
         lambda: recorder.recorder.stats.get(topics.DIAGNOSIS) is not None
         and recorder.recorder.stats[topics.DIAGNOSIS].received >= 1, timeout_s=30)
@@ -160,3 +168,25 @@ def test_cli_reads_a_bag_of_marker_points(cache: Path, tiny_library: Library,
     assert diagnose_main(argv) == 0
     data = json.loads((out / 'diagnosis.json').read_text())
     assert data['verdict'] == 'parameter_off' and data['ranking'][0]['effect'] == 'tool_speed'
+
+
+def test_held_out_markers_are_checked(cache: Path, tiny_library: Library) -> None:
+    """A bad ``held_out`` parameter is one error naming it; a held-out marker never received
+    fails the pass's diagnosis with one error naming it (and the next pass can go on)."""
+    import pytest
+
+    from dempath_diagnose.decision.live import build_live, held_out_markers
+    from dempath_diagnose.errors import MeasurementError
+
+    assert held_out_markers('') == () and held_out_markers('3, 8,13') == (3, 8, 13)
+    for bad in ('3;8', 'three', '3,3', '0'):
+        with pytest.raises(MeasurementError, match='held_out'):
+            held_out_markers(bad)
+    markers, _ = case_files(cache, 'tool_speed')
+    meas = load_tracks(markers)
+    live = build_live(SCENE, tiny_library.folder, held_out=(999,))
+    for i, t in enumerate(meas.times[::4]):
+        live.add_markers(float(t), meas.markers, meas.positions[4 * i])
+    with pytest.raises(MeasurementError, match=r'held_out 999: marker\(s\) \[999\] not received'):
+        live.finish()
+    assert not live.frames  # the next pass starts empty

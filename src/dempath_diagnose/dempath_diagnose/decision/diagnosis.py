@@ -71,6 +71,9 @@ class Diagnosis:
             allowed.
         measurement: The measured pass as diagnosed (the markers inside a packed library's
             region).
+        held_out: The markers left out of the diagnosis and scored apart (``None``: none).
+        held_headline: The headline error of the baseline on ``held_out`` beside its floor,
+            added with ``headline`` (empty when no marker was held out).
     """
 
     decision: Decision
@@ -88,6 +91,8 @@ class Diagnosis:
     headline: dict[str, Any] = field(default_factory=dict)
     adaptive: dict[str, Any] = field(default_factory=dict)
     measurement: Measurement | None = None
+    held_out: Measurement | None = None
+    held_headline: dict[str, Any] = field(default_factory=dict)
 
     @property
     def floor(self) -> F64:

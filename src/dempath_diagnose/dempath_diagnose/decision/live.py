@@ -69,12 +69,16 @@ class LiveDiagnoser:
         geometry: Tool axis, axis half width, cube size.
         allowance: Noise and discrepancy allowance.
         n_windows: Time windows of the statistics.
+        held_out: Marker numbers left out of the diagnosis and scored apart (the check that
+            the diagnosis did not only fit the markers it saw; as ``dempath diagnose
+            --held-out``).
     """
 
     library: Library
     geometry: CaseGeometry
     allowance: Allowance = field(default_factory=Allowance)
     n_windows: int = 4
+    held_out: tuple[int, ...] = ()
     frames: list[tuple[float, NDArray[np.int64], F64]] = field(default_factory=list)
     forces: list[tuple[float, F64]] = field(default_factory=list)
 
@@ -92,17 +96,45 @@ class LiveDiagnoser:
         frames, forces = self.frames, self.forces
         self.frames, self.forces = [], []
         meas = measurement_from_frames(frames)
+        held = None
+        if self.held_out:
+            meas, held = meas.split(self.held_out)
+            missing = sorted(set(self.held_out) - {int(m) for m in held.markers})
+            if missing or len(meas.markers) < 2:
+                raise MeasurementError(
+                    f'held_out {",".join(map(str, self.held_out))}: '
+                    + (f'marker(s) {missing} not received (or faulty)' if missing else
+                       f'leaves {len(meas.markers)} marker(s) to diagnose'))
         if len(forces) >= 3:
             t0 = frames[0][0]
             meas = replace(meas, force_times=np.array([t - t0 for t, _ in forces]),
                            force=np.array([f for _, f in forces]))
-        return diagnose(meas, self.library, self.geometry, self.allowance, self.n_windows,
-                        'force topic')
+        result = diagnose(meas, self.library, self.geometry, self.allowance, self.n_windows,
+                          'force topic')
+        result.held_out = held
+        return result
+
+
+def held_out_markers(text: str) -> tuple[int, ...]:
+    """The marker numbers of the node's ``held_out`` parameter ('3,8,13'; '' for none).
+
+    Raises:
+        MeasurementError: Not distinct integers >= 1 separated by commas.
+    """
+    try:
+        markers = tuple(int(v) for v in text.split(',') if v.strip())
+    except ValueError as err:
+        raise MeasurementError(f'held_out {text!r}: expected marker numbers separated by '
+                               'commas, e.g. 3,8,13') from err
+    if len(set(markers)) != len(markers) or any(m < 1 for m in markers):
+        raise MeasurementError(f'held_out {text!r}: distinct marker numbers >= 1')
+    return markers
 
 
 def build_live(scene: str, library: Path, n_windows: int = 4, noise_m: float = 0.0015,
-               discrepancy_m: float = 0.002) -> LiveDiagnoser:
-    """A LiveDiagnoser for ``scene`` on the built library in ``library``.
+               discrepancy_m: float = 0.002, held_out: tuple[int, ...] = ()) -> LiveDiagnoser:
+    """A LiveDiagnoser for ``scene`` on the built library in ``library``, the markers
+    ``held_out`` scored apart.
 
     Raises:
         LibraryError: The library is missing or incomplete (build it with ``dempath diagnose``),
@@ -115,4 +147,5 @@ def build_live(scene: str, library: Path, n_windows: int = 4, noise_m: float = 0
     allowance = Allowance(noise_m=noise_m, discrepancy_m=discrepancy_m)
     built = Library.load(library)
     built.check_scene(spec)
-    return LiveDiagnoser(built, CaseGeometry(tool_x, half_width, cube), allowance, n_windows)
+    return LiveDiagnoser(built, CaseGeometry(tool_x, half_width, cube), allowance, n_windows,
+                         held_out)

@@ -62,6 +62,8 @@ def with_headline(d: Diagnosis, library: Library, cube: tuple[float, float, floa
     (what every reported diagnosis carries: the command's, the demo's and the node's)."""
     assert d.measurement is not None
     d.headline = baseline_headline(d.measurement, library, cube, noise_m)
+    if d.held_out is not None:
+        d.held_headline = baseline_headline(d.held_out, library, cube, noise_m)
     return d
 
 

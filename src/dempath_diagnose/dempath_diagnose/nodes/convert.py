@@ -60,6 +60,14 @@ def diagnosis_msg(result: Diagnosis, case_id: str, header: Any) -> DiagnosisMsg:
     out.headline_floor_low_mm = float(floor.get('low', math.nan))
     out.headline_floor_high_mm = float(floor.get('high', math.nan))
     out.headline_place = str(head.get('place', ''))
+    held = result.held_headline or {}
+    if result.held_out is not None:
+        out.held_out_markers = [int(m) for m in result.held_out.markers]
+    out.held_out_headline_error_mm = float(held.get('value_mm', math.nan))
+    held_floor = held.get('floor_mm', {})
+    out.held_out_floor_low_mm = float(held_floor.get('low', math.nan))
+    out.held_out_floor_high_mm = float(held_floor.get('high', math.nan))
+    out.held_out_place = str(held.get('place', ''))
     out.simulations = int(result.simulations)
     out.wall_s = float(result.wall_s)
     for fit in dec.ranking:

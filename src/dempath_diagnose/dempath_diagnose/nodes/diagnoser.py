@@ -4,7 +4,8 @@ Subscribes to the measured MarkerPoints3D, the measured tool force (ToolForce on
 ``force_topic``), the simulator's ParticleStates (their run id names the case) and RunEvent on
 the player's events; on FINISHED it diagnoses the pass against the scene's signature library
 (built beforehand with ``dempath diagnose``; the node never simulates) on a worker thread and
-publishes ``dempath_msgs/Diagnosis`` on ``/diagnosis``.
+publishes ``dempath_msgs/Diagnosis`` on ``/diagnosis``. Markers named in ``held_out`` are left
+out of the diagnosis and their headline error is published apart (``held_out_*`` fields).
 """
 
 from __future__ import annotations
@@ -20,8 +21,8 @@ from std_msgs.msg import Header
 from dempath import topics
 from dempath.errors import DempathError
 from dempath.nodes.spin import run_node
-from dempath_diagnose.decision.live import build_live
-from dempath_diagnose.headline.stage import with_headline
+from dempath_diagnose.decision.live import build_live, held_out_markers
+from dempath_diagnose.headline.stage import headline_sentence, with_headline
 from dempath_diagnose.nodes.convert import diagnosis_msg, force_sample, marker_frame
 from dempath_msgs.msg import Diagnosis, MarkerPoints3D, ParticleStates, RunEvent, ToolForce
 
@@ -31,6 +32,7 @@ PARAMETERS = (
     ('windows', 4, 'time windows of the statistics'),
     ('noise_m', 0.0015, 'measurement noise per axis [m]'),
     ('discrepancy_m', 0.002, 'model-discrepancy allowance on marker statistics [m]'),
+    ('held_out', '', 'markers left out of the diagnosis and scored apart, e.g. 3,8,13'),
     ('force_topic', '/markers/tool_force', 'measured ToolForce topic'),
     ('events_topic', topics.PLAYER_EVENTS, 'RunEvent topic that ends a measured pass'),
     ('frame_id', 'world', 'frame of the published header'),
@@ -47,7 +49,8 @@ class DiagnoserNode(Node):
         v = {n: self.get_parameter(n).value for n, _, _ in PARAMETERS}
         self.frame_id = str(v['frame_id'])
         self.core = build_live(str(v['scene']), Path(str(v['library'])), int(v['windows']),
-                               float(v['noise_m']), float(v['discrepancy_m']))
+                               float(v['noise_m']), float(v['discrepancy_m']),
+                               held_out_markers(str(v['held_out'])))
         self.case_id = ''
         self.lock = threading.Lock()
         self.pub = self.create_publisher(Diagnosis, topics.DIAGNOSIS, 10)
@@ -90,6 +93,10 @@ class DiagnoserNode(Node):
         header = Header(frame_id=self.frame_id, stamp=self.get_clock().now().to_msg())
         self.pub.publish(diagnosis_msg(result, run_id or self.case_id, header))
         self.get_logger().info(f'pass {run_id!r}: {result.decision.verdict}')  # type: ignore[no-untyped-call]
+        if result.held_out is not None and 'value_mm' in result.held_headline:
+            held = ', '.join(map(str, result.held_out.markers))
+            line = headline_sentence(result.held_headline, f'of the held-out markers {held}')
+            self.get_logger().info(line)  # type: ignore[no-untyped-call]
 
 
 def main(args: list[str] | None = None) -> int:
