@@ -5,7 +5,10 @@ apart.
 Per variation (one JSON line each): ``recall`` (markers at least half visible that were found
 within 3 px), ``numbered_right`` (found and given their own number, in the frames as
 ``StereoMarkerTracker.release`` gives them out), ``id_switches`` (numbered detections whose
-nearest true marker within 8 px is another one; ``spurious_numbers``: no marker within 8 px),
+nearest true marker within 8 px is another one and whose own marker is not within 3 px: two
+markers whose images lie within 3 px of one spot are one spot, and the spot is either's;
+``id_switches_nearest`` counts every numbered detection whose nearest marker is another, as
+sessions 11-13 did; ``spurious_numbers``: no marker within 8 px),
 ``wrong_pair_points`` (3D points more than 5 mm from the truth whose pair holds
 a wrongly numbered detection), ``traj_rms_mm`` (3D error of the trajectories, true cameras),
 ``fps`` (frames per second of wall time, decode included, one thread, on the machine as loaded
@@ -81,12 +84,21 @@ def _truth_ids(fr: PixelFrame, t: dict[str, Any], ids: NDArray[np.int64], within
     return np.where(d[np.arange(len(fr.uv)), j] < within_px, ids[j], -1)
 
 
+def _own_within(fr: PixelFrame, t: dict[str, Any], ids: NDArray[np.int64], within_px: float,
+                ) -> NDArray[np.bool_]:
+    """(k,) whether each detection's own number's true marker lies within ``within_px``."""
+    uv = np.array(t['uv'])
+    row = {int(m): i for i, m in enumerate(ids)}
+    return np.array([m in row and float(np.linalg.norm(fr.uv[k] - uv[row[m]])) < within_px
+                     for k, m in enumerate(fr.markers.tolist())], bool)
+
+
 def score(out: list[PixelFrame], truth: dict[str, Any], cams: dict[str, CameraModel],
           ) -> dict[str, Any]:
     """recall, numbered_right, id_switches, wrong_pair_points, traj errors against the truth."""
     ids = np.array(truth['marker_ids'])
     by_key = {(f['camera'], round(f['stamp_ns'] * 1e-3)): f for f in truth['frames']}
-    want = found = right = switches = spurious = 0
+    want = found = right = switches = switches_nearest = spurious = 0
     wrong: set[tuple[str, int, int]] = set()  # (camera, stamp us, number) wrongly given
     for fr in out:
         t = by_key.get((fr.camera, round(fr.stamp_s * 1e6)))
@@ -102,9 +114,11 @@ def score(out: list[PixelFrame], truth: dict[str, Any], cams: dict[str, CameraMo
             hits = np.flatnonzero(true_of == m)
             found += int(len(hits) > 0)
             right += int(any(fr.markers[h] == m for h in hits))
+        own = _own_within(fr, t, ids, MATCH_PX)
         for k in np.flatnonzero(fr.markers >= 0):
             if owner[k] != fr.markers[k]:  # another marker's spot, or nobody's
-                switches += int(owner[k] >= 0)
+                switches_nearest += int(owner[k] >= 0)
+                switches += int(owner[k] >= 0 and not own[k])
                 spurious += int(owner[k] < 0)
                 wrong.add((fr.camera, round(fr.stamp_s * 1e6), int(fr.markers[k])))
     side = truth['cameras'][0]['name']
@@ -129,6 +143,7 @@ def score(out: list[PixelFrame], truth: dict[str, Any], cams: dict[str, CameraMo
                                                      for f in near)
             wrong_pairs += int(bad and err * 1e3 > WRONG_PAIR_MM)
     return {'want': want, 'found': found, 'right': right, 'id_switches': switches,
+            'id_switches_nearest': switches_nearest,
             'spurious_numbers': spurious,
             'wrong_pair_points': wrong_pairs, 'sq3d': float(np.sum(np.square(d3))),
             'n3d': len(d3), 'max3d_mm': 1e3 * max(d3) if d3 else float('nan')}
@@ -256,6 +271,7 @@ def summary(scores: list[dict[str, Any]]) -> dict[str, Any]:
     return {'recall': sum(s['found'] for s in scores) / max(want, 1),
             'numbered_right': sum(s['right'] for s in scores) / max(want, 1),
             'id_switches': sum(s['id_switches'] for s in scores),
+            'id_switches_nearest': sum(s['id_switches_nearest'] for s in scores),
             'spurious_numbers': sum(s['spurious_numbers'] for s in scores),
             'wrong_pair_points': sum(s['wrong_pair_points'] for s in scores),
             'traj_rms_mm': 1e3 * float(np.sqrt(sum(s['sq3d'] for s in scores) / n3d))

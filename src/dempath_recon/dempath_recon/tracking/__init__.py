@@ -6,7 +6,9 @@ stamp order), ``split`` (touching markers fitted apart), ``detect`` (marker spot
 image), ``linker`` (one camera's tracks),
 ``associate`` (the marker grid, epipolar geometry, the markers' 3D positions), ``records``
 (settings, numbered frames, counts), ``release`` (the publication delay), ``trajectories``
-(numbered tracks to 3D), ``state`` (the tracker's state, one record), ``one_camera``,
+(numbered tracks to 3D), ``state`` (the tracker's state, one record), ``link_guide`` (the
+other camera inside the 2D link: links barred off the epipolar line, spots that may hold two
+markers), ``one_camera``,
 ``numbering``, ``pair_checks``, ``pair_numbering``, ``ray_numbering`` (functions on that
 record), ``stereo``
 (:class:`~dempath_recon.tracking.stereo.StereoMarkerTracker`, the pipeline, and

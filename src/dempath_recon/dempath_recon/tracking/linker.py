@@ -16,6 +16,11 @@ exact global assignment costs microseconds, needs no new dependency, and every d
 loss, re-attachment) is explicit and reported, which the paper's validation needs; trackpy's
 subnetwork search is built for thousands of dense particles.
 
+The caller may bar links (``update``'s ``barred``: track id -> (n,) detections that track may
+not take): the two-camera tracker bars a numbered track from detections its marker cannot be,
+by the other camera's sighting of the marker (off its epipolar line), so the epipolar constraint
+decides the link itself rather than a check after it (:mod:`~dempath_recon.tracking.link_guide`).
+
 A track whose marker is not found (covered by sand, out of view) becomes LOST at once: it
 keeps its last position and is never linked to a detection farther than ``reattach_px`` from
 where it was last seen (plus its predicted drift). A detection near a lost track's last position
@@ -154,8 +159,13 @@ class MarkerTracker:
         self.tracks.append(track)
         return track
 
-    def update(self, stamp_s: float, det: Detections) -> TrackFrame:
-        """Link one frame's detections; frames older than the last one are refused (counted)."""
+    def update(self, stamp_s: float, det: Detections,
+               barred: dict[int, NDArray[np.bool_]] | None = None) -> TrackFrame:
+        """Link one frame's detections; frames older than the last one are refused (counted).
+
+        ``barred``: track id -> (n,) bool, the detections that track may not be linked to
+        (its marker cannot be there); tracks not in it may take any detection in their gate.
+        """
         if self._last_stamp is not None and stamp_s <= self._last_stamp:
             self.counts.out_of_order += 1
             msg = f'frame at {stamp_s:.6f} s not after {self._last_stamp:.6f} s: skipped'
@@ -167,7 +177,7 @@ class MarkerTracker:
         self.counts.detected += len(det.uv)
         events: list[str] = []
         self._expire(stamp_s, events)
-        links = self._assign(stamp_s, det.uv)
+        links = self._assign(stamp_s, det.uv, barred or {})
         linked_tracks: set[int] = set()
         ids, markers, uvs, conf = [], [], [], []
         for ti, di in links:
@@ -210,14 +220,19 @@ class MarkerTracker:
                 keep.append(track)
         self.tracks = keep
 
-    def _assign(self, stamp_s: float, uv: FloatArray) -> list[tuple[int, int]]:
-        """One-to-one links (track index, detection index) inside the gates."""
+    def _assign(self, stamp_s: float, uv: FloatArray, barred: dict[int, NDArray[np.bool_]],
+                ) -> list[tuple[int, int]]:
+        """One-to-one links (track index, detection index) inside the gates, none barred."""
         if not self.tracks or len(uv) == 0:
             return []
         pred = np.array([t.predict(stamp_s, self.config.velocity_decay) for t in self.tracks])
         cost = np.linalg.norm(pred[:, None, :] - uv[None, :, :], axis=2)
         gate = np.array([self.config.reattach_px if t.lost else self.config.gate_px
                          for t in self.tracks])
+        for row, track in enumerate(self.tracks):
+            bar = barred.get(track.track_id)
+            if bar is not None:
+                cost[row, bar] = np.inf  # outside every gate: never linked
         # a link's worth: the longest link allowed minus its length; no link (or one outside its
         # gate, or one exactly as long as the larger gate) is worth 0, so one more link is made
         # only when it is worth more than the misses the rearrangement it needs adds

@@ -12,15 +12,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dempath_recon.tracking.associate import project, triangulate_pairs
+from dempath_recon.tracking.link_guide import DRIFT_PX, DRIFT_WINDOW
 from dempath_recon.tracking.linker import UNNUMBERED
 from dempath_recon.tracking.one_camera import alone
 from dempath_recon.tracking.state import RECENT_S, StereoState, at_stamp, carried_point
 
 LOG = logging.getLogger('dempath_recon.tracking.stereo')  # the pipeline's logger
 FloatArray = NDArray[np.float64]
-DRIFT_PX = 1.5  # median epipolar distance of checked pairs above which the calibration is
-# suspect [px] (the bundled render's frames: 0.76 px, at most 0.93 with noise; shaken 3 px: 2.5)
-DRIFT_WINDOW = 10  # checked frames of a camera the median is taken over
 DRIFT_MIN_PAIRS = 3  # pairs a frame needs for its median to count
 
 

@@ -38,9 +38,10 @@ def number_pairs(state: StereoState, camera: str, track_ids: NDArray[np.int64],
     period old) are a pair when each is the other's only unnumbered point within
     ``epipolar_px`` of its epipolar line; the pair's 3D point is given the number of the
     marker, among those numbered in neither camera now, that :func:`only_marker` finds.
-    Both tracks take the number (and lose it if a later pair check contradicts it), and
-    the other camera's point becomes its latest, so ``verify`` checks the pair and
-    records the 3D point at once.
+    A point of this camera on the epipolar line of a marker the other camera has numbered
+    now is not paired (:func:`_on_numbered_lines`). Both tracks take the number (and lose
+    it if a later pair check contradicts it), and the other camera's point becomes its
+    latest, so ``verify`` checks the pair and records the 3D point at once.
     """
     other = state.other(camera)
     free = state.free[other]
@@ -57,10 +58,11 @@ def number_pairs(state: StereoState, camera: str, track_ids: NDArray[np.int64],
     taken = {int(m) for m in markers if m >= 0} | {
         m for m, (t, _) in state.latest[other].items() if abs(t - stamp_s) <= RECENT_S}
     missing = [m for m in state.config.grid.points()[0].tolist() if m not in taken]
+    claimed = _on_numbered_lines(state, camera, uv[mine], stamp_s)
     markers = markers.copy()
     for a, k in enumerate(mine.tolist()):
         js = np.flatnonzero(close[a])
-        if len(js) != 1 or close[:, js[0]].sum() != 1:
+        if len(js) != 1 or close[:, js[0]].sum() != 1 or claimed[a]:
             continue
         j = keep[int(js[0])]
         tid, tid_o = int(track_ids[k]), int(o_ids[j])
@@ -80,6 +82,21 @@ def number_pairs(state: StereoState, camera: str, track_ids: NDArray[np.int64],
         markers[k] = number
         missing.remove(number)
     return markers
+
+
+def _on_numbered_lines(state: StereoState, camera: str, uv: FloatArray, stamp_s: float,
+                       ) -> NDArray[np.bool_]:
+    """(n,) whether each point ``uv`` (n, 2) px lies within ``epipolar_px`` of the line of a
+    point the other camera gave out numbered within ``RECENT_S``: it may be that marker, back
+    in this camera, and a pair with one of the other camera's unnumbered points would be a
+    wrong correspondence (on a tuning render marker 5's spot in the side camera and marker
+    9's in the front, both unnumbered, paired and took 9's number while the front had 5)."""
+    other = state.other(camera)
+    seen = [p for t, p in state.latest[other].values() if abs(t - stamp_s) <= RECENT_S]
+    if not seen or not len(uv):
+        return np.zeros(len(uv), bool)
+    d = epipolar_distance(state.cameras[other], state.cameras[camera], np.array(seen), uv)
+    return np.asarray((d <= state.config.epipolar_px).any(axis=0), bool)
 
 
 def only_marker(state: StereoState, xyz: FloatArray, stamp_s: float, missing: list[int],

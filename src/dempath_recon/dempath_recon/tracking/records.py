@@ -129,4 +129,5 @@ class CameraCounts:
     unconfirmed: int = 0
     confirmed_alone: int = 0
     revoked: int = 0
+    merged: int = 0  # numbered points withheld: a neighbour lost beside them may share the spot
     gaps_s: list[tuple[float, float]] = field(default_factory=list)

@@ -36,6 +36,7 @@ from numpy.typing import NDArray
 from dempath_recon.methods.triangulate import Camera
 from dempath_recon.tracking.associate import marker_diameter_px
 from dempath_recon.tracking.detect import Detections, ImageDecodeError, MarkerDetector
+from dempath_recon.tracking.link_guide import ambiguous_spots, barred_links
 from dempath_recon.tracking.linker import UNNUMBERED
 from dempath_recon.tracking.merge import StampMerge
 from dempath_recon.tracking.numbering import number_all_by_grid, number_new
@@ -155,7 +156,7 @@ class StereoMarkerTracker:
         counts.frames += 1
         counts.no_marker += int(len(det.uv) == 0)
         before = (tracker.counts.lost, tracker.counts.reattached)
-        tf = tracker.update(stamp_s, det)
+        tf = tracker.update(stamp_s, det, barred_links(state, camera, det.uv, stamp_s))
         counts.detected += len(det.uv)
         counts.lost += tracker.counts.lost - before[0]
         counts.reattached += tracker.counts.reattached - before[1]
@@ -170,6 +171,13 @@ class StereoMarkerTracker:
                                     events)
         markers = verify(state, camera, tf.track_ids, markers, tf.uv, stamp_s, events)
         markers = withhold_crowded(det, tf.uv, markers)
+        merged = ambiguous_spots(tracker, tf._replace(markers=markers),
+                                 self.detectors[camera].config.marker_diameter_px)
+        if merged.any():
+            counts.merged += int(merged.sum())
+            events += [f'{camera}: marker {m} withheld at {stamp_s:.3f} s: its spot may hold '
+                       'a neighbour lost beside it' for m in markers[merged].tolist()]
+            markers = np.where(merged, UNNUMBERED, markers).astype(np.int32)
         free_mask = unnumbered_tracks(state, camera, tf.track_ids, markers)
         free = np.flatnonzero(free_mask)
         state.free[camera] = (stamp_s, tf.track_ids[free], tf.uv[free])
