@@ -1,11 +1,19 @@
-"""The other camera inside the 2D link (``link_guide``, ``MarkerTracker.update``'s ``barred``)
-and spots that may hold two markers. Synthetic detections at exact positions."""
+"""The other camera inside the 2D link (``link_guide``, ``MarkerTracker.update``'s ``barred``),
+spots that may hold two markers, and faint spots taken by the track that lost its marker.
+Synthetic detections at exact positions, and a synthetic frame with a faded marker."""
 
 from __future__ import annotations
 
+import sys
+from pathlib import Path
+
+import cv2
 import numpy as np
 
-from dempath_recon.tracking.detect import Detections
+sys.path.insert(0, str(Path(__file__).parent))
+from spots import spot_image
+
+from dempath_recon.tracking.detect import Detections, DetectorConfig, MarkerDetector
 from dempath_recon.tracking.link_guide import MERGE_S, ambiguous_spots
 from dempath_recon.tracking.linker import MarkerTracker
 
@@ -47,3 +55,40 @@ def test_spot_beside_a_just_lost_track_may_hold_both() -> None:
         frame = tracker.update(k * DT, dets([[100.0, 102.0]]))
         k += 1
     assert list(ambiguous_spots(tracker, frame, 8.0)) == [False]
+
+
+def faded_image(alpha: float) -> np.ndarray:
+    """A 240x320 BGR frame: a clay marker at (100.3, 120.6) and one at (200.7, 110.2) blended
+    into the sand at ``alpha`` (a half-buried marker in a dark frame keeps that share of its
+    contrast)."""
+    c = np.array([[100.3, 120.6], [200.7, 110.2]])
+    both = cv2.imdecode(np.frombuffer(spot_image((240, 320), c, 4.5, np.random.default_rng(3),
+                                                 quality=95), np.uint8), 1).astype(float)
+    one = cv2.imdecode(np.frombuffer(spot_image((240, 320), c[:1], 4.5,
+                                                np.random.default_rng(3), quality=95),
+                                     np.uint8), 1).astype(float)
+    img = one * (1 - alpha) + both * alpha
+    img[:, :150] = one[:, :150]
+    return np.clip(img, 0, 255).astype(np.uint8)
+
+
+def test_faint_marker_is_reported_apart_and_taken_only_by_its_track() -> None:
+    """A marker at 55 % of its contrast is below the threshold: not a detection but a faint
+    spot, found near a point asked for (none searched with ``faint_threshold`` 0); the
+    numbered track that lost it takes it (within ``faint_gate_px``), an unnumbered track never
+    does, and it never starts a track."""
+    det = MarkerDetector().detect(faded_image(0.55))
+    assert len(det.uv) == 1 and np.linalg.norm(det.uv[0] - [100.3, 120.6]) < 0.3
+    assert det.faint is not None
+    found = det.faint(np.array([[202.0, 111.0], [100.0, 121.0], [60.0, 60.0]]), 4.0)
+    assert np.linalg.norm(found[0] - [200.7, 110.2]) < 1.0  # the faded marker
+    assert np.isnan(found[1:]).all()  # the strong marker's own spot, and bare sand
+    assert MarkerDetector(DetectorConfig(faint_threshold=0.0)).detect(
+        faded_image(0.55)).faint is None
+    for number, want in ((7, [-1, 7]), (-1, [-1])):
+        tracker = MarkerTracker()
+        tracker.seed(np.array([[100.0, 120.0], [201.0, 111.0]]),
+                     np.array([-1, number], np.int32), -DT)
+        frame = tracker.update(0.0, det)
+        assert sorted(frame.markers.tolist()) == want
+        assert tracker.counts.new_tracks == 0 and tracker.counts.faint == len(want) - 1

@@ -60,12 +60,15 @@ class TrackerConfig:
         max_lost_s: a lost track is dropped after this long unseen [s].
         velocity_decay: share of the velocity kept per second while lost [-] (covered markers
             stop with the sand around them).
+        faint_gate_px: longest link of a numbered track left without a spot to a faint one
+            (``Detections.faint``: below the detector's threshold) [px]; 0: faint spots unused.
     """
 
     gate_px: float = 25.0
     reattach_px: float = 40.0
     max_lost_s: float = 2.0
     velocity_decay: float = 0.05
+    faint_gate_px: float = 4.0
 
     def __post_init__(self) -> None:
         for name in ('gate_px', 'reattach_px', 'max_lost_s'):
@@ -91,6 +94,7 @@ class Track:
     reattached: tuple[float, float] | None = None  # (stamp s, miss px) of its last re-attachment
     back_unchecked: bool = False  # re-attached, and no check against the other camera has
     # passed since (the caller resets it)
+    faint_stamp: float | None = None  # stamp of its last link to a faint spot [s]
 
     def predict(self, stamp_s: float, decay: float) -> FloatArray:
         """(2,) expected position at ``stamp_s`` [px]."""
@@ -129,6 +133,7 @@ class TrackCounts:
     lost: int = 0
     reattached: int = 0
     new_tracks: int = 0
+    faint: int = 0  # links to faint spots
     out_of_order: int = 0
 
 
@@ -188,6 +193,16 @@ class MarkerTracker:
             markers.append(track.marker)
             uvs.append(det.uv[di])
             conf.append(det.confidence[di])
+        for ti, spot in self._assign_faint(stamp_s, det, linked_tracks):
+            track = self.tracks[ti]
+            self._advance(track, spot, stamp_s, events)
+            track.faint_stamp = stamp_s
+            linked_tracks.add(ti)
+            self.counts.faint += 1
+            ids.append(track.track_id)
+            markers.append(track.marker)
+            uvs.append(spot)
+            conf.append(0.0)
         for ti, track in enumerate(self.tracks):
             if ti not in linked_tracks and not track.lost:
                 track.lost = True
@@ -241,6 +256,26 @@ class MarkerTracker:
         rows, cols = linear_sum_assignment(worth, maximize=True)
         return [(int(r), int(c)) for r, c in zip(rows, cols, strict=True)
                 if cost[r, c] <= gate[r] and worth[r, c] > 0]
+
+    def _assign_faint(self, stamp_s: float, det: Detections, linked: set[int],
+                      ) -> list[tuple[int, FloatArray]]:
+        """(track index, (2,) px) links of the numbered tracks left without a spot to a faint
+        spot (below the detector's threshold: ``Detections.faint``) within ``faint_gate_px``
+        of each one's prediction; a spot two tracks find is left to neither (a faint spot's
+        number is given out only once the other camera confirms it: ``pair_checks.verify``).
+        """
+        if det.faint is None or self.config.faint_gate_px <= 0:
+            return []
+        rows = [ti for ti, t in enumerate(self.tracks) if ti not in linked and t.marker >= 0]
+        if not rows:
+            return []
+        pred = np.array([self.tracks[ti].predict(stamp_s, self.config.velocity_decay)
+                         for ti in rows])
+        spots = det.faint(pred, self.config.faint_gate_px)
+        found = [(ti, p) for ti, p in zip(rows, spots, strict=True) if np.isfinite(p).all()]
+        keys = [tuple(p.tolist()) for _, p in found]
+        return [(ti, p) for (ti, p), key in zip(found, keys, strict=True)
+                if keys.count(key) == 1]
 
     def _advance(self, track: Track, uv: FloatArray, stamp_s: float, events: list[str]) -> None:
         dt = stamp_s - track.last_stamp_s

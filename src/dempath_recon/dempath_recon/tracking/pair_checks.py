@@ -38,10 +38,11 @@ def verify(state: StereoState, camera: str, track_ids: NDArray[np.int64],
     render it let that number re-attach to a neighbour later, 6 switches.)
 
     A track re-attached since its last passed check more than ``doubt_link_px`` from where
-    it was expected is not given out with its number until the other camera confirms it
-    (withheld, counted as ``unconfirmed``): a marker that reappears some way off may be a
-    neighbour, and a wrong number is worse than none, unless no other marker this camera
-    does not see now could be there at a plausible speed
+    it was expected, or linked in this frame to a faint spot (below the detector's
+    threshold: ``Detections.faint``), is not given out with its number until the other
+    camera confirms it (withheld, counted as ``unconfirmed``): a marker that reappears some
+    way off may be a neighbour, and a wrong number is worse than none, unless no other
+    marker this camera does not see now could be there at a plausible speed
     (:func:`~dempath_recon.tracking.one_camera.alone`, counted as ``confirmed_alone``).
     (Withholding it only when another marker was last seen near the spot, at any time, was
     tried: on the bundled render the switch it should stop, a side-camera re-attachment 25 px
@@ -52,6 +53,7 @@ def verify(state: StereoState, camera: str, track_ids: NDArray[np.int64],
     unsure = {k for k in np.flatnonzero(markers >= 0).tolist()
               if int(track_ids[k]) in tracks
               and (tracks[int(track_ids[k])].reattach_px > state.config.doubt_link_px
+                   or tracks[int(track_ids[k])].faint_stamp == stamp_s
                    or (tracks[int(track_ids[k])].back_unchecked
                        and likelier_in_view(state, camera, int(markers[k]), uv[k], markers,
                                             stamp_s) is not None))}
