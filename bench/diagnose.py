@@ -40,12 +40,37 @@ OPEN = ('nothing_significant', 'inconclusive')
 CASE_SEEDS = (7, 8, 9)  # beds the library never used, shared by cases (pours are dearest)
 
 
+# The two-rivals scene's cases held out: written before any run of the scene's bench and never
+# used to choose the separation step's constants (dempath_diagnose.separation).
+HELD_OUT = frozenset({'rivals_control_b', 'rivals_cohesion_6e4', 'rivals_rolling_0.45'})
+
+
+def rival_cases() -> list[HiddenCase]:
+    """The two-rivals scene's cases (``tiny_rivals``, issue 32): cohesion and rolling resistance
+    both raise its draft, so each is the other's rival; a control on each side."""
+    coh, roll = 'cohesion.energy_density_j_m3', 'rolling_resistance.coefficient'
+    either = ('effect_missing', 'parameter_off', 'inconclusive')
+    return [
+        HiddenCase('rivals_control', {}, '', (*OPEN[:1], 'inconclusive'), seed=CASE_SEEDS[0]),
+        HiddenCase('rivals_cohesion_1e5', {coh: 1e5}, 'cohesion', either, seed=CASE_SEEDS[1]),
+        HiddenCase('rivals_rolling_0.52', {roll: 0.52}, 'rolling_resistance', either,
+                   seed=CASE_SEEDS[2]),
+        HiddenCase('rivals_control_b', {}, '', (*OPEN[:1], 'inconclusive'), seed=CASE_SEEDS[1]),
+        HiddenCase('rivals_cohesion_6e4', {coh: 6e4}, 'cohesion', either, seed=CASE_SEEDS[2]),
+        HiddenCase('rivals_rolling_0.45', {roll: 0.45}, 'rolling_resistance', either,
+                   seed=CASE_SEEDS[0]),
+    ]
+
+
 def cases_for(scene_name: str) -> list[HiddenCase]:
     """The hidden-effect cases: strong ones must be named; weak and control must not be.
 
     Case k runs on CASE_SEEDS[k % 3]: each case is diagnosed on its own, so sharing a bed
     between cases costs no independence within a case, and the three beds are poured once.
+    ``tiny_rivals`` has its own cases (:func:`rival_cases`).
     """
+    if scene_name == 'tiny_rivals':
+        return rival_cases()
     strong = {'cohesion.energy_density_j_m3': 1e5}
     return [
         HiddenCase('control', {}, '', (*OPEN[:1], 'inconclusive'), seed=CASE_SEEDS[0]),
@@ -264,6 +289,16 @@ def main() -> None:
         'reliability': reliability(rows)}
     if args.budget:
         figures.update(budget_figures(rows, args.budget))
+    held = [r for r in rows if r['case'] in HELD_OUT]
+    if held:  # reported apart: never used to choose the separation step's constants
+        figures['held_out'] = {
+            'cases': len(held), 'correct': sum(r['correct'] for r in held),
+            'false_confident': sum(r['confident_wrong'] for r in held),
+            'brier': round(float(np.mean([r['brier'] for r in held])), 4),
+            **({'correct_before': sum(r.get('correct_before', False) for r in held),
+                'brier_before': round(float(np.mean([r.get('brier_before', r['brier'])
+                                                     for r in held])), 4)}
+               if args.budget else {})}
     print(json.dumps(figures))
 
 

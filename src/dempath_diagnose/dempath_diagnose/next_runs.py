@@ -11,8 +11,13 @@ situations leave the answer open that more simulations can close (issue 32):
   (generalised least squares under the covariance of the last simulated strength), at least
   past the current range and at most one library span beyond the last simulated strength,
   inside the physical range.
-- **Between rivals.** Two or more answers are not ruled out and none is named. Where a
-  contender's fitted strength lies between the simulated strengths, its prediction there is an
+- **Between rivals.** Two or more answers are not ruled out and none is named. The two most
+  probable ("nothing missing" among them) are a pair; the run that best separates them is the
+  one where a rival is plausible, its prediction is interpolated and the pair's predictions
+  differ most over the spread of one pass (:mod:`dempath_diagnose.separation`). When they
+  differ by less than 1 sd wherever they are plausible, no run separates them (the reason says
+  how far apart they come). When no new run would separate the pair: where a contender's
+  fitted strength lies between the simulated strengths, its prediction there is an
   interpolation, with the emulator's variance on top; a run at the fitted strength replaces the
   interpolation by paired simulations exactly where the decision is made, for each contender
   (most probable first; the most probable answer counts even when ruled out: its interpolated
@@ -35,6 +40,7 @@ import numpy as np
 from dempath_diagnose.decision.diagnosis import Diagnosis
 from dempath_diagnose.decision.emulator import CandidateEmulator
 from dempath_diagnose.decision.verdict import ModelFit
+from dempath_diagnose.separation import D_NEEDED, PairRun, PairSeparation, separate_pair
 from dempath_sim.effects.candidates import LOG_SCALE
 
 NAMED = ('effect_missing', 'parameter_off')
@@ -174,6 +180,46 @@ def _contenders(d: Diagnosis) -> list[ModelFit]:
     return out
 
 
+def _rival_pair(d: Diagnosis, plausible: list[ModelFit]) -> tuple[ModelFit, ModelFit] | None:
+    """The two most probable answers not ruled out (with at least CONTENDER_P each), "nothing
+    missing" among them; None when fewer than two remain."""
+    base = d.decision.baseline
+    rivals = [f for f in plausible if f.probability >= CONTENDER_P]
+    if not base.ruled_out and base.probability >= CONTENDER_P:
+        rivals.append(base)
+    rivals.sort(key=lambda f: -f.probability)
+    return (rivals[0], rivals[1]) if len(rivals) >= 2 else None
+
+
+def _pair_run(d: Diagnosis, run: PairRun, sep: PairSeparation) -> PlannedRun:
+    fits = {f.name: f for f in [d.decision.baseline, *d.decision.ranking]}
+    fit = fits[run.candidate]
+    rival = 'nothing missing' if run.rival == 'baseline' else run.rival
+    unit = f' {fit.unit}' if fit.unit not in ('', '1') else ''
+    reason = (f'{run.candidate} (p {fit.probability:.2f}) and {rival} '
+              f'(p {fits[run.rival].probability:.2f}) remain, {sep.distance:.2f} sd apart at '
+              f'their fits; the run that best separates them is {run.candidate} at '
+              f'{run.strength:.4g}{unit}: plausible there, interpolated there, and its '
+              f'prediction differs from that of {rival} by up to {run.z_max:.1f} sd of one '
+              f'pass ({run.statistic})')
+    return PlannedRun(run.candidate, run.strength, 'separate', reason)
+
+
+def _distance_note(pair: tuple[ModelFit, ModelFit], sep: PairSeparation) -> str:
+    names = ' and '.join('nothing missing' if f.name == 'baseline' else f.name for f in pair)
+    return (f'{names} lie {sep.distance:.2f} sd apart at their fits (Mahalanobis, over the '
+            f'spread of one pass: seed spread, sampling, emulator, noise and allowance; one '
+            f'statistic at most {sep.z_max:.1f} sd, {sep.statistic}); one pass names one of '
+            f'them confidently from {D_NEEDED:.2f} sd')
+
+
+def _inseparable(pair: tuple[ModelFit, ModelFit], sep: PairSeparation) -> str:
+    names = ' and '.join('nothing missing' if f.name == 'baseline' else f.name for f in pair)
+    return (f'the data cannot separate {names}: each is simulated at its fit and '
+            + _distance_note(pair, sep) + ': no run of these candidates tells them apart on '
+            'this measurement')
+
+
 def plan_next(d: Diagnosis, budget_left: int, done: set[tuple[str, float]]) -> Plan:
     """The next runs for diagnosis ``d`` (see the module docstring), or the reason to stop.
 
@@ -185,7 +231,10 @@ def plan_next(d: Diagnosis, budget_left: int, done: set[tuple[str, float]]) -> P
     dec = d.decision
     top = dec.ranking[0]
     if budget_left <= 0:
-        return Plan(stop='the budget of simulations is spent')
+        pair = (_rival_pair(d, [f for f in _contenders(d) if not f.ruled_out])
+                if dec.verdict == 'inconclusive' else None)
+        note = f'; {_distance_note(pair, separate_pair(d, *pair, done))}' if pair else ''
+        return Plan(stop='the budget of simulations is spent' + note)
     if dec.verdict == 'nothing_significant':
         return Plan(stop='"nothing missing" is the most probable answer and the model is not '
                          'ruled out: nothing to look for')
@@ -203,10 +252,18 @@ def plan_next(d: Diagnosis, budget_left: int, done: set[tuple[str, float]]) -> P
     if dec.verdict in NAMED:
         return Plan(stop=f'{top.name} is named (p {top.probability:.2f}); its fit lies at the '
                          'edge of its physical range, nothing beyond to run')
+    plausible = [f for f in contenders if not f.ruled_out]
+    pair = _rival_pair(d, plausible)
+    if pair:
+        sep = separate_pair(d, *pair, done)
+        if sep.distance < D_NEEDED:  # confused where both fit: only their fits can move
+            at_pair = new([_at_fit(d, f) for f in pair if f.kind != 'baseline'])
+            return Plan(at_pair) if at_pair else Plan(stop=_inseparable(pair, sep))
+        if sep.best is not None:
+            return Plan((_pair_run(d, sep.best, sep),))
     at_fit = new([_at_fit(d, f) for f in contenders])
     if at_fit:
         return Plan(at_fit)
-    plausible = [f for f in contenders if not f.ruled_out]
     if not plausible and dec.baseline.ruled_out:
         return Plan(stop=f'{top.name} fits best (p {top.probability:.2f}) but is ruled out '
                          f'even where it is simulated at its fit (implausibility '
