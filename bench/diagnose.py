@@ -8,7 +8,9 @@ the Brier score and a reliability table of the top probability. Everything is ca
 ``--root``: an interrupted bench resumes. The last line is one JSON object.
 
 Usage: ``.venv/bin/python bench/diagnose.py [--scene reduced_1ms] [--root DIR] [--serial]``
-(``--scene tiny`` for a quick check; ``--library-only`` times the library build alone).
+(``--scene tiny`` for a quick check; ``--scene tiny_rivals`` for its own six cases, where
+cohesion and rolling resistance are rivals, three held out; ``--library-only`` times the library
+build alone; ``--budget N`` allows N simulations beyond the library per diagnosis).
 """
 
 from __future__ import annotations
