@@ -20,6 +20,7 @@ from dempath.errors import DempathError
 from dempath_diagnose.decision.bandtracks import band_table7
 from dempath_diagnose.decision.emulator import Allowance, Emulator, build_emulator
 from dempath_diagnose.decision.measure import check_force_scale
+from dempath_diagnose.decision.range_edge import edge_decision
 from dempath_diagnose.decision.statistics import AXES, Layout, build_layout, measured_statistics
 from dempath_diagnose.decision.thin import thin_decision
 from dempath_diagnose.decision.verdict import Decision, decide
@@ -136,7 +137,7 @@ def diagnose(meas: Measurement, library: Library, geometry: CaseGeometry,
     observed[observed_idx[~finite]] = False
     y = y[finite]
     cov = emu.fixed_cov(allowance, layout)
-    decision = thin_decision(decide(emu, y, observed, cov), layout)
+    decision = edge_decision(thin_decision(decide(emu, y, observed, cov), layout), emu)
     err, z = _marker_map(emu, features, allowance)
     table7 = baseline_table7(meas, library, geometry.cube_m)
     return Diagnosis(decision, layout, emu, y, observed, cov, z, err, dict(meas.problems),
