@@ -401,3 +401,22 @@ def test_lost_track_drifting_onto_a_neighbour_is_not_published(rig) -> None:
     given = [numbers_at(f, c, spot) for f, c in zip(out[24:], rig.cameras * 4, strict=True)]
     assert 5 not in given and given[2:] == [2] * 6, given
     assert sum(r['motion_conflicts'] for r in tracker.report().values()) == 1
+
+
+def test_whole_view_moving_at_once_keeps_the_numbers(rig) -> None:
+    """One front frame puts all three pairs 40 mm off along the side camera's lines of sight
+    (the front camera knocked; linker gates widened so the tracks follow): withheld in that
+    frame, but the numbers are kept (the markers did not change), so the next frame is
+    numbered again; nothing is revoked. Without the rule every number was taken back."""
+    pts = [np.array(g) for g in GRID]
+    knocked = [intruder(rig, p, 0.04) for p in pts]
+    scene = [(pts, pts)] * 3 + [(pts, knocked), (pts, pts)]
+    config = StereoTrackConfig(grid=MarkerGrid(layout_m=GRID),
+                               tracker=TrackerConfig(gate_px=80.0, reattach_px=80.0))
+    out, tracker = run(rig, scene, config)
+    front = rig.cameras[1]
+    fronts = [f for f in out if f.camera == 'cam_front']
+    assert [numbers_at(fronts[3], front, p) for p in knocked] == [-1, -1, -1]
+    assert any('numbers kept' in e for e in fronts[3].events)
+    assert [numbers_at(fronts[4], front, p) for p in pts] == [1, 2, 3]
+    assert tracker.report()['cam_front']['revoked'] == 0

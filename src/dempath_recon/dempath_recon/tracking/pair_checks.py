@@ -19,6 +19,8 @@ from dempath_recon.tracking.state import RECENT_S, StereoState, at_stamp, carrie
 
 LOG = logging.getLogger('dempath_recon.tracking.stereo')  # the pipeline's logger
 FloatArray = NDArray[np.float64]
+MOVED_MIN = 3  # pairs that must be off at once for the view to have moved
+MOVED_SHARE = 0.5  # share of the frame's checked pairs that must be off at once
 DRIFT_MIN_PAIRS = 3  # pairs a frame needs for its median to count
 
 
@@ -76,6 +78,7 @@ def verify(state: StereoState, camera: str, track_ids: NDArray[np.int64],
     xyz, epi = triangulate_pairs(state.cameras[camera], state.cameras[other],
                                  uv[idx], np.array([partner[k] for k in idx]))
     note_residuals(state, camera, epi, stamp_s, events)
+    moved = frame_moved(state, markers, idx, xyz, stamp_s)
     for k, x, d in zip(idx, xyz, epi, strict=True):
         m = int(markers[k])
         dist, allowed = state.positions.distance(m, stamp_s, x)
@@ -107,7 +110,10 @@ def verify(state: StereoState, camera: str, track_ids: NDArray[np.int64],
         markers[k] = UNNUMBERED
         tid = int(track_ids[k])
         jump = tracks[tid].link_px if tid in tracks else 0.0
-        if tid in state.late_numbered[camera] or jump > state.config.doubt_link_px \
+        if moved and d <= epi_ok and rival is None:
+            why += ('; most of the frame\'s pairs moved together (the cameras moved, not '
+                    'the markers): numbers kept')
+        elif tid in state.late_numbered[camera] or jump > state.config.doubt_link_px \
                 or rival is not None:
             state.late_numbered[camera].discard(tid)
             state.refused[camera].add((tid, m))
@@ -126,6 +132,23 @@ def verify(state: StereoState, camera: str, track_ids: NDArray[np.int64],
         events.append(msg)
         LOG.warning(msg)
     return markers
+
+
+def frame_moved(state: StereoState, markers: NDArray[np.int32], idx: list[int],
+                xyz: FloatArray, stamp_s: float) -> bool:
+    """Whether at least ``MOVED_SHARE`` of the frame's pairs (and ``MOVED_MIN`` of them) lie
+    farther from their markers' last positions than the markers can have gone: the whole
+    view moved at once (camera shake, a knock), which says nothing about identities. Such
+    pairs are withheld but keep their numbers (on a variation shaken by 3 px, one frame put
+    all ten of the front camera's pairs 20-26 mm off and took every number back: the front
+    numbered nothing for the rest of the pass)."""
+    if len(idx) < MOVED_MIN:
+        return False
+    off = 0
+    for k, x in zip(idx, xyz, strict=True):
+        dist, allowed = state.positions.distance(int(markers[k]), stamp_s, x)
+        off += int(dist > allowed)
+    return off >= max(MOVED_MIN, MOVED_SHARE * len(idx))
 
 
 def note_residuals(state: StereoState, camera: str, epi: FloatArray, stamp_s: float,
