@@ -111,7 +111,7 @@ def verify(state: StereoState, camera: str, track_ids: NDArray[np.int64],
         tid = int(track_ids[k])
         jump = tracks[tid].link_px if tid in tracks else 0.0
         if moved and d <= epi_ok and rival is None:
-            why += ('; most of the frame\'s pairs moved together (the cameras moved, not '
+            why += ("; most of the frame's pairs moved together (the cameras moved, not "
                     'the markers): numbers kept')
         elif tid in state.late_numbered[camera] or jump > state.config.doubt_link_px \
                 or rival is not None:
