@@ -13,9 +13,13 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).parent))
 from spots import spot_image
 
+from dempath_recon.tracking.associate import MarkerGrid
 from dempath_recon.tracking.detect import Detections, DetectorConfig, MarkerDetector
 from dempath_recon.tracking.link_guide import MERGE_S, ambiguous_spots
 from dempath_recon.tracking.linker import MarkerTracker
+from dempath_recon.tracking.numbering import nearer_grid_point
+from dempath_recon.tracking.records import StereoTrackConfig
+from dempath_recon.tracking.state import StereoState
 
 DT = 0.02  # frame period [s]
 
@@ -92,3 +96,17 @@ def test_faint_marker_is_reported_apart_and_taken_only_by_its_track() -> None:
         frame = tracker.update(0.0, det)
         assert sorted(frame.markers.tolist()) == want
         assert tracker.counts.new_tracks == 0 and tracker.counts.faint == len(want) - 1
+
+
+def test_spot_on_another_unseen_markers_grid_point_is_not_the_candidate(rig) -> None:
+    """A spot 1 px from marker 10's grid point and 28 px from 14's, neither seen by this
+    camera: it is 10's, not 14's (``nearer_grid_point``); once 10 has been seen, 14 may be."""
+    cams = {c.name: c for c in rig.cameras}
+    state = StereoState.start(cams, StereoTrackConfig(grid=MarkerGrid(
+        layout_m=((0.0, 0.0, 0.0), (0.025, 0.0, 0.0)))))
+    state.grid_uv['cam_side'] = {10: np.array([902.0, 544.0]), 14: np.array([927.0, 558.0])}
+    spot = np.array([902.5, 544.8])
+    assert nearer_grid_point(state, 'cam_side', 14, spot) == 10
+    assert nearer_grid_point(state, 'cam_side', 10, spot) is None
+    state.latest['cam_side'][10] = (0.0, spot)
+    assert nearer_grid_point(state, 'cam_side', 14, spot) is None

@@ -144,7 +144,9 @@ def number_new(state: StereoState, camera: str, track_ids: NDArray[np.int64],
     track that ran beside marker m's own track is not m), must lie on the track's epipolar
     line, and the pair's 3D point must be one the marker can have reached; the track is
     numbered only when exactly one candidate passes, and a candidate whose epipolar line
-    passes more than one unnumbered detection of this frame is no candidate. Failing that,
+    passes more than one unnumbered detection of this frame is no candidate, nor is a marker
+    never triangulated whose grid point lies much farther from the track than another
+    unseen marker's (:func:`nearer_grid_point`). Failing that,
     a marker this camera has never seen that appears alone at its fitted grid point takes
     that number, unless the other camera sees that marker now (then its epipolar line
     decides, and it did not pass: on a tuning render a side track took marker 2's grid point
@@ -187,6 +189,28 @@ def number_new(state: StereoState, camera: str, track_ids: NDArray[np.int64],
     return markers
 
 
+GRID_RATIO = 2.0  # a spot is another marker's when that one's grid point is this many times
+# nearer than the candidate's
+
+
+def nearer_grid_point(state: StereoState, camera: str, marker: int, uv: FloatArray,
+                      ) -> int | None:
+    """A marker this camera has not seen whose fitted grid point in ``camera`` is
+    ``GRID_RATIO`` times nearer the spot ``uv`` (2,) px than ``marker``'s, else None: a
+    marker never triangulated is placed by its grid point, and a spot sitting on another
+    unseen marker's grid point is that one's (on a tuning render the side's spot of marker
+    10, 1 px from 10's grid point and 28 px from 14's, took 14 from the front's line)."""
+    grid_uv = state.grid_uv.get(camera, {})
+    if marker not in grid_uv:
+        return None
+    own = float(np.linalg.norm(uv - grid_uv[marker]))
+    for m, p in sorted(grid_uv.items()):
+        if m != marker and m not in state.latest[camera] \
+                and GRID_RATIO * float(np.linalg.norm(uv - p)) < own:
+            return int(m)
+    return None
+
+
 def pick(state: StereoState, camera: str, track_id: int, uv: FloatArray,
          candidates: dict[int, FloatArray], stamp_s: float, events: list[str]) -> int:
     """The one candidate on the track's epipolar line at a depth the marker can be at.
@@ -213,7 +237,7 @@ def pick(state: StereoState, camera: str, track_id: int, uv: FloatArray,
             dist, allowed = state.positions.distance(m, stamp_s, x)
         else:  # never triangulated: its grid point, while that is recent and unseen here
             anchor = grid_anchor(state, camera, m, stamp_s)
-            if anchor is None:
+            if anchor is None or nearer_grid_point(state, camera, m, uv) is not None:
                 continue
             dist = float(np.linalg.norm(x - anchor[0]))
             allowed = anchor[1]
