@@ -420,3 +420,30 @@ def test_whole_view_moving_at_once_keeps_the_numbers(rig) -> None:
     assert any('numbers kept' in e for e in fronts[3].events)
     assert [numbers_at(fronts[4], front, p) for p in pts] == [1, 2, 3]
     assert tracker.report()['cam_front']['revoked'] == 0
+
+
+def test_running_track_that_jumps_waits_for_the_other_camera(rig) -> None:
+    """Marker 3 hidden from the front from frame 2, and its side spot 12 px off its
+    prediction from frame 4 (more than twice ``doubt_link_px``), along the front's epipolar
+    line (so the link is not barred): the jump is not given out on the side camera's word
+    alone (withheld, ``unconfirmed``); markers 1 and 2 are."""
+    pts = [np.array(g) for g in GRID]
+    side = rig.cameras[0]
+    uv3 = side.project(pts[2][None])[0]
+    ray = centre(rig.cameras[1]) - pts[2]
+    along = side.project((pts[2] + 0.01 * ray / np.linalg.norm(ray))[None])[0] - uv3
+    cams = {c.name: c for c in rig.cameras}
+    tracker = StereoMarkerTracker(cams, StereoTrackConfig(grid=MarkerGrid(layout_m=GRID)))
+    given = []
+    for k in range(6):
+        uv = side.project(np.array(pts))
+        if k >= 4:
+            uv[2] = uv3 + 12.0 * along / np.linalg.norm(along)
+        f = tracker.update_detections('cam_side', k * DT, Detections(uv, np.ones(3),
+                                                                     np.full(3, 4.0)))
+        given.append(f.markers.tolist())
+        shown = pts if k < 2 else pts[:2]
+        tracker.update_detections('cam_front', k * DT + OFFSET,
+                                  dets(cams['cam_front'], np.array(shown)))
+    assert given[3] == [1, 2, 3] and given[4] == [1, 2, -1] and given[5] == [1, 2, -1]
+    assert tracker.report()['cam_side']['unconfirmed'] == 2

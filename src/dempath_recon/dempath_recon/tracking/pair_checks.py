@@ -12,13 +12,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dempath_recon.tracking.associate import project, triangulate_pairs
-from dempath_recon.tracking.link_guide import DRIFT_PX, DRIFT_WINDOW
+from dempath_recon.tracking.link_guide import DRIFT_PX, DRIFT_WINDOW, lines_in_doubt
 from dempath_recon.tracking.linker import UNNUMBERED
 from dempath_recon.tracking.one_camera import alone
 from dempath_recon.tracking.state import RECENT_S, StereoState, at_stamp, carried_point
 
 LOG = logging.getLogger('dempath_recon.tracking.stereo')  # the pipeline's logger
 FloatArray = NDArray[np.float64]
+JUMP_SHARE = 2.0  # a running track whose link since its last passed check missed its
+# prediction by more than this many doubt_link_px waits for the other camera too
 MOVED_MIN = 3  # pairs that must be off at once for the view to have moved
 MOVED_SHARE = 0.5  # share of the frame's checked pairs that must be off at once
 DRIFT_MIN_PAIRS = 3  # pairs a frame needs for its median to count
@@ -52,9 +54,12 @@ def verify(state: StereoState, camera: str, track_ids: NDArray[np.int64],
     """
     other, markers = state.other(camera), markers.copy()
     tracks = {t.track_id: t for t in state.trackers[camera].tracks}
+    # a running track that jumped waits for the other camera, unless the view shakes
+    jump_px = np.inf if lines_in_doubt(state) else JUMP_SHARE * state.config.doubt_link_px
     unsure = {k for k in np.flatnonzero(markers >= 0).tolist()
               if int(track_ids[k]) in tracks
               and (tracks[int(track_ids[k])].reattach_px > state.config.doubt_link_px
+                   or tracks[int(track_ids[k])].link_px > jump_px
                    or tracks[int(track_ids[k])].faint_stamp == stamp_s
                    or (tracks[int(track_ids[k])].back_unchecked
                        and likelier_in_view(state, camera, int(markers[k]), uv[k], markers,
@@ -65,15 +70,17 @@ def verify(state: StereoState, camera: str, track_ids: NDArray[np.int64],
         tid = int(track_ids[k])
         if alone(state, camera, tid, int(markers[k]), uv[k], markers, stamp_s):
             tracks[tid].reattach_px = 0.0
+            tracks[tid].link_px = 0.0
             state.counts[camera].confirmed_alone += 1
             events.append(f'{camera}: marker {markers[k]} re-attached off its prediction '
                           f'kept at {stamp_s:.3f} s: no other marker can be that near')
             continue
         state.counts[camera].unconfirmed += 1
         state.pending[camera][int(markers[k])] = (stamp_s, uv[k])
+        off = max(tracks[tid].reattach_px, tracks[tid].link_px)
         events.append(f'{camera}: marker {markers[k]} withheld at {stamp_s:.3f} s: '
-                      f're-attached {tracks[int(track_ids[k])].reattach_px:.1f} px from '
-                      'its prediction, not yet confirmed by the other camera')
+                      f'linked {off:.1f} px from its prediction (a jump, a re-attachment '
+                      'or a faint spot), not yet confirmed by the other camera')
         markers[k] = UNNUMBERED
     xyz, epi = triangulate_pairs(state.cameras[camera], state.cameras[other],
                                  uv[idx], np.array([partner[k] for k in idx]))
