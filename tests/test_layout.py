@@ -108,7 +108,8 @@ ROOMS = {
     'dempath_recon': ('errors', 'methods', 'tracking', 'clicker'),
     'dempath_twin': ('errors', 'rig', 'images', 'board', 'field', 'render'),
     'dempath_diagnose': ('errors', 'records', 'admission', 'library', 'decision', 'headline',
-                         'recalibration', 'report', 'next_runs', 'adaptive', 'entry'),
+                         'recalibration', 'report', 'separation', 'next_runs', 'adaptive',
+                         'entry'),
     'dempath_bringup': ('frames', 'truth', 'calibstep', 'figures', 'launchgraph', 'nodes',
                         'context', 'stages', 'report', 'analysis'),
 }
