@@ -10,13 +10,17 @@ the Brier score and a reliability table of the top probability. Everything is ca
 Usage: ``.venv/bin/python bench/diagnose.py [--scene reduced_1ms] [--root DIR] [--serial]``
 (``--scene tiny`` for a quick check; ``--scene tiny_rivals`` for its own six cases, where
 cohesion and rolling resistance are rivals, three held out; ``--library-only`` times the library
-build alone; ``--budget N`` allows N simulations beyond the library per diagnosis).
+build alone, in wall and CPU seconds of the process tree; ``--budget N`` allows N simulations
+beyond the library per diagnosis; ``--no-shared-settle`` and ``--rest-tolerance-m 0`` build the
+library as before issue 30's design savings, for a paired comparison).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
+import resource
 import statistics
 import time
 from pathlib import Path
@@ -34,6 +38,7 @@ from dempath_diagnose.library.store import (
     library_state,
     serial_executor,
 )
+from dempath_sim.runs.rest import REST_TOLERANCE_M
 
 NAMED = ('effect_missing', 'parameter_off')
 OPEN = ('nothing_significant', 'inconclusive')
@@ -185,6 +190,14 @@ def reliability(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
     return out
 
 
+def tree_cpu_s() -> float:
+    """User + system CPU seconds of this process and of its ended children (the Dask workers
+    once their cluster is closed) [s]."""
+    own = resource.getrusage(resource.RUSAGE_SELF)
+    kids = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
+
+
 def bench_parser() -> argparse.ArgumentParser:
     """The options this bench shares with bench/recalibrate.py (scene, cache root, library)."""
     p = argparse.ArgumentParser()
@@ -195,6 +208,11 @@ def bench_parser() -> argparse.ArgumentParser:
     p.add_argument('--candidates', default=','.join(LIBRARY_CANDIDATES),
                    help='library candidates (comma-separated effect names)')
     p.add_argument('--serial', action='store_true')
+    p.add_argument('--no-shared-settle', action='store_true',
+                   help='every library run re-settles its own bed (the design before issue 30)')
+    p.add_argument('--rest-tolerance-m', type=float, default=REST_TOLERANCE_M,
+                   help='library runs end once their bed is at rest to this bound [m] '
+                        '(dempath_sim.runs.rest); 0: followed to the end')
     p.add_argument('--library', type=Path,
                    help='a packed library file (e.g. the shipped reduced_1ms one) instead of '
                         'building the library under --root')
@@ -226,11 +244,14 @@ def main() -> None:
     duration = covering_duration(pass_travel_s(scene, {}), 0.0)
     spec = LibrarySpec(seeds=tuple(int(s) for s in args.seeds.split(',')), duration_s=duration,
                        n_strengths=args.strengths,
-                       candidates=tuple(c for c in args.candidates.split(',') if c))
+                       candidates=tuple(c for c in args.candidates.split(',') if c),
+                       shared_settle=not args.no_shared_settle,
+                       rest_tolerance_m=args.rest_tolerance_m)
     lib_root, packings = args.root / 'library', args.root / 'packings'
     timing = args.root / 'timing.json'
     spent = json.loads(timing.read_text()) if timing.is_file() else {'library_s': 0.0}
-    t0 = time.monotonic()
+    spent.setdefault('library_cpu_s', 0.0)
+    t0, cpu0 = time.monotonic(), tree_cpu_s()
     state, _done, total = library_state(scene, spec, lib_root)
     if args.library is not None:  # packed: built elsewhere, its build time is not this bench's
         state = 'ready'
@@ -243,11 +264,17 @@ def main() -> None:
             with DaskSweep() as sweep:
                 build_library(scene, spec, lib_root, sweep.run, packings)
         spent['library_s'] += time.monotonic() - t0
+        spent['library_cpu_s'] += tree_cpu_s() - cpu0
         args.root.mkdir(parents=True, exist_ok=True)
         timing.write_text(json.dumps(spent))
     if args.library_only:
         print(json.dumps({'scene': scene.name, 'simulations': total,
-                          'library_s': round(spent['library_s'], 1), 'library': str(lib_root)}))
+                          'library_s': round(spent['library_s'], 1),
+                          'library_cpu_s': round(spent['library_cpu_s'], 1),
+                          'shared_settle': spec.shared_settle,
+                          'rest_tolerance_m': spec.rest_tolerance_m,
+                          'load': [round(x, 2) for x in os.getloadavg()],
+                          'library': str(lib_root)}))
         return
     if args.budget > 0 and args.library is None:
         import shutil

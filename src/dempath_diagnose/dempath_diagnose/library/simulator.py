@@ -156,9 +156,28 @@ def pass_travel_s(scene: SceneSpec, overrides: dict[str, float]) -> float:
     return travel_time_s(scene, float(model.speed_scale))
 
 
+def pass_scene(scene: SceneSpec, seed: int, overrides: dict[str, float],
+               frame_s: float = 0.02) -> SceneSpec:
+    """The scene a library pass of ``scene`` with ``overrides`` on ``seed`` runs (the sweep's
+    overlap limit, whole-bed frames every ``frame_s``, no candidate cubes).
+
+    Raises:
+        DiagnosisError: The overrides cannot be applied.
+    """
+    try:
+        base = _sweep_scene(scene.with_overrides(seed=seed))
+        output = replace(base.output, snapshot_interval_s=frame_s, candidates=False)
+        base = replace(base, output=output)
+        return base.with_overrides(overrides) if overrides else base
+    except (DempathError, ValueError) as err:
+        raise DiagnosisError(f'{scene.name} seed {seed} {overrides or "baseline"}: {err}') \
+            from err
+
+
 def run_pass(scene: SceneSpec, seed: int, overrides: dict[str, float], *,
              until_s: float = 0.0, frame_s: float = 0.02, keep_depth_m: float = 0.04,
-             cache_dir: Path | None = None, backend: str = 'dempath') -> PassRecord:
+             cache_dir: Path | None = None, backend: str = 'dempath',
+             rest_tolerance_m: float = 0.0, shared_settle: bool = False) -> PassRecord:
     """One model pass of ``scene`` with ``overrides`` on the baseline bed of ``seed``.
 
     Args:
@@ -172,6 +191,10 @@ def run_pass(scene: SceneSpec, seed: int, overrides: dict[str, float], *,
         cache_dir: Packing cache (dempath_sim's default if None).
         backend: ``dempath`` (its own engine) or ``liggghts`` (LIGGGHTS 3.8 from the same
             settled bed, ``fill: shared_packing``, re-settled with the run's physics).
+        rest_tolerance_m: The follow ends once the bed is at rest to this bound [m]
+            (``dempath_sim.runs.rest``; 0: followed to ``until_s``). dempath only.
+        shared_settle: Start from the kept re-settled bed of the run's settle key when the
+            cache holds one (:func:`ensure_settled`; the same pass to the bit). dempath only.
 
     Raises:
         DiagnosisError: The simulation failed (message from dempath_sim).
@@ -179,18 +202,39 @@ def run_pass(scene: SceneSpec, seed: int, overrides: dict[str, float], *,
     from dempath_sim.runs import RunOptions, run_scene
 
     follow_s = max(0.0, until_s - pass_travel_s(scene, overrides))
-    base = _sweep_scene(scene.with_overrides(seed=seed))
-    output = replace(base.output, snapshot_interval_s=frame_s, candidates=False)
-    base = replace(base, output=output)
+    changed = pass_scene(scene, seed, overrides, frame_s)
     try:
-        changed = base.with_overrides(overrides) if overrides else base
-        options = RunOptions(cache_dir=cache_dir, follow_s=follow_s)
+        options = RunOptions(cache_dir=cache_dir, follow_s=follow_s,
+                             rest_tolerance_m=rest_tolerance_m, shared_settle=shared_settle)
         result = (run_scene(changed, options) if backend == 'dempath'
                   else _run_liggghts(changed, options))
     except (DempathError, ValueError) as err:
         msg = f'{scene.name} seed {seed} {overrides or "baseline"}: {err}'
         raise DiagnosisError(msg) from err
     return _record(result, keep_depth_m, overrides, seed)
+
+
+def settle_key(scene: SceneSpec, seed: int, overrides: dict[str, float]) -> str:
+    """The settle key of a library pass (passes with one key share their re-settled bed)."""
+    from dempath_sim.runs.shared_settle import settled_key
+
+    return settled_key(pass_scene(scene, seed, overrides))
+
+
+def ensure_settled(scene: SceneSpec, seed: int, overrides: dict[str, float],
+                   cache_dir: Path | None = None) -> bool:
+    """Keep the re-settled bed of a library pass in the packing cache (for the passes that
+    share its settle key); True if made here.
+
+    Raises:
+        DiagnosisError: The simulation failed (message from dempath_sim).
+    """
+    from dempath_sim.runs.native import keep_settled
+
+    try:
+        return keep_settled(pass_scene(scene, seed, overrides), cache_dir)
+    except (DempathError, ValueError) as err:
+        raise DiagnosisError(f'{scene.name} seed {seed} re-settle: {err}') from err
 
 
 BACKENDS = ('dempath', 'liggghts')
@@ -298,6 +342,8 @@ def _record(result: Any, keep_depth_m: float, overrides: dict[str, float],
             'run_id': result.meta.get('run_id', ''),
             'drive_wall_s': result.meta.get('drive_wall_s', 0.0),
             'drive_pair_evaluations': result.meta.get('drive_pair_evaluations', 0),
+            'rest_at_s': result.meta.get('rest_at_s'),
+            'settle_shared': bool(result.meta.get('settle_shared', False)),
             'tool_stop_s': float(result.meta.get('end_time_s', result.times[-1]))}
     return PassRecord(times=np.asarray(result.snapshot_times, np.float64),
                       ids=np.asarray(result.snapshot_ids)[keep].astype(np.int64),
@@ -312,12 +358,15 @@ __all__ = [
     'Candidate',
     'CasePass',
     'ensure_bed',
+    'ensure_settled',
     'load_scene',
+    'pass_scene',
     'pass_travel_s',
     'physics_key',
     'run_case',
     'run_pass',
     'scene_candidates',
+    'settle_key',
     'tool_geometry',
     'travel_time_s',
 ]

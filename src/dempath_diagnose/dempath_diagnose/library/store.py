@@ -33,10 +33,12 @@ from dempath_diagnose.library.simulator import (
     Candidate,
     SceneSpec,
     ensure_bed,
+    ensure_settled,
     pass_travel_s,
     physics_key,
     run_pass,
     scene_candidates,
+    settle_key,
 )
 from dempath_diagnose.records import PassRecord
 from dempath_sim.effects.candidates import (
@@ -46,6 +48,7 @@ from dempath_sim.effects.candidates import (
     PARAMETER_FACTORS,
 )
 from dempath_sim.runs.portable import PortableScene, pack_scene
+from dempath_sim.runs.rest import REST_TOLERANCE_M
 
 logger = logging.getLogger(__name__)
 
@@ -82,6 +85,13 @@ class LibrarySpec:
         frame_s: Interval of the kept frames [s].
         keep_depth_m: Particles starting this far below the surface or higher are kept [m].
         n_strengths: Strengths per effect that is off (1 or 2); parameters get two.
+        rest_tolerance_m: A run's follow ends once its bed is at rest to this bound [m]
+            (``dempath_sim.runs.rest``: every recorded position within it of the full run's;
+            0: every run is followed to the end). Not part of the library's key: a library
+            built either way is the same model within the bound.
+        shared_settle: Runs whose re-settle is the same computation (the baseline and the
+            tool-speed candidates of a seed) start from one kept re-settled bed
+            (``dempath_sim.runs.shared_settle``): the same records to the bit.
     """
 
     seeds: tuple[int, ...] = (1001, 1002, 1003)
@@ -91,6 +101,8 @@ class LibrarySpec:
     frame_s: float = 0.02
     keep_depth_m: float = 0.04
     n_strengths: int = 2
+    rest_tolerance_m: float = REST_TOLERANCE_M
+    shared_settle: bool = True
 
 
 @dataclass(frozen=True)
@@ -309,10 +321,38 @@ def build_library(scene: SceneSpec, spec: LibrarySpec, root: Path | None = None,
     pours = [LibraryPour(pack_scene(scene), s, there) for s in seeds]
     executor(pours, lambda k, beds: keep_beds(beds, cache_dir))  # one pour per seed first
     portable = {s: pack_scene(scene, (s,), cache_dir) for s in seeds}
+    if spec.shared_settle and backend == 'dempath':  # then one re-settle per shared key
+        settles = [LibrarySettle(portable[s], s, there) for s in shared_settle_seeds(scene, todo)]
+        executor(settles, lambda k, made: None)
     tasks = [LibraryTask(portable[r.seed], r, spec, there, backend) for r in todo]
     tasks.sort(key=LibraryTask.cost, reverse=True)  # longest first: none left alone at the end
     run_tasks(executor, tasks, folder / 'runs', on_done)
     return folder
+
+
+def shared_settle_seeds(scene: SceneSpec, runs: Sequence[RunSpec]) -> list[int]:
+    """The seeds on which two or more of ``runs`` share the baseline's re-settle (its settle
+    key): one re-settle there saves the others'."""
+    out = []
+    for seed in sorted({r.seed for r in runs}):
+        key = settle_key(scene, seed, {})
+        if sum(settle_key(scene, seed, r.overrides) == key for r in runs if r.seed == seed) > 1:
+            out.append(seed)
+    return out
+
+
+@dataclass(frozen=True)
+class LibrarySettle:
+    """The baseline's re-settled bed of one seed, kept in the packing cache where the task runs
+    (a picklable callable; True if made). Runs on other machines that do not find it re-settle
+    themselves (the same bed)."""
+
+    scene: PortableScene
+    seed: int
+    cache_dir: Path | None
+
+    def __call__(self) -> bool:
+        return ensure_settled(self.scene.unpack(self.cache_dir), self.seed, {}, self.cache_dir)
 
 
 def keep_beds(beds: Any, cache_dir: Path | None) -> None:
@@ -389,9 +429,12 @@ class LibraryTask:
     def __call__(self) -> PassRecord | RunFailure:
         try:
             scene = self.scene.unpack(self.cache_dir)
+            native = self.backend == 'dempath'
             return run_pass(scene, self.run.seed, self.run.overrides, until_s=self.until_s(),
                             frame_s=self.spec.frame_s, keep_depth_m=self.spec.keep_depth_m,
-                            cache_dir=self.cache_dir, backend=self.backend)
+                            cache_dir=self.cache_dir, backend=self.backend,
+                            rest_tolerance_m=self.spec.rest_tolerance_m if native else 0.0,
+                            shared_settle=self.spec.shared_settle and native)
         except DempathError as err:  # deterministic: the same run fails the same way again
             return RunFailure(self.run.filename, ' '.join(str(err).split()))
 

@@ -80,6 +80,12 @@ class RunOptions:
             far; during the fill `RunStoppedError` is raised at the next settling check.
         follow_s: Time to go on recording after the tool has stopped at the end of its travel
             (the bed still moves) [s]; the tool stays where it stopped. Both backends.
+        rest_tolerance_m: End the follow early once the bed is at rest to this bound [m]
+            (``dempath_sim.runs.rest``; the frames left repeat the last state); 0: follow it
+            all. The native backend only.
+        shared_settle: Start the pass from the kept re-settled bed of its settle key when the
+            cache holds one (``dempath_sim.runs.shared_settle``; `keep_settled` writes it);
+            the same pass to the bit. The native backend only.
     """
 
     cache_dir: Path | None = None
@@ -87,6 +93,8 @@ class RunOptions:
     on_frame: Callable[[Frame], None] | None = None
     stop: Event | None = field(default=None, compare=False)
     follow_s: float = 0.0
+    rest_tolerance_m: float = 0.0
+    shared_settle: bool = False
 
 
 class Backend(Protocol):

@@ -21,6 +21,7 @@ import math
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -36,7 +37,9 @@ from dempath_sim.runs.bed.placement import carve_tool_slot
 from dempath_sim.runs.identity import run_id, run_identity
 from dempath_sim.runs.markers import MarkerSelection, select_markers
 from dempath_sim.runs.physics import TOOL, bin_walls, build_params
+from dempath_sim.runs.rest import RestWatch
 from dempath_sim.runs.results import Recorder, SimResult
+from dempath_sim.runs.shared_settle import load_settled, save_settled, settled_file
 from dempath_sim.scene.profiles import ToolPath
 from dempath_sim.scene.spec import SceneSpec
 
@@ -70,6 +73,7 @@ class _Drive:
     frames_per_snapshot: int
     stop_time_s: float = math.inf  # the tool stands still from here on (follow after stop)
     removed_by_tool: int = 0
+    rest_at_s: float | None = None  # the follow ended here, the bed at rest (runs.rest)
 
     def pose(self, t: float) -> ToolPose:
         position, velocity = self.path.pose_at(min(t, self.stop_time_s))
@@ -138,6 +142,47 @@ def resettle(drive: _Drive, state: SimState, duration_s: float) -> SimState:
     return state
 
 
+def settled_start(drive: _Drive, state: SimState, scene: SceneSpec,
+                  options: RunOptions) -> tuple[SimState, bool]:
+    """The bed at the start of the pass and whether it was shared: resumed from the kept
+    re-settled bed of the run's settle key (``options.shared_settle``, when the cache holds
+    one) or re-settled here (`resettle`)."""
+    if options.shared_settle:
+        data = load_settled(settled_file(scene, options.cache_dir))
+        if data is not None:
+            engine = drive.engine
+            state = engine.resume(data)
+            state.time, state.step = 0.0, 0
+            engine.tool_force = np.array(data['run.tool_force'], np.float64).reshape(3)
+            engine.tool_torque = np.array(data['run.tool_torque'], np.float64).reshape(3)
+            engine.tool_pose = drive.pose(0.0)
+            logger.info('re-settled bed shared: resumed from %s',
+                        settled_file(scene, options.cache_dir).name)
+            return state, True
+    return resettle(drive, state, scene.tool.settle_s), False
+
+
+def keep_settled(scene: SceneSpec, cache_dir: Path | None = None) -> bool:
+    """Re-settle the bed of a pass of ``scene`` once and keep it in the packing cache for the
+    runs that share its settle key (``RunOptions.shared_settle``); True if made here.
+
+    Raises:
+        SimulationError: The set-up is unstable.
+    """
+    path = settled_file(scene, cache_dir)
+    if path.is_file():
+        return False
+    model, bed = scene.physics_model(), scene.bed_model()
+    params = build_params(scene, model)
+    state, report = fill_bed(scene, bed, build_params(scene, bed), cache_dir)
+    drive, state = _prepare_drive(scene, params, model, _with_run_masses(state, params), report)
+    state = resettle(drive, state, scene.tool.settle_s)
+    engine = drive.engine
+    save_settled(path, engine.checkpoint(state),
+                 {'tool_force': engine.tool_force, 'tool_torque': engine.tool_torque})
+    return True
+
+
 def _progress(options: RunOptions, phase: str, t: float, end: float, t0: float) -> None:
     if options.progress is not None:
         options.progress(Progress(phase, t, end, time.monotonic() - t0))
@@ -156,7 +201,11 @@ def _fill_progress(options: RunOptions, t0: float) -> Callable[[float, float], N
 
 
 def drive_tool(drive: _Drive, state: SimState, options: RunOptions) -> SimState:
-    """Move the tool to the end of its travel, recording every output interval."""
+    """Move the tool to the end of its travel, recording every output interval.
+
+    With ``options.rest_tolerance_m`` the follow after the tool stops ends once the bed is at
+    rest (`RestWatch`); the frames left are recorded from the last state without stepping.
+    """
     t0 = time.monotonic()
     drive.record(state, options)
     _progress(options, 'drive', state.time, drive.end_time_s, t0)  # bar names the phase at once
@@ -165,13 +214,25 @@ def drive_tool(drive: _Drive, state: SimState, options: RunOptions) -> SimState:
     if options.follow_s > 0.0:
         drive.stop_time_s = n_frames * frame_s
         n_frames += math.ceil(options.follow_s / frame_s)
-    for _ in range(n_frames):
+    watch = RestWatch(options.rest_tolerance_m) if options.rest_tolerance_m > 0.0 else None
+    for k in range(n_frames):
         if options.stop is not None and options.stop.is_set():
             logger.info('run stopped at t = %.3f s', state.time)
             break
-        state = drive.engine.run(state, drive.steps_per_frame, drive.pose)
+        if drive.rest_at_s is None:
+            state = drive.engine.run(state, drive.steps_per_frame, drive.pose)
+        else:  # at rest: the frame repeats the last state (the clock as the steps move it)
+            for _ in range(drive.steps_per_frame):
+                state.time += drive.engine.dt or 0.0
+            state.step += drive.steps_per_frame
         drive.record(state, options)
         _progress(options, 'drive', state.time, drive.end_time_s, t0)
+        if (watch is not None and drive.rest_at_s is None
+                and state.time >= drive.stop_time_s - 0.5 * frame_s
+                and watch.at_rest(state.ids, state.positions, n_frames - 1 - k)):
+            drive.rest_at_s = state.time
+            logger.info('bed at rest at t = %.3f s (largest step %.2g m a frame): the %d '
+                        'frames left repeat it', state.time, watch.last_step_m, n_frames - 1 - k)
     return state
 
 
@@ -204,7 +265,7 @@ def run_scene(scene: SceneSpec, options: RunOptions | None = None) -> SimResult:
     fill_wall = time.monotonic() - t_fill
     drive, state = _prepare_drive(scene, params, model, state, report)
     t_settle = time.monotonic()
-    state = resettle(drive, state, scene.tool.settle_s)
+    state, shared = settled_start(drive, state, scene, options)
     springs = pass_start_springs(drive.engine)
     evals_settle = drive.engine.pair_evaluations
     t_drive = time.monotonic()
@@ -217,11 +278,13 @@ def run_scene(scene: SceneSpec, options: RunOptions | None = None) -> SimResult:
         'sim_time_s': state.time, 'fill_wall_s': fill_wall,
         'placement': scene.tool.placement, 'removed_by_tool': drive.removed_by_tool,
         'resettle_s': scene.tool.settle_s, 'resettle_wall_s': t_drive - t_settle,
+        'settle_shared': shared,
         'pass_start_springs': springs, 'bed_physics': scene.fill.physics,
         'drive_wall_s': time.monotonic() - t_drive,
         'sleep': scene.sim.sleep, 'resettle_pair_evaluations': evals_settle,
         'drive_pair_evaluations': drive.engine.pair_evaluations - evals_settle,
         'asleep_at_end': drive.engine.n_asleep, 'woken': drive.engine.woken,
+        'rest_at_s': drive.rest_at_s,
         'grid_points': drive.selection.grid_points.tolist()}
     result = drive.recorder.result(meta)
     meta['warnings'] = run_warnings(result.tool_force, report)
@@ -288,6 +351,19 @@ def run_batch(scene: SceneSpec, variants: Sequence[Variant], seeds: Sequence[int
     return out
 
 
-__all__ = ['NativeBackend', 'RunStoppedError', 'SimulationError', 'Variant', 'carve_tool_slot',
-           'pass_start_springs', 'resettle', 'run_batch', 'run_id', 'run_scene', 'run_warnings',
-           'tool_start']
+__all__ = [
+    'NativeBackend',
+    'RunStoppedError',
+    'SimulationError',
+    'Variant',
+    'carve_tool_slot',
+    'keep_settled',
+    'pass_start_springs',
+    'resettle',
+    'run_batch',
+    'run_id',
+    'run_scene',
+    'run_warnings',
+    'settled_start',
+    'tool_start',
+]
