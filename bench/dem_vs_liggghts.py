@@ -218,7 +218,8 @@ def speed(args: argparse.Namespace, work: Path) -> dict[str, object]:
             'dempath_sleep': args.sleep, 'dempath_asleep_at_end': dem['asleep_at_end'],
             'dempath_local_rebuild': args.local_rebuild, 'dempath_rebuilds': dem['rebuilds'],
             'dempath_pair_evaluations_per_step': dem['pair_evaluations_per_step'],
-            'dempath_particle_steps_per_s': dem['particle_steps_per_s'], **lig,
+            'dempath_particle_steps_per_s': dem['particle_steps_per_s'],
+            'dempath_seconds': dem['seconds'], 'dempath_cpu_seconds': dem['cpu_seconds'], **lig,
             'ratio': dem['particle_steps_per_s'] / lig['liggghts_particle_steps_per_s'],
             'bytes_per_particle': per_particle}
 
