@@ -24,6 +24,13 @@ JUMP_SHARE = 2.0  # a running track whose link since its last passed check misse
 MOVED_MIN = 3  # pairs that must be off at once for the view to have moved
 MOVED_SHARE = 0.5  # share of the frame's checked pairs that must be off at once
 DRIFT_MIN_PAIRS = 3  # pairs a frame needs for its median to count
+# The calibration watch counts only pairs whose partner point is of this frame's instant: seen
+# within this share of a frame period (the few ms two unsynchronised cameras expose apart) or
+# moved to it along its running track. A partner kept where it was seen up to a frame earlier
+# (its track has moved on since, as between live detectors) carries the marker's motion over
+# that time: live at 50 FPS such pairs lay about 1.5 px off the lines with the cameras fixed,
+# and the detectors warned that the cameras had moved.
+SAME_INSTANT_SHARE = 0.25
 
 
 def verify(state: StereoState, camera: str, track_ids: NDArray[np.int64],
@@ -64,7 +71,7 @@ def verify(state: StereoState, camera: str, track_ids: NDArray[np.int64],
                    or (tracks[int(track_ids[k])].back_unchecked
                        and likelier_in_view(state, camera, int(markers[k]), uv[k], markers,
                                             stamp_s) is not None))}
-    partner = partners(state, other, markers, unsure, stamp_s)
+    partner, gap_s = partners(state, other, markers, unsure, stamp_s)
     idx = sorted(partner)
     for k in sorted(unsure - set(idx)):
         tid = int(track_ids[k])
@@ -84,7 +91,9 @@ def verify(state: StereoState, camera: str, track_ids: NDArray[np.int64],
         markers[k] = UNNUMBERED
     xyz, epi = triangulate_pairs(state.cameras[camera], state.cameras[other],
                                  uv[idx], np.array([partner[k] for k in idx]))
-    note_residuals(state, camera, epi, stamp_s, events)
+    same_instant = np.array([gap_s[k] <= SAME_INSTANT_SHARE / state.config.fps for k in idx],
+                            bool)
+    note_residuals(state, camera, epi[same_instant] if len(idx) else epi, stamp_s, events)
     moved = frame_moved(state, markers, idx, xyz, stamp_s)
     for k, x, d in zip(idx, xyz, epi, strict=True):
         m = int(markers[k])
@@ -187,12 +196,14 @@ def note_residuals(state: StereoState, camera: str, epi: FloatArray, stamp_s: fl
 
 
 def partners(state: StereoState, other: str, markers: NDArray[np.int32], unsure: set[int],
-             stamp_s: float) -> dict[int, FloatArray]:
+             stamp_s: float) -> tuple[dict[int, FloatArray], dict[int, float]]:
     """The other camera's point (2,) px of each numbered detection's marker, seen within a
     frame period: its given-out point, or for an unsure re-attachment (index in ``unsure``)
     also its withheld, unconfirmed one (two cameras that both lost a marker re-attach it
-    with no given-out point to check against; the pair can confirm both)."""
+    with no given-out point to check against; the pair can confirm both); and how far in time
+    each partner's point is from ``stamp_s`` [s] (0 when moved to it along its track)."""
     out: dict[int, FloatArray] = {}
+    gap: dict[int, float] = {}
     for k in np.flatnonzero(markers >= 0).tolist():
         m = int(markers[k])
         sources = (state.latest[other], state.pending[other]) if k in unsure \
@@ -201,8 +212,11 @@ def partners(state: StereoState, other: str, markers: NDArray[np.int32], unsure:
             hit = source.get(m)
             if hit is not None and abs(hit[0] - stamp_s) <= 1.0 / state.config.fps:
                 out[k] = at_stamp(state, other, m, hit, stamp_s)
+                # moved along its running track to this instant, or seen at it: no gap left
+                moved = not np.array_equal(out[k], hit[1])
+                gap[k] = 0.0 if moved else abs(hit[0] - stamp_s)
                 break
-    return out
+    return out, gap
 
 
 def likelier_marker(state: StereoState, other: str, marker: int, xyz: FloatArray,
