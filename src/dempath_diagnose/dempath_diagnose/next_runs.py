@@ -40,7 +40,13 @@ import numpy as np
 from dempath_diagnose.decision.diagnosis import Diagnosis
 from dempath_diagnose.decision.emulator import CandidateEmulator
 from dempath_diagnose.decision.verdict import ModelFit
-from dempath_diagnose.separation import D_NEEDED, PairRun, PairSeparation, separate_pair
+from dempath_diagnose.separation import (
+    D_NEEDED,
+    PairRun,
+    PairSeparation,
+    pair_distance,
+    separate_pair,
+)
 from dempath_sim.effects.candidates import LOG_SCALE
 
 NAMED = ('effect_missing', 'parameter_off')
@@ -81,10 +87,6 @@ class Plan:
     stop: str = ''
 
 
-def _emulator_of(d: Diagnosis, name: str) -> CandidateEmulator:
-    return next(c for c in d.emulator.candidates if c.candidate.name == name)
-
-
 def _u(ce: CandidateEmulator, x: float) -> float:
     return float(ce.transform(np.array([x]))[0])
 
@@ -119,7 +121,7 @@ def trend_strength(d: Diagnosis, ce: CandidateEmulator, high: bool) -> float:
 
 
 def _past_edge(d: Diagnosis, fit: ModelFit) -> PlannedRun | None:
-    ce = _emulator_of(d, fit.name)
+    ce = d.emulator.candidate_emulator(fit.name)
     high = fit.best >= ce.candidate.current
     last = _x(ce, float(ce.knots[-1 if high else 0]))
     x = trend_strength(d, ce, high)
@@ -134,7 +136,7 @@ def _past_edge(d: Diagnosis, fit: ModelFit) -> PlannedRun | None:
 
 
 def _at_fit(d: Diagnosis, fit: ModelFit) -> PlannedRun | None:
-    ce = _emulator_of(d, fit.name)
+    ce = d.emulator.candidate_emulator(fit.name)
     x = float(np.clip(fit.strength, ce.candidate.low, ce.candidate.high))
     u = _u(ce, x)
     gaps = np.abs(ce.knots - u) / _span(ce)
@@ -233,7 +235,8 @@ def plan_next(d: Diagnosis, budget_left: int, done: set[tuple[str, float]]) -> P
     if budget_left <= 0:
         pair = (_rival_pair(d, [f for f in _contenders(d) if not f.ruled_out])
                 if dec.verdict == 'inconclusive' else None)
-        note = f'; {_distance_note(pair, separate_pair(d, *pair, done))}' if pair else ''
+        note = (f'; {_distance_note(pair, PairSeparation(None, *pair_distance(d, *pair)))}'
+                if pair else '')
         return Plan(stop='the budget of simulations is spent' + note)
     if dec.verdict == 'nothing_significant':
         return Plan(stop='"nothing missing" is the most probable answer and the model is not '

@@ -86,10 +86,6 @@ class PairSeparation:
     statistic: str
 
 
-def _emulator(d: Diagnosis, name: str) -> CandidateEmulator:
-    return next(c for c in d.emulator.candidates if c.candidate.name == name)
-
-
 def _grid(fit: ModelFit, ce: CandidateEmulator) -> F64:
     """X's plausible strengths: mean +- REACH sd, in its physical range and within one library
     span of the simulated strengths (on the interpolation axis)."""
@@ -110,7 +106,7 @@ def _grid(fit: ModelFit, ce: CandidateEmulator) -> F64:
 
 def candidate_runs(d: Diagnosis, fit: ModelFit, rival: ModelFit) -> list[PairRun]:
     """Every grid strength of ``fit``'s candidate scored against ``rival`` (see module doc)."""
-    ce = _emulator(d, fit.name)
+    ce = d.emulator.candidate_emulator(fit.name)
     emu, obs = d.emulator, d.observed
     xs = _grid(fit, ce)
     diffs, dvar = ce.predict(xs)
@@ -142,7 +138,7 @@ def _fit_cov(d: Diagnosis, fit: ModelFit) -> F64:
     """(k, k) covariance of one pass of ``fit``'s model at its best strength."""
     if fit.kind == 'baseline':
         return np.asarray(d.emulator.own_cov(d.cov, None, np.zeros(1))[0], np.float64)
-    ce = _emulator(d, fit.name)
+    ce = d.emulator.candidate_emulator(fit.name)
     _, dvar = ce.predict(np.array([fit.best]))
     own = d.emulator.own_cov(d.cov, ce, np.array([fit.best]))[0]
     return np.asarray(own + np.diag(dvar[0]), np.float64)

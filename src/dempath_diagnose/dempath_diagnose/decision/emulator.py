@@ -170,6 +170,10 @@ class Emulator:
     base_spread: float = 1.0
     base_sampling: F64 | None = None
 
+    def candidate_emulator(self, name: str) -> CandidateEmulator:
+        """The emulator of the candidate ``name`` (StopIteration if the library has none)."""
+        return next(c for c in self.candidates if c.candidate.name == name)
+
     def own_cov(self, cov: F64, cand: CandidateEmulator | None, x: F64) -> F64:
         """(n, k, k) ``cov`` (built on the pooled seed and sampling covariances) with the
         seed spread's level and the sampling covariance of the model at strengths x (the

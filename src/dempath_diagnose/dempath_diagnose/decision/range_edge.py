@@ -37,7 +37,7 @@ def _library_edge(fit: ModelFit, emu: Emulator) -> float | None:
         return None
     lo, hi = fit.strength_range
     high = fit.best >= 0.5 * (lo + hi)
-    cand = next(c.candidate for c in emu.candidates if c.candidate.name == fit.name)
+    cand = emu.candidate_emulator(fit.name).candidate
     limit = cand.high if high else cand.low
     edge = hi if high else lo
     return None if np.isclose(edge, limit, rtol=1e-9, atol=0.0) else edge

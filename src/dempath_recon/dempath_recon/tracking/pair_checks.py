@@ -93,7 +93,7 @@ def verify(state: StereoState, camera: str, track_ids: NDArray[np.int64],
                                  uv[idx], np.array([partner[k] for k in idx]))
     same_instant = np.array([gap_s[k] <= SAME_INSTANT_SHARE / state.config.fps for k in idx],
                             bool)
-    note_residuals(state, camera, epi[same_instant] if len(idx) else epi, stamp_s, events)
+    note_residuals(state, camera, epi[same_instant], stamp_s, events)
     moved = frame_moved(state, markers, idx, xyz, stamp_s)
     for k, x, d in zip(idx, xyz, epi, strict=True):
         m = int(markers[k])
