@@ -148,7 +148,8 @@ def settled_start(drive: _Drive, state: SimState, scene: SceneSpec,
     re-settled bed of the run's settle key (``options.shared_settle``, when the cache holds
     one) or re-settled here (`resettle`)."""
     if options.shared_settle:
-        data = load_settled(settled_file(scene, options.cache_dir))
+        path = settled_file(scene, options.cache_dir)
+        data = load_settled(path)
         if data is not None:
             engine = drive.engine
             state = engine.resume(data)
@@ -156,8 +157,7 @@ def settled_start(drive: _Drive, state: SimState, scene: SceneSpec,
             engine.tool_force = np.array(data['run.tool_force'], np.float64).reshape(3)
             engine.tool_torque = np.array(data['run.tool_torque'], np.float64).reshape(3)
             engine.tool_pose = drive.pose(0.0)
-            logger.info('re-settled bed shared: resumed from %s',
-                        settled_file(scene, options.cache_dir).name)
+            logger.info('re-settled bed shared: resumed from %s', path.name)
             return state, True
     return resettle(drive, state, scene.tool.settle_s), False
 
