@@ -11,7 +11,9 @@ The TBB layer's slowdown also hits long two-thread runs: a reduced-scene fill th
 3 min in a fresh process ran for over 30 min later in the same process, with the CPU time
 spent in the kernel (100 % system time), and a process that made many TBB launches takes a
 minute to exit. GNU OpenMP shows neither, so :func:`prefer_openmp_layer` picks it unless the
-user chose a layer.
+user chose a layer. The library's Dask workers ran TBB until 2026-11-28 (numba dropped the
+choice when the nanny set NUMBA_NUM_THREADS): a worker's pair rate fell from 11 M/s to 1.6 M/s
+over its first 30 min, which made a `reduced_1ms` library several times slower than it is.
 """
 
 from __future__ import annotations
@@ -45,6 +47,10 @@ def prefer_openmp_layer() -> str:
         logger.debug('numba OpenMP layer unavailable (%s); keeping %s', err,
                      numba.config.THREADING_LAYER)
         return str(numba.config.THREADING_LAYER)
+    # numba re-reads every NUMBA_* variable at each compile once one of them changed since its
+    # import, and resets its settings from them: the choice goes into the environment too, or a
+    # variable set later (a Dask nanny sets NUMBA_NUM_THREADS in its worker) undoes it
+    os.environ['NUMBA_THREADING_LAYER'] = 'omp'
     numba.config.THREADING_LAYER = 'omp'
     return 'omp'
 
