@@ -28,7 +28,7 @@ from dempath.nodes.player import PlayerNode
 from dempath.nodes.recorder import RecorderNode
 from dempath.testbags import START_NS, header, images, pixel_points
 from dempath.typestore import make_typestore
-from dempath_msgs.msg import RunEvent
+from dempath_msgs.msg import PixelPoints, RunEvent
 
 LATCHED = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE,
                      durability=DurabilityPolicy.TRANSIENT_LOCAL)
@@ -149,3 +149,41 @@ def test_player_finishes_only_when_every_message_is_acknowledged(
     assert ros_harness.spin_until(
         lambda: any(e.event == RunEvent.FINISHED for e in events), timeout_s=10)
     assert 'every message acknowledged' in events[-1].detail, events[-1].detail
+
+
+def test_player_waits_for_every_reader_it_is_told_of(tmp_path: Path,
+                                                     ros_harness: RosHarness) -> None:
+    """A topic read by a node and a recorder: the player's publisher matches them one by one, so
+    it waits for the count given per topic (``wait_topic_subscribers``) and a recorder started
+    after the player still gets the first message. (The graph's recorder lost the first side image
+    on a loaded machine when the player waited for its first reader only.)"""
+    source = make_input_bag(tmp_path / 'in')
+    topic = '/cam_side/pixel_points'
+    got = ros_harness.collect(PixelPoints, topic, 50)  # the first reader, there at once
+    player = ros_harness.start(PlayerNode, bag=str(source), rate=0.0, topics=[topic],
+                               wait_for_subscribers=1, wait_topic_subscribers=[f'{topic}=2'])
+    recorder = ros_harness.start(RecorderNode, output=str(tmp_path / 'out'), topics=[topic])
+    assert ros_harness.spin_until(
+        lambda: player.finished.is_set() and len(got) == 12
+        and recorder.recorder.stats[topic].received == 12, timeout_s=30), recorder.recorder.stats
+    assert recorder.subscribed_to(topic)
+    recorder.finish()
+    assert by_topic(tmp_path / 'out')[topic] == by_topic(source)[topic]
+
+
+def test_player_short_of_readers_plays_and_names_the_topic(
+        tmp_path: Path, ros_harness: RosHarness, capfd: pytest.CaptureFixture[str]) -> None:
+    """Fewer readers than waited for: after ``wait_timeout_s`` it plays anyway and one warning
+    names the topic and the counts; a malformed per-topic count aborts with one error line."""
+    source = make_input_bag(tmp_path / 'in')
+    topic = '/cam_front/pixel_points'
+    got = ros_harness.collect(PixelPoints, topic, 50)
+    player = ros_harness.start(PlayerNode, bag=str(source), rate=0.0, topics=[topic],
+                               wait_topic_subscribers=[f'{topic}=3'], wait_timeout_s=0.5)
+    assert ros_harness.spin_until(lambda: player.finished.is_set() and len(got) == 12,
+                                  timeout_s=30)
+    bad = ros_harness.start(PlayerNode, bag=str(source), wait_topic_subscribers=['front=2'])
+    assert bad.finished.is_set()
+    err = capfd.readouterr().err
+    assert f'{topic}: playing with 1 of the 3 subscribers waited for' in err, err
+    assert "wait_topic_subscribers: 'front=2' is not TOPIC=N" in err, err

@@ -35,6 +35,10 @@ class PlayerConfig:
         queue_depth: Publisher history depth (reliable QoS).
         wait_for_subscribers: Before starting, wait until each publisher has this many
             subscribers (0: start at once).
+        wait_topic_subscribers: Per-topic exceptions to ``wait_for_subscribers``, each
+            ``TOPIC=N`` (a topic that several nodes read, e.g. two detectors and a recorder: a
+            publisher matches its subscribers one by one, so waiting for the first is not
+            waiting for the recorder).
         wait_timeout_s: Longest wait for those subscribers [s]; then play anyway.
         clock_hz: Highest rate of /clock messages [Hz] (one before a message when due).
         prefetch: Messages read ahead of publishing.
@@ -49,6 +53,7 @@ class PlayerConfig:
     topics: tuple[str, ...] = ()
     queue_depth: int = 50
     wait_for_subscribers: int = 0
+    wait_topic_subscribers: tuple[str, ...] = ()
     wait_timeout_s: float = 10.0
     clock_hz: float = 100.0
     prefetch: int = 16
@@ -65,10 +70,32 @@ class PlayerConfig:
             raise ValueError(f'queue_depth/prefetch >= 1 and clock_hz > 0 required: '
                              f'{self.queue_depth!r}, {self.prefetch!r}, {self.clock_hz!r}')
 
+        self.topic_subscribers()  # a malformed entry fails here, naming it
+
+    def topic_subscribers(self) -> dict[str, int]:
+        """The per-topic subscriber counts of ``wait_topic_subscribers``.
+
+        Raises:
+            ValueError: an entry is not ``TOPIC=N`` with a topic name and a count >= 0.
+        """
+        counts: dict[str, int] = {}
+        for entry in self.wait_topic_subscribers:
+            topic, sep, count = entry.rpartition('=')
+            if not sep or not topic.startswith('/') or not count.isdigit():
+                raise ValueError(f'wait_topic_subscribers: {entry!r} is not TOPIC=N '
+                                 '(an absolute topic name and a count >= 0)')
+            counts[topic] = int(count)
+        return counts
+
+    def subscribers_needed(self, topic: str) -> int:
+        """How many subscribers ``topic``'s publisher waits for before the first message."""
+        return self.topic_subscribers().get(topic, self.wait_for_subscribers)
+
     @classmethod
     def from_params(cls, **params: Any) -> PlayerConfig:
-        """Build from ROS parameter values (``topics`` as a list, ignored entries '')."""
-        params['topics'] = tuple(t for t in params.get('topics', ()) if t)
+        """Build from ROS parameter values (lists as lists, ignored entries '')."""
+        for name in ('topics', 'wait_topic_subscribers'):
+            params[name] = tuple(t for t in params.get(name, ()) if t)
         return cls(**params)
 
 

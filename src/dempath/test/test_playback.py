@@ -125,9 +125,19 @@ def test_file_cut_during_playback_stops_with_error(two_camera_bag: Path) -> None
     assert f'{mcap}: corrupt data after 0 messages' in stats.error and '\n' not in stats.error
 
 
-@pytest.mark.parametrize('field, value', [('bag', ''), ('rate', -1.0), ('queue_depth', 0)])
+@pytest.mark.parametrize('field, value', [('bag', ''), ('rate', -1.0), ('queue_depth', 0),
+                                          ('wait_topic_subscribers', ('/a=two',)),
+                                          ('wait_topic_subscribers', ('a=2',))])
 def test_config_validation(field: str, value: object) -> None:
     """Bad settings name the field and the value."""
     params = {'bag': 'x', field: value}
     with pytest.raises(ValueError, match=field):
         PlayerConfig(**params)  # type: ignore[arg-type]
+
+
+def test_per_topic_subscriber_counts() -> None:
+    """``wait_topic_subscribers`` overrides the common count for the topics it names."""
+    config = PlayerConfig.from_params(bag='x', wait_for_subscribers=1,
+                                      wait_topic_subscribers=['/cam/a=3', ''])
+    assert config.subscribers_needed('/cam/a') == 3
+    assert config.subscribers_needed('/cam/b') == 1

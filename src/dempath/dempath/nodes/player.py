@@ -40,6 +40,7 @@ PARAMETERS = [
     ('topics', [''], 'topics to play; empty = all'),
     ('queue_depth', 50, 'publisher history depth (reliable)'),
     ('wait_for_subscribers', 0, 'wait until each topic has this many subscribers'),
+    ('wait_topic_subscribers', [''], "per-topic exceptions, each 'TOPIC=N'"),
     ('wait_timeout_s', 10.0, 'longest wait for those subscribers [s]'),
     ('clock_hz', 100.0, 'highest /clock rate [Hz]'),
     ('prefetch', 16, 'messages read ahead'),
@@ -109,8 +110,7 @@ class PlayerNode(Node):
 
     def _run(self) -> None:
         assert self._playback is not None
-        wait_for_subscribers(self._topic_pubs.values(), self.config.wait_for_subscribers,
-                             self.config.wait_timeout_s, self._playback.stop)
+        self._wait_for_subscribers()
         self._event(RunEvent.STARTED, f'playing {len(self._topic_pubs)} topics')
         self._stats = stats = self._playback.run(self._publish)
         self._bag.close()
@@ -128,6 +128,20 @@ class PlayerNode(Node):
                       f'messages on {len(self._topic_pubs)} topics, {stats.behind} '
                       f'behind schedule (max {stats.max_lag_s:.3f} s); {delivered}',
                       error=bool(unacked))
+
+    def _wait_for_subscribers(self) -> None:
+        """Hold the first message until each topic has the subscribers it waits for; after
+        ``wait_timeout_s`` play anyway and name the topics short of them."""
+        assert self._playback is not None
+        deadline = time.monotonic() + self.config.wait_timeout_s
+        for topic, pub in self._topic_pubs.items():
+            need = self.config.subscribers_needed(topic)
+            left = max(0.0, deadline - time.monotonic())
+            if not wait_for_subscribers([pub], need, left, self._playback.stop) and \
+                    not self._playback.stop.is_set():
+                self.get_logger().warning(
+                    f'{topic}: playing with {pub.get_subscription_count()} of the {need} '
+                    f'subscribers waited for (wait_timeout_s {self.config.wait_timeout_s:g})')
 
     def _wait_for_acks(self) -> list[str]:
         """Wait (up to ``ack_timeout_s`` in all) until the subscribers have acknowledged every

@@ -70,6 +70,10 @@ class RecorderNode(Node):
         self.create_timer(self.config.discovery_period_s, self._discover)
         self.create_timer(self.config.report_period_s, self._report)
 
+    def subscribed_to(self, topic: str) -> bool:
+        """Whether this recorder has subscribed to ``topic`` (found it and wants it)."""
+        return topic in self._topic_subs
+
     def _discover(self) -> None:
         for topic, types in self.get_topic_names_and_types():
             if topic in self._skipped or not self.config.wants(topic):

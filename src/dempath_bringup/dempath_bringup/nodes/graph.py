@@ -31,6 +31,7 @@ METHOD = 'dlt_refined'  # triangulation + Gauss-Newton in pixels: no training, <
 WARN = 30  # rcutils log level WARN: the nodes stay quiet unless something is wrong
 QUIET_NODES = ('dempath_reconstructor', 'dempath_comparer', 'dempath_recorder', 'dempath_player',
                'dempath_simulator', 'cam_side.dempath_detector', 'cam_front.dempath_detector')
+IMAGE_READERS = 3  # readers of an image topic here: both lossless detectors and the recorder
 SETTLE_S = 5.0  # images all detected and no new 3D frame for this long: the playback is done [s]
 # (with 1.5 s a loaded CI run once ended with 25 of 31 frame pairs; cause not traced)
 SCORE_GRACE_SPINS = 200  # executor spins (0.05 s each when idle) to wait for scores after
@@ -119,9 +120,13 @@ def _play(harness: Any, recorder: Any, spec: GraphSpec, note: Callable[[str], No
     from dempath import topics
     from dempath.nodes.player import PlayerNode
 
-    player = harness.start(PlayerNode, bag=str(spec.field_bag), rate=float(spec.rate),
-                           wait_for_subscribers=1)
     pixel = [topics.camera_topic(topics.PIXEL_POINTS, c) for c in topics.CAMERAS]
+    # the reconstructor and the recorder read the pixel points: wait for both (see _play_images)
+    harness.spin_until(lambda: all(recorder.subscribed_to(t) for t in pixel), timeout_s=10.0,
+                       step_s=0.02)
+    player = harness.start(PlayerNode, bag=str(spec.field_bag), rate=float(spec.rate),
+                           wait_for_subscribers=1,
+                           wait_topic_subscribers=[f'{t}=2' for t in pixel])
 
     def expected() -> int:
         published = player.published()
@@ -179,14 +184,18 @@ def _play_images(harness: Any, recorder: Any, spec: GraphSpec, detectors: dict[s
 
     images = {c: topics.camera_topic(topics.IMAGE_COMPRESSED, c) for c in topics.CAMERAS}
     infos = [topics.camera_topic(topics.CAMERA_INFO, c) for c in topics.CAMERAS]
-    # The player waits for one subscriber per topic, which the detector already is; the recorder
-    # subscribes to a topic when it discovers it (here: the detectors' subscriptions), so wait for
-    # it too, or the first image may be published before it has matched
-    harness.spin_until(lambda: all(recorder.count_subscribers(t) >= 2 for t in images.values()),
+    # The recorder subscribes to a topic when it discovers it (here: the detectors' subscriptions
+    # of the images). Each image has three readers: both lossless detectors and the recorder; a
+    # publisher matches them one by one, so the player waits for all three, or an image may go
+    # out before the recorder has matched (it lost the first side image on a loaded machine when
+    # the player waited for one reader and this wait counted the two detectors as enough)
+    harness.spin_until(lambda: all(recorder.subscribed_to(t) for t in images.values()),
                        timeout_s=10.0, step_s=0.02)
     player = harness.start(PlayerNode, bag=str(spec.field_bag), rate=float(spec.rate),
                            start_offset_s=float(spec.start_offset_s),
-                           topics=list(images.values()) + infos, wait_for_subscribers=1)
+                           topics=list(images.values()) + infos, wait_for_subscribers=1,
+                           wait_topic_subscribers=[f'{t}={IMAGE_READERS}'
+                                                   for t in images.values()])
     last = [-1, time.monotonic()]
 
     def detected(cam: str) -> int:  # skipped frames included: the demo must not wait for them
