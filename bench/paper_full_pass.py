@@ -7,7 +7,9 @@ in ``--work`` (an interrupted or killed run goes on from its last checkpoint):
 1. **pour**: the scene's layers on jittered cubic lattices at the fill's target density, at
    rest (dempath's lattice pour; the random insert/pack pour of 11 M spheres is itself hours);
 2. **settle**: the bed falls and settles under gravity until its fastest grain is slower than
-   ``fill.settle_speed_m_s`` or ``--settle-max-s`` of simulated time has passed;
+   ``fill.settle_speed_m_s`` or ``--settle-max-s`` of simulated time has passed (on this pour the
+   rule never fires: 4 mm fines keep falling through the 20 mm base's lattice, measured by
+   ``bench/paper_pass_bound.py``, so the settle runs to ``--settle-max-s``);
 3. **place**: the chisel enters at ``tool.depth_m`` below the settled surface
    (``tool.placement``, carve: the grains inside its closed mesh go), the
    markers are picked (the scene's 3 x 5 grid), and the bed re-settles against the standing
