@@ -372,6 +372,34 @@ def step_costs(scene: SceneSpec, side_mm: int, cache: Cache, steps: int,
         'load_range': [min(loads), max(loads)]})
 
 
+def kept_costs(scene: SceneSpec, side_mm: int, cache: Cache, steps: int,
+               rounds: int) -> dict[str, Any]:
+    """Sleeping on as the settle left it, with the whole-bed rebuild rule and with the kept list,
+    alternated on the settled slice: how often its falling fines force a build either way."""
+    if (found := cache.done('kept')) is not None:
+        return found
+    sub = piece_scene(scene, side_mm / 1000, side_mm / 1000)
+    runs: dict[str, tuple[Engine, SimState, StageClock]] = {}
+    for name, local in (('whole_bed', False), ('kept_list', True)):
+        engine = engine_for(sub, tool=False, sleep=True, local=local)
+        with cache.load(f'settle_{side_mm}') as data:
+            state = engine.resume(data)
+        runs[name] = (engine, state, StageClock(engine))
+    blocks: dict[str, list[dict[str, Any]]] = {k: [] for k in runs}
+    loads = [load()]
+    for r in range(rounds + 1):  # round 0 warms the kernels up; not counted
+        for name, (engine, state, clock) in runs.items():
+            state, fig = timed_block(engine, state, clock, steps)
+            runs[name] = (engine, state, clock)
+            if r:
+                blocks[name].append(fig)
+        loads.append(load())
+    return cache.finish('kept', {
+        'grains': runs['whole_bed'][1].n, 'steps_per_block': steps, 'rounds': rounds,
+        **{name: median_block(b) for name, b in blocks.items()},
+        'load_range': [min(loads), max(loads)]})
+
+
 def scale_costs(scene: SceneSpec, cache: Cache, grains: int, steps: int) -> dict[str, Any]:
     """Per-grain step, floor and build costs on a closed-lattice bed of ``grains`` (stage 3)."""
     if (found := cache.done('scale')) is not None:
@@ -616,7 +644,7 @@ def main() -> None:
     parser.add_argument('--scale-grains', type=int, default=1_200_000)
     parser.add_argument('--tiles', default='3x5', help='across x along: the drive piece')
     parser.add_argument('--drive-s', type=float, default=0.05)
-    parser.add_argument('--stages', default='settle,costs,scale,drive',
+    parser.add_argument('--stages', default='settle,costs,kept,scale,drive',
                         help='which stages may run (the others are read from the cache)')
     args = parser.parse_args()
     logging.basicConfig(level=logging.INFO, format='%(asctime)s %(message)s')
@@ -634,6 +662,8 @@ def main() -> None:
     settles = [settled(sides[0])]  # the first slice feeds the costs and the drive piece
     costs = (step_costs(scene, sides[0], cache, args.cost_steps, args.cost_rounds)
              if 'costs' in run else cache.done('costs'))
+    kept = (kept_costs(scene, sides[0], cache, args.cost_steps, args.cost_rounds)
+            if 'kept' in run else cache.done('kept'))
     scale = (scale_costs(scene, cache, args.scale_grains, 5) if 'scale' in run
              else cache.done('scale'))
     drives: dict[str, dict[str, Any]] = {}
@@ -647,7 +677,7 @@ def main() -> None:
         result['place'] = {k: v for k, v in place.items() if k != 'trace'}
     settles += [settled(side) for side in sides[1:]]  # the walls' part, last (the longest)
     result['settle'] = [{k: v for k, v in s.items() if k != 'trace'} for s in settles if s]
-    result['costs'], result['scale'] = costs, scale
+    result['costs'], result['kept'], result['scale'] = costs, kept, scale
     result['drive'] = {k: {x: y for x, y in v.items() if x != 'blocks'}
                        for k, v in drives.items()}
     if all(settles) and costs and scale:
