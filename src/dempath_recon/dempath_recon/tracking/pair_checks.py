@@ -106,6 +106,7 @@ def verify(state: StereoState, camera: str, track_ids: NDArray[np.int64],
         if d <= epi_ok and dist <= allowed and rival is None:
             state.positions.accept(m, stamp_s, x)
             state.pending[camera].pop(m, None)
+            state.confirmed[camera][int(track_ids[k])] = stamp_s
             if track is not None:
                 track.link_px = 0.0
                 track.reattach_px = 0.0

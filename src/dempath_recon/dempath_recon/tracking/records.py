@@ -129,5 +129,6 @@ class CameraCounts:
     unconfirmed: int = 0
     confirmed_alone: int = 0
     revoked: int = 0
+    confirmed_late: int = 0  # points withheld for the other camera, given out once it confirmed
     merged: int = 0  # numbered points withheld: a neighbour lost beside them may share the spot
     gaps_s: list[tuple[float, float]] = field(default_factory=list)

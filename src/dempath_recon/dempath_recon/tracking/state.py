@@ -55,6 +55,8 @@ class StereoState:
             grid, pair): their number is taken back if a later pair contradicts it.
         refused: per camera, (track id, marker) pairs a check ruled out for good.
         pending: withheld points of unconfirmed re-attachments: marker -> sighting.
+        confirmed: per camera, track id -> stamp of the track's last passed pair check [s]
+            (a point it withheld before then, unbroken since, goes out numbered).
         free: each camera's last frame's unnumbered tracks: (stamp s, track ids (k,),
             px (k, 2)), None before its first frame.
         queue: the frames held for the publication delay.
@@ -78,6 +80,7 @@ class StereoState:
     late_numbered: dict[str, set[int]]
     refused: dict[str, set[tuple[int, int]]]
     pending: dict[str, dict[int, Sighting]]
+    confirmed: dict[str, dict[int, float]]
     free: dict[str, tuple[float, NDArray[np.int64], FloatArray] | None]
     queue: ReleaseQueue
     residuals: dict[str, list[float]]
@@ -97,7 +100,8 @@ class StereoState:
             positions=MarkerPositions(config.position_gate_m, config.max_speed_m_s),
             last_stamp=dict.fromkeys(cameras), grid_uv={}, grid_time={},
             late_numbered={n: set() for n in cameras}, refused={n: set() for n in cameras},
-            pending={n: {} for n in cameras}, free=dict.fromkeys(cameras),
+            pending={n: {} for n in cameras}, confirmed={n: {} for n in cameras},
+            free=dict.fromkeys(cameras),
             queue=ReleaseQueue(cameras, config.number_delay_frames),
             residuals={n: [] for n in cameras}, last_tracks=dict.fromkeys(cameras),
             provisional=set())

@@ -44,7 +44,7 @@ from dempath_recon.tracking.pair_checks import verify
 from dempath_recon.tracking.pair_numbering import number_pairs
 from dempath_recon.tracking.ray_numbering import number_by_ray
 from dempath_recon.tracking.records import CameraCounts, PixelFrame, StereoTrackConfig
-from dempath_recon.tracking.release import HeldFrame, renumber
+from dempath_recon.tracking.release import HeldFrame, fill_confirmed, renumber
 from dempath_recon.tracking.state import (
     Sighting,
     StereoState,
@@ -170,6 +170,7 @@ class StereoMarkerTracker:
             markers = number_by_ray(state, camera, tf.track_ids, markers, tf.uv, stamp_s,
                                     events)
         markers = verify(state, camera, tf.track_ids, markers, tf.uv, stamp_s, events)
+        waiting = waiting_points(state, camera, markers, tf.uv, stamp_s)
         markers = withhold_crowded(det, tf.uv, markers)
         merged = ambiguous_spots(tracker, tf._replace(markers=markers),
                                  self.detectors[camera].config.marker_diameter_px)
@@ -188,7 +189,7 @@ class StereoMarkerTracker:
                 state.latest[camera][int(m)] = (stamp_s, p)
         frame = PixelFrame(camera, stamp_s, markers, tf.uv, tf.confidence,
                            tuple(events) + tf.events)
-        state.queue.hold(frame, tf.track_ids, free_mask)
+        state.queue.hold(frame, tf.track_ids, free_mask, waiting)
         return frame
 
     def release(self) -> list[PixelFrame]:
@@ -211,9 +212,27 @@ class StereoMarkerTracker:
 
     def _amend(self, held: HeldFrame) -> PixelFrame:
         state = self.state
-        frame, late = renumber(held, state.trackers[held.camera].tracks, state.config.fps)
+        tracks = state.trackers[held.camera].tracks
+        frame, late = renumber(held, tracks, state.config.fps)
+        frame, filled = fill_confirmed(held, frame, tracks, state.confirmed[held.camera],
+                                       state.config.fps)
         state.counts[held.camera].numbered_late += late
+        state.counts[held.camera].confirmed_late += filled
         return frame
+
+
+def waiting_points(state: StereoState, camera: str, markers: NDArray[np.int32], uv: FloatArray,
+                   stamp_s: float) -> NDArray[np.int32]:
+    """(k,) the number each point of this frame was withheld from while its track waits for
+    the other camera (``state.pending`` holds it at this stamp and spot), -1 for the rest."""
+    out = np.full(len(markers), UNNUMBERED, np.int32)
+    for m, (t, p) in state.pending[camera].items():
+        if t != stamp_s:
+            continue
+        hit = np.flatnonzero((markers < 0) & np.all(uv == p, axis=1))
+        if len(hit):
+            out[hit[0]] = m
+    return out
 
 
 def withhold_crowded(det: Detections, uv: FloatArray, markers: NDArray[np.int32],
