@@ -562,6 +562,47 @@ def drive_variant(scene: SceneSpec, place: dict[str, Any], cache: Cache, name: s
         'blocks': blocks})
 
 
+def tool_reach(scene: SceneSpec, place: dict[str, Any], cache: Cache, drive_s: float,
+               moved_m: float) -> dict[str, Any]:
+    """Which grains the tool moves: the placed piece stepped twice for ``drive_s`` without
+    sleeping, the chisel driven and standing; a grain whose end positions differ by more than
+    ``moved_m`` is the tool's. Their count per metre of travel and where they lie."""
+    if (found := cache.done('reach')) is not None:
+        return found
+    piece = piece_scene(scene, place['width_m'], place['length_m'])
+    start = np.asarray(place['tool_start_m'])
+    ends = []
+    for speed in (scene.tool.profile.speed_m_s, 0.0):
+        engine = engine_for(piece, tool=True, sleep=False)
+        with cache.load('drive_start') as data:
+            state = engine.resume(data)
+        v = np.array([0.0, 0.0, speed])
+        t0 = state.time
+
+        def motion(t: float, v: np.ndarray = v, t0: float = t0) -> ToolPose:
+            return ToolPose(start + v * (t - t0), v)
+
+        steps = round(drive_s / float(engine.dt or 1.0))
+        state = engine.run(state, steps, motion)
+        order = np.argsort(state.ids)
+        ends.append((state.ids[order], state.positions[order]))
+        log.info('reach: tool at %.1f m/s done, load %.1f', speed, load())
+    ids = np.intersect1d(ends[0][0], ends[1][0])
+    a = ends[0][1][np.searchsorted(ends[0][0], ids)]
+    b = ends[1][1][np.searchsorted(ends[1][0], ids)]
+    moved = np.linalg.norm(a - b, axis=1) > moved_m
+    travel = scene.tool.profile.speed_m_s * drive_s
+    rel = a[moved] - start
+    return cache.finish('reach', {
+        'grains': len(ids), 'moved_m': moved_m, 'travel_m': travel,
+        'moved_by_tool': int(moved.sum()), 'moved_per_m_of_travel': float(moved.sum() / travel),
+        'x_abs_p99_m': float(np.quantile(np.abs(rel[:, 0]), 0.99)) if moved.any() else 0.0,
+        'half_width_m': place['width_m'] / 2,
+        'y_below_tip_p01_m': float(np.quantile(rel[:, 1], 0.01)) if moved.any() else 0.0,
+        'z_p01_p99_m': np.quantile(rel[:, 2], [0.01, 0.99]).tolist() if moved.any() else [],
+        'load': load()})
+
+
 # ----------------------------------------------------------------------------- bound
 def drive_times(scene: SceneSpec) -> tuple[float, float]:
     """(seconds the tool moves, seconds of the pass) of the scene's profile over its travel."""
@@ -644,7 +685,7 @@ def main() -> None:
     parser.add_argument('--scale-grains', type=int, default=1_200_000)
     parser.add_argument('--tiles', default='3x5', help='across x along: the drive piece')
     parser.add_argument('--drive-s', type=float, default=0.05)
-    parser.add_argument('--stages', default='settle,costs,kept,scale,drive',
+    parser.add_argument('--stages', default='settle,costs,kept,scale,drive,reach',
                         help='which stages may run (the others are read from the cache)')
     args = parser.parse_args()
     logging.basicConfig(level=logging.INFO, format='%(asctime)s %(message)s')
@@ -675,6 +716,8 @@ def main() -> None:
                 drives[name] = drive_variant(scene, place, cache, name, local, True,
                                              args.drive_s)
         result['place'] = {k: v for k, v in place.items() if k != 'trace'}
+        if 'reach' in run or cache.done('reach'):
+            result['reach'] = tool_reach(scene, place, cache, args.drive_s, 5e-4)
     settles += [settled(side) for side in sides[1:]]  # the walls' part, last (the longest)
     result['settle'] = [{k: v for k, v in s.items() if k != 'trace'} for s in settles if s]
     result['costs'], result['kept'], result['scale'] = costs, kept, scale
