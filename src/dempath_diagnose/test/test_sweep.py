@@ -148,6 +148,39 @@ def test_local_cluster_starts_tasks_in_the_order_given_with_the_engine_environme
     assert {(r[1], r[2]) for r in reports} == {('-', str(threads))}
 
 
+def kernel_threads() -> tuple[int, str]:
+    """numba's thread count and layer in this process after a parallel kernel of the engine's
+    kind has run (the engine imported first, as a library run does)."""
+    import numba
+    import numpy as np
+
+    import dempath_sim.engine  # noqa: F401  (picks the threading layer)
+
+    @numba.njit(parallel=True)
+    def total(a: np.ndarray) -> float:
+        s = 0.0
+        for i in numba.prange(a.size):
+            s += a[i]
+        return s
+
+    assert total(np.ones(64)) == 64.0
+    return numba.get_num_threads(), numba.threading_layer()
+
+
+def test_local_workers_do_not_oversubscribe_the_cores() -> None:
+    """Each local worker runs its kernels on its share of the cores (workers x threads = cores)
+    on the OpenMP layer: the workers used to start numba with every core's thread (four threads
+    on two cores, the library's runs slowing one another)."""
+    import cloudpickle
+
+    cloudpickle.register_pickle_by_value(sys.modules[kernel_threads.__module__])
+    n, threads = local_layout(workers=2)
+    with DaskSweep(workers=2) as sweep:
+        found = sweep.client.run(kernel_threads)
+    assert len(found) == n
+    assert set(found.values()) == {(threads, 'omp')}, found
+
+
 def test_address_of_an_http_server_is_refused_at_once() -> None:
     """--scheduler pointing at an HTTP server: ClusterError naming it (the client used to hang)."""
     import http.server

@@ -38,11 +38,17 @@ def worker_environ(threads: int) -> dict[str, Any]:
     whatever ``NUMBA_NUM_THREADS``) and ``MALLOC_TRIM_THRESHOLD_=65536`` (glibc then maps and
     unmaps every array above 128 KiB: 15x the page faults; ``dempath_sim.engine.allocator``
     also undoes it from inside the process). None unsets a variable.
+
+    ``NUMBA_NUM_THREADS`` goes here, before the worker process starts: numba is imported while
+    the worker starts, before a nanny's ``env`` is applied, and sizes its thread pool from what
+    it saw then. Passed as ``env`` alone (until 2026-11-28) each of the two workers ran its
+    kernels on two threads, four on the two cores.
     """
     import dask
 
     environ = dict(dask.config.get(PRE_SPAWN, {}))
-    environ.update({'OMP_NUM_THREADS': str(threads), 'MALLOC_TRIM_THRESHOLD_': None})
+    environ.update({'OMP_NUM_THREADS': str(threads), 'NUMBA_NUM_THREADS': str(threads),
+                    'MALLOC_TRIM_THRESHOLD_': None})
     return environ
 
 
@@ -90,8 +96,7 @@ class DaskSweep:
         n, threads = local_layout(workers=self.workers)
         with dask.config.set({PRE_SPAWN: worker_environ(threads)}):
             self.cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                                        dashboard_address=None,
-                                        env={'NUMBA_NUM_THREADS': str(threads)})
+                                        dashboard_address=None)
         self.client = Client(self.cluster)
         logger.info('local Dask cluster: %d workers x %d numba threads', n, threads)
         return self
