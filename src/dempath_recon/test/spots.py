@@ -14,34 +14,38 @@ CLAY = np.array([0.62, 0.22, 0.10])
 SS = 8  # supersampling
 
 
-def sand(shape: tuple[int, int], rng: np.random.Generator) -> np.ndarray:
+def sand(shape: tuple[int, int], rng: np.random.Generator,
+         albedo: np.ndarray = SAND) -> np.ndarray:
     """(h, w, 3) float sand radiance: grains of about 3 px with their own tone."""
     h, w = shape
     tone = cv2.resize(rng.normal(1.0, 0.12, (h // 3 + 1, w // 3 + 1)), (w, h),
                       interpolation=cv2.INTER_NEAREST)
-    return SAND[None, None, :] * tone[..., None]
+    return albedo[None, None, :] * tone[..., None]
 
 
 def spot_image(shape: tuple[int, int], centres: np.ndarray, radius: float,
                rng: np.random.Generator, gain: float = 1.0, noise_dn: float = 1.5,
                quality: int = 90, shadow_cols: int = 0, sand_coloured: tuple[int, ...] = (),
-               dirt: tuple[float, float, float] | None = None) -> bytes:
+               dirt: tuple[float, float, float] | None = None,
+               sand_bgr: np.ndarray = SAND, clay_bgr: np.ndarray = CLAY,
+               buried: float = 0.0) -> bytes:
     """JPEG of markers at ``centres`` (n, 2) px (pixel-centre convention) on sand.
 
     ``shadow_cols`` > 0 darkens the left part of the image to 35 % (a shadow);
     ``sand_coloured`` markers are drawn in the sand's colour; ``dirt`` (cx, cy, r) px puts a
-    blurred brown blot of dirt on the lens.
+    blurred brown blot of dirt on the lens; ``sand_bgr`` and ``clay_bgr`` are the albedos;
+    ``buried`` is the share of each marker's height below the sand (its lower part hidden).
     """
     h, w = shape
-    img = sand(shape, rng)
+    img = sand(shape, rng, sand_bgr)
     for k, (cx, cy) in enumerate(centres):
-        colour = SAND * 0.9 if k in sand_coloured else CLAY
+        colour = sand_bgr * 0.9 if k in sand_coloured else clay_bgr
         x0, y0 = int(np.floor(cx - radius)) - 1, int(np.floor(cy - radius)) - 1
         n = int(np.ceil(2 * radius)) + 3
         sub = (np.arange(n * SS) + 0.5) / SS - 0.5
         xx, yy = np.meshgrid(x0 + sub, y0 + sub)
         d2 = ((xx - cx) ** 2 + (yy - cy) ** 2) / radius ** 2
-        inside = d2 < 1
+        inside = (d2 < 1) & (yy < cy + radius * (1 - 2 * buried))
         shade = np.where(inside, 0.5 + 0.5 * np.sqrt(np.clip(1 - d2, 0, 1)), 0)
         cov = cv2.resize(inside.astype(np.float64), (n, n), interpolation=cv2.INTER_AREA)
         rad = cv2.resize(shade, (n, n), interpolation=cv2.INTER_AREA)

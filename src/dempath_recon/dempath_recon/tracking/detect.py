@@ -14,7 +14,9 @@ the light) is high:
    full-frame chroma was the largest cost of the detection, and the markers cover a small
    part of the view); the detections are those of the whole frame;
 3. a Gaussian matched to the marker's image (Crocker & Grier 1996, sec. 2: band-pass then local
-   maxima) and local maxima at least ``min_separation_px`` apart above ``threshold``;
+   maxima), applied to the chroma floored at the sand the threshold assumes (``FILTER_FLOOR``:
+   sand redder than that must not pull a small spot's peak further down), and local maxima
+   at least ``min_separation_px`` apart above ``threshold``;
 4. the centre by an intensity-weighted centroid of the chroma above ``threshold / 2`` in a
    circular window, re-centred until it moves less than 0.01 px (Crocker & Grier's iteration),
    which reaches well below 0.1 px on clean spots.
@@ -51,6 +53,12 @@ TYPICAL_SIZE = 0.29  # a lone marker's radius of gyration as a share of its diam
 # the tuning renders 0.29, the bundled render 0.27)
 MIN_SPOTS = 5  # spots a frame needs for its median size to count
 MIN_SUM_DN = 60.0  # below this B + G + R (mean 20 grey levels) the chroma is mostly noise
+FILTER_FLOOR = -0.2  # the matched filter sees sand no redder than the sand the threshold
+# assumes (0.15 is the midpoint between sand at -0.2 and clay at +0.5): reddish sand (-0.3) pulled
+# a small spot's filtered peak down by that much more, so a half-buried marker (a strip 2-3 px
+# high) passed on yellow sand and was lost on reddish sand (filtered peak 0.05 from a raw 0.38;
+# session 15). A floor at grey (0) found more markers under half visible too, and the trackers
+# then jumped onto them: more switches and wrong pairs on 5 of 13 tuning looks
 
 
 class ImageDecodeError(ReconstructionError):
@@ -114,6 +122,11 @@ class DetectorConfig:
             calibration and the markers' depth: ``StereoMarkerTracker`` sets it per camera);
             blobs larger than one marker are split into the touching markers they hold
             (:mod:`~dempath_recon.tracking.split`). 0: no splitting.
+        floor_sand: the matched filter sees the chroma floored at ``FILTER_FLOOR`` (the sand
+            the threshold assumes), so a spot's filtered peak on redder sand is as on the sand
+            the threshold was set for; False: the raw chroma, as before session 15, where a
+            marker half buried on reddish sand (chroma -0.3) fell below the threshold after
+            smoothing.
     """
 
     downscale: int = 2
@@ -127,6 +140,7 @@ class DetectorConfig:
     min_threshold: float = 0.08
     marker_diameter_px: float = 0.0
     faint_threshold: float = 0.08
+    floor_sand: bool = True
 
     def __post_init__(self) -> None:
         checks = {'downscale': self.downscale in (1, 2), 'threshold': 0 < self.threshold < 1,
@@ -249,7 +263,10 @@ class MarkerDetector:
         pad = int(np.ceil(4 * self._sigma)) + self._kernel.shape[0] // 2 + 2
         x0, y0 = max(x - pad, 0), max(y - pad, 0)
         x1, y1 = min(x + w + pad, c.shape[1]), min(y + h + pad, c.shape[0])
-        smooth = cv2.GaussianBlur(c[y0:y1, x0:x1], (0, 0), self._sigma)
+        part = c[y0:y1, x0:x1]
+        if self.config.floor_sand:
+            part = np.maximum(part, np.float32(FILTER_FLOOR))
+        smooth = cv2.GaussianBlur(part, (0, 0), self._sigma)
         cols, rows = cand[:, 0, 0], cand[:, 0, 1]
         local = smooth[rows - y0, cols - x0]
         peak = (local >= cv2.dilate(smooth, self._kernel)[rows - y0, cols - x0]) \
