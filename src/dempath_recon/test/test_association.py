@@ -447,3 +447,31 @@ def test_running_track_that_jumps_waits_for_the_other_camera(rig) -> None:
                                   dets(cams['cam_front'], np.array(shown)))
     assert given[3] == [1, 2, 3] and given[4] == [1, 2, -1] and given[5] == [1, 2, -1]
     assert tracker.report()['cam_side']['unconfirmed'] == 2
+
+
+def test_tracks_that_jump_together_keep_their_numbers(rig) -> None:
+    """One front frame jumps 7 px as a whole (shake) and two of its six pairs also fall 30 mm
+    off along the side camera's lines of sight, beyond their reach but fewer than half the
+    pairs (so not ``frame_moved``): those two are withheld, but every track missed its
+    prediction at once, so the miss says nothing about identities and the numbers are kept:
+    the next frame is numbered 1-6 again. Without the rule both numbers were taken back for
+    good (revoked 2, the next frame's markers 1 and 2 unnumbered)."""
+    pts = [np.array(g) for g in GRID6]
+    front = rig.cameras[1]
+    cams = {c.name: c for c in rig.cameras}
+    config = StereoTrackConfig(grid=MarkerGrid(layout_m=GRID6),
+                               tracker=TrackerConfig(gate_px=80.0, reattach_px=80.0))
+    tracker = StereoMarkerTracker(cams, config)
+    shaken = [intruder(rig, p, 0.03) if i < 2 else p for i, p in enumerate(pts)]
+    fronts = []
+    for k in range(5):
+        tracker.update_detections('cam_side', k * DT, dets(cams['cam_side'], np.array(pts)))
+        seen = dets(front, np.array(shaken if k == 3 else pts))
+        if k == 3:
+            seen = seen._replace(uv=seen.uv + 7.0 * np.array([-0.7071, 0.7071]))
+        fronts.append(tracker.update_detections('cam_front', k * DT + OFFSET, seen))
+    moved = front.project(np.array(shaken[:2])) + 7.0 * np.array([-0.7071, 0.7071])
+    near = [int(np.argmin(np.linalg.norm(fronts[3].uv - q, axis=1))) for q in moved]
+    assert fronts[3].markers[near].tolist() == [-1, -1], fronts[3].events
+    assert [numbers_at(fronts[4], front, p) for p in pts] == [1, 2, 3, 4, 5, 6]
+    assert tracker.report()['cam_front']['revoked'] == 0
