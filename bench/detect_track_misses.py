@@ -115,8 +115,10 @@ def classify(out: list[PixelFrame], raw: dict[Key, tuple[Any, Any]], truth: dict
 def cause(fr: PixelFrame, det_uv: Any, crowded: Any, true_uv: Any, vis: Any, i: int,
           m: int) -> str:
     """One visible marker-frame's outcome: ``right`` or the cause of the miss."""
-    d = np.linalg.norm(fr.uv - true_uv[i], axis=1) if len(fr.uv) else np.zeros(0)
-    hits = np.flatnonzero(d < MATCH_PX)
+    hits = np.zeros(0, np.int64)
+    if len(fr.uv):  # as the bench: a detection within MATCH_PX whose nearest marker is this
+        d = np.linalg.norm(fr.uv[:, None] - true_uv[None], axis=2)
+        hits = np.flatnonzero((d[:, i] < MATCH_PX) & (np.argmin(d, axis=1) == i))
     if any(fr.markers[h] == m for h in hits):
         return 'right'
     if not len(hits):

@@ -475,3 +475,23 @@ def test_tracks_that_jump_together_keep_their_numbers(rig) -> None:
     assert fronts[3].markers[near].tolist() == [-1, -1], fronts[3].events
     assert [numbers_at(fronts[4], front, p) for p in pts] == [1, 2, 3, 4, 5, 6]
     assert tracker.report()['cam_front']['revoked'] == 0
+
+
+def test_track_left_unsure_at_the_grid_fit_is_numbered_once_its_line_clears(rig) -> None:
+    """At the grid fit the front sees, instead of marker 3, a spot on the side's line of sight
+    through 3 (30 mm nearer, off every grid point): the side's clean spot of 3 is left
+    unnumbered (the pair is unsure) and stays so while that spot stays unnumbered on its
+    line; once the front has no unnumbered spot on it, the side's track takes its grid number
+    3 (``number_grid_unsure``). Without the rule it was never numbered."""
+    pts = [np.array(g) for g in GRID6]
+    spot = intruder(rig, pts[2], 0.03)
+    seen_front = [p for i, p in enumerate(pts) if i != 2]
+    scene = [(pts, seen_front + [spot])] * 3 + [(pts, seen_front)] * 3
+    out, tracker = run(rig, scene, StereoTrackConfig(grid=MarkerGrid(layout_m=GRID6)))
+    side = rig.cameras[0]
+    sides = [f for f in out if f.camera == 'cam_side']
+    # frame 0: the side's own grid, provisional until the front's first frame
+    assert [numbers_at(f, side, pts[2]) for f in sides[1:]] == [-1, -1, -1, 3, 3], \
+        [f.events for f in sides]
+    assert all(numbers_at(f, side, p) == i + 1 for f in sides for i, p in enumerate(pts)
+               if i != 2)

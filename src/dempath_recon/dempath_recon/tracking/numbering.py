@@ -89,9 +89,12 @@ def number_both_by_grid(state: StereoState, camera: str, track_ids: NDArray[np.i
     found = int((mine >= 0).sum())
     if found < need:
         return None
-    alone = one_camera_grid(state, camera, uv, mine, uv_o, theirs)
-    theirs = one_camera_grid(state, other, uv_o, theirs, uv, mine)
+    alone, unsure = one_camera_grid(state, camera, uv, mine, uv_o, theirs)
+    theirs, unsure_o = one_camera_grid(state, other, uv_o, theirs, uv, mine)
     mine = alone
+    for cam, ids, waits in ((camera, track_ids, unsure), (other, ids_o, unsure_o)):
+        state.grid_unsure[cam] = {int(t): int(m) for t, m in zip(ids, waits, strict=True)
+                                  if m >= 0}
     if other in state.provisional:  # its own grid's numbers give way to the pairs'
         for tid in ids_o.tolist():
             state.trackers[other].number(int(tid), UNNUMBERED)
@@ -114,12 +117,14 @@ def number_both_by_grid(state: StereoState, camera: str, track_ids: NDArray[np.i
 
 
 def one_camera_grid(state: StereoState, camera: str, uv: FloatArray, numbers: NDArray[np.int32],
-                    uv_o: FloatArray, numbers_o: NDArray[np.int32]) -> NDArray[np.int32]:
+                    uv_o: FloatArray, numbers_o: NDArray[np.int32],
+                    ) -> tuple[NDArray[np.int32], NDArray[np.int32]]:
     """``numbers`` (the pairs' numbers of ``camera``'s detections ``uv``) with the markers only
     this camera sees numbered by its projected grid: a detection the pairs left unnumbered
     takes its grid number when no pair took that number and no unnumbered detection of the
     other camera (``uv_o``, ``numbers_o``) lies on its epipolar line (such a pair was left
-    unnumbered as unsure)."""
+    unnumbered as unsure); and (k,) the grid number each such unsure detection would have
+    taken (-1: none), which :func:`number_grid_unsure` may give it later."""
     single, _ = number_by_grid(state.cameras[camera], uv, state.config.grid,
                                state.config.grid_gate_px)
     free_o = uv_o[numbers_o < 0]
@@ -132,7 +137,9 @@ def one_camera_grid(state: StereoState, camera: str, uv: FloatArray, numbers: ND
         if int(single[i]) not in used:
             out[i] = single[i]
             used.add(int(single[i]))
-    return out
+    unsure = (out < 0) & (single >= 0) & partnered \
+        & np.array([int(m) not in used for m in single], bool)
+    return out, np.where(unsure, single, UNNUMBERED).astype(np.int32)
 
 
 def number_new(state: StereoState, camera: str, track_ids: NDArray[np.int64],
@@ -187,6 +194,50 @@ def number_new(state: StereoState, camera: str, track_ids: NDArray[np.int64],
         markers[k] = number
         seen.add(number)
     return markers
+
+
+def number_grid_unsure(state: StereoState, camera: str, track_ids: NDArray[np.int64],
+                       markers: NDArray[np.int32], uv: FloatArray, stamp_s: float,
+                       events: list[str]) -> NDArray[np.int32]:
+    """Resolve afterwards a track the grid numbering left unsure (``state.grid_unsure``: at the
+    grid fit it sat at its grid point, but an unnumbered spot of the other camera lay on its
+    epipolar line, a pair left unnumbered): it takes that grid number once no unnumbered spot
+    of the other camera's latest frame (within a frame period) lies within ``epipolar_px`` of
+    its line, if it kept its 2D links since the fit (never re-attached), is unnumbered and
+    not refused that number, and neither camera has ever given that number out or holds it on
+    a track. Such a number is taken back if a later pair contradicts it. (On a tuning render
+    the front merged markers 9 and 10 into one spot at the fit; the side's clean spot of 10
+    waited on that spot and was never numbered, 17 frames; once the front's spot was numbered
+    9 nothing stood on its line.)"""
+    waiting = state.grid_unsure.get(camera)
+    other = state.other(camera)
+    free_o = state.free[other]
+    if not waiting or free_o is None or abs(free_o[0] - stamp_s) > 1.0 / state.config.fps:
+        return markers
+    tracks = {t.track_id: t for t in state.trackers[camera].tracks}
+    held = {t.marker for c in state.cameras for t in state.trackers[c].tracks}
+    out = markers.copy()
+    for k in np.flatnonzero(markers < 0).tolist():
+        tid = int(track_ids[k])
+        m = waiting.get(tid)
+        track = tracks.get(tid)
+        if m is None or track is None or track.marker >= 0 or track.reattached is not None \
+                or (tid, m) in state.refused[camera] or m in held \
+                or any(m in state.latest[c] for c in state.cameras):
+            continue
+        if len(free_o[2]) and (epipolar_distance(
+                state.cameras[camera], state.cameras[other], uv[k][None], free_o[2])
+                <= state.config.epipolar_px).any():
+            continue
+        del waiting[tid]
+        state.trackers[camera].number(tid, m)
+        state.late_numbered[camera].add(tid)
+        state.counts[camera].numbered_by_grid_late += 1
+        held.add(m)
+        out[k] = m
+        events.append(f'{camera}: track {tid} numbered marker {m}: at its grid point at the '
+                      'fit, and the spot on its epipolar line then is numbered now')
+    return out
 
 
 GRID_RATIO = 2.0  # a spot is another marker's when that one's grid point is this many times

@@ -55,6 +55,9 @@ class StereoState:
             grid, pair): their number is taken back if a later pair contradicts it.
         refused: per camera, (track id, marker) pairs a check ruled out for good.
         pending: withheld points of unconfirmed re-attachments: marker -> sighting.
+        grid_unsure: per camera, track id -> the grid number it was left without at the grid
+            fit because a spot of the other camera lay on its line
+            (``numbering.number_grid_unsure``).
         confirmed: per camera, track id -> stamp of the track's last passed pair check [s]
             (a point it withheld before then, unbroken since, goes out numbered).
         free: each camera's last frame's unnumbered tracks: (stamp s, track ids (k,),
@@ -81,6 +84,7 @@ class StereoState:
     refused: dict[str, set[tuple[int, int]]]
     pending: dict[str, dict[int, Sighting]]
     confirmed: dict[str, dict[int, float]]
+    grid_unsure: dict[str, dict[int, int]]
     free: dict[str, tuple[float, NDArray[np.int64], FloatArray] | None]
     queue: ReleaseQueue
     residuals: dict[str, list[float]]
@@ -101,6 +105,7 @@ class StereoState:
             last_stamp=dict.fromkeys(cameras), grid_uv={}, grid_time={},
             late_numbered={n: set() for n in cameras}, refused={n: set() for n in cameras},
             pending={n: {} for n in cameras}, confirmed={n: {} for n in cameras},
+            grid_unsure={n: {} for n in cameras},
             free=dict.fromkeys(cameras),
             queue=ReleaseQueue(cameras, config.number_delay_frames),
             residuals={n: [] for n in cameras}, last_tracks=dict.fromkeys(cameras),

@@ -39,7 +39,11 @@ from dempath_recon.tracking.detect import Detections, ImageDecodeError, MarkerDe
 from dempath_recon.tracking.link_guide import ambiguous_spots, barred_links
 from dempath_recon.tracking.linker import UNNUMBERED
 from dempath_recon.tracking.merge import StampMerge
-from dempath_recon.tracking.numbering import number_all_by_grid, number_new
+from dempath_recon.tracking.numbering import (
+    number_all_by_grid,
+    number_grid_unsure,
+    number_new,
+)
 from dempath_recon.tracking.pair_checks import verify
 from dempath_recon.tracking.pair_numbering import number_pairs
 from dempath_recon.tracking.ray_numbering import number_by_ray
@@ -165,6 +169,8 @@ class StereoMarkerTracker:
         if camera not in state.grid_uv:
             markers = number_all_by_grid(state, camera, tf.track_ids, tf.uv, stamp_s, events)
         markers = number_new(state, camera, tf.track_ids, markers, tf.uv, stamp_s, events)
+        markers = number_grid_unsure(state, camera, tf.track_ids, markers, tf.uv, stamp_s,
+                                     events)
         markers = number_pairs(state, camera, tf.track_ids, markers, tf.uv, stamp_s, events)
         if state.config.ray_numbering:
             markers = number_by_ray(state, camera, tf.track_ids, markers, tf.uv, stamp_s,
