@@ -486,8 +486,8 @@ def test_track_left_unsure_at_the_grid_fit_is_numbered_once_its_line_clears(rig)
     pts = [np.array(g) for g in GRID6]
     spot = intruder(rig, pts[2], 0.03)
     seen_front = [p for i, p in enumerate(pts) if i != 2]
-    scene = [(pts, seen_front + [spot])] * 3 + [(pts, seen_front)] * 3
-    out, tracker = run(rig, scene, StereoTrackConfig(grid=MarkerGrid(layout_m=GRID6)))
+    scene = [(pts, [*seen_front, spot])] * 3 + [(pts, seen_front)] * 3
+    out, _ = run(rig, scene, StereoTrackConfig(grid=MarkerGrid(layout_m=GRID6)))
     side = rig.cameras[0]
     sides = [f for f in out if f.camera == 'cam_side']
     # frame 0: the side's own grid, provisional until the front's first frame
