@@ -75,19 +75,9 @@ def test_engine_picks_openmp_unless_the_user_chose(setting: str | None, expected
     assert out.stdout.split()[-1] == expected
 
 
-ENV_CHANGE_PROBE = """
-import os, numba, numpy as np
-import dempath_sim.engine
-os.environ['NUMBA_NUM_THREADS'] = '1'  # as a Dask nanny does after the worker imported numba
-@numba.njit(parallel=True)
-def total(a):
-    s = 0.0
-    for i in numba.prange(a.size):
-        s += a[i]
-    return s
-assert total(np.ones(64)) == 64.0
-print(numba.threading_layer())
-"""
+ENV_CHANGE_PROBE = LAYER_PROBE.replace(  # a variable set after the import, as a Dask nanny does
+    'import dempath_sim.engine\n',
+    "import dempath_sim.engine\nimport os\nos.environ['NUMBA_NUM_THREADS'] = '1'\n")
 
 
 def test_openmp_survives_a_numba_variable_set_later() -> None:
@@ -97,6 +87,7 @@ def test_openmp_survives_a_numba_variable_set_later() -> None:
     rate fell from 11 M/s to 1.6 M/s over 30 min, 2026-11-28)."""
     env = {k: v for k, v in os.environ.items()
            if k not in ('NUMBA_THREADING_LAYER', 'NUMBA_NUM_THREADS')}
+    assert 'NUMBA_NUM_THREADS' in ENV_CHANGE_PROBE
     out = subprocess.run([sys.executable, '-c', ENV_CHANGE_PROBE], env=env, capture_output=True,
                          text=True, timeout=300, check=True)
     assert out.stdout.split()[-1] == 'omp'
