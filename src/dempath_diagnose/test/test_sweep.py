@@ -169,12 +169,16 @@ def kernel_threads() -> tuple[int, str]:
 
 def test_local_workers_do_not_oversubscribe_the_cores() -> None:
     """Each local worker runs its kernels on its share of the cores (workers x threads = cores)
-    on the OpenMP layer: the workers used to start numba with every core's thread (four threads
-    on two cores, the library's runs slowing one another)."""
+    on the OpenMP layer, also after a sweep of another layout in the same process (dask wrote its
+    thread count into this process's environment, which then won): the workers used to start
+    numba with every core's thread (four threads on two cores, the library's runs slowing one
+    another)."""
     import cloudpickle
 
     cloudpickle.register_pickle_by_value(sys.modules[kernel_threads.__module__])
     n, threads = local_layout(workers=2)
+    with DaskSweep(workers=1):  # a sweep before it with another layout (as in a long process)
+        pass
     with DaskSweep(workers=2) as sweep:
         found = sweep.client.run(kernel_threads)
     assert len(found) == n

@@ -13,7 +13,8 @@ from __future__ import annotations
 
 import logging
 import os
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from types import TracebackType
 from typing import Any
 
@@ -50,6 +51,27 @@ def worker_environ(threads: int) -> dict[str, Any]:
     environ.update({'OMP_NUM_THREADS': str(threads), 'NUMBA_NUM_THREADS': str(threads),
                     'MALLOC_TRIM_THRESHOLD_': None})
     return environ
+
+
+@contextmanager
+def _process_environ(values: dict[str, str]) -> Iterator[None]:
+    """Set ``values`` in this process's environment for the block, then restore it.
+
+    A nanny takes a pre-spawn variable from this process's environment when it is set here
+    (dask lets the shell's value win) and writes the pre-spawn values into this environment when
+    it spawns: a second sweep in one process (another worker count) got the first one's thread
+    count. The sweep's own layout must win for the worker it starts.
+    """
+    before = {k: os.environ.get(k) for k in values}
+    os.environ.update(values)
+    try:
+        yield
+    finally:
+        for k, v in before.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
 
 
 def local_layout(cores: int | None = None, workers: int = 0) -> tuple[int, int]:
@@ -94,7 +116,9 @@ class DaskSweep:
                 raise ClusterError(msg) from err
             return self
         n, threads = local_layout(workers=self.workers)
-        with dask.config.set({PRE_SPAWN: worker_environ(threads)}):
+        environ = worker_environ(threads)
+        with dask.config.set({PRE_SPAWN: environ}), _process_environ(
+                {k: str(v) for k, v in environ.items() if k.endswith('_NUM_THREADS')}):
             self.cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
                                         dashboard_address=None)
         self.client = Client(self.cluster)
