@@ -67,6 +67,10 @@ def run_nodes(ros_harness, calib: Path,
                                      topics.camera_topic(topics.IMAGE_COMPRESSED, c), RELIABLE)
             for c in topics.CAMERAS}
     assert all(ros_harness.wait_for_subscribers(p, count=2) for p in pubs.values())
+    # each detector's points are read by the other detector and by this test: both matched
+    # before the first image, or the first points can go out before this test's reader matched
+    # (the fresh-clone CI once collected fewer than the 16 each detector published)
+    assert all(ros_harness.wait_for_subscribers(n.pub, count=2) for n in nodes.values())
     for cam, msg, _ in order:
         pubs[cam].publish(msg)
         ros_harness.spin_for(0.01)
