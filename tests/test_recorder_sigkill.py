@@ -18,6 +18,7 @@ from dempath.bagio import open_bag
 from dempath.cli import main as dempath
 from dempath.errors import BagError
 from dempath.nodes.harness import RosHarness
+from dempath.nodes.msgtypes import reliable_qos
 from dempath.testbags import pixel_points
 from dempath.typestore import make_typestore
 from dempath_msgs.msg import PixelPoints
@@ -57,11 +58,18 @@ def same_cdr(got: list[bytes], sent: list[bytes]) -> bool:
 
 
 def publish_points(harness: RosHarness, count: int, seed: int) -> list[bytes]:
-    """Publish ``count`` PixelPoints as raw CDR to the recorder process; return the bytes."""
+    """Publish ``count`` PixelPoints as raw CDR to the recorder process; return the bytes.
+
+    The publisher is transient local (so the recorder subscribes transient local too): DDS
+    matches a pair from each side separately, and a volatile reader that has not yet matched
+    the writer when it publishes drops what was sent before (Fast DDS issue 2641); a fresh-clone
+    CI once lost 25 of 30 messages that way. Kept history makes the test independent of which
+    side matches first.
+    """
     store = make_typestore()
     payloads = [bytes(store.serialize_cdr(m, t)) for _, t, _, m in
                 pixel_points(store, count, seed=seed)]
-    pub = harness.publisher(PixelPoints, TOPIC, 100)
+    pub = harness.publisher(PixelPoints, TOPIC, reliable_qos(100, latched=True))
     assert harness.wait_for_subscribers(pub, timeout_s=30), 'recorder process not discovered'
     harness.publish_all(pub, payloads)
     return payloads
