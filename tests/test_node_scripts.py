@@ -26,7 +26,8 @@ START_TIMEOUT_S = 120.0  # imports (numpy, OpenCV, torch) can take long on a bus
 def test_script_starts_and_stops_on_sigint(script: str, tmp_path: Path,
                                            ros_harness: RosHarness) -> None:
     """The node comes up, and Ctrl-C ends it with status 0 and no traceback."""
-    env = {**os.environ, 'ROS_DOMAIN_ID': str(ros_harness.domain_id)}
+    # a crash in C (once: SIGSEGV on Ctrl-C in a fresh-clone CI) prints every thread's stack
+    env = {**os.environ, 'ROS_DOMAIN_ID': str(ros_harness.domain_id), 'PYTHONFAULTHANDLER': '1'}
     args = [str(BIN / script), '--ros-args', '-p', f'output:={tmp_path / "bag"}'] \
         if script == 'dempath_recorder' else [str(BIN / script)]
     proc = subprocess.Popen(args, cwd=tmp_path, env=env, stdout=subprocess.PIPE,
