@@ -1,17 +1,28 @@
 """The body of every dempath node's console script, in the Jazzy form.
 
 ``rclpy.init``; build the node (a bad file or parameter ends with one ``error:`` line and exit
-status 1); spin until Ctrl-C, SIGTERM or the node says it is done (a signal that arrives while
-the node is still being built is held until spinning starts, or, when a thread that existed
-before the mask took it, ends the start-up with status 0: either way a clean stop); then
-shut down in order: the node's own finishing step, the executor, the node, the context.
+status 1); spin until Ctrl-C, SIGTERM or the node says it is done; then shut down in order: the
+node's own finishing step, the executor, the node, the context.
+
+A signal never raises into the node's code: a Python handler only notes it (:class:`StopLatch`,
+installed before ``rclpy.init`` so rclpy's own handler passes the signal on to it), and the
+spin loop looks at the note between callbacks. A KeyboardInterrupt raised wherever the main
+thread happens to be can be lost: inside a finaliser (``__del__``) Python prints "Exception
+ignored" and drops it, and a ``dempath_comparer`` went on spinning 60 s after a Ctrl-C that came
+while it was being built (once in 103 stress runs; the signal mask below does not stop a thread
+a library started before it, such as OpenBLAS's pool, from taking the signal). A second Ctrl-C
+does raise, for a callback that never returns. SIGINT and SIGTERM are also held (masked) while
+the node is built, so the ROS threads started then never take them.
 """
 
 from __future__ import annotations
 
 import signal
 import sys
-from collections.abc import Callable
+import threading
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from types import FrameType
 from typing import TypeVar
 
 import rclpy
@@ -23,6 +34,37 @@ from dempath.rosenv import apply_ros_defaults
 
 N = TypeVar('N', bound=Node)
 HELD_SIGNALS = {signal.SIGINT, signal.SIGTERM}  # held while the node is built
+SPIN_STEP_S = 0.1  # longest wait between two looks at the stop note [s]
+
+
+class StopLatch:
+    """Notes SIGINT and SIGTERM instead of raising; a second one raises KeyboardInterrupt."""
+
+    def __init__(self) -> None:
+        self.caught: list[int] = []
+
+    def __call__(self, signum: int, frame: FrameType | None) -> None:
+        self.caught.append(signum)
+        if len(self.caught) > 1:  # asked twice: stop whatever runs now
+            raise KeyboardInterrupt
+
+    @property
+    def stopped(self) -> bool:
+        """Whether a stop signal has come."""
+        return bool(self.caught)
+
+    @contextmanager
+    def installed(self) -> Iterator[StopLatch]:
+        """Handle the stop signals here while inside (main thread only; elsewhere a no-op)."""
+        if threading.current_thread() is not threading.main_thread():
+            yield self
+            return
+        previous = {sig: signal.signal(sig, self) for sig in HELD_SIGNALS}
+        try:
+            yield self
+        finally:
+            for sig, handler in previous.items():
+                signal.signal(sig, handler)
 
 
 def run_node(make_node: Callable[[], N], args: list[str] | None = None,
@@ -37,8 +79,13 @@ def run_node(make_node: Callable[[], N], args: list[str] | None = None,
         on_exit: Called before the executor shuts down (e.g. finalise a recording).
     """
     apply_ros_defaults()
-    # Ctrl-C or SIGTERM while the node is being built is held (in every thread, as the ROS
-    # threads inherit the mask) and lands once spinning starts, so it ends the node cleanly.
+    with StopLatch().installed() as stop:
+        return _run(make_node, stop, args, until, on_exit)
+
+
+def _run(make_node: Callable[[], N], stop: StopLatch, args: list[str] | None,
+         until: Callable[[N], bool] | None, on_exit: Callable[[N], None] | None) -> int:
+    """:func:`run_node` with the stop latch installed."""
     signal.pthread_sigmask(signal.SIG_BLOCK, HELD_SIGNALS)
     rclpy.init(args=args)
     try:
@@ -48,39 +95,34 @@ def run_node(make_node: Callable[[], N], args: list[str] | None = None,
         print(f'error: {err}', file=sys.stderr)
         rclpy.try_shutdown()
         return 1
-    except KeyboardInterrupt:
-        # Ctrl-C reached a thread started before the mask (a library's pool, e.g. OpenBLAS's,
-        # started at import) and Python raised it in the main thread while the node was built:
-        # nothing was recorded yet, so it is a clean stop
+    except (KeyboardInterrupt, RuntimeError):
+        # a second signal raised during the build, or rclpy's RCLError: its signal handler shut
+        # the context down while the node was built: a clean stop, unless the context is still
+        # valid and no signal came (then it is a real fault)
         signal.pthread_sigmask(signal.SIG_UNBLOCK, HELD_SIGNALS)
-        rclpy.try_shutdown()
-        return 0
-    except RuntimeError:
-        # rclpy's RCLError: a signal reached a thread started before the mask (a library's pool)
-        # and shut the context down while the node was built: a clean stop, unless the context
-        # is still valid (then it is a real fault)
-        signal.pthread_sigmask(signal.SIG_UNBLOCK, HELD_SIGNALS)
-        if rclpy.ok():
+        if rclpy.ok() and not stop.stopped:
             raise
         rclpy.try_shutdown()
         return 0
-    executor = SingleThreadedExecutor()
-    executor.add_node(node)
+    executor: SingleThreadedExecutor | None = None
     try:
         signal.pthread_sigmask(signal.SIG_UNBLOCK, HELD_SIGNALS)
-        if until is None:
-            executor.spin()
-        while until is not None and rclpy.ok() and not until(node):
-            executor.spin_once(timeout_sec=0.1)
+        if not stop.stopped and rclpy.ok():
+            executor = SingleThreadedExecutor()
+            executor.add_node(node)
+        while executor is not None and not stop.stopped and rclpy.ok() and not (
+                until is not None and until(node)):
+            executor.spin_once(timeout_sec=SPIN_STEP_S)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
-    except RuntimeError:  # rclpy's RCLError: the signal's shutdown raced the executor's wait
+    except RuntimeError:  # rclpy's RCLError: the signal's shutdown raced the executor
         if rclpy.ok():  # the context is still valid: a real fault
             raise
     finally:
         if on_exit is not None:
             on_exit(node)
-        executor.shutdown()
+        if executor is not None:
+            executor.shutdown()
         node.destroy_node()
         rclpy.try_shutdown()
     return 0
