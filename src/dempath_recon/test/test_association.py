@@ -495,3 +495,32 @@ def test_track_left_unsure_at_the_grid_fit_is_numbered_once_its_line_clears(rig)
         [f.events for f in sides]
     assert all(numbers_at(f, side, p) == i + 1 for f in sides for i, p in enumerate(pts)
                if i != 2)
+
+
+def test_spot_of_two_markers_at_the_grid_fit_is_not_numbered_later(rig) -> None:
+    """Markers 1 and 2 one behind the other in the front camera (one spot there, 1's; 2 peeks
+    out 4 px beside it), apart in the side camera, 1 moved 10 mm off its grid point: at the
+    grid fit the spot pairs at both grid points, so it is either marker, and it stays
+    unnumbered afterwards too (before, the epipolar numbering gave it 2, whose grid point the
+    spot sits on, for the whole pass)."""
+    side, front = rig.cameras
+    g1 = np.zeros(3)
+    ray = (g1 - centre(front)) / np.linalg.norm(g1 - centre(front))
+    p1 = g1 + np.array([0.010, 0.0, 0.0])
+    g2 = p1 + 0.05 * ray  # 2's grid point right behind 1 in the front camera
+    p2 = g2 + np.array([0.0, 0.0, 0.008])
+    rest = [np.array(d) for d in ((0.05, 0, 0), (-0.05, 0, 0), (0, 0, 0.05), (0, 0, -0.05))]
+    layout = tuple(tuple(float(v) for v in p) for p in (g1, g2, *rest))
+    spot = front.project(p1[None])[0]
+    assert 2 < np.linalg.norm(front.project(p2[None])[0] - spot) < 5, 'precondition: merged'
+    cams = {c.name: c for c in rig.cameras}
+    tracker = StereoMarkerTracker(cams, StereoTrackConfig(grid=MarkerGrid(layout_m=layout)))
+    given = []
+    for k in range(6):
+        tracker.update_detections('cam_side', k * DT, dets(side, np.array([p1, p2, *rest])))
+        uv = np.vstack([spot[None], front.project(np.array(rest))])
+        f = tracker.update_detections('cam_front', k * DT + OFFSET,
+                                      Detections(uv, np.ones(len(uv)), np.full(len(uv), 4.0)))
+        given.append(int(f.markers[0]))
+        assert f.markers[1:].tolist() == [3, 4, 5, 6]
+    assert given == [-1] * 6

@@ -187,6 +187,20 @@ def test_grid_numbering_with_unknown_height(rig) -> None:
         assert np.array_equal(got, numbers[order])
 
 
+def test_grid_fit_that_a_pitch_over_fits_as_well_is_refused(rig) -> None:
+    """The 3 x 5 grid with its last column hidden: the fit one column over scores as well, so
+    a wary fit numbers nothing (the numbering waits for a frame that tells them apart); with
+    every column in view the wary fit numbers them all."""
+    grid = MarkerGrid()
+    numbers, xyz = grid.points()
+    inner = (numbers - 1) % grid.columns < grid.columns - 1
+    for cam in rig.cameras:
+        got, _ = number_by_grid(cam, cam.project(xyz[inner]), grid, wary=True)
+        assert (got == -1).all(), f'{cam.name}: {got}'
+        got, _ = number_by_grid(cam, cam.project(xyz), grid, wary=True)
+        assert np.array_equal(got, numbers)
+
+
 def test_epipolar_distance_is_zero_for_true_pairs(rig) -> None:
     """Projections of one point lie on each other's epipolar lines; others do not."""
     pts = np.array([[0.0, 0.02, 0.0], [0.1, 0.0, -0.1]])

@@ -95,7 +95,7 @@ class MarkerGrid:
 
 
 def number_by_grid(camera: Camera, uv: FloatArray, grid: MarkerGrid, gate_px: float = 12.0,
-                   ) -> tuple[NDArray[np.int32], FloatArray]:
+                   wary: bool = False) -> tuple[NDArray[np.int32], FloatArray]:
     """Marker number of each detection (n, 2) px by the projected grid (-1 = none, or unsure).
 
     The projected grid is shifted by the image translation on which the grid points fit the
@@ -105,7 +105,10 @@ def number_by_grid(camera: Camera, uv: FloatArray, grid: MarkerGrid, gate_px: fl
     match is kept only when it is unambiguous: the detection's next-nearest grid point and the
     grid point's next-nearest detection are both at least ``gate_px / 2`` farther than the
     match. An unsure detection stays unnumbered (the other camera can number it later): a
-    wrong number is worse than none.
+    wrong number is worse than none. A ``wary`` fit numbers nothing when the grid shifted by
+    one pitch (:func:`pitch_steps`) from the best fit scores within ``SHIFT_MARGIN`` of it:
+    with an edge column or row missing the two fit alike, and the first of them may be one
+    marker off for every spot (the numbering then waits for a frame that tells them apart).
 
     Returns:
         ``(numbers (n,), grid_uv (m, 2))``: the numbers and the shifted projected grid [px].
@@ -118,10 +121,12 @@ def number_by_grid(camera: Camera, uv: FloatArray, grid: MarkerGrid, gate_px: fl
     offsets = (uv[:, None, :] - proj[None, :, :]).reshape(-1, 2)
     best, shift = -1.0, np.zeros(2, np.float64)
     for off in offsets:
-        d = np.linalg.norm(proj[:, None, :] + off - uv[None, :, :], axis=2).min(axis=1)
-        score = float(np.clip(1.0 - (d / gate_px) ** 2, 0.0, None).sum())
+        score = grid_score(proj + off, uv, gate_px)
         if score > best:
             best, shift = score, np.asarray(off, np.float64).reshape(2)
+    if wary and max((grid_score(proj + shift + v, uv, gate_px)
+                     for v in pitch_steps(proj, xyz)), default=-1.0) > best - SHIFT_MARGIN:
+        return out, proj + shift  # a fit one pitch over scores nearly as well: wait
     near = np.linalg.norm(proj[:, None, :] + shift - uv[None, :, :], axis=2)
     inside = near[near.min(axis=1) < gate_px]
     if len(inside):  # refine the shift by the mean residual of the matched points
@@ -138,6 +143,34 @@ def number_by_grid(camera: Camera, uv: FloatArray, grid: MarkerGrid, gate_px: fl
         if (others_g >= cost[r, c] + margin).all() and (others_d >= cost[r, c] + margin).all():
             out[c] = numbers[r]
     return out, proj + shift
+
+
+SHIFT_MARGIN = 1.0  # a grid fit is refused when one shifted by a pitch scores within this much
+# (one marker's worth) of it
+
+
+def grid_score(grid_uv: FloatArray, uv: FloatArray, gate_px: float) -> float:
+    """How well the grid points (m, 2) px fit the detections (n, 2) px: each grid point scores
+    ``1 - (d / gate_px)^2`` for its nearest detection within the gate."""
+    d = np.linalg.norm(grid_uv[:, None, :] - uv[None, :, :], axis=2).min(axis=1)
+    return float(np.clip(1.0 - (d / gate_px) ** 2, 0.0, None).sum())
+
+
+def pitch_steps(proj: FloatArray, xyz: FloatArray) -> list[FloatArray]:
+    """The image steps (2,) px between neighbouring grid points (3D neighbours within 1.5
+    times the grid's smallest spacing, in both directions), averaged per direction: the
+    shifts by which a grid fit slips one pitch (on session 14's reddish look the side's grid,
+    its edge marker lost, fitted one column over and numbered five spots one marker off)."""
+    if len(xyz) < 2:
+        return []
+    d = np.linalg.norm(xyz[:, None] - xyz[None], axis=2)
+    i, j = np.nonzero((d > 0) & (d <= 1.5 * d[d > 0].min()))
+    steps3 = np.round((xyz[j] - xyz[i]) / d[d > 0].min(), 1)
+    out = []
+    for key in {tuple(k) for k in steps3.tolist()}:
+        same = np.all(steps3 == key, axis=1)
+        out.append(np.mean(proj[j[same]] - proj[i[same]], axis=0))
+    return sorted(out, key=lambda v: (float(v[0]), float(v[1])))
 
 
 def essential(cam_a: Camera, cam_b: Camera) -> FloatArray:

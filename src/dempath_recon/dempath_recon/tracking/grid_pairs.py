@@ -22,6 +22,9 @@ rest wait (a marker covered at the start is numbered later, by the epipolar line
 
 from __future__ import annotations
 
+from collections import Counter
+from typing import NamedTuple
+
 import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import linear_sum_assignment
@@ -46,10 +49,28 @@ def grid_pitch(grid: MarkerGrid) -> float:
     return float(d[np.triu_indices(len(xyz), 1)].min())
 
 
+class GridPairs(NamedTuple):
+    """Both cameras' detections numbered by the grid fit."""
+
+    a: NDArray[np.int32]  # (n,) camera a's detections' numbers (-1: none, unsure)
+    b: NDArray[np.int32]  # (k,) camera b's
+    merged_a: dict[int, set[int]]  # camera a's merged spots: detection -> the markers it holds
+    merged_b: dict[int, set[int]]  # camera b's
+
+
 def number_pairs_by_grid(cam_a: Camera, cam_b: Camera, uv_a: FloatArray, uv_b: FloatArray,
                          grid: MarkerGrid, epipolar_px: float,
                          ) -> tuple[NDArray[np.int32], NDArray[np.int32]]:
-    """Marker numbers of camera a's (n, 2) and camera b's (k, 2) detections (-1: none, unsure).
+    """Marker numbers of camera a's (n, 2) and camera b's (k, 2) detections (-1: none,
+    unsure): :func:`pairs_by_grid`'s numbers."""
+    fit = pairs_by_grid(cam_a, cam_b, uv_a, uv_b, grid, epipolar_px)
+    return fit.a, fit.b
+
+
+def pairs_by_grid(cam_a: Camera, cam_b: Camera, uv_a: FloatArray, uv_b: FloatArray,
+                  grid: MarkerGrid, epipolar_px: float) -> GridPairs:
+    """Marker numbers of camera a's (n, 2) and camera b's (k, 2) detections (-1: none,
+    unsure), and the merged spots left unnumbered (:func:`_two_markers`) with their markers.
 
     Args:
         cam_a, cam_b: the two cameras (world frame).
@@ -61,11 +82,11 @@ def number_pairs_by_grid(cam_a: Camera, cam_b: Camera, uv_a: FloatArray, uv_b: F
     out_b = np.full(len(uv_b), -1, np.int32)
     numbers, g = grid.points()
     if not len(uv_a) or not len(uv_b) or not len(g):
-        return out_a, out_b
+        return GridPairs(out_a, out_b, {}, {})
     epi = epipolar_distance(cam_a, cam_b, uv_a, uv_b)
     ia, ib = np.nonzero(epi <= epipolar_px)
     if not len(ia):
-        return out_a, out_b
+        return GridPairs(out_a, out_b, {}, {})
     xyz, _ = triangulate_pairs(cam_a, cam_b, uv_a[ia], uv_b[ib])
     pitch = grid_pitch(grid)
     gate = GATE_SHARE * pitch
@@ -73,7 +94,9 @@ def number_pairs_by_grid(cam_a: Camera, cam_b: Camera, uv_a: FloatArray, uv_b: F
     dist = np.linalg.norm(xyz[None] - (g + shift)[:, None], axis=2)  # (markers, pairs)
     second = np.sort(dist, axis=0)[1] if len(g) > 1 else np.full(len(ia), np.inf)
     sure = (dist < gate) & (second[None] >= dist + MARGIN_SHARE * pitch)
-    cost = np.where(sure, dist / gate + epi[ia, ib][None] / epipolar_px, np.inf)
+    merged_a, merged_b = _two_markers(sure, ia, len(uv_a)), _two_markers(sure, ib, len(uv_b))
+    via = sure & (merged_a[ia] | merged_b[ib])[None]  # pairs through a merged spot
+    cost = np.where(sure & ~via, dist / gate + epi[ia, ib][None] / epipolar_px, np.inf)
     # camera a's detections first (each marker's cheapest pair through each), then b's given a's
     side = _assign(np.stack([_cheapest(cost, ia == i) for i in range(len(uv_a))], axis=1))
     cost_b = np.full((len(g), len(uv_b)), np.inf)
@@ -82,7 +105,56 @@ def number_pairs_by_grid(cam_a: Camera, cam_b: Camera, uv_a: FloatArray, uv_b: F
         cost_b[m, ib[through]] = cost[m, through]
     for m, j in _assign(cost_b).items():
         out_a[side[m]], out_b[j] = numbers[m], numbers[m]
-    return out_a, out_b
+    _number_beside_merged(via, ib, merged_b, sure, numbers, out_a, out_b)
+    _number_beside_merged(via, ia, merged_a, sure, numbers, out_b, out_a)
+    return GridPairs(out_a, out_b, _holds(sure, ia, merged_a, numbers),
+                     _holds(sure, ib, merged_b, numbers))
+
+
+def _two_markers(sure: NDArray[np.bool_], det: NDArray[np.int64], n: int) -> NDArray[np.bool_]:
+    """(n,) the detections of one camera (``det``: each pair's detection) that pair surely
+    with two or more markers through different partners while this camera has fewer spots
+    than markers among those that such spots could be: it sees those markers along one line
+    of sight, merged in one spot, so the spot is either of them and is left to wait (a front
+    spot of markers 9 and 10, one behind the other, took 10 at the fit on three tuning renders
+    while it was 9's, for eight frames). Where each marker has its own spot (two spots on one
+    line of sight, both pairing with both markers) the assignment decides."""
+    holds = [set(np.flatnonzero(sure[:, det == i].any(axis=1)).tolist()) for i in range(n)]
+    out = np.zeros(n, bool)
+    for i in range(n):
+        if len(holds[i]) >= 2:
+            group = [h for h in holds if h & holds[i]]
+            out[i] = len(set().union(*group)) > len(group)
+    return out
+
+
+def _number_beside_merged(via: NDArray[np.bool_], det: NDArray[np.int64],
+                          merged: NDArray[np.bool_], sure: NDArray[np.bool_],
+                          numbers: NDArray[np.int32], out_other: NDArray[np.int32],
+                          out: NDArray[np.int32]) -> None:
+    """Number in place (``out``) the unnumbered, unmerged detections of one camera (``det``:
+    each pair's detection in it) whose only sure pairs run through the other camera's merged
+    spot, all to one marker that no detection has taken and no other such detection could
+    be: the merged spot holds that marker, and this clean spot is where it is (the side saw
+    markers 9 and 10 apart, each on the front's merged spot's line at its own grid point).
+    The merged spot itself stays unnumbered."""
+    taken = set(out[out >= 0].tolist()) | set(out_other[out_other >= 0].tolist())
+    claims: dict[int, list[int]] = {}
+    for j in np.flatnonzero((out < 0) & ~merged).tolist():
+        mine = det == j
+        if via[:, mine].any() and not (sure[:, mine] & ~via[:, mine]).any():
+            claims[j] = np.flatnonzero(sure[:, mine].any(axis=1)).tolist()
+    wanted = Counter(r for rows in claims.values() for r in rows)
+    for j, rows in claims.items():
+        if len(rows) == 1 and wanted[rows[0]] == 1 and int(numbers[rows[0]]) not in taken:
+            out[j] = numbers[rows[0]]
+
+
+def _holds(sure: NDArray[np.bool_], det: NDArray[np.int64], merged: NDArray[np.bool_],
+           numbers: NDArray[np.int32]) -> dict[int, set[int]]:
+    """Each merged detection's markers (the numbers of its sure pairs)."""
+    return {i: {int(numbers[r]) for r in np.flatnonzero(sure[:, det == i].any(axis=1))}
+            for i in np.flatnonzero(merged).tolist()}
 
 
 def _cheapest(cost: FloatArray, among: NDArray[np.bool_]) -> FloatArray:

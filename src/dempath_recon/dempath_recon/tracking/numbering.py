@@ -20,7 +20,7 @@ from dempath_recon.tracking.associate import (
     on_epipolar_line,
     triangulate_pairs,
 )
-from dempath_recon.tracking.grid_pairs import number_pairs_by_grid
+from dempath_recon.tracking.grid_pairs import pairs_by_grid
 from dempath_recon.tracking.linker import UNNUMBERED
 from dempath_recon.tracking.one_camera import grid_anchor, late_grid
 from dempath_recon.tracking.state import (
@@ -41,8 +41,10 @@ def number_all_by_grid(state: StereoState, camera: str, track_ids: NDArray[np.in
     last frame is at most 1.5 frame periods old and not numbered by the grid yet, or numbered
     only provisionally (alone, before this camera's first frame: its numbers are replaced).
     Failing that (too few pairs fit the grid, or no frame of the other camera), this camera
-    alone by the projected grid, once enough detections fit it (provisionally while the other
-    camera has sent no frame)."""
+    alone by the projected grid, once enough detections fit it and no fit one pitch over
+    fits nearly as well (``wary``: on a tuning render the front, with 4 of its 10 markers
+    found, fitted one column over while the side was numbered and kept 13 for 12 and 12 for
+    11, 19 wrong marker-frames), provisionally while the other camera has sent no frame."""
     need = min(state.config.min_grid_markers, len(state.config.grid.points()[0]))
     other = state.other(camera)
     if other not in state.grid_uv or other in state.provisional:
@@ -52,7 +54,7 @@ def number_all_by_grid(state: StereoState, camera: str, track_ids: NDArray[np.in
     if state.last_stamp[other] is None:
         state.provisional.add(camera)
     numbers, grid_uv = number_by_grid(state.cameras[camera], uv, state.config.grid,
-                                      state.config.grid_gate_px)
+                                      state.config.grid_gate_px, wary=True)
     found = int((numbers >= 0).sum())
     if found < need:
         events.append(f'{camera}: {found} of {len(uv)} detections fit the marker grid; '
@@ -74,7 +76,11 @@ def number_both_by_grid(state: StereoState, camera: str, track_ids: NDArray[np.i
     """Both cameras' tracks numbered together (this frame's and the other camera's last
     frame's unnumbered ones), when at least ``need`` markers pair up on the grid; None
     otherwise. The other camera's numbered points become its latest, so the pair checks of
-    this frame check them and record the markers' 3D positions."""
+    this frame check them and record the markers' 3D positions. A merged spot (one camera sees
+    two markers along one line of sight, :func:`~dempath_recon.tracking.grid_pairs.pairs_by_grid`)
+    is refused both numbers for its track: later numbering by the epipolar line would pick
+    between them by grid points the markers have left (on three tuning renders it gave a
+    front spot of 12 the number 13, 14 frames each)."""
     other = state.other(camera)
     last = state.last_tracks[other]
     if last is None or abs(last[0] - stamp_s) > 1.5 / state.config.fps or not len(last[1]):
@@ -84,11 +90,16 @@ def number_both_by_grid(state: StereoState, camera: str, track_ids: NDArray[np.i
         numbered = {t.track_id for t in state.trackers[other].tracks if t.marker >= 0}
         keep = np.array([int(t) not in numbered for t in ids_o], bool)
         ids_o, uv_o = ids_o[keep], uv_o[keep]
-    mine, theirs = number_pairs_by_grid(state.cameras[camera], state.cameras[other], uv, uv_o,
-                                        state.config.grid, state.config.epipolar_px)
+    fit = pairs_by_grid(state.cameras[camera], state.cameras[other], uv, uv_o,
+                        state.config.grid, state.config.epipolar_px)
+    mine, theirs = fit.a, fit.b
     found = int((mine >= 0).sum())
     if found < need:
         return None
+    for cam, ids, nums, merged in ((camera, track_ids, mine, fit.merged_a),
+                                   (other, ids_o, theirs, fit.merged_b)):
+        state.refused[cam] |= {(int(ids[i]), m) for i, ms in merged.items() for m in ms
+                               if m != nums[i]}
     alone, unsure = one_camera_grid(state, camera, uv, mine, uv_o, theirs)
     theirs, unsure_o = one_camera_grid(state, other, uv_o, theirs, uv, mine)
     mine = alone
@@ -123,23 +134,40 @@ def one_camera_grid(state: StereoState, camera: str, uv: FloatArray, numbers: ND
     this camera sees numbered by its projected grid: a detection the pairs left unnumbered
     takes its grid number when no pair took that number and no unnumbered detection of the
     other camera (``uv_o``, ``numbers_o``) lies on its epipolar line (such a pair was left
-    unnumbered as unsure); and (k,) the grid number each such unsure detection would have
+    unnumbered as unsure) and the other camera's numbered ones do not say otherwise
+    (:func:`other_says_else`); and (k,) the grid number each such unsure detection would have
     taken (-1: none), which :func:`number_grid_unsure` may give it later."""
     single, _ = number_by_grid(state.cameras[camera], uv, state.config.grid,
                                state.config.grid_gate_px)
-    free_o = uv_o[numbers_o < 0]
-    partnered = (epipolar_distance(state.cameras[camera], state.cameras[state.other(camera)],
-                                   uv, free_o) <= state.config.epipolar_px).any(axis=1) \
-        if len(free_o) and len(uv) else np.zeros(len(uv), bool)
+    line = epipolar_distance(state.cameras[camera], state.cameras[state.other(camera)], uv,
+                             uv_o) <= state.config.epipolar_px if len(uv_o) and len(uv) \
+        else np.zeros((len(uv), len(uv_o)), bool)
+    partnered = line[:, numbers_o < 0].any(axis=1)
     used = set(numbers[numbers >= 0].tolist())
     out = numbers.copy()
     for i in np.flatnonzero((numbers < 0) & (single >= 0) & ~partnered).tolist():
-        if int(single[i]) not in used:
+        if int(single[i]) not in used and not other_says_else(line[i], numbers_o,
+                                                              int(single[i]), used):
             out[i] = single[i]
             used.add(int(single[i]))
     unsure = (out < 0) & (single >= 0) & partnered \
         & np.array([int(m) not in used for m in single], bool)
     return out, np.where(unsure, single, UNNUMBERED).astype(np.int32)
+
+
+def other_says_else(line: NDArray[np.bool_], numbers_o: NDArray[np.int32], marker: int,
+                    used: set[int]) -> bool:
+    """Whether the other camera's numbered detections contradict giving one detection
+    ``marker`` by this camera's grid alone: ``line`` (k,) says which of the other camera's
+    detections lie on the detection's epipolar line. The other camera's spot of ``marker``
+    off the line says it is elsewhere; a spot on the line numbered with a marker this
+    camera has not placed says the detection may be that one (a front spot of markers 9 and
+    10, one behind the other, sits on both of the side's lines and took 10 by the front's
+    grid while it was 9's)."""
+    if (numbers_o == marker).any() and not line[numbers_o == marker].any():
+        return True
+    on = numbers_o[line]
+    return bool(((on >= 0) & (on != marker) & ~np.isin(on, list(used))).any())
 
 
 def number_new(state: StereoState, camera: str, track_ids: NDArray[np.int64],
