@@ -73,6 +73,12 @@ def vary(frames: Frames, truth: dict[str, Any], cond: Condition, cache: Path,
     return out, moved_truth(truth, shifts)
 
 
+def seen(fr: PixelFrame) -> PixelFrame:
+    """The frame with its points where they were seen in the image (the tracker gives them
+    out moved back by the image's estimated shake; the truth's pixels move with the image)."""
+    return fr if fr.shake_px is None else fr._replace(uv=fr.uv + fr.shake_px)
+
+
 def _truth_ids(fr: PixelFrame, t: dict[str, Any], ids: NDArray[np.int64], within_px: float,
                ) -> NDArray[np.int64]:
     """(k,) the true marker nearest each detection of a frame (-1: none within ``within_px``)."""
@@ -104,6 +110,7 @@ def score(out: list[PixelFrame], truth: dict[str, Any], cams: dict[str, CameraMo
         t = by_key.get((fr.camera, round(fr.stamp_s * 1e6)))
         if t is None:
             continue
+        fr = seen(fr)
         true_of = _truth_ids(fr, t, ids, MATCH_PX)
         owner = _truth_ids(fr, t, ids, OWNER_PX)
         vis = np.array(t['visible'])

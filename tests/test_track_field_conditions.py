@@ -55,16 +55,17 @@ def condition(name: str) -> Condition:
 
 
 @cache
-def track(cond: Condition, ray: bool = False,
+def track(cond: Condition, ray: bool = False, shake: bool = True,
           ) -> tuple[list[PixelFrame], dict[str, Any], dict[str, Any]]:
     """The offline path's frames (``release``/``flush``) on the varied render, the truth
     moved with any image shift, and the tracker's report (``ray``: with the one-camera
-    numbering by the line of sight, an option)."""
+    numbering by the line of sight, an option; ``shake``: the shake correction)."""
     frames, truth = recording()
     varied, shifts = vary_recording(frames, truth, cond)
     cams = {c['name']: CameraModel.from_dict(c) for c in truth['cameras']}
     config = StereoTrackConfig(grid=MarkerGrid(
-        layout_m=tuple(tuple(p) for p in truth['marker_grid_m'])), ray_numbering=ray)
+        layout_m=tuple(tuple(p) for p in truth['marker_grid_m'])), ray_numbering=ray,
+        shake=shake)
     tracker = StereoMarkerTracker(cams, config)
     out: list[PixelFrame] = []
     for cam, stamp, data in varied:
@@ -90,6 +91,8 @@ def outcome(out: list[PixelFrame], truth: dict[str, Any], one_camera: bool = Fal
         k = index[(fr.camera, round(fr.stamp_s * 1e6))]
         t = frames[fr.camera][k]
         uv, vis = np.array(t['uv']), np.array(t['visible'])
+        if fr.shake_px is not None:  # where the points were seen in the (shaken) image
+            fr = fr._replace(uv=fr.uv + fr.shake_px)
         unseen = np.array(frames[other[fr.camera]][k]['visible']) < 0.2 if one_camera else \
             np.ones(len(ids), bool)
         d = np.linalg.norm(fr.uv[:, None] - uv[None], axis=2) if len(fr.uv) else \
@@ -173,17 +176,53 @@ def test_adaptive_threshold_finds_markers_the_colour_cast_weakened() -> None:
 
 @pytest.mark.slow
 def test_cameras_moved_against_the_calibration_are_reported() -> None:
-    """Camera shake (the image moves up to 3 px a frame, the calibration stays) puts the
+    """Camera shake (the image moves up to 3 px a frame, the calibration stays), left
+    uncorrected (``shake`` off, as when it cannot be estimated), puts the
     numbered pairs 2.3-2.7 px off their epipolar lines (0.3-0.5 px as rendered): both cameras
     report frames of drift (3-4 of 31: the shaken pairs lose their numbers, so fewer frames
     are judged than on the fixed rig's recording, where it was more than 10) and say the
     cameras may have moved; the unshaken render reports none."""
-    *_, shaken = track(condition('shake_3px'))
+    *_, shaken = track(condition('shake_3px'), shake=False)
     *_, still = track(condition('as_rendered'))
     for cam in ('cam_side', 'cam_front'):
         assert still[cam]['drift_frames'] == 0, still[cam]
         assert still[cam]['pair_residual_px'] < 1.2, still[cam]
         assert shaken[cam]['drift_frames'] >= 3, shaken[cam]
         assert shaken[cam]['pair_residual_px'] > 1.5, shaken[cam]
-    out, *_ = track(condition('shake_3px'))
+    out, *_ = track(condition('shake_3px'), shake=False)
     assert any('may have moved since the calibration' in e for f in out for e in f.events)
+
+
+@pytest.mark.slow
+def test_camera_shake_is_measured_and_taken_off() -> None:
+    """The same 3 px shake, corrected (``tracking/shake.py``): each frame's image shift is
+    measured on the ground around the bin to 0.35 px RMS against the mean of the frames so far
+    (the calibration's view as the estimator takes it) and the detections are moved back by
+    it. The pairs come back toward their epipolar lines (the last residual 1.0-1.2 px against
+    2.3-2.4 uncorrected; frames of drift 7 and 10 against 18 and 17: the first frames still
+    count, as the mean of a few frames places the calibration's view only to a pixel or two), fewer
+    pairs are withheld, and more markers are numbered right (96.5 against 89.8 %), none
+    wrongly."""
+    out, moved, report = track(condition('shake_3px'))
+    off, _, report_off = track(condition('shake_3px'), shake=False)
+    _, truth = recording()
+    shift = {(f['camera'], round(f['stamp_ns'] * 1e-3)):
+             np.nanmean(np.array(m['uv']) - np.array(f['uv']), 0)
+             for f, m in zip(truth['frames'], moved['frames'], strict=True)}
+    for cam in ('cam_side', 'cam_front'):
+        frames = sorted((f for f in out if f.camera == cam), key=lambda f: f.stamp_s)
+        got = np.array([f.shake_px for f in frames], np.float64)
+        true = np.array([shift[(cam, round(f.stamp_s * 1e6))] for f in frames])
+        want = true - np.cumsum(true, axis=0) / np.arange(1, len(true) + 1)[:, None]
+        assert np.sqrt(((got - want) ** 2).sum(1).mean()) < 0.35, got - want
+        on, no = report[cam], report_off[cam]
+        assert on['shake_unknown'] == 0 and on['shake_frames'] > 20, on
+        assert on['pair_residual_px'] < 1.5 < 2.0 < no['pair_residual_px'], (on, no)
+        assert on['drift_frames'] < 0.7 * no['drift_frames'], (on, no)
+    assert sum(r['withheld'] for r in report.values()) < sum(
+        r['withheld'] for r in report_off.values())
+    right, wrong = outcome(out, moved)
+    right_off, _ = outcome(off, moved)
+    share = np.mean([v for r in right.values() for v in r])
+    share_off = np.mean([v for r in right_off.values() for v in r])
+    assert wrong == 0 and share > share_off + 0.05, (share, share_off, wrong)

@@ -86,6 +86,8 @@ PARAMETERS: tuple[tuple[str, Any, str], ...] = (
                           'frames still waiting for the other camera are tracked and the held '
                           'ones published (the end of a recording) [s]'),
     ('silent_s', 1.0, 'no frame for this long after the first: diagnostics say WARN [s]'),
+    ('correct_shake', True, "move each frame's detections back by the image's shake, measured "
+                            'on the parts of the view that do not move (tracking/shake.py)'),
     ('scene', '', "scene file or shipped scene name whose markers: block gives the marker grid "
                   "(overrides the marker_* parameters); '': the marker_* parameters"),
     ('marker_rows', 3, 'rows of the marker grid (row 0 on the tool axis; the paper: 3)'),
@@ -141,7 +143,8 @@ class DetectorNode(Node):
         p = {name: self.get_parameter(name).value for name, _, _ in PARAMETERS}
         self.camera = str(p['camera'])
         self.core = StereoMarkerTracker(_load_cameras(str(p['calibration_file'])),
-                                        StereoTrackConfig(grid=_grid(p)))
+                                        StereoTrackConfig(grid=_grid(p),
+                                                          shake=bool(p['correct_shake'])))
         if self.camera not in self.core.cameras:
             msg = f'camera: {self.camera!r} not in the calibration ({sorted(self.core.cameras)})'
             raise ReconstructionError(msg)
@@ -370,7 +373,9 @@ class DetectorNode(Node):
                    f"{c['processed']} processed, "
                    f"{c['skipped']} skipped (stride {c['stride']}), "
                    f"{c['dropped_behind']} dropped behind, {c['detected']} detections, "
-                   f"{c['lost']} lost, {faults} faults")
+                   f"{c['lost']} lost, {faults} faults, shake up to "
+                   f"{float(c['shake_max_px']):.1f} px ({c['shake_frames']} frames corrected, "
+                   f"{c['shake_unknown']} not estimated)")
         silent = (time.monotonic() - self.last_arrival_s
                   if self.last_arrival_s is not None else 0.0)
         if silent > self.silent_s:

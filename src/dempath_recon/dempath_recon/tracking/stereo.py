@@ -35,7 +35,12 @@ from numpy.typing import NDArray
 
 from dempath_recon.methods.triangulate import Camera
 from dempath_recon.tracking.associate import marker_diameter_px
-from dempath_recon.tracking.detect import Detections, ImageDecodeError, MarkerDetector
+from dempath_recon.tracking.detect import (
+    Detections,
+    ImageDecodeError,
+    MarkerDetector,
+    decode_jpeg,
+)
 from dempath_recon.tracking.link_guide import ambiguous_spots, barred_links
 from dempath_recon.tracking.linker import UNNUMBERED
 from dempath_recon.tracking.merge import StampMerge
@@ -49,6 +54,7 @@ from dempath_recon.tracking.pair_numbering import number_pairs
 from dempath_recon.tracking.ray_numbering import number_by_ray
 from dempath_recon.tracking.records import CameraCounts, PixelFrame, StereoTrackConfig
 from dempath_recon.tracking.release import HeldFrame, fill_confirmed, renumber
+from dempath_recon.tracking.shake import ShakeEstimate, ShakeEstimator, remove_shake
 from dempath_recon.tracking.state import (
     Sighting,
     StereoState,
@@ -78,6 +84,8 @@ class StereoMarkerTracker:
                  ) -> None:
         self.state = StereoState.start(cameras, config or StereoTrackConfig())
         self.detectors = camera_detectors(cameras, self.state.config)
+        self.shakers = {c: ShakeEstimator() for c in cameras} if self.state.config.shake \
+            else {}
 
     @property
     def cameras(self) -> dict[str, Camera]:
@@ -118,8 +126,9 @@ class StereoMarkerTracker:
     def update(self, camera: str, stamp_s: float, jpeg: bytes | NDArray[np.uint8]) -> PixelFrame:
         """One compressed frame of ``camera``; never raises for bad images (counts them)."""
         counts = self.counts[camera]
+        detector = self.detectors[camera]
         try:
-            det = self.detectors[camera].detect_jpeg(jpeg)
+            image = decode_jpeg(jpeg, detector.config.downscale)
         except ImageDecodeError as err:
             index = counts.frames + counts.undecodable + counts.out_of_order  # of this camera
             counts.undecodable += 1
@@ -128,14 +137,29 @@ class StereoMarkerTracker:
             LOG.warning(msg)
             return PixelFrame(camera, stamp_s, np.zeros(0, np.int32), np.zeros((0, 2)),
                               np.zeros(0), (msg,))
-        return self.update_detections(camera, stamp_s, det)
+        return self.update_detections(camera, stamp_s, detector.detect(image, prescaled=True),
+                                      self._shake(camera, stamp_s, image,
+                                                  detector.config.downscale))
 
     def update_image(self, camera: str, stamp_s: float, image: NDArray[np.uint8]) -> PixelFrame:
         """One decoded BGR frame (full size) of ``camera``."""
-        return self.update_detections(camera, stamp_s, self.detectors[camera].detect(image))
+        return self.update_detections(camera, stamp_s, self.detectors[camera].detect(image),
+                                      self._shake(camera, stamp_s, image, 1))
 
-    def update_detections(self, camera: str, stamp_s: float, det: Detections) -> PixelFrame:
+    def _shake(self, camera: str, stamp_s: float, image: NDArray[np.uint8],
+               full_per_px: float) -> ShakeEstimate | None:
+        """The frame's image motion (None when the correction is off)."""
+        shaker, last = self.shakers.get(camera), self.state.last_stamp[camera]
+        if shaker is None or (last is not None and stamp_s <= last):  # off, or skipped
+            return None
+        return shaker.update(image, full_per_px)
+
+    def update_detections(self, camera: str, stamp_s: float, det: Detections,
+                          shake: ShakeEstimate | None = None) -> PixelFrame:
         """One frame's detections of ``camera``: link, number, check against the other camera.
+
+        With ``shake`` (the frame's image motion, :mod:`~dempath_recon.tracking.shake`), the
+        detections are first moved back into the calibration's view.
 
         The returned frame's markers are -1 where a detection is not identified, or where its
         number disagrees with the other camera (off the epipolar line, or a 3D point the
@@ -158,6 +182,9 @@ class StereoMarkerTracker:
             events.append(f'{camera}: {max(missed, 1)} frame(s) missing before {stamp_s:.3f} s')
         state.last_stamp[camera] = stamp_s
         counts.frames += 1
+        shake_px = note_shake(counts, camera, stamp_s, shake, events)
+        if shake_px is not None:
+            det = remove_shake(det, shake_px)
         counts.no_marker += int(len(det.uv) == 0)
         before = (tracker.counts.lost, tracker.counts.reattached)
         tf = tracker.update(stamp_s, det, barred_links(state, camera, det.uv, stamp_s))
@@ -194,7 +221,7 @@ class StereoMarkerTracker:
             if m >= 0:
                 state.latest[camera][int(m)] = (stamp_s, p)
         frame = PixelFrame(camera, stamp_s, markers, tf.uv, tf.confidence,
-                           tuple(events) + tf.events)
+                           tuple(events) + tf.events, shake_px)
         state.queue.hold(frame, tf.track_ids, free_mask, waiting)
         return frame
 
@@ -225,6 +252,22 @@ class StereoMarkerTracker:
         state.counts[held.camera].numbered_late += late
         state.counts[held.camera].confirmed_late += filled
         return frame
+
+
+def note_shake(counts: CameraCounts, camera: str, stamp_s: float, shake: ShakeEstimate | None,
+               events: list[str]) -> FloatArray | None:
+    """Count a frame's image motion; the shift to take off its detections (None: none)."""
+    if shake is None:
+        return None
+    if not shake.known:
+        counts.shake_unknown += 1
+        events.append(f'{camera}: image motion at {stamp_s:.3f} s not estimated ('
+                      f'{shake.agreeing} of {shake.tiles} tiles agree); not corrected')
+        return None
+    size = float(np.linalg.norm(shake.shift_px))
+    counts.shake_frames += int(size > 0.5)
+    counts.shake_max_px = max(counts.shake_max_px, size)
+    return shake.shift_px
 
 
 def waiting_points(state: StereoState, camera: str, markers: NDArray[np.int32], uv: FloatArray,
