@@ -240,6 +240,8 @@ def main(argv: list[str]) -> int:
                    help='score the field-condition variation set instead (held-out apart)')
     p.add_argument('--rendered', type=Path, nargs='*', default=[],
                    help='score these re-rendered bags (held out; with --variations: as well)')
+    p.add_argument('--engine', choices=('grid', 'joint'), default='grid',
+                   help="the tracker (StereoTrackConfig.engine): 'grid' or the joint 3D one")
     p.add_argument('--cache', type=Path, default=HERE.parent / 'out' / 'bench_variations',
                    help='where the varied frames are kept between runs')
     args = p.parse_args(argv)
@@ -249,12 +251,12 @@ def main(argv: list[str]) -> int:
     frames = read_frames(args.bag, truth['calibration_segment']['field_start_ns'], list(cams))
     # the experiment's marker layout (the scene's grid points), as an experimenter knows it
     grid = MarkerGrid(layout_m=tuple(tuple(p) for p in truth['marker_grid_m']))
-    config = StereoTrackConfig(grid=grid)
+    config = StereoTrackConfig(grid=grid, engine=args.engine)
     load = [round(x, 2) for x in os.getloadavg()]
     if args.rendered and not args.variations:  # the re-rendered set alone
         from detect_track_variations import run_rendered
 
-        rendered = run_rendered(args.rendered, read_frames)
+        rendered = run_rendered(args.rendered, read_frames, args.engine)
         print(json.dumps({**rendered, 'load_average': load,
                           'load_average_end': [round(x, 2) for x in os.getloadavg()],
                           'cpus': os.cpu_count()}))
@@ -266,7 +268,8 @@ def main(argv: list[str]) -> int:
         if args.rendered:
             from detect_track_variations import run_rendered
 
-            found['rendered_held_out'] = run_rendered(args.rendered, read_frames)
+            found['rendered_held_out'] = run_rendered(args.rendered, read_frames,
+                                                      args.engine)
         held = found['held_out']
         print(json.dumps({**{k: held[k] for k in (
             'recall', 'numbered_right', 'id_switches', 'wrong_pair_points', 'traj_rms_mm',

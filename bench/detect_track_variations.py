@@ -246,11 +246,12 @@ def figures(frames: Frames, truth: dict[str, Any], cams: dict[str, CameraModel],
             'graph_equals_offline': graph, 'live_order_independent': live, 'raw': s}
 
 
-def run_rendered(bags: list[Path], read: Any) -> dict[str, Any]:
+def run_rendered(bags: list[Path], read: Any, engine: str = 'grid') -> dict[str, Any]:
     """Recordings re-rendered by the twin's renderer (``dempath twin render`` with other light,
     shutter, sand and marker colours, marker size, noise, JPEG quality, on another run), each
     with its own truth and cameras; all held out (never run while changing the code). One JSON
-    line each, then their pooled figures. ``read(bag, start_ns, cameras)`` reads the frames."""
+    line each, then their pooled figures. ``read(bag, start_ns, cameras)`` reads the frames;
+    ``engine`` is ``StereoTrackConfig.engine``."""
     import json as _json
 
     rows = []
@@ -261,7 +262,7 @@ def run_rendered(bags: list[Path], read: Any) -> dict[str, Any]:
         grid = MarkerGrid(layout_m=tuple(tuple(p) for p in truth['marker_grid_m']))
         row = {'variation': bag.name, 'held_out': True, 'rendered': True,
                'look': truth['config']['look'], 'jpeg_quality': truth['config']['jpeg_quality'],
-               **figures(frames, truth, cams, StereoTrackConfig(grid=grid))}
+               **figures(frames, truth, cams, StereoTrackConfig(grid=grid, engine=engine))}
         rows.append(row)
         print(json.dumps({k: v for k, v in row.items() if k != 'raw'}), flush=True)
     return {**summary([r['raw'] for r in rows]),

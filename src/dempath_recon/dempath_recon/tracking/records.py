@@ -17,6 +17,8 @@ from dempath_recon.tracking.associate import MarkerGrid
 from dempath_recon.tracking.detect import DetectorConfig
 from dempath_recon.tracking.linker import TrackerConfig
 
+ENGINES = ('grid', 'joint')  # StereoTrackConfig.engine
+
 FloatArray = NDArray[np.float64]
 
 
@@ -76,8 +78,12 @@ class StereoTrackConfig:
     marker_diameter_m: float = 0.008
     ray_numbering: bool = False
     shake: bool = True
+    engine: str = 'grid'
 
     def __post_init__(self) -> None:
+        if self.engine not in ENGINES:
+            msg = f'engine: must be one of {ENGINES}, got {self.engine!r}'
+            raise ValueError(msg)
         for name in ('fps', 'epipolar_px', 'grid_gate_px', 'position_gate_m',
                      'max_speed_m_s'):
             if not getattr(self, name) > 0:
