@@ -26,6 +26,7 @@ one camera's evidence (``one_camera``), the pair checks before anything is given
 from __future__ import annotations
 
 import logging
+from collections import deque
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -90,6 +91,9 @@ class StereoMarkerTracker:
         self.joint = JointStereoTracker(cameras, self.state.config, self.state.counts,
                                         self.state.last_stamp) \
             if self.state.config.engine == 'joint' else None
+        # each camera's latest frames' shifts against its first frame, by stamp (for release)
+        self._relative: dict[str, deque[tuple[float, FloatArray]]] = {
+            c: deque(maxlen=self.state.config.number_delay_frames + 2) for c in self.shakers}
 
     @property
     def cameras(self) -> dict[str, Camera]:
@@ -192,8 +196,9 @@ class StereoMarkerTracker:
         state.last_stamp[camera] = stamp_s
         counts.frames += 1
         shake_px = note_shake(counts, camera, stamp_s, shake, events)
-        if shake_px is not None:
+        if shake_px is not None and shake is not None:
             det = remove_shake(det, shake_px)
+            self._relative[camera].append((stamp_s, shake.relative_px))
         counts.no_marker += int(len(det.uv) == 0)
         before = (tracker.counts.lost, tracker.counts.reattached)
         tf = tracker.update(stamp_s, det, barred_links(state, camera, det.uv, stamp_s))
@@ -264,7 +269,18 @@ class StereoMarkerTracker:
                                        state.config.fps)
         state.counts[held.camera].numbered_late += late
         state.counts[held.camera].confirmed_late += filled
-        return frame
+        return self._reanchor(frame)
+
+    def _reanchor(self, frame: PixelFrame) -> PixelFrame:
+        """A frame given out later, its shake taken off against the calibration's view as
+        known now: the mean of more frames (the frames since it was numbered) places that view
+        better. Only a common offset of the frame's points changes, never a number."""
+        rel = next((r for s, r in self._relative.get(frame.camera, ()) if s == frame.stamp_s),
+                   None)
+        if rel is None or frame.shake_px is None:
+            return frame
+        now = rel - self.shakers[frame.camera].anchor_px
+        return frame._replace(uv=frame.uv + frame.shake_px - now, shake_px=now)
 
 
 def note_shake(counts: CameraCounts, camera: str, stamp_s: float, shake: ShakeEstimate | None,
