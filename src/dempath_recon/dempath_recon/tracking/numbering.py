@@ -22,13 +22,14 @@ from dempath_recon.tracking.associate import (
 )
 from dempath_recon.tracking.grid_pairs import pairs_by_grid
 from dempath_recon.tracking.linker import UNNUMBERED
-from dempath_recon.tracking.one_camera import grid_anchor, late_grid
+from dempath_recon.tracking.one_camera import grid_anchor, late_grid, lost_nearby
 from dempath_recon.tracking.state import (
     MAX_DEPTH_AGE_S,
     RECENT_S,
     StereoState,
     at_stamp,
     retire,
+    sure_numbers,
 )
 
 FloatArray = NDArray[np.float64]
@@ -209,6 +210,12 @@ def number_new(state: StereoState, camera: str, track_ids: NDArray[np.int64],
         if number < 0 and starts.get(tid) == stamp_s:  # only a track's first frame
             # a marker the other camera sees now is numbered only on its epipolar line
             number = late_grid(state, camera, uv, k, seen | set(recent))
+            rival = lost_nearby(state, camera, number, uv[k], sure_numbers(
+                state, camera, track_ids, markers), stamp_s) if number >= 0 else None
+            if rival is not None:
+                events.append(f'{camera}: track {tid} is not numbered {number} at its grid '
+                              f'point: marker {rival}, lost nearby, may be it')
+                number = UNNUMBERED
             if number >= 0:
                 state.counts[camera].numbered_by_grid_late += 1
                 events.append(f'{camera}: track {tid} numbered marker {number}: it appeared '

@@ -112,3 +112,28 @@ def alone(state: StereoState, camera: str, track_id: int, marker: int, uv: Float
             continue
         return False
     return True
+
+
+def lost_nearby(state: StereoState, camera: str, marker: int, uv: FloatArray,
+                markers: NDArray[np.int32], stamp_s: float) -> int | None:
+    """A marker this camera saw before and does not surely hold in this frame (``markers``,
+    see :func:`~dempath_recon.tracking.state.sure_numbers`) that could have reached a new
+    spot ``uv`` (2,) px nearly as easily as ``marker`` from its fitted grid point: it needs
+    less than ``ALONE_RATIO`` times the speed (px/s, at least ``MIN_SPEED_PX_S``) from its
+    last sighting; None if there is none. The grid point is where a covered marker was at
+    the fit, not where the sand has carried it since (on a tuning render the side lost
+    marker 1, its track re-attached 13 px away onto another spot, and 1 appeared 11 px from
+    its last sighting at 2's grid point: numbered 2 for the rest of the pass)."""
+    grid = state.grid_uv.get(camera, {})
+    if marker not in grid:
+        return None
+    own = float(np.linalg.norm(uv - grid[marker])) / max(stamp_s - state.grid_time[camera],
+                                                          1e-3)
+    held = {int(m) for m in markers if m >= 0}
+    for m, (t, p) in sorted(state.latest[camera].items()):
+        if m == marker or m in held or t >= stamp_s:
+            continue
+        speed = float(np.linalg.norm(uv - p)) / max(stamp_s - t, 1e-3)
+        if speed <= ALONE_RATIO * max(own, MIN_SPEED_PX_S):
+            return int(m)
+    return None

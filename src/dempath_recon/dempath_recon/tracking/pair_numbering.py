@@ -16,6 +16,7 @@ from dempath_recon.tracking.state import (
     StereoState,
     carried_point,
     retire,
+    sure_numbers,
     unnumbered_tracks,
 )
 
@@ -37,7 +38,11 @@ def number_pairs(state: StereoState, camera: str, track_ids: NDArray[np.int64],
     track of this camera and one of the other camera's last frame (at most one frame
     period old) are a pair when each is the other's only unnumbered point within
     ``epipolar_px`` of its epipolar line; the pair's 3D point is given the number of the
-    marker, among those numbered in neither camera now, that :func:`only_marker` finds.
+    marker, among those numbered in neither camera now, that :func:`only_marker` finds (a
+    track re-attached far off and not confirmed since does not hold its number here:
+    :func:`~dempath_recon.tracking.state.sure_numbers`; on a tuning render the side's track
+    of a lost marker 1 took another spot, 1 came back in both cameras beside 2's grid point,
+    and the pair took 2).
     A point of this camera on the epipolar line of a marker the other camera has numbered
     now is not paired (:func:`_on_numbered_lines`). Both tracks take the number (and lose
     it if a later pair check contradicts it), and the other camera's point becomes its
@@ -55,7 +60,7 @@ def number_pairs(state: StereoState, camera: str, track_ids: NDArray[np.int64],
         return markers
     cam, cam_o = state.cameras[camera], state.cameras[other]
     close = epipolar_distance(cam, cam_o, uv[mine], o_uv[keep]) <= state.config.epipolar_px
-    taken = {int(m) for m in markers if m >= 0} | {
+    taken = {int(m) for m in sure_numbers(state, camera, track_ids, markers) if m >= 0} | {
         m for m, (t, _) in state.latest[other].items() if abs(t - stamp_s) <= RECENT_S}
     missing = [m for m in state.config.grid.points()[0].tolist() if m not in taken]
     claimed = _on_numbered_lines(state, camera, uv[mine], stamp_s)

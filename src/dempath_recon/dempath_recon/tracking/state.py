@@ -201,3 +201,15 @@ def retire(state: StereoState, camera: str, number: int) -> None:
 def report(state: StereoState) -> dict[str, Any]:
     """Counts per camera, and the stamp gaps where frames were missing."""
     return {n: dict(vars(c)) for n, c in state.counts.items()}
+
+
+def sure_numbers(state: StereoState, camera: str, track_ids: NDArray[np.int64],
+                 markers: NDArray[np.int32]) -> NDArray[np.int32]:
+    """``markers`` without the numbers of tracks re-attached farther than ``doubt_link_px``
+    and not confirmed by a pair check since: such a track may have taken another spot, and
+    its marker may be elsewhere (the numberings of new spots count it as missing)."""
+    doubtful = {t.track_id for t in state.trackers[camera].tracks
+                if t.reattached is not None and t.reattached[1] > state.config.doubt_link_px
+                and state.confirmed[camera].get(t.track_id, -np.inf) < t.reattached[0]}
+    return np.where([int(t) in doubtful for t in track_ids], UNNUMBERED, markers).astype(
+        np.int32)
