@@ -251,6 +251,23 @@ def marker_diameter_px(cam: Camera, grid: MarkerGrid, diameter_m: float) -> floa
     return f * diameter_m / z if z > 0 else 0.0
 
 
+def view_of_up(cam: Camera, grid: MarkerGrid) -> tuple[tuple[float, float], float]:
+    """How ``cam`` sees world up (+Y) at the grid's median point: its image direction (a unit
+    vector; (0, 0) when up looks along the line of sight) and the line of sight's elevation
+    above the horizontal [degrees]. A partly buried marker's visible part lies up the image
+    from its centre, by how much depends on that elevation (:mod:`.covered`)."""
+    _, xyz = grid.points()
+    p = np.median(np.asarray(xyz, np.float64), axis=0)
+    a, b = project(cam, np.array([p, p + np.array([0.0, 0.01, 0.0])]))
+    step = b - a
+    norm = float(np.hypot(*step))
+    centre = -np.asarray(cam.R, np.float64).T @ np.asarray(cam.t, np.float64).ravel()
+    sight = p - centre
+    elevation = float(np.degrees(np.arcsin(np.clip(-sight[1] / np.linalg.norm(sight), 0, 1))))
+    up = (float(step[0] / norm), float(step[1] / norm)) if norm > 1e-6 else (0.0, 0.0)
+    return up, elevation
+
+
 def back_project(cam: Camera, uv: FloatArray, at_depth: float) -> FloatArray:
     """The world point (3,) m on the line of sight through ``uv`` (2,) px at a depth [m]."""
     xn = undistort_normalized(cam, np.asarray(uv, np.float64).reshape(1, 2))[0]

@@ -42,6 +42,7 @@ import simplejpeg
 from numpy.typing import NDArray
 
 from dempath_recon.errors import ReconstructionError
+from dempath_recon.tracking.covered import seen_share, uncover
 from dempath_recon.tracking.split import split_touching
 
 LOG = logging.getLogger(__name__)
@@ -81,6 +82,11 @@ class Detections(NamedTuple):
             take one beside its prediction (a half-buried marker in a dark, noisy frame,
             ``MarkerTracker``). Searched only there, on demand: the whole frame at the lower
             threshold cost 3.5 ms a frame.
+        centre: (n, 2) each spot's marker centre as published [px]: a partly covered
+            marker's disc centre rather than the middle of its visible part
+            (``DetectorConfig.up_px``, :mod:`~dempath_recon.tracking.covered`), or None: ``uv``.
+            Tracking and numbering use ``uv`` (what was measured); only the published points
+            take ``centre``.
     """
 
     uv: FloatArray
@@ -88,6 +94,7 @@ class Detections(NamedTuple):
     size_px: FloatArray
     crowded: NDArray[np.bool_] | None = None
     faint: Callable[[FloatArray, float], FloatArray] | None = None
+    centre: FloatArray | None = None
 
     @classmethod
     def empty(cls) -> Detections:
@@ -127,6 +134,14 @@ class DetectorConfig:
             the threshold was set for; False: the raw chroma, as before session 15, where a
             marker half buried on reddish sand (chroma -0.3) fell below the threshold after
             smoothing.
+        up_px: the image direction of world up at the markers (a unit vector, from the
+            calibration: ``StereoMarkerTracker`` sets it per camera). A partly covered marker's
+            centroid (the middle of its visible part, up the image from its centre) is moved to
+            its disc's centre (:mod:`~dempath_recon.tracking.covered`); needs
+            ``marker_diameter_px``. (0, 0): centroids as found.
+        view_elevation_deg: the line of sight's elevation above the sand at the markers
+            [degrees] (from the calibration, with ``up_px``): how far up a covered marker's
+            visible part lies depends on it (side-on a chord hides it, from above a ring).
     """
 
     downscale: int = 2
@@ -141,6 +156,8 @@ class DetectorConfig:
     marker_diameter_px: float = 0.0
     faint_threshold: float = 0.08
     floor_sand: bool = True
+    up_px: tuple[float, float] = (0.0, 0.0)
+    view_elevation_deg: float = 0.0
 
     def __post_init__(self) -> None:
         checks = {'downscale': self.downscale in (1, 2), 'threshold': 0 < self.threshold < 1,
@@ -149,7 +166,11 @@ class DetectorConfig:
                   'max_markers': self.max_markers >= 1, 'noise_k': self.noise_k > 0,
                   'min_threshold': 0 < self.min_threshold <= self.threshold,
                   'faint_threshold': 0 <= self.faint_threshold <= self.threshold,
-                  'marker_diameter_px': 0 <= self.marker_diameter_px < 200}
+                  'marker_diameter_px': 0 <= self.marker_diameter_px < 200,
+                  'up_px': len(self.up_px) == 2 and bool(np.isfinite(self.up_px).all())
+                  and (tuple(self.up_px) == (0.0, 0.0)
+                       or abs(float(np.hypot(*self.up_px)) - 1) < 1e-6),
+                  'view_elevation_deg': 0 <= self.view_elevation_deg <= 90}
         for name, ok in checks.items():
             if not ok:
                 msg = f'{name}: out of range, got {getattr(self, name)!r}'
@@ -232,14 +253,20 @@ class MarkerDetector:
         if len(rows) == 0:
             return Detections.empty()._replace(
                 faint=partial(self._faint, image, low, np.zeros((0, 2))) if low > 0 else None)
-        uv, size, strength = self._refine(c, rows, cols, thr)
+        uv, size, strength, mass = self._refine(c, rows, cols, thr)
+        centre = None
         diameter = self.marker_size(size * s)
         if diameter > 0:
             radius = 0.5 * diameter / s
-            uv, source, parted = split_touching(c, uv, 0.5 * self.config.threshold, radius)
+            base = 0.5 * self.config.threshold
+            uv, source, parted = split_touching(c, uv, base, radius)
             # a fitted marker's size is one disc's radius of gyration, not its blob's
             size = np.where(parted, radius / np.sqrt(2.0), size[source])
-            strength = strength[source]
+            strength, mass = strength[source], mass[source]
+            share = seen_share(mass, strength - base)
+            if share is not None and tuple(self.config.up_px) != (0.0, 0.0):
+                centre = uncover(uv, share, radius, self.config.up_px, ~parted,
+                                 self.config.view_elevation_deg)[0] + (ox, oy)
         uv += (ox, oy)
         ok = np.isfinite(uv).all(axis=1)
         conf = np.clip((strength - thr) / (2 * thr), 0, 1)
@@ -247,7 +274,9 @@ class MarkerDetector:
         size = size[ok] * s
         crowded = size > CROWDED_SIZE * diameter if diameter > 0 else None
         faint = partial(self._faint, image, low, full) if low > 0 else None
-        return Detections(full, conf[ok], size, crowded, faint)
+        if centre is not None:
+            centre = (centre[ok] + 0.5) * s - 0.5
+        return Detections(full, conf[ok], size, crowded, faint, centre)
 
     def _peaks(self, c: NDArray[np.float32], thr: float,
                ) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
@@ -301,7 +330,7 @@ class MarkerDetector:
             rows, cols = rows[near], cols[near]
             if not len(rows):
                 continue
-            uv, _, peak = self._refine(c, rows, cols, low)
+            uv, _, peak, _ = self._refine(c, rows, cols, low)
             spots = (uv + (x0, y0) + 0.5) * s - 0.5
             ok = np.isfinite(spots).all(axis=1)
             if len(strong):
@@ -360,8 +389,9 @@ class MarkerDetector:
         return x0, y0, chroma(np.ascontiguousarray(image[y0:y1, x0:x1]))
 
     def _refine(self, c: NDArray[np.float32], rows: NDArray[np.intp], cols: NDArray[np.intp],
-                thr: float) -> tuple[FloatArray, FloatArray, FloatArray]:
-        """Iterated weighted centroids around each peak: uv (n, 2), size (n,), peak (n,)."""
+                thr: float) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+        """Iterated weighted centroids around each peak: uv (n, 2), size (n,), peak (n,) and
+        mass (n,): the chroma above the core level summed over the final window."""
         xx, yy = self._offsets
         r = xx.shape[0] // 2
         h, w = c.shape
@@ -369,6 +399,7 @@ class MarkerDetector:
         base = 0.5 * self.config.threshold  # the spot's core, whatever found it
         out = np.full((len(rows), 2), np.nan)
         size, peak = np.zeros(len(rows)), c[rows, cols].astype(np.float64)
+        mass = np.zeros(len(rows))
         for k, (y0, x0) in enumerate(zip(rows, cols, strict=True)):
             cx, cy = float(x0), float(y0)
             for _ in range(6):
@@ -389,4 +420,5 @@ class MarkerDetector:
                 out[k] = cx, cy
                 size[k] = np.sqrt((wgt * ((xx - (cx - ix)) ** 2 + (yy - (cy - iy)) ** 2)).sum()
                                   / total)
-        return out, size, peak
+                mass[k] = total
+        return out, size, peak, mass

@@ -62,6 +62,10 @@ class StereoTrackConfig:
         shake: estimate each camera's image motion per frame from the parts of the view that
             do not move and move the detections back by it (``shake``) before anything else
             uses them; off: the detections are taken where they are seen.
+        uncover: give each camera's detector the image direction of world up from the
+            calibration (``DetectorConfig.up_px``, unless that is set), so a partly covered
+            marker's centre is its disc's, not the middle of its visible part
+            (:mod:`~dempath_recon.tracking.covered`). False: centroids as found.
     """
 
     detector: DetectorConfig = field(default_factory=DetectorConfig)
@@ -79,6 +83,7 @@ class StereoTrackConfig:
     ray_numbering: bool = False
     shake: bool = True
     engine: str = 'grid'
+    uncover: bool = True
 
     def __post_init__(self) -> None:
         if self.engine not in ENGINES:

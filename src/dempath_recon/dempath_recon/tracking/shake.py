@@ -192,7 +192,8 @@ def remove_shake(det: Detections, shift_px: FloatArray) -> Detections:
     """A frame's detections in the calibration's view: moved back by the frame's shift.
 
     The faint-spot search (``Detections.faint``) looks in the frame's image, so it is asked
-    at the shaken place and its answer moved back the same way.
+    at the shaken place and its answer moved back the same way; the published marker centres
+    (``Detections.centre``) move with the detections.
     """
     shift = np.asarray(shift_px, np.float64)
     if not np.isfinite(shift).all() or not shift.any():
@@ -205,4 +206,5 @@ def remove_shake(det: Detections, shift_px: FloatArray) -> Detections:
             return inner(np.asarray(points, np.float64) + shift, radius_px) - shift
 
         faint = faint_moved
-    return det._replace(uv=det.uv - shift, faint=faint)
+    centre = det.centre - shift if det.centre is not None else None
+    return det._replace(uv=det.uv - shift, faint=faint, centre=centre)

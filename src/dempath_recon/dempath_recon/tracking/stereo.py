@@ -35,7 +35,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dempath_recon.methods.triangulate import Camera
-from dempath_recon.tracking.associate import marker_diameter_px
+from dempath_recon.tracking.associate import marker_diameter_px, view_of_up
 from dempath_recon.tracking.detect import (
     Detections,
     ImageDecodeError,
@@ -234,8 +234,8 @@ class StereoMarkerTracker:
         for m, p in zip(markers, tf.uv, strict=True):
             if m >= 0:
                 state.latest[camera][int(m)] = (stamp_s, p)
-        frame = PixelFrame(camera, stamp_s, markers, tf.uv, tf.confidence,
-                           tuple(events) + tf.events, shake_px)
+        frame = PixelFrame(camera, stamp_s, markers, published_centres(det, tf.uv),
+                           tf.confidence, tuple(events) + tf.events, shake_px)
         state.queue.hold(frame, tf.track_ids, free_mask, waiting)
         return frame
 
@@ -313,6 +313,22 @@ def waiting_points(state: StereoState, camera: str, markers: NDArray[np.int32], 
     return out
 
 
+def published_centres(det: Detections, uv: FloatArray) -> FloatArray:
+    """(k, 2) the points a frame gives out: each tracked point ``uv`` (k, 2) that is one of the
+    frame's detections takes that detection's marker centre (``Detections.centre``: a partly
+    covered marker's disc centre); others (faint spots) stay as tracked. Only what is published
+    moves: the links, numbers and pair checks keep the measured centroids."""
+    if det.centre is None or not len(uv) or not len(det.uv):
+        return uv
+    index = {tuple(p): i for i, p in enumerate(det.uv.tolist())}
+    out = np.asarray(uv, np.float64).copy()
+    for k, p in enumerate(uv.tolist()):
+        i = index.get(tuple(p))
+        if i is not None:
+            out[k] = det.centre[i]
+    return out
+
+
 def withhold_crowded(det: Detections, uv: FloatArray, markers: NDArray[np.int32],
                      ) -> NDArray[np.int32]:
     """``markers`` with the points of crowded spots (``Detections.crowded``: two touching
@@ -330,13 +346,19 @@ def camera_detectors(cameras: dict[str, Camera], config: StereoTrackConfig,
                      ) -> dict[str, MarkerDetector]:
     """Each camera's detector: ``config.detector`` with the markers' expected diameter in that
     camera's image (``marker_diameter_px`` from the calibration, the grid's depth and
-    ``config.marker_diameter_m``, unless the detector's settings give one)."""
+    ``config.marker_diameter_m``, unless the detector's settings give one) and the image
+    direction of world up there and the line of sight's elevation (``view_of_up``, for partly
+    covered markers' centres, unless ``config.uncover`` is off or the detector's settings give
+    an up direction)."""
     out = {}
     for name, cam in cameras.items():
         det = config.detector
         if det.marker_diameter_px == 0 and config.marker_diameter_m > 0:
             det = replace(det, marker_diameter_px=marker_diameter_px(
                 cam, config.grid, config.marker_diameter_m))
+        if config.uncover and tuple(det.up_px) == (0.0, 0.0):
+            up, elevation = view_of_up(cam, config.grid)
+            det = replace(det, up_px=up, view_elevation_deg=elevation)
         out[name] = MarkerDetector(det)
     return out
 
