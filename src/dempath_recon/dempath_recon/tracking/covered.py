@@ -30,7 +30,7 @@ the mass is noisy, so the numbering's fine margins (a grid point "almost as near
 
 Measured on the tuning re-renders (views at 29-31 degrees; isolated markers, 1,556
 marker-frames): RMS distance from the true centre 1.09 -> 0.93 px; at 40-80 % visible the mean
-fell from 1.1-2.0 px to 1.0-1.4 px; markers at least 90 % visible went 0.48 -> 0.57 px (some
+fell from 1.4-2.0 px to 1.0-1.4 px; markers at least 90 % visible went 0.48 -> 0.57 px (some
 whole markers read as 80 %). Spots larger than one marker (two touching) read as more than
 whole and are never moved; the fitted markers of a split blob are the fit's disc centres and
 are not moved either.
