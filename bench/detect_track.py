@@ -244,14 +244,20 @@ def main(argv: list[str]) -> int:
                    help="the tracker (StereoTrackConfig.engine): 'grid' or the joint 3D one")
     p.add_argument('--cache', type=Path, default=HERE.parent / 'out' / 'bench_variations',
                    help='where the varied frames are kept between runs')
+    p.add_argument('--exposure-unknown', action='store_true',
+                   help='do not tell the trackers the exposure (no streak search)')
     args = p.parse_args(argv)
+    from detect_track_variations import EXPOSURE_KNOWN, look_exposure, with_exposure
+
+    EXPOSURE_KNOWN[0] = not args.exposure_unknown
     cv2.setNumThreads(1)
     truth = json.loads(args.bag.with_name(args.bag.name + '.truth.json').read_text())
     cams = {c['name']: CameraModel.from_dict(c) for c in truth['cameras']}
     frames = read_frames(args.bag, truth['calibration_segment']['field_start_ns'], list(cams))
     # the experiment's marker layout (the scene's grid points), as an experimenter knows it
     grid = MarkerGrid(layout_m=tuple(tuple(p) for p in truth['marker_grid_m']))
-    config = StereoTrackConfig(grid=grid, engine=args.engine)
+    config = with_exposure(StereoTrackConfig(grid=grid, engine=args.engine),
+                           look_exposure(truth))
     load = [round(x, 2) for x in os.getloadavg()]
     if args.rendered and not args.variations:  # the re-rendered set alone
         from detect_track_variations import run_rendered

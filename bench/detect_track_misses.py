@@ -38,6 +38,7 @@ from typing import Any
 
 import cv2
 import numpy as np
+from detect_track_variations import EXPOSURE_KNOWN, look_exposure, with_exposure
 
 from dempath_calib.camera import CameraModel
 from dempath_recon.tracking.associate import MarkerGrid
@@ -163,7 +164,8 @@ def run_bags(bags: list[Path]) -> dict[str, Any]:
         cams = {c['name']: CameraModel.from_dict(c) for c in truth['cameras']}
         frames = read_frames(bag, truth['calibration_segment']['field_start_ns'], list(cams))
         grid = MarkerGrid(layout_m=tuple(tuple(p) for p in truth['marker_grid_m']))
-        tally = classify(*track(frames, cams, StereoTrackConfig(grid=grid)), truth)
+        config = with_exposure(StereoTrackConfig(grid=grid), look_exposure(truth))
+        tally = classify(*track(frames, cams, config), truth)
         pool += tally
         print(json.dumps({'recording': bag.name, **shares(tally)}), flush=True)
     return shares(pool)
@@ -183,7 +185,8 @@ def run_variations(bag: Path, cache: Path) -> dict[str, Any]:
     pools: dict[bool, Counter[str]] = {True: Counter(), False: Counter()}
     for cond in sorted(VARIATIONS, key=lambda c: not c.held_out):
         varied, moved = vary(frames, truth, cond, cache)
-        tally = classify(*track(varied, cams, StereoTrackConfig(grid=grid)), moved)
+        config = with_exposure(StereoTrackConfig(grid=grid), 1e-3 * cond.shutter_ms)
+        tally = classify(*track(varied, cams, config), moved)
         pools[cond.held_out] += tally
         print(json.dumps({'variation': cond.name, 'held_out': cond.held_out,
                           **shares(tally)}), flush=True)
@@ -200,7 +203,10 @@ def main(argv: list[str]) -> int:
     p.add_argument('--bag', type=Path, default=HERE.parent / 'bags' / 'field_render_reduced_1ms',
                    help='the recording the variations are made of')
     p.add_argument('--cache', type=Path, default=HERE.parent / 'out' / 'bench_variations')
+    p.add_argument('--exposure-unknown', action='store_true',
+                   help='do not tell the trackers the exposure (no streak search)')
     args = p.parse_args(argv)
+    EXPOSURE_KNOWN[0] = not args.exposure_unknown
     for bag in args.bags:
         if not bag.with_name(bag.name + '.truth.json').is_file():
             print(f'error: {bag}: no {bag.name}.truth.json beside it', file=sys.stderr)

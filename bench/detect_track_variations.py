@@ -28,7 +28,7 @@ import hashlib
 import json
 import pickle
 import time
-from dataclasses import asdict
+from dataclasses import asdict, replace
 from pathlib import Path
 from typing import Any
 
@@ -52,6 +52,23 @@ OWNER_PX = 8.0  # a numbered detection's marker is the true one nearest within t
 # marker's diameter in these views); none that near: a number given to no marker (spurious)
 WRONG_PAIR_MM = 5.0
 Frames = list[tuple[str, int, bytes]]
+EXPOSURE_KNOWN = [True]  # the trackers are told each recording's exposure (``--exposure-unknown``:
+# not, as before session 16: no streak search)
+
+
+def with_exposure(config: StereoTrackConfig, exposure_s: float) -> StereoTrackConfig:
+    """``config`` whose trackers know the cameras' exposure [s] (a camera setting its driver
+    reports; the faint search then looks for streaks along each track's motion), unless the
+    bench runs with ``--exposure-unknown``."""
+    if not EXPOSURE_KNOWN[0]:
+        return config
+    return replace(config, tracker=replace(config.tracker, exposure_s=exposure_s))
+
+
+def look_exposure(truth: dict[str, Any]) -> float:
+    """The exposure [s] a rendered recording's truth gives (``config.look.exposure_s``; 4 ms,
+    the renderer's default, when absent)."""
+    return float(truth.get('config', {}).get('look', {}).get('exposure_s', 0.004))
 
 
 def vary(frames: Frames, truth: dict[str, Any], cond: Condition, cache: Path,
@@ -223,6 +240,7 @@ def run_variation(frames: Frames, truth: dict[str, Any], cams: dict[str, CameraM
                   config: StereoTrackConfig, cond: Condition, cache: Path) -> dict[str, Any]:
     """One variation's figures (raw sums kept for the summaries)."""
     varied, moved = vary(frames, truth, cond, cache)
+    config = with_exposure(config, 1e-3 * cond.shutter_ms)
     return {'variation': cond.name, 'held_out': cond.held_out,
             **figures(varied, moved, cams, config), 'condition': asdict(cond)}
 
@@ -262,7 +280,9 @@ def run_rendered(bags: list[Path], read: Any, engine: str = 'grid') -> dict[str,
         grid = MarkerGrid(layout_m=tuple(tuple(p) for p in truth['marker_grid_m']))
         row = {'variation': bag.name, 'held_out': True, 'rendered': True,
                'look': truth['config']['look'], 'jpeg_quality': truth['config']['jpeg_quality'],
-               **figures(frames, truth, cams, StereoTrackConfig(grid=grid, engine=engine))}
+               **figures(frames, truth, cams,
+                         with_exposure(StereoTrackConfig(grid=grid, engine=engine),
+                                       look_exposure(truth)))}
         rows.append(row)
         print(json.dumps({k: v for k, v in row.items() if k != 'raw'}), flush=True)
     return {**summary([r['raw'] for r in rows]),

@@ -28,29 +28,39 @@ def spot_image(shape: tuple[int, int], centres: np.ndarray, radius: float,
                quality: int = 90, shadow_cols: int = 0, sand_coloured: tuple[int, ...] = (),
                dirt: tuple[float, float, float] | None = None,
                sand_bgr: np.ndarray = SAND, clay_bgr: np.ndarray = CLAY,
-               buried: float | np.ndarray = 0.0) -> bytes:
+               buried: float | np.ndarray = 0.0,
+               streak: tuple[float, float] = (0.0, 0.0)) -> bytes:
     """JPEG of markers at ``centres`` (n, 2) px (pixel-centre convention) on sand.
 
     ``shadow_cols`` > 0 darkens the left part of the image to 35 % (a shadow);
     ``sand_coloured`` markers are drawn in the sand's colour; ``dirt`` (cx, cy, r) px puts a
     blurred brown blot of dirt on the lens; ``sand_bgr`` and ``clay_bgr`` are the albedos;
     ``buried`` is the share of each marker's height below the sand (its lower part hidden), one
-    for all or one per marker.
+    for all or one per marker; ``streak`` (du, dv) px is each marker's motion during the
+    exposure (a long shutter): the disc is drawn at 16 places along it, centred on its centre,
+    and the exposures averaged.
     """
     h, w = shape
     img = sand(shape, rng, sand_bgr)
     depth = np.broadcast_to(np.asarray(buried, np.float64), (len(centres),))
+    du, dv = streak
+    steps = np.linspace(-0.5, 0.5, 16) if du or dv else np.zeros(1)
     for k, (cx, cy) in enumerate(centres):
         colour = sand_bgr * 0.9 if k in sand_coloured else clay_bgr
-        x0, y0 = int(np.floor(cx - radius)) - 1, int(np.floor(cy - radius)) - 1
-        n = int(np.ceil(2 * radius)) + 3
+        reach = radius + 0.5 * max(abs(du), abs(dv))
+        x0, y0 = int(np.floor(cx - reach)) - 1, int(np.floor(cy - reach)) - 1
+        n = int(np.ceil(2 * reach)) + 3
         sub = (np.arange(n * SS) + 0.5) / SS - 0.5
         xx, yy = np.meshgrid(x0 + sub, y0 + sub)
-        d2 = ((xx - cx) ** 2 + (yy - cy) ** 2) / radius ** 2
-        inside = (d2 < 1) & (yy < cy + radius * (1 - 2 * depth[k]))
-        shade = np.where(inside, 0.5 + 0.5 * np.sqrt(np.clip(1 - d2, 0, 1)), 0)
-        cov = cv2.resize(inside.astype(np.float64), (n, n), interpolation=cv2.INTER_AREA)
-        rad = cv2.resize(shade, (n, n), interpolation=cv2.INTER_AREA)
+        cov, rad = np.zeros((n, n)), np.zeros((n, n))
+        for t in steps:
+            px, py = cx + t * du, cy + t * dv
+            d2 = ((xx - px) ** 2 + (yy - py) ** 2) / radius ** 2
+            inside = (d2 < 1) & (yy < py + radius * (1 - 2 * depth[k]))
+            shade = np.where(inside, 0.5 + 0.5 * np.sqrt(np.clip(1 - d2, 0, 1)), 0)
+            cov += cv2.resize(inside.astype(np.float64), (n, n), interpolation=cv2.INTER_AREA)
+            rad += cv2.resize(shade, (n, n), interpolation=cv2.INTER_AREA)
+        cov, rad = cov / len(steps), rad / len(steps)
         ys, xs = slice(max(y0, 0), min(y0 + n, h)), slice(max(x0, 0), min(x0 + n, w))
         cy0, cx0 = ys.start - y0, xs.start - x0
         c = cov[cy0:cy0 + ys.stop - ys.start, cx0:cx0 + xs.stop - xs.start, None]

@@ -31,10 +31,9 @@ studies", J. Colloid Interface Sci. 179 (1996) 298-310.
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable
 from dataclasses import dataclass
 from functools import partial
-from typing import NamedTuple
+from typing import NamedTuple, Protocol
 
 import cv2
 import numpy as np
@@ -44,6 +43,7 @@ from numpy.typing import NDArray
 from dempath_recon.errors import ReconstructionError
 from dempath_recon.tracking.covered import seen_share, uncover
 from dempath_recon.tracking.split import split_touching
+from dempath_recon.tracking.streak import STREAK_MIN_PX, find_streak
 
 LOG = logging.getLogger(__name__)
 FloatArray = NDArray[np.float64]
@@ -54,12 +54,30 @@ TYPICAL_SIZE = 0.29  # a lone marker's radius of gyration as a share of its diam
 # the tuning renders 0.29, the bundled render 0.27)
 MIN_SPOTS = 5  # spots a frame needs for its median size to count
 MIN_SUM_DN = 60.0  # below this B + G + R (mean 20 grey levels) the chroma is mostly noise
+DARK_SUM_DN = 12.0  # the chroma's floor in the local search beside a track's prediction, whose
+# bar is set by the window's measured noise: at dusk a marker in shadow sums 25-60 (light x0.28,
+# session 16), where ``MIN_SUM_DN`` divided its chroma by up to 2.4 and it fell under any bar
 FILTER_FLOOR = -0.2  # the matched filter sees sand no redder than the sand the threshold
 # assumes (0.15 is the midpoint between sand at -0.2 and clay at +0.5): reddish sand (-0.3) pulled
 # a small spot's filtered peak down by that much more, so a half-buried marker (a strip 2-3 px
 # high) passed on yellow sand and was lost on reddish sand (filtered peak 0.05 from a raw 0.38;
 # session 15). A floor at grey (0) found more markers under half visible too, and the trackers
 # then jumped onto them: more switches and wrong pairs on 5 of 13 tuning looks
+
+
+def dim(image: NDArray[np.uint8]) -> bool:
+    """Whether most of ``image`` (a window beside a prediction) is darker than the chroma's
+    floor ``MIN_SUM_DN`` (median ``B + G + R`` below it): there the floor divides a marker's
+    chroma down, and the fixed bar is the wrong bar."""
+    total = np.asarray(cv2.transform(image, np.ones((1, 3), np.float32)), np.float32)
+    return bool(np.median(total) < MIN_SUM_DN)
+
+
+class FaintSearch(Protocol):
+    """``Detections.faint``: spots below the threshold near given points (see there)."""
+
+    def __call__(self, points: FloatArray, radius_px: float,
+                 steps: FloatArray | None = None) -> FloatArray: ...
 
 
 class ImageDecodeError(ReconstructionError):
@@ -75,9 +93,12 @@ class Detections(NamedTuple):
         size_px: (n,) radius of gyration of the spot [px] (full size).
         crowded: (n,) whether the spot is larger than one marker (two touching markers the
             splitting did not part, its centre between them), or None (not known).
-        faint: ``faint(points, radius_px)``: for each point (k, 2) [px], the centre of the
-            strongest spot within ``radius_px`` of it whose filtered peak lies between
-            ``faint_threshold`` and the threshold, NaN where none (None: not searched). Never
+        faint: ``faint(points, radius_px, steps=None)``: for each point (k, 2) [px], the centre
+            of the strongest spot within ``radius_px`` of it whose filtered peak lies between
+            ``faint_threshold`` and the threshold, NaN where none (None: not searched); where
+            ``steps`` (k, 2) [px] gives a point's motion during the exposure of at least
+            ``STREAK_MIN_PX``, the streak along it instead (:mod:`~dempath_recon.tracking.
+            streak`: a long shutter smears a fast marker under any threshold). Never
             markers on their own: the linker lets a numbered track whose marker is missing
             take one beside its prediction (a half-buried marker in a dark, noisy frame,
             ``MarkerTracker``). Searched only there, on demand: the whole frame at the lower
@@ -93,7 +114,7 @@ class Detections(NamedTuple):
     confidence: FloatArray
     size_px: FloatArray
     crowded: NDArray[np.bool_] | None = None
-    faint: Callable[[FloatArray, float], FloatArray] | None = None
+    faint: FaintSearch | None = None
     centre: FloatArray | None = None
 
     @classmethod
@@ -129,6 +150,16 @@ class DetectorConfig:
             calibration and the markers' depth: ``StereoMarkerTracker`` sets it per camera);
             blobs larger than one marker are split into the touching markers they hold
             (:mod:`~dempath_recon.tracking.split`). 0: no splitting.
+        local_bar: where the faint search finds no spot beside a track's prediction and the
+            window there is dim (median ``B + G + R`` under ``MIN_SUM_DN``), it looks again
+            with a bar set by that window's own noise (its sand's median chroma plus
+            ``streak.STREAK_NOISE_K`` robust deviations of the filtered window) on the chroma
+            floored at ``DARK_SUM_DN`` (:func:`~dempath_recon.tracking.streak.find_streak`
+            with no motion): a marker in shadow at dusk keeps its colour but not the
+            brightness the frame-wide ``MIN_SUM_DN`` assumes. Only where dim: the same search
+            in every window numbered more on the variations (held out 92.5 -> 95.1 %) but
+            raised switches on 6 of 23 tuning looks (105 -> 126) and wrong pairs (32 -> 34;
+            session 16). False: the fixed bar only.
         floor_sand: the matched filter sees the chroma floored at ``FILTER_FLOOR`` (the sand
             the threshold assumes), so a spot's filtered peak on redder sand is as on the sand
             the threshold was set for; False: the raw chroma, as before session 15, where a
@@ -158,6 +189,7 @@ class DetectorConfig:
     floor_sand: bool = True
     up_px: tuple[float, float] = (0.0, 0.0)
     view_elevation_deg: float = 0.0
+    local_bar: bool = True
 
     def __post_init__(self) -> None:
         checks = {'downscale': self.downscale in (1, 2), 'threshold': 0 < self.threshold < 1,
@@ -201,16 +233,18 @@ def decode_jpeg(data: bytes | NDArray[np.uint8], downscale: int = 1) -> NDArray[
     return np.asarray(img, np.uint8)
 
 
-def chroma(image: NDArray[np.uint8]) -> NDArray[np.float32]:
-    """(h, w) float32 ``(B - R) / max(B + G + R, MIN_SUM_DN)`` of a BGR image.
+def chroma(image: NDArray[np.uint8], min_sum: float = MIN_SUM_DN) -> NDArray[np.float32]:
+    """(h, w) float32 ``(B - R) / max(B + G + R, min_sum)`` of a BGR image.
 
     The floor keeps dark pixels (deep shadow, vignetted corners), where the ratio would be
-    sensor noise, near zero.
+    sensor noise, near zero (``MIN_SUM_DN`` for the frame-wide fixed threshold; the local
+    search beside a track's prediction measures the noise instead and floors at
+    ``DARK_SUM_DN``).
     """
     b, g, r = cv2.split(image)
     diff = cv2.subtract(b, r, dtype=cv2.CV_16S)
     total = cv2.add(cv2.add(b, g, dtype=cv2.CV_16S), r, dtype=cv2.CV_16S)
-    np.maximum(total, np.int16(MIN_SUM_DN), out=total)
+    np.maximum(total, np.int16(min_sum), out=total)
     return np.asarray(cv2.divide(diff, total, scale=1.0, dtype=cv2.CV_32F), np.float32)
 
 
@@ -307,38 +341,74 @@ class MarkerDetector:
         return rows.astype(np.intp), cols.astype(np.intp)
 
     def _faint(self, image: NDArray[np.uint8], low: float, strong: FloatArray,
-               points: FloatArray, radius_px: float) -> FloatArray:
-        """(k, 2) full-size centre of the strongest spot above ``low`` within ``radius_px`` of
-        each point (k, 2) [full-size px], NaN where none or where it is the frame's own spot
-        (within ``min_separation_px`` of one of ``strong`` (n, 2): a marker's rim)."""
+               points: FloatArray, radius_px: float,
+               steps: FloatArray | None = None) -> FloatArray:
+        """(k, 2) full-size centre of the strongest spot above ``low`` (or of the streak along
+        ``steps`` (k, 2) [full-size px] where one is at least ``STREAK_MIN_PX`` long) within
+        ``radius_px`` of each point (k, 2) [full-size px], NaN where none or where it is the
+        frame's own spot (within ``min_separation_px`` of one of ``strong`` (n, 2): a marker's
+        rim)."""
         s = self.config.downscale
-        out = np.full((len(points), 2), np.nan)
+        pts = np.asarray(points, np.float64).reshape(-1, 2)
+        out = np.full((len(pts), 2), np.nan)
+        moves = np.zeros_like(pts) if steps is None else np.asarray(steps, np.float64)
         reach = radius_px / s
         grow = int(np.ceil(reach + 4 * self._sigma)) + self._offsets[0].shape[0] + 2
         h, w = image.shape[:2]
-        for k, p in enumerate(np.asarray(points, np.float64).reshape(-1, 2)):
+        for k, p in enumerate(pts):
             q = (p + 0.5) / s - 0.5
+            streak = bool(np.hypot(*moves[k]) >= STREAK_MIN_PX)
+            more = int(np.ceil(0.5 * np.abs(moves[k]).max() / s)) if streak else 0
             if not np.isfinite(q).all():
                 continue
-            x0, y0 = max(int(q[0]) - grow, 0), max(int(q[1]) - grow, 0)
-            x1, y1 = min(int(q[0]) + grow + 1, w), min(int(q[1]) + grow + 1, h)
+            x0, y0 = max(int(q[0]) - grow - more, 0), max(int(q[1]) - grow - more, 0)
+            x1, y1 = min(int(q[0]) + grow + more + 1, w), min(int(q[1]) + grow + more + 1, h)
             if x1 - x0 < 3 or y1 - y0 < 3:
                 continue
-            c = chroma(np.ascontiguousarray(image[y0:y1, x0:x1]))
-            rows, cols = self._peaks(c, low)
-            near = np.hypot(cols + x0 - q[0], rows + y0 - q[1]) <= reach
-            rows, cols = rows[near], cols[near]
-            if not len(rows):
-                continue
-            uv, _, peak, _ = self._refine(c, rows, cols, low)
-            spots = (uv + (x0, y0) + 0.5) * s - 0.5
-            ok = np.isfinite(spots).all(axis=1)
-            if len(strong):
-                ok &= np.linalg.norm(spots[:, None] - strong[None], axis=2).min(axis=1) \
-                    > self.config.min_separation_px
-            if ok.any():
-                out[k] = spots[ok][int(np.argmax(peak[ok]))]
+            window = np.ascontiguousarray(image[y0:y1, x0:x1])
+            if not streak:
+                out[k] = self._faint_spot(chroma(window), (x0, y0), q, reach, low, strong)
+            if streak or (self.config.local_bar and not np.isfinite(out[k]).all()
+                          and dim(window)):
+                c = chroma(window, DARK_SUM_DN)
+                if self.config.floor_sand:
+                    c = np.maximum(c, np.float32(FILTER_FLOOR))
+                corner = np.array([x0, y0], np.float64)
+                out[k] = self._own(corner + find_streak(c, q - corner, moves[k] / s, self._sigma,
+                                                        reach, self._radius), strong)
         return out
+
+    def _faint_spot(self, c: NDArray[np.float32], corner: tuple[int, int], q: FloatArray,
+                    reach: float, low: float, strong: FloatArray) -> FloatArray:
+        """(2,) full-size centre of the strongest spot above ``low`` in the chroma window ``c``
+        (its corner at ``corner`` [detector px]) within ``reach`` of ``q`` (2,) [detector px],
+        NaN where none or where it is one of the frame's spots ``strong`` (n, 2) [px]."""
+        s = self.config.downscale
+        x0, y0 = corner
+        rows, cols = self._peaks(c, low)
+        near = np.hypot(cols + x0 - q[0], rows + y0 - q[1]) <= reach
+        rows, cols = rows[near], cols[near]
+        if not len(rows):
+            return np.full(2, np.nan)
+        uv, _, peak, _ = self._refine(c, rows, cols, low)
+        spots = (uv + (x0, y0) + 0.5) * s - 0.5
+        ok = np.isfinite(spots).all(axis=1)
+        if len(strong):
+            ok &= np.linalg.norm(spots[:, None] - strong[None], axis=2).min(axis=1) \
+                > self.config.min_separation_px
+        if not ok.any():
+            return np.full(2, np.nan)
+        return np.asarray(spots[ok][int(np.argmax(peak[ok]))], np.float64)
+
+    def _own(self, q: FloatArray, strong: FloatArray) -> FloatArray:
+        """(2,) full-size position of a spot at ``q`` (2,) [detector px], NaN if not found or
+        within ``min_separation_px`` of one of the frame's spots ``strong`` (n, 2) [px]."""
+        s = self.config.downscale
+        p = (q + 0.5) * s - 0.5
+        if not np.isfinite(p).all() or (len(strong) and np.linalg.norm(
+                strong - p, axis=1).min() <= self.config.min_separation_px):
+            return np.full(2, np.nan)
+        return np.asarray(p, np.float64)
 
     def marker_size(self, size_px: FloatArray) -> float:
         """A marker's diameter in this frame [full-size px]: ``marker_diameter_px``, or more

@@ -62,6 +62,9 @@ class TrackerConfig:
             stop with the sand around them).
         faint_gate_px: longest link of a numbered track left without a spot to a faint one
             (``Detections.faint``: below the detector's threshold) [px]; 0: faint spots unused.
+        exposure_s: the cameras' exposure [s]: a track's faint search looks for a streak
+            along its velocity times this (:mod:`~dempath_recon.tracking.streak`); 0: spots
+            only.
     """
 
     gate_px: float = 25.0
@@ -69,12 +72,16 @@ class TrackerConfig:
     max_lost_s: float = 2.0
     velocity_decay: float = 0.05
     faint_gate_px: float = 4.0
+    exposure_s: float = 0.0
 
     def __post_init__(self) -> None:
         for name in ('gate_px', 'reattach_px', 'max_lost_s'):
             if not getattr(self, name) > 0:
                 msg = f'{name}: must be > 0, got {getattr(self, name)!r}'
                 raise ValueError(msg)
+        if not 0 <= self.exposure_s < 1:
+            msg = f'exposure_s: must be in [0, 1) s, got {self.exposure_s!r}'
+            raise ValueError(msg)
 
 
 @dataclass
@@ -269,9 +276,14 @@ class MarkerTracker:
         rows = [ti for ti, t in enumerate(self.tracks) if ti not in linked and t.marker >= 0]
         if not rows:
             return []
-        pred = np.array([self.tracks[ti].predict(stamp_s, self.config.velocity_decay)
-                         for ti in rows])
-        spots = det.faint(pred, self.config.faint_gate_px)
+        decay = self.config.velocity_decay
+        pred = np.array([self.tracks[ti].predict(stamp_s, decay) for ti in rows])
+        steps = None
+        if self.config.exposure_s > 0:  # each marker's motion during the exposure [px]
+            steps = np.array([self.tracks[ti].velocity * self.config.exposure_s
+                              * (decay ** (stamp_s - self.tracks[ti].last_stamp_s)
+                                 if self.tracks[ti].lost else 1.0) for ti in rows])
+        spots = det.faint(pred, self.config.faint_gate_px, steps)
         found = [(ti, p) for ti, p in zip(rows, spots, strict=True) if np.isfinite(p).all()]
         keys = [tuple(p.tolist()) for _, p in found]
         return [(ti, p) for (ti, p), key in zip(found, keys, strict=True)

@@ -202,8 +202,11 @@ def remove_shake(det: Detections, shift_px: FloatArray) -> Detections:
     if faint is not None:
         inner = faint
 
-        def faint_moved(points: FloatArray, radius_px: float) -> FloatArray:
-            return inner(np.asarray(points, np.float64) + shift, radius_px) - shift
+        def faint_moved(points: FloatArray, radius_px: float,
+                        steps: FloatArray | None = None) -> FloatArray:
+            moved = np.asarray(points, np.float64) + shift
+            return (inner(moved, radius_px) if steps is None
+                    else inner(moved, radius_px, steps)) - shift
 
         faint = faint_moved
     centre = det.centre - shift if det.centre is not None else None
