@@ -72,6 +72,8 @@ LOG = logging.getLogger(__name__)
 FloatArray = NDArray[np.float64]
 
 
+BLIND_FRAMES = 10  # frames of a camera without any marker before it is said once (0.2 s at 50 FPS)
+
 class StereoMarkerTracker:
     """Streaming two-camera marker pipeline: a detector and the state record
     (:class:`~dempath_recon.tracking.state.StereoState`), run frame by frame through the
@@ -200,6 +202,13 @@ class StereoMarkerTracker:
             det = remove_shake(det, shake_px)
             self._relative[camera].append((stamp_s, shake.relative_px))
         counts.no_marker += int(len(det.uv) == 0)
+        if counts.frames == BLIND_FRAMES and counts.no_marker == counts.frames:
+            msg = (f'{camera}: no marker found in the first {BLIND_FRAMES} frames: the detector '
+                   'looks for blue clay markers (chroma (B - R) / (B + G + R) above '
+                   f'{self.detectors[camera].config.threshold:g}); markers of another colour, '
+                   'an image far too dark, or a camera that does not see the grid give nothing')
+            LOG.warning(msg)
+            events.append(msg)
         before = (tracker.counts.lost, tracker.counts.reattached)
         tf = tracker.update(stamp_s, det, barred_links(state, camera, det.uv, stamp_s))
         counts.detected += len(det.uv)
