@@ -392,10 +392,7 @@ class MarkerDetector:
             return np.full(2, np.nan)
         uv, _, peak, _ = self._refine(c, rows, cols, low)
         spots = (uv + (x0, y0) + 0.5) * s - 0.5
-        ok = np.isfinite(spots).all(axis=1)
-        if len(strong):
-            ok &= np.linalg.norm(spots[:, None] - strong[None], axis=2).min(axis=1) \
-                > self.config.min_separation_px
+        ok = self._apart(spots, strong)
         if not ok.any():
             return np.full(2, np.nan)
         return np.asarray(spots[ok][int(np.argmax(peak[ok]))], np.float64)
@@ -404,11 +401,18 @@ class MarkerDetector:
         """(2,) full-size position of a spot at ``q`` (2,) [detector px], NaN if not found or
         within ``min_separation_px`` of one of the frame's spots ``strong`` (n, 2) [px]."""
         s = self.config.downscale
-        p = (q + 0.5) * s - 0.5
-        if not np.isfinite(p).all() or (len(strong) and np.linalg.norm(
-                strong - p, axis=1).min() <= self.config.min_separation_px):
-            return np.full(2, np.nan)
-        return np.asarray(p, np.float64)
+        p = np.asarray((q + 0.5) * s - 0.5, np.float64).reshape(1, 2)
+        return p[0] if self._apart(p, strong)[0] else np.full(2, np.nan)
+
+    def _apart(self, spots: FloatArray, strong: FloatArray) -> NDArray[np.bool_]:
+        """(m,) whether each full-size spot (m, 2) [px] is finite and farther than
+        ``min_separation_px`` from every one of the frame's spots ``strong`` (n, 2) [px] (not
+        that spot's rim)."""
+        ok = np.asarray(np.isfinite(spots).all(axis=1), np.bool_)
+        if len(strong) and len(spots):
+            ok &= np.linalg.norm(spots[:, None] - strong[None], axis=2).min(axis=1) \
+                > self.config.min_separation_px
+        return ok
 
     def marker_size(self, size_px: FloatArray) -> float:
         """A marker's diameter in this frame [full-size px]: ``marker_diameter_px``, or more

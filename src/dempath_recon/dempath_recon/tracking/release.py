@@ -12,7 +12,7 @@ unbroken in between (``fill_confirmed``).
 from __future__ import annotations
 
 from collections import deque
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping
 from typing import NamedTuple
 
 import numpy as np
@@ -91,7 +91,7 @@ def unbroken(track: Track, stamp_s: float, fps: float) -> bool:
     return bool(stamps) and stamps[0] == stamp_s and not np.any(np.diff(stamps) > 1.5 / fps)
 
 
-def fill_confirmed(held: HeldFrame, frame: PixelFrame, tracks: Sequence[Track],
+def fill_confirmed(held: HeldFrame, frame: PixelFrame, tracks: Mapping[int, Track],
                    confirmed: dict[int, float], fps: float) -> tuple[PixelFrame, int]:
     """``frame`` (the held one, maybe renumbered) with its points that waited for the other
     camera given their number, and how many.
@@ -105,11 +105,10 @@ def fill_confirmed(held: HeldFrame, frame: PixelFrame, tracks: Sequence[Track],
     """
     if not (held.waiting >= 0).any():
         return frame, 0
-    by_id = {t.track_id: t for t in tracks}
     markers, filled = frame.markers.copy(), 0
     for k in np.flatnonzero(held.waiting >= 0).tolist():
         m, tid = int(held.waiting[k]), int(held.track_ids[k])
-        track = by_id.get(tid)
+        track = tracks.get(tid)
         if track is None or track.marker != m or m in markers or markers[k] >= 0 \
                 or confirmed.get(tid, -np.inf) <= frame.stamp_s \
                 or not unbroken(track, frame.stamp_s, fps):
@@ -119,7 +118,8 @@ def fill_confirmed(held: HeldFrame, frame: PixelFrame, tracks: Sequence[Track],
     return frame._replace(markers=markers), filled
 
 
-def renumber(held: HeldFrame, tracks: Sequence[Track], fps: float) -> tuple[PixelFrame, int]:
+def renumber(held: HeldFrame, tracks: Mapping[int, Track], fps: float
+             ) -> tuple[PixelFrame, int]:
     """The held frame with its unnumbered tracks' points numbered as their tracks are now, and
     how many points got a number.
 
@@ -130,10 +130,9 @@ def renumber(held: HeldFrame, tracks: Sequence[Track], fps: float) -> tuple[Pixe
     frame = held.frame
     if not held.free.any():
         return frame, 0
-    by_id = {t.track_id: t for t in tracks}
     markers, late = frame.markers.copy(), 0
     for k in np.flatnonzero(held.free).tolist():
-        track = by_id.get(int(held.track_ids[k]))
+        track = tracks.get(int(held.track_ids[k]))
         if track is None or track.marker < 0 or track.marker in markers:
             continue
         if not unbroken(track, frame.stamp_s, fps):

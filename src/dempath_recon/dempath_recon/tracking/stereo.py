@@ -71,8 +71,8 @@ __all__ = ['CameraCounts', 'PixelFrame', 'StereoMarkerTracker', 'StereoTrackConf
 LOG = logging.getLogger(__name__)
 FloatArray = NDArray[np.float64]
 
-
 BLIND_FRAMES = 10  # frames of a camera without any marker before it is said once (0.2 s at 50 FPS)
+
 
 class StereoMarkerTracker:
     """Streaming two-camera marker pipeline: a detector and the state record
@@ -272,7 +272,7 @@ class StereoMarkerTracker:
 
     def _amend(self, held: HeldFrame) -> PixelFrame:
         state = self.state
-        tracks = state.trackers[held.camera].tracks
+        tracks = {t.track_id: t for t in state.trackers[held.camera].tracks}  # by id, for both
         frame, late = renumber(held, tracks, state.config.fps)
         frame, filled = fill_confirmed(held, frame, tracks, state.confirmed[held.camera],
                                        state.config.fps)
