@@ -240,6 +240,8 @@ def main(argv: list[str]) -> int:
                    help='score the field-condition variation set instead (held-out apart)')
     p.add_argument('--rendered', type=Path, nargs='*', default=[],
                    help='score these re-rendered bags (held out; with --variations: as well)')
+    p.add_argument('--rendered-tuning', type=Path, nargs='*', default=[],
+                   help='re-rendered bags a change was tuned on: labelled tuned, pooled apart')
     p.add_argument('--engine', choices=('grid', 'joint'), default='grid',
                    help="the tracker (StereoTrackConfig.engine): 'grid' or the joint 3D one")
     p.add_argument('--cache', type=Path, default=HERE.parent / 'out' / 'bench_variations',
@@ -259,11 +261,16 @@ def main(argv: list[str]) -> int:
     config = with_exposure(StereoTrackConfig(grid=grid, engine=args.engine),
                            look_exposure(truth))
     load = [round(x, 2) for x in os.getloadavg()]
-    if args.rendered and not args.variations:  # the re-rendered set alone
+    if (args.rendered or args.rendered_tuning) and not args.variations:  # re-rendered bags alone
         from detect_track_variations import run_rendered
 
-        rendered = run_rendered(args.rendered, read_frames, args.engine)
-        print(json.dumps({**rendered, 'load_average': load,
+        tuned = (run_rendered(args.rendered_tuning, read_frames, args.engine, held_out=False)
+                 if args.rendered_tuning else None)
+        rendered = (run_rendered(args.rendered, read_frames, args.engine) if args.rendered
+                    else tuned)
+        print(json.dumps({**rendered, 'held_out': bool(args.rendered),
+                          **({'tuned': tuned} if tuned and args.rendered else {}),
+                          'load_average': load,
                           'load_average_end': [round(x, 2) for x in os.getloadavg()],
                           'cpus': os.cpu_count()}))
         return 0
@@ -276,6 +283,9 @@ def main(argv: list[str]) -> int:
 
             found['rendered_held_out'] = run_rendered(args.rendered, read_frames,
                                                       args.engine)
+        if args.rendered_tuning:
+            found['rendered_tuned'] = run_rendered(args.rendered_tuning, read_frames,
+                                                   args.engine, held_out=False)
         held = found['held_out']
         print(json.dumps({**{k: held[k] for k in (
             'recall', 'numbered_right', 'id_switches', 'wrong_pair_points', 'traj_rms_mm',

@@ -264,12 +264,14 @@ def figures(frames: Frames, truth: dict[str, Any], cams: dict[str, CameraModel],
             'graph_equals_offline': graph, 'live_order_independent': live, 'raw': s}
 
 
-def run_rendered(bags: list[Path], read: Any, engine: str = 'grid') -> dict[str, Any]:
+def run_rendered(bags: list[Path], read: Any, engine: str = 'grid',
+                 held_out: bool = True) -> dict[str, Any]:
     """Recordings re-rendered by the twin's renderer (``dempath twin render`` with other light,
     shutter, sand and marker colours, marker size, noise, JPEG quality, on another run), each
-    with its own truth and cameras; all held out (never run while changing the code). One JSON
-    line each, then their pooled figures. ``read(bag, start_ns, cameras)`` reads the frames;
-    ``engine`` is ``StereoTrackConfig.engine``."""
+    with its own truth and cameras. One JSON line each, then their pooled figures.
+    ``read(bag, start_ns, cameras)`` reads the frames; ``engine`` is
+    ``StereoTrackConfig.engine``; ``held_out`` labels the rows: True for a set never run while
+    changing the code, False for the looks a change was tuned on (pooled apart by the caller)."""
     import json as _json
 
     rows = []
@@ -278,7 +280,7 @@ def run_rendered(bags: list[Path], read: Any, engine: str = 'grid') -> dict[str,
         cams = {c['name']: CameraModel.from_dict(c) for c in truth['cameras']}
         frames = read(bag, truth['calibration_segment']['field_start_ns'], list(cams))
         grid = MarkerGrid(layout_m=tuple(tuple(p) for p in truth['marker_grid_m']))
-        row = {'variation': bag.name, 'held_out': True, 'rendered': True,
+        row = {'variation': bag.name, 'held_out': held_out, 'rendered': True,
                'look': truth['config']['look'], 'jpeg_quality': truth['config']['jpeg_quality'],
                **figures(frames, truth, cams,
                          with_exposure(StereoTrackConfig(grid=grid, engine=engine),
