@@ -89,13 +89,14 @@ def test_three_markers_in_a_row_give_three() -> None:
 
 
 def test_a_pair_left_in_one_spot_is_not_numbered() -> None:
-    """Two 8 px markers 4.5 px apart left in one spot (its centre between them): its number
-    is withheld; a lone marker's is kept."""
+    """Two 8 px markers 4.5 px apart left in one spot (its centre between them; only blobs
+    larger than one marker tried for a split): its number is withheld; a lone marker's is
+    kept."""
     from dempath_recon.tracking.stereo import withhold_crowded
 
     rng = np.random.default_rng(1)
     truth = np.array([[100.0, 80.0], [104.5, 80.5], [220.0, 160.0]])
-    detector = MarkerDetector(DetectorConfig(marker_diameter_px=2 * RADIUS))
+    detector = MarkerDetector(DetectorConfig(marker_diameter_px=2 * RADIUS, split_wide=False))
     found = detector.detect_jpeg(spot_image(SHAPE, truth, RADIUS, rng))
     assert len(found.uv) == 2
     lone = int(np.argmin(np.linalg.norm(found.uv - truth[2], axis=1)))

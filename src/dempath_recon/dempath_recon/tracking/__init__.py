@@ -2,7 +2,8 @@
 two cameras, and numbered tracks to 3D trajectories.
 
 Bottom to top (a module imports only the ones before it): ``merge`` (two cameras' frames in
-stamp order), ``split`` (touching markers fitted apart), ``covered`` (partly covered
+stamp order), ``cut_discs`` (the image model of touching, partly covered markers),
+``split`` (touching markers fitted apart), ``covered`` (partly covered
 markers' centres), ``detect`` (marker spots in one image), ``shake`` (each frame's image motion
 from the view's fixed parts), ``linker`` (one camera's tracks),
 ``associate`` (the marker grid, epipolar geometry, the markers' 3D positions), ``records``

@@ -41,7 +41,7 @@ import simplejpeg
 from numpy.typing import NDArray
 
 from dempath_recon.errors import ReconstructionError
-from dempath_recon.tracking.covered import seen_share, uncover
+from dempath_recon.tracking.covered import MAX_ELEVATION_DEG, seen_share, uncover
 from dempath_recon.tracking.split import split_touching
 from dempath_recon.tracking.streak import STREAK_MIN_PX, find_streak
 
@@ -108,6 +108,9 @@ class Detections(NamedTuple):
             (``DetectorConfig.up_px``, :mod:`~dempath_recon.tracking.covered`), or None: ``uv``.
             Tracking and numbering use ``uv`` (what was measured); only the published points
             take ``centre``.
+        parted: (n,) whether each spot is one marker of a blob the detector split into
+            touching markers (:mod:`~dempath_recon.tracking.split`), or None (no splitting):
+            its centre comes from a fit of the blob, not from a spot of its own.
     """
 
     uv: FloatArray
@@ -116,6 +119,7 @@ class Detections(NamedTuple):
     crowded: NDArray[np.bool_] | None = None
     faint: FaintSearch | None = None
     centre: FloatArray | None = None
+    parted: NDArray[np.bool_] | None = None
 
     @classmethod
     def empty(cls) -> Detections:
@@ -173,6 +177,12 @@ class DetectorConfig:
         view_elevation_deg: the line of sight's elevation above the sand at the markers
             [degrees] (from the calibration, with ``up_px``): how far up a covered marker's
             visible part lies depends on it (side-on a chord hides it, from above a ring).
+        cut_split: a blob split into touching markers is fitted with discs each cut by the
+            sand in front of it along ``up_px`` (:mod:`~dempath_recon.tracking.cut_discs`), in
+            views up to ``covered.MAX_ELEVATION_DEG``; False (or no ``up_px``): whole discs.
+        split_wide: blobs wider than one marker (radius of gyration over
+            ``split.WIDE_SIZE`` diameters) are tried as several markers too, not only those
+            larger than ``split.AREA_RATIO`` markers or holding two peaks.
     """
 
     downscale: int = 2
@@ -190,6 +200,8 @@ class DetectorConfig:
     up_px: tuple[float, float] = (0.0, 0.0)
     view_elevation_deg: float = 0.0
     local_bar: bool = True
+    cut_split: bool = True
+    split_wide: bool = True
 
     def __post_init__(self) -> None:
         checks = {'downscale': self.downscale in (1, 2), 'threshold': 0 < self.threshold < 1,
@@ -269,6 +281,11 @@ class MarkerDetector:
         # local-maximum filter, the Gaussian, the centroid window and its re-centring
         self._pad = (int(np.ceil(4 * self._sigma)) + self._kernel.shape[0] // 2
                      + 2 * r + 4)
+        # the up direction the split's discs are cut along (low views only, as ``covered``)
+        cfg = self.config
+        self._cut_up = (np.asarray(cfg.up_px, np.float64) if cfg.cut_split
+                        and tuple(cfg.up_px) != (0.0, 0.0)
+                        and cfg.view_elevation_deg <= MAX_ELEVATION_DEG else None)
 
     def detect_jpeg(self, data: bytes | NDArray[np.uint8]) -> Detections:
         """Decode JPEG bytes (at the configured scale) and detect."""
@@ -288,19 +305,22 @@ class MarkerDetector:
             return Detections.empty()._replace(
                 faint=partial(self._faint, image, low, np.zeros((0, 2))) if low > 0 else None)
         uv, size, strength, mass = self._refine(c, rows, cols, thr)
-        centre = None
+        centre, parted = None, None
         diameter = self.marker_size(size * s)
         if diameter > 0:
             radius = 0.5 * diameter / s
             base = 0.5 * self.config.threshold
-            uv, source, parted = split_touching(c, uv, base, radius)
+            uv, source, parted, disc = split_touching(c, uv, base, radius, self._cut_up,
+                                                      self.config.split_wide)
             # a fitted marker's size is one disc's radius of gyration, not its blob's
             size = np.where(parted, radius / np.sqrt(2.0), size[source])
             strength, mass = strength[source], mass[source]
             share = seen_share(mass, strength - base)
-            if share is not None and tuple(self.config.up_px) != (0.0, 0.0):
-                centre = uncover(uv, share, radius, self.config.up_px, ~parted,
-                                 self.config.view_elevation_deg)[0] + (ox, oy)
+            if tuple(self.config.up_px) != (0.0, 0.0):
+                centre = disc if share is None else uncover(
+                    uv, share, radius, self.config.up_px, ~parted,
+                    self.config.view_elevation_deg)[0]
+                centre = np.where(parted[:, None], disc, centre) + np.array([ox, oy], np.float64)
         uv += (ox, oy)
         ok = np.isfinite(uv).all(axis=1)
         conf = np.clip((strength - thr) / (2 * thr), 0, 1)
@@ -310,7 +330,8 @@ class MarkerDetector:
         faint = partial(self._faint, image, low, full) if low > 0 else None
         if centre is not None:
             centre = (centre[ok] + 0.5) * s - 0.5
-        return Detections(full, conf[ok], size, crowded, faint, centre)
+        return Detections(full, conf[ok], size, crowded, faint, centre,
+                          None if parted is None else parted[ok])
 
     def _peaks(self, c: NDArray[np.float32], thr: float,
                ) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
