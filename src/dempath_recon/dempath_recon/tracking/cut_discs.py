@@ -37,6 +37,7 @@ FloatArray = NDArray[np.float64]
 EDGE_BLUR = 0.6  # edge blur s of the model [detector px] (JPEG chroma at half resolution)
 RADIUS_SPREAD = 0.1  # the prior's standard deviation of the radius, as a share of it
 SQRT2 = float(np.sqrt(2.0))
+Parts = tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]
 
 
 @dataclass(frozen=True)
@@ -75,7 +76,7 @@ def pixel_grid(shape: tuple[int, ...], origin: tuple[int, int]) -> FloatArray:
 
 
 def _parts(p: FloatArray, xy: FloatArray, k: int, up: FloatArray | None,
-           ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+           ) -> Parts:
     """For parameters ``p`` (A, b, r, then x, y[, t] per disc): the offsets (n, k, 2), their
     lengths (n, k), each disc's membership f (n, k) and its radius derivative (n, k), each
     chord's membership g (n, k) and its derivative along ``u`` (n, k)."""
@@ -95,23 +96,27 @@ def _parts(p: FloatArray, xy: FloatArray, k: int, up: FloatArray | None,
     return diff, rho, disc, edge, chord, rim
 
 
-def union_model(p: FloatArray, xy: FloatArray, k: int, up: FloatArray | None) -> FloatArray:
+def union_model(p: FloatArray, xy: FloatArray, k: int, up: FloatArray | None,
+                parts: Parts | None = None) -> FloatArray:
     """(n,) the model's chroma at the points ``xy`` (n, 2) for the parameters ``p``: ``A``,
-    ``b``, ``r``, then per marker ``x``, ``y`` (and ``t`` with ``up``) [detector px]."""
-    disc, chord = _parts(p, xy, k, up)[2::2]
+    ``b``, ``r``, then per marker ``x``, ``y`` (and ``t`` with ``up``) [detector px]
+    (``parts``: ``_parts`` of the same, if already computed)."""
+    disc, chord = (parts or _parts(p, xy, k, up))[2::2]
     return np.asarray(p[1] + p[0] * (1.0 - np.prod(1.0 - disc * chord, axis=1)), np.float64)
 
 
-def union_jacobian(p: FloatArray, xy: FloatArray, k: int, up: FloatArray | None) -> FloatArray:
+def union_jacobian(p: FloatArray, xy: FloatArray, k: int, up: FloatArray | None,
+                   parts: Parts | None = None) -> FloatArray:
     """(n, len(p)) the derivatives of ``union_model`` by each parameter (analytic: the model is
     ``b + A (1 - prod (1 - f_i g_i))``, so d/d(f_i g_i) is ``A`` times the other markers'
     ``prod (1 - f_j g_j)``; f_i moves with its centre and the radius, g_i with its centre and
     its chord)."""
     per = 2 if up is None else 3
-    diff, rho, disc, edge, chord, rim = _parts(p, xy, k, up)
+    diff, rho, disc, edge, chord, rim = parts or _parts(p, xy, k, up)
     outside = 1.0 - disc * chord
-    others = np.stack([np.prod(np.delete(outside, i, axis=1), axis=1) for i in range(k)],
-                      axis=1)  # (n, k): no other marker covers the pixel
+    # (n, k): no other marker covers the pixel
+    others = outside[:, ::-1] if k == 2 else np.ones_like(outside) if k == 1 else np.stack(
+        [np.prod(np.delete(outside, i, axis=1), axis=1) for i in range(k)], axis=1)
     jac = np.zeros((len(xy), 3 + per * k))
     jac[:, 0] = 1.0 - np.prod(outside, axis=1)
     jac[:, 1] = 1.0
@@ -149,13 +154,23 @@ def fit_cut_discs(patch: NDArray[np.float32], origin: tuple[int, int], start: Fl
     level = max(high - low, 1e-3)
     spread = RADIUS_SPREAD * radius / level  # the prior's weight against a pixel's residual
 
+    last: dict[bytes, Parts] = {}
+
+    def parts(p: FloatArray) -> Parts:  # MINPACK asks the Jacobian where it asked the residual
+        key = p.tobytes()
+        if key not in last:
+            last.clear()
+            last[key] = _parts(p, xy, k, up)
+        return last[key]
+
     def residual(p: FloatArray) -> FloatArray:
-        return np.concatenate([union_model(p, xy, k, up) - values, [(p[2] - radius) / spread]])
+        model = union_model(p, xy, k, up, parts(p))
+        return np.concatenate([model - values, [(p[2] - radius) / spread]])
 
     def jacobian(p: FloatArray) -> FloatArray:
         prior = np.zeros((1, len(p)))
         prior[0, 2] = 1.0 / spread
-        return np.vstack([union_jacobian(p, xy, k, up), prior])
+        return np.vstack([union_jacobian(p, xy, k, up, parts(p)), prior])
 
     first = start if up is None else np.column_stack([start, np.full(k, -radius)])
     p0 = np.concatenate([[level, low, radius], first.ravel()])

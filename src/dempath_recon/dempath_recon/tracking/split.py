@@ -119,8 +119,8 @@ def split_blob(patch: NDArray[np.float32], origin: tuple[int, int], base: float,
     best = fit_cut_discs(patch, origin, mean[None], radius, up)
     chosen: BlobFit | None = None
     for k in range(2, MAX_MARKERS + 1):
-        if area < (k - 1) * np.pi * radius ** 2 * (0.5 if up is not None else 1.0):
-            break  # no room for another marker
+        if area < (k - 1 - (0.5 if up is not None and k == 2 else 0.0)) * np.pi * radius ** 2:
+            break  # no room for another marker (a covered pair may show one marker's area)
         trial = fit_cut_discs(patch, origin, _along_axis(xy, wgt, k), radius, up)
         if not _accept(best, trial, xy[wgt > 0], radius, up):
             break
