@@ -53,7 +53,7 @@ from dempath_recon.tracking.numbering import (
 )
 from dempath_recon.tracking.pair_checks import verify
 from dempath_recon.tracking.pair_numbering import number_pairs
-from dempath_recon.tracking.parted import on_parts, revoke_at_parting
+from dempath_recon.tracking.parted import flagged, revoke_at_parting
 from dempath_recon.tracking.ray_numbering import number_by_ray
 from dempath_recon.tracking.records import CameraCounts, PixelFrame, StereoTrackConfig
 from dempath_recon.tracking.release import HeldFrame, fill_confirmed, renumber
@@ -94,8 +94,8 @@ class StereoMarkerTracker:
         self.joint = JointStereoTracker(cameras, self.state.config, self.state.counts,
                                         self.state.last_stamp) \
             if self.state.config.engine == 'joint' else None
-        # the tracks linked to a split blob's part in each camera's last frame
-        self._on_part: dict[str, set[int]] = {c: set() for c in cameras}
+        # the tracks linked to a crowded spot (two markers) in each camera's last frame
+        self._crowded: dict[str, set[int]] = {c: set() for c in cameras}
         # each camera's latest frames' shifts against its first frame, by stamp (for release)
         self._relative: dict[str, deque[tuple[float, FloatArray]]] = {
             c: deque(maxlen=self.state.config.number_delay_frames + 2) for c in self.shakers}
@@ -218,11 +218,10 @@ class StereoMarkerTracker:
         counts.lost += tracker.counts.lost - before[0]
         counts.reattached += tracker.counts.reattached - before[1]
         forget_refusals(state, camera, stamp_s)
-        parts = on_parts(det, tf.uv)
-        markers = revoke_at_parting(state, camera, tf.track_ids, tf.markers, tf.uv, parts,
-                                    self._on_part[camera], stamp_s,
+        markers = revoke_at_parting(state, camera, tf.track_ids, tf.markers, tf.uv, det,
+                                    self._crowded[camera], stamp_s,
                                     self.detectors[camera].config.marker_diameter_px, events)
-        self._on_part[camera] = {int(t) for t in tf.track_ids[parts]}
+        self._crowded[camera] = {int(t) for t in tf.track_ids[flagged(det, det.crowded, tf.uv)]}
         if camera not in state.grid_uv:
             markers = number_all_by_grid(state, camera, tf.track_ids, tf.uv, stamp_s, events)
         markers = number_new(state, camera, tf.track_ids, markers, tf.uv, stamp_s, events)
