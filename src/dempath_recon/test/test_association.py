@@ -324,6 +324,37 @@ def test_marker_back_in_both_cameras_is_numbered_where_the_flow_carried_it(rig) 
     assert tracker.report()['cam_front']['numbered_by_pair'] == 0
 
 
+def test_line_of_a_marker_held_elsewhere_does_not_keep_a_pair_unnumbered(rig) -> None:
+    """As the carried scene, with a seventh marker on the epipolar plane of marker 2's return
+    spot (so each camera's line of its numbered spot passes 2's spot in the other), tracked
+    and numbered in both cameras the whole time: 2 comes back as a pair and is numbered 2 in
+    both, never 7. (Before, a pair on the line of any marker the other camera gave out was
+    left unnumbered, even one this camera held on another spot: on a seed-21 render marker 10
+    stayed unnumbered in both cameras for the whole pass, on the lines of 14.)"""
+    side, front = rig.cameras
+    scene, spot = _carried_scene(0.0)
+    seven = spot + 0.4 * (centre(side) - spot) / np.linalg.norm(centre(side) - spot) \
+        - 0.4 * (centre(front) - spot) / np.linalg.norm(centre(front) - spot)
+    seven = spot + 0.03 * (seven - spot) / np.linalg.norm(seven - spot)  # 30 mm from the spot
+    step = np.array([0.0, 0.0, 0.005])
+    scene = [(pts + [seven + (k - 12) * step], pts + [seven + (k - 12) * step])
+             for k, (pts, _) in enumerate(scene)]
+    config = StereoTrackConfig(grid=MarkerGrid(layout_m=(*GRID6, tuple(seven - 12 * step))),
+                               tracker=TrackerConfig(max_lost_s=0.1))
+    out, tracker = run(rig, scene, config)
+    sides = [f for f in out if f.camera == 'cam_side']
+    fronts = [f for f in out if f.camera == 'cam_front']
+    for frames, cam in ((sides, side), (fronts, front)):
+        assert [numbers_at(f, cam, seven + (k - 12) * step) for k, f in enumerate(frames)
+                if k >= 10] == [7] * 6, cam.name
+    assert numbers_at(fronts[12], front, spot) == 2
+    assert [numbers_at(f, side, spot + k * step) for k, f in enumerate(sides[13:16], 1)] == \
+        [2, 2, 2]
+    assert [numbers_at(f, front, spot + k * step) for k, f in enumerate(fronts[13:16], 1)] == \
+        [2, 2, 2]
+    assert tracker.report()['cam_front']['numbered_by_pair'] == 1
+
+
 def test_marker_positions_carry_a_covered_marker_with_its_neighbours() -> None:
     """A marker last seen at t = 0 is carried by the mean displacement of its nearest
     neighbours since then; no neighbour tracked across the gap: None."""

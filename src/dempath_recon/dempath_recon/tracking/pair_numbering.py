@@ -43,8 +43,12 @@ def number_pairs(state: StereoState, camera: str, track_ids: NDArray[np.int64],
     :func:`~dempath_recon.tracking.state.sure_numbers`; on a tuning render the side's track
     of a lost marker 1 took another spot, 1 came back in both cameras beside 2's grid point,
     and the pair took 2).
+    A track of either camera the grid fit left unsure (``state.grid_unsure``: an unnumbered
+    spot of the other camera lay on its line, so the pair was unsure) is not paired here: its own rule
+    (:func:`~dempath_recon.tracking.numbering.number_grid_unsure`) waits for the line to clear.
     A point of this camera on the epipolar line of a marker the other camera has numbered
-    now is not paired (:func:`_on_numbered_lines`). Both tracks take the number (and lose
+    now, and that this camera does not surely hold elsewhere, is not paired
+    (:func:`_on_numbered_lines`). Both tracks take the number (and lose
     it if a later pair check contradicts it), and the other camera's point becomes its
     latest, so ``verify`` checks the pair and records the 3D point at once.
     """
@@ -54,16 +58,20 @@ def number_pairs(state: StereoState, camera: str, track_ids: NDArray[np.int64],
         return markers
     t_o, o_ids, o_uv = free
     o_numbered = {t.track_id for t in state.trackers[other].tracks if t.marker >= 0}
-    keep = [j for j, tid in enumerate(o_ids.tolist()) if tid not in o_numbered]
-    mine = np.flatnonzero(unnumbered_tracks(state, camera, track_ids, markers))
+    waiting_o = state.grid_unsure.get(other, {})
+    keep = [j for j, tid in enumerate(o_ids.tolist())
+            if tid not in o_numbered and tid not in waiting_o]
+    waiting = state.grid_unsure.get(camera, {})
+    mine = np.flatnonzero(unnumbered_tracks(state, camera, track_ids, markers)
+                          & ~np.isin(track_ids, list(waiting)))
     if not keep or not len(mine):
         return markers
     cam, cam_o = state.cameras[camera], state.cameras[other]
     close = epipolar_distance(cam, cam_o, uv[mine], o_uv[keep]) <= state.config.epipolar_px
-    taken = {int(m) for m in sure_numbers(state, camera, track_ids, markers) if m >= 0} | {
-        m for m, (t, _) in state.latest[other].items() if abs(t - stamp_s) <= RECENT_S}
+    held = {int(m) for m in sure_numbers(state, camera, track_ids, markers) if m >= 0}
+    taken = held | {m for m, (t, _) in state.latest[other].items() if abs(t - stamp_s) <= RECENT_S}
     missing = [m for m in state.config.grid.points()[0].tolist() if m not in taken]
-    claimed = _on_numbered_lines(state, camera, uv[mine], stamp_s)
+    claimed = _on_numbered_lines(state, camera, uv[mine], stamp_s, held)
     markers = markers.copy()
     for a, k in enumerate(mine.tolist()):
         js = np.flatnonzero(close[a])
@@ -90,14 +98,19 @@ def number_pairs(state: StereoState, camera: str, track_ids: NDArray[np.int64],
 
 
 def _on_numbered_lines(state: StereoState, camera: str, uv: FloatArray, stamp_s: float,
-                       ) -> NDArray[np.bool_]:
+                       held: set[int]) -> NDArray[np.bool_]:
     """(n,) whether each point ``uv`` (n, 2) px lies within ``epipolar_px`` of the line of a
-    point the other camera gave out numbered within ``RECENT_S``: it may be that marker, back
+    point the other camera gave out numbered within ``RECENT_S``, of a marker not in ``held``
+    (the markers this camera surely holds on its tracks now): it may be that marker, back
     in this camera, and a pair with one of the other camera's unnumbered points would be a
     wrong correspondence (on a tuning render marker 5's spot in the side camera and marker
-    9's in the front, both unnumbered, paired and took 9's number while the front had 5)."""
+    9's in the front, both unnumbered, paired and took 9's number while the front had 5).
+    A marker this camera holds on another spot is not back here, and its line says nothing:
+    counted, it kept a spot of both cameras unnumbered for the whole pass on a seed-21 render
+    (marker 10 on the line of 14, which each camera tracked beside it, 28 marker-frames)."""
     other = state.other(camera)
-    seen = [p for t, p in state.latest[other].values() if abs(t - stamp_s) <= RECENT_S]
+    seen = [p for m, (t, p) in state.latest[other].items()
+            if abs(t - stamp_s) <= RECENT_S and m not in held]
     if not seen or not len(uv):
         return np.zeros(len(uv), bool)
     d = epipolar_distance(state.cameras[other], state.cameras[camera], np.array(seen), uv)
