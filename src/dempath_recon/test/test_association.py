@@ -333,11 +333,11 @@ def test_line_of_a_marker_held_elsewhere_does_not_keep_a_pair_unnumbered(rig) ->
     stayed unnumbered in both cameras for the whole pass, on the lines of 14.)"""
     side, front = rig.cameras
     scene, spot = _carried_scene(0.0)
-    seven = spot + 0.4 * (centre(side) - spot) / np.linalg.norm(centre(side) - spot) \
-        - 0.4 * (centre(front) - spot) / np.linalg.norm(centre(front) - spot)
-    seven = spot + 0.03 * (seven - spot) / np.linalg.norm(seven - spot)  # 30 mm from the spot
+    to_side, to_front = (c - spot for c in (centre(side), centre(front)))
+    apart = to_side / np.linalg.norm(to_side) - to_front / np.linalg.norm(to_front)
+    seven = spot + 0.03 * apart / np.linalg.norm(apart)  # 30 mm off, on the epipolar plane
     step = np.array([0.0, 0.0, 0.005])
-    scene = [(pts + [seven + (k - 12) * step], pts + [seven + (k - 12) * step])
+    scene = [([*pts, seven + (k - 12) * step], [*pts, seven + (k - 12) * step])
              for k, (pts, _) in enumerate(scene)]
     config = StereoTrackConfig(grid=MarkerGrid(layout_m=(*GRID6, tuple(seven - 12 * step))),
                                tracker=TrackerConfig(max_lost_s=0.1))

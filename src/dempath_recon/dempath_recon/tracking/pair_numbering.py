@@ -44,8 +44,9 @@ def number_pairs(state: StereoState, camera: str, track_ids: NDArray[np.int64],
     of a lost marker 1 took another spot, 1 came back in both cameras beside 2's grid point,
     and the pair took 2).
     A track of either camera the grid fit left unsure (``state.grid_unsure``: an unnumbered
-    spot of the other camera lay on its line, so the pair was unsure) is not paired here: its own rule
-    (:func:`~dempath_recon.tracking.numbering.number_grid_unsure`) waits for the line to clear.
+    spot of the other camera lay on its line, so the pair was unsure) is not paired here:
+    its own rule (:func:`~dempath_recon.tracking.numbering.number_grid_unsure`) waits for
+    the line to clear.
     A point of this camera on the epipolar line of a marker the other camera has numbered
     now, and that this camera does not surely hold elsewhere, is not paired
     (:func:`_on_numbered_lines`). Both tracks take the number (and lose
