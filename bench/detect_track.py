@@ -248,18 +248,28 @@ def main(argv: list[str]) -> int:
                    help='where the varied frames are kept between runs')
     p.add_argument('--exposure-unknown', action='store_true',
                    help='do not tell the trackers the exposure (no streak search)')
+    p.add_argument('--marker-colour', choices=('blue', 'look'), default='blue',
+                   help="'look': tell the detectors each recording's clay colour when it is not "
+                        "blue (DetectorConfig.marker_bgr, as a user sets it); 'blue': default")
     args = p.parse_args(argv)
-    from detect_track_variations import EXPOSURE_KNOWN, look_exposure, with_exposure
+    from detect_track_variations import (
+        CLAY_SET,
+        EXPOSURE_KNOWN,
+        look_exposure,
+        with_clay,
+        with_exposure,
+    )
 
     EXPOSURE_KNOWN[0] = not args.exposure_unknown
+    CLAY_SET[0] = args.marker_colour == 'look'
     cv2.setNumThreads(1)
     truth = json.loads(args.bag.with_name(args.bag.name + '.truth.json').read_text())
     cams = {c['name']: CameraModel.from_dict(c) for c in truth['cameras']}
     frames = read_frames(args.bag, truth['calibration_segment']['field_start_ns'], list(cams))
     # the experiment's marker layout (the scene's grid points), as an experimenter knows it
     grid = MarkerGrid(layout_m=tuple(tuple(p) for p in truth['marker_grid_m']))
-    config = with_exposure(StereoTrackConfig(grid=grid, engine=args.engine),
-                           look_exposure(truth))
+    config = with_clay(with_exposure(StereoTrackConfig(grid=grid, engine=args.engine),
+                                     look_exposure(truth)), truth)
     load = [round(x, 2) for x in os.getloadavg()]
     if (args.rendered or args.rendered_tuning) and not args.variations:  # re-rendered bags alone
         from detect_track_variations import run_rendered

@@ -52,6 +52,8 @@ OWNER_PX = 8.0  # a numbered detection's marker is the true one nearest within t
 # marker's diameter in these views); none that near: a number given to no marker (spurious)
 WRONG_PAIR_MM = 5.0
 Frames = list[tuple[str, int, bytes]]
+CLAY_SET = [False]  # the detectors are told a recording's clay colour when it is not blue
+# (``--marker-colour look``); default: blue clay, the detector's default
 EXPOSURE_KNOWN = [True]  # the trackers are told each recording's exposure (``--exposure-unknown``:
 # not, as before session 16: no streak search)
 
@@ -63,6 +65,18 @@ def with_exposure(config: StereoTrackConfig, exposure_s: float) -> StereoTrackCo
     if not EXPOSURE_KNOWN[0]:
         return config
     return replace(config, tracker=replace(config.tracker, exposure_s=exposure_s))
+
+
+def with_clay(config: StereoTrackConfig, truth: dict[str, Any]) -> StereoTrackConfig:
+    """``config`` whose detectors are told the clay's colour (``DetectorConfig.marker_bgr``) as
+    a user would set it, when the recording's clay (``config.look.marker_bgr``) is not blue
+    (blue not its largest channel) and the bench runs with ``--marker-colour look``; blue
+    clay keeps the detector's default."""
+    clay = truth.get('config', {}).get('look', {}).get('marker_bgr')
+    if not CLAY_SET[0] or clay is None or int(np.argmax(clay)) == 0:
+        return config
+    bgr = (float(clay[0]), float(clay[1]), float(clay[2]))
+    return replace(config, detector=replace(config.detector, marker_bgr=bgr))
 
 
 def look_exposure(truth: dict[str, Any]) -> float:
@@ -283,8 +297,8 @@ def run_rendered(bags: list[Path], read: Any, engine: str = 'grid',
         row = {'variation': bag.name, 'held_out': held_out, 'rendered': True,
                'look': truth['config']['look'], 'jpeg_quality': truth['config']['jpeg_quality'],
                **figures(frames, truth, cams,
-                         with_exposure(StereoTrackConfig(grid=grid, engine=engine),
-                                       look_exposure(truth)))}
+                         with_clay(with_exposure(StereoTrackConfig(grid=grid, engine=engine),
+                                                 look_exposure(truth)), truth))}
         rows.append(row)
         print(json.dumps({k: v for k, v in row.items() if k != 'raw'}), flush=True)
     return {**summary([r['raw'] for r in rows]),

@@ -92,29 +92,43 @@ def test_truncated_jpeg_is_an_error_and_half_size_matches_opencv() -> None:
     assert np.array_equal(half, ref)
 
 
+RED_CLAY = np.array([0.15, 0.18, 0.62])  # B, G, R albedo
+
+
 class WholeFrameDetector(MarkerDetector):
     """The detector with its chroma computed over the whole frame (the reference)."""
 
-    def _window(self, image: np.ndarray, thr: float) -> tuple[int, int, np.ndarray]:
+    def _window(self, image: np.ndarray, thr: float, floor: float = 60.0,
+                axis: np.ndarray | None = None) -> tuple[int, int, np.ndarray]:
         from dempath_recon.tracking.detect import chroma
 
-        return 0, 0, chroma(image)
+        return 0, 0, chroma(image, floor, axis)
 
 
 @pytest.mark.parametrize('corner', [(600, 400), (8, 6), (1890, 1070)])
 def test_window_around_candidates_gives_the_whole_frame_result(corner: tuple[int, int]) -> None:
     """Markers in a small part of a 1920x1080 frame (mid-frame, and against two corners, where
-    the window is clipped): the detections equal those of the chroma of the whole frame."""
+    the window is clipped), blue or red clay (its axis), in daylight or at dusk (the frame's
+    lowered chroma floor, the window only near lit pixels): the detections equal those of the
+    chroma of the whole frame."""
     rng = np.random.default_rng(4)
     offsets = np.array([[0, 0], [25, 3], [-30, 12], [12, -28], [60, 40], [-55, -40]], float)
     centres = np.clip(np.asarray(corner, float) + offsets + rng.uniform(-0.5, 0.5, (6, 2)),
                       [4, 4], [1915, 1075])
-    jpeg = spot_image((1080, 1920), centres, 4.5, rng, quality=90)
-    for downscale, adaptive in ((1, False), (2, False), (2, True)):
-        config = DetectorConfig(downscale=downscale, adaptive=adaptive)
+    frames = {'blue': spot_image((1080, 1920), centres, 4.5, rng, quality=90),
+              'red': spot_image((1080, 1920), centres, 4.5, rng, quality=90, clay_bgr=RED_CLAY),
+              'dusk': spot_image((1080, 1920), centres, 4.5, rng, gain=0.3, noise_dn=2.0,
+                                 quality=85, shadow_cols=1920)}
+    for downscale, adaptive, look in ((1, False, 'blue'), (2, False, 'blue'), (2, True, 'blue'),
+                                      (2, False, 'red'), (1, True, 'red'), (2, False, 'dusk'),
+                                      (1, False, 'dusk')):
+        config = DetectorConfig(downscale=downscale, adaptive=adaptive,
+                                marker_bgr=tuple(RED_CLAY) if look == 'red' else None)
+        jpeg = frames[look]
         found = MarkerDetector(config).detect_jpeg(jpeg)
         ref = WholeFrameDetector(config).detect_jpeg(jpeg)
-        assert len(ref.uv) >= 4  # the markers the frame shows (some are cut by the border)
+        # the markers the frame shows (some cut by the border; at dusk dark clay at a corner)
+        assert len(ref.uv) >= (2 if look == 'dusk' else 4)
         assert np.allclose(found.uv, ref.uv, atol=1e-9)
         assert np.allclose(found.confidence, ref.confidence)
 

@@ -108,3 +108,17 @@ def test_detector_node_grid_parameters(ros_harness, rig, tmp_path) -> None:
     assert node.core.config.grid == MarkerGrid(2, 4, 0.03, 0.04, -1)
     with pytest.raises(ReconstructionError, match='no_such_scene'):
         MarkerGrid.from_scene('no_such_scene')
+
+
+def test_detector_node_marker_colour_parameter(ros_harness, rig, tmp_path) -> None:
+    """``marker_bgr`` sets the detector's clay colour ('' keeps blue clay); a bad colour is one
+    ReconstructionError naming the parameter."""
+    calib = str(StereoCalibration(rig.side, rig.front, {}).save(tmp_path / 'calib.yaml'))
+    node = ros_harness.start(DetectorNode, camera='cam_side', calibration_file=calib,
+                             marker_bgr='0.15,0.18,0.62')
+    assert node.core.detectors['cam_side'].config.marker_bgr == (0.15, 0.18, 0.62)
+    blue = ros_harness.start(DetectorNode, camera='cam_side', calibration_file=calib)
+    assert blue.core.detectors['cam_side'].config.marker_bgr is None
+    with pytest.raises(ReconstructionError, match='marker_bgr'):
+        ros_harness.start(DetectorNode, camera='cam_side', calibration_file=calib,
+                          marker_bgr='red')

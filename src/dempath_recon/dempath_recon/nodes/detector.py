@@ -66,6 +66,8 @@ from dempath_msgs.msg import PixelPoints
 from dempath_recon.errors import ReconstructionError
 from dempath_recon.stride import FrameStride
 from dempath_recon.tracking.associate import MarkerGrid
+from dempath_recon.tracking.colour_model import parse_bgr
+from dempath_recon.tracking.detect import DetectorConfig
 from dempath_recon.tracking.merge import StampMerge
 from dempath_recon.tracking.stereo import PixelFrame, StereoMarkerTracker, StereoTrackConfig
 
@@ -88,6 +90,8 @@ PARAMETERS: tuple[tuple[str, Any, str], ...] = (
     ('silent_s', 1.0, 'no frame for this long after the first: diagnostics say WARN [s]'),
     ('correct_shake', True, "move each frame's detections back by the image's shake, measured "
                             'on the parts of the view that do not move (tracking/shake.py)'),
+    ('marker_bgr', '', "the markers' clay albedo B,G,R (0..1 each, e.g. '0.15,0.18,0.62' for "
+                       "red clay); '': blue clay (tracking/colour_model.py)"),
     ('scene', '', "scene file or shipped scene name whose markers: block gives the marker grid "
                   "(overrides the marker_* parameters); '': the marker_* parameters"),
     ('marker_rows', 3, 'rows of the marker grid (row 0 on the tool axis; the paper: 3)'),
@@ -144,7 +148,8 @@ class DetectorNode(Node):
         self.camera = str(p['camera'])
         self.core = StereoMarkerTracker(_load_cameras(str(p['calibration_file'])),
                                         StereoTrackConfig(grid=_grid(p),
-                                                          shake=bool(p['correct_shake'])))
+                                                          shake=bool(p['correct_shake']),
+                                                          detector=_detector(p)))
         if self.camera not in self.core.cameras:
             msg = f'camera: {self.camera!r} not in the calibration ({sorted(self.core.cameras)})'
             raise ReconstructionError(msg)
@@ -430,6 +435,14 @@ def _grid(p: dict[str, Any]) -> MarkerGrid:
                           spacing_z_m=float(p['marker_spacing_z_m']), side=int(p['marker_side']))
     except ValueError as err:
         raise ReconstructionError(f'marker grid parameters: {err}') from err
+
+
+def _detector(p: dict[str, Any]) -> DetectorConfig:
+    """The detector's settings of the ``marker_bgr`` parameter; ReconstructionError naming it."""
+    try:
+        return DetectorConfig(marker_bgr=parse_bgr(str(p['marker_bgr'])))
+    except ValueError as err:
+        raise ReconstructionError(str(err)) from err
 
 
 def _load_cameras(path: str) -> dict[str, Any]:

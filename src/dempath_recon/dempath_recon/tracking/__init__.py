@@ -3,9 +3,10 @@ two cameras, and numbered tracks to 3D trajectories.
 
 Bottom to top (a module imports only the ones before it): ``merge`` (two cameras' frames in
 stamp order), ``cut_discs`` (the image model of touching, partly covered markers),
-``split`` (touching markers fitted apart), ``covered`` (partly covered
-markers' centres), ``detect`` (marker spots in one image), ``shake`` (each frame's image motion
-from the view's fixed parts), ``linker`` (one camera's tracks),
+``split`` (touching markers fitted apart), ``covered`` (partly covered markers' centres),
+``streak`` (a smeared marker along its motion), ``colour_model`` (the clay's colour axis and
+the frame's chroma floor), ``detect`` (marker spots in one image), ``shake`` (each frame's image
+motion from the view's fixed parts), ``linker`` (one camera's tracks),
 ``associate`` (the marker grid, epipolar geometry, the markers' 3D positions), ``records``
 (settings, numbered frames, counts), ``release`` (the publication delay), ``trajectories``
 (numbered tracks to 3D), ``state`` (the tracker's state, one record), ``link_guide`` (the

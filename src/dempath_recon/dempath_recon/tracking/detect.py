@@ -41,6 +41,19 @@ import simplejpeg
 from numpy.typing import NDArray
 
 from dempath_recon.errors import ReconstructionError
+from dempath_recon.tracking.colour_model import (
+    DARK_SUM_DN,
+    MIN_SUM_DN,
+    REFERENCE_SAND_BGR,
+    axis_bound,
+    axis_chroma,
+    chroma_floor,
+    colour_axis,
+    frame_axis,
+    is_blue,
+    lit_peaks,
+    near_lit,
+)
 from dempath_recon.tracking.covered import MAX_ELEVATION_DEG, seen_share, uncover
 from dempath_recon.tracking.split import split_touching
 from dempath_recon.tracking.streak import STREAK_MIN_PX, find_streak
@@ -53,10 +66,11 @@ CROWDED_SIZE = 0.38  # a spot whose radius of gyration exceeds this share of a m
 TYPICAL_SIZE = 0.29  # a lone marker's radius of gyration as a share of its diameter (median on
 # the tuning renders 0.29, the bundled render 0.27)
 MIN_SPOTS = 5  # spots a frame needs for its median size to count
-MIN_SUM_DN = 60.0  # below this B + G + R (mean 20 grey levels) the chroma is mostly noise
-DARK_SUM_DN = 12.0  # the chroma's floor in the local search beside a track's prediction, whose
-# bar is set by the window's measured noise: at dusk a marker in shadow sums 25-60 (light x0.28,
-# session 16), where ``MIN_SUM_DN`` divided its chroma by up to 2.4 and it fell under any bar
+# MIN_SUM_DN (colour_model): below this B + G + R (mean 20 grey levels) the chroma of a frame in
+# normal light is mostly noise. DARK_SUM_DN (colour_model): the chroma's floor in the local search
+# beside a track's prediction, whose bar is set by the window's measured noise: at dusk a marker
+# in shadow sums 25-60 (light x0.28, session 16), where ``MIN_SUM_DN`` divided its chroma by up
+# to 2.4 and it fell under any bar (``DetectorConfig.exposure_floor`` lowers the frame's floor)
 FILTER_FLOOR = -0.2  # the matched filter sees sand no redder than the sand the threshold
 # assumes (0.15 is the midpoint between sand at -0.2 and clay at +0.5): reddish sand (-0.3) pulled
 # a small spot's filtered peak down by that much more, so a half-buried marker (a strip 2-3 px
@@ -183,6 +197,23 @@ class DetectorConfig:
         split_wide: blobs wider than one marker (radius of gyration over
             ``split.WIDE_SIZE`` diameters) are tried as several markers too, not only those
             larger than ``split.AREA_RATIO`` markers or holding two peaks.
+        marker_bgr: the markers' clay albedo (B, G, R, 0..1 each) when it is not blue: the
+            chroma then runs along the line from the sand's colour to the clay's, scaled so
+            that the clay reads ``CLAY_CHROMA`` (+0.5) and the sand ``SAND_CHROMA`` (-0.2) as
+            blue clay does on ``(B - R) / (B + G + R)``
+            (:func:`~dempath_recon.tracking.colour_model.colour_axis`): red, orange or green
+            clay is found with the same threshold. None: blue clay, ``(B - R) / (B + G + R)``
+            (the default, as tuned).
+        sand_bgr: the sand's albedo (B, G, R, 0..1) the axis of ``marker_bgr`` starts from;
+            None: each frame's sand as the camera sees it, its median chromaticity
+            (:func:`~dempath_recon.tracking.colour_model.frame_axis`: the light's tint and
+            the camera's white balance move the sand's colour, the clay's albedo does not say
+            it). Not used for blue clay.
+        exposure_floor: the chroma's denominator is floored at a share of the frame's median
+            ``B + G + R`` (between ``DARK_SUM_DN`` and ``MIN_SUM_DN``,
+            :func:`~dempath_recon.tracking.colour_model.chroma_floor`) rather than at
+            ``MIN_SUM_DN``: a dusk frame's markers in shadow (B + G + R 25-45) keep their
+            chroma; frames whose sand sums to 100 or more are unchanged. False: ``MIN_SUM_DN``.
     """
 
     downscale: int = 2
@@ -202,6 +233,9 @@ class DetectorConfig:
     local_bar: bool = True
     cut_split: bool = True
     split_wide: bool = True
+    marker_bgr: tuple[float, float, float] | None = None
+    sand_bgr: tuple[float, float, float] | None = None
+    exposure_floor: bool = True
 
     def __post_init__(self) -> None:
         checks = {'downscale': self.downscale in (1, 2), 'threshold': 0 < self.threshold < 1,
@@ -219,6 +253,15 @@ class DetectorConfig:
             if not ok:
                 msg = f'{name}: out of range, got {getattr(self, name)!r}'
                 raise ValueError(msg)
+        colour_axis(self.marker_bgr, REFERENCE_SAND_BGR if self.sand_bgr is None
+                    else self.sand_bgr)  # a ValueError naming a bad colour
+
+    def colour_name(self) -> str:
+        """What the detector looks for, for messages: 'blue clay' or the clay's albedo."""
+        if self.marker_bgr is None:
+            return 'blue clay markers (chroma (B - R) / (B + G + R)'
+        bgr = ','.join(f'{c:g}' for c in self.marker_bgr)
+        return f'markers of clay albedo B,G,R {bgr} (chroma along the sand-to-clay axis'
 
 
 def decode_jpeg(data: bytes | NDArray[np.uint8], downscale: int = 1) -> NDArray[np.uint8]:
@@ -245,14 +288,20 @@ def decode_jpeg(data: bytes | NDArray[np.uint8], downscale: int = 1) -> NDArray[
     return np.asarray(img, np.uint8)
 
 
-def chroma(image: NDArray[np.uint8], min_sum: float = MIN_SUM_DN) -> NDArray[np.float32]:
-    """(h, w) float32 ``(B - R) / max(B + G + R, min_sum)`` of a BGR image.
+def chroma(image: NDArray[np.uint8], min_sum: float = MIN_SUM_DN,
+           axis: NDArray[np.float32] | None = None) -> NDArray[np.float32]:
+    """(h, w) float32 ``(B - R) / max(B + G + R, min_sum)`` of a BGR image, or with ``axis``
+    (3,) B, G, R weights ``(axis . [B, G, R]) / max(B + G + R, min_sum)`` (another clay's
+    colour, :func:`~dempath_recon.tracking.colour_model.colour_axis`).
 
     The floor keeps dark pixels (deep shadow, vignetted corners), where the ratio would be
-    sensor noise, near zero (``MIN_SUM_DN`` for the frame-wide fixed threshold; the local
+    sensor noise, near zero (``MIN_SUM_DN`` for the frame-wide fixed threshold in normal light,
+    lower in a dark frame: :func:`~dempath_recon.tracking.colour_model.chroma_floor`; the local
     search beside a track's prediction measures the noise instead and floors at
     ``DARK_SUM_DN``).
     """
+    if axis is not None and not is_blue(axis):
+        return axis_chroma(image, axis, min_sum)
     b, g, r = cv2.split(image)
     diff = cv2.subtract(b, r, dtype=cv2.CV_16S)
     total = cv2.add(cv2.add(b, g, dtype=cv2.CV_16S), r, dtype=cv2.CV_16S)
@@ -297,13 +346,18 @@ class MarkerDetector:
         if s == 2 and not prescaled:
             image = np.asarray(cv2.resize(image, (image.shape[1] // 2, image.shape[0] // 2),
                                           interpolation=cv2.INTER_AREA), np.uint8)
-        thr = self.threshold_for(image)
-        ox, oy, c = self._window(image, thr)
+        floor = chroma_floor(image) if self.config.exposure_floor else MIN_SUM_DN
+        axis = frame_axis(image, self.config.marker_bgr, self.config.sand_bgr)
+        thr = self.threshold_for(image, floor, axis)
+        ox, oy, c = self._window(image, thr, floor, axis)
         rows, cols = self._peaks(c, thr)
+        lit = lit_peaks(image, rows + oy, cols + ox, floor)  # not noise in near-black pixels
+        rows, cols = rows[lit], cols[lit]
         low = min(self.config.faint_threshold, thr)
         if len(rows) == 0:
             return Detections.empty()._replace(
-                faint=partial(self._faint, image, low, np.zeros((0, 2))) if low > 0 else None)
+                faint=partial(self._faint, image, low, (floor, axis), np.zeros((0, 2)))
+                if low > 0 else None)
         uv, size, strength, mass = self._refine(c, rows, cols, thr)
         centre, parted = None, None
         diameter = self.marker_size(size * s)
@@ -327,7 +381,7 @@ class MarkerDetector:
         full = (uv[ok] + 0.5) * s - 0.5  # half-size pixel centre i -> full-size 2i + 0.5
         size = size[ok] * s
         crowded = size > CROWDED_SIZE * diameter if diameter > 0 else None
-        faint = partial(self._faint, image, low, full) if low > 0 else None
+        faint = partial(self._faint, image, low, (floor, axis), full) if low > 0 else None
         if centre is not None:
             centre = (centre[ok] + 0.5) * s - 0.5
         return Detections(full, conf[ok], size, crowded, faint, centre,
@@ -361,15 +415,18 @@ class MarkerDetector:
             rows, cols = rows[keep], cols[keep]
         return rows.astype(np.intp), cols.astype(np.intp)
 
-    def _faint(self, image: NDArray[np.uint8], low: float, strong: FloatArray,
+    def _faint(self, image: NDArray[np.uint8], low: float,
+               colour: tuple[float, NDArray[np.float32]], strong: FloatArray,
                points: FloatArray, radius_px: float,
                steps: FloatArray | None = None) -> FloatArray:
-        """(k, 2) full-size centre of the strongest spot above ``low`` (or of the streak along
+        """(k, 2) full-size centre of the strongest spot above ``low`` (the chroma of the
+        frame's ``colour``: its floor [DN] and axis (3,)) (or of the streak along
         ``steps`` (k, 2) [full-size px] where one is at least ``STREAK_MIN_PX`` long) within
         ``radius_px`` of each point (k, 2) [full-size px], NaN where none or where it is the
         frame's own spot (within ``min_separation_px`` of one of ``strong`` (n, 2): a marker's
         rim)."""
         s = self.config.downscale
+        floor, axis = colour
         pts = np.asarray(points, np.float64).reshape(-1, 2)
         out = np.full((len(pts), 2), np.nan)
         moves = np.zeros_like(pts) if steps is None else np.asarray(steps, np.float64)
@@ -388,10 +445,11 @@ class MarkerDetector:
                 continue
             window = np.ascontiguousarray(image[y0:y1, x0:x1])
             if not streak:
-                out[k] = self._faint_spot(chroma(window), (x0, y0), q, reach, low, strong)
+                out[k] = self._faint_spot(chroma(window, floor, axis), (x0, y0), q,
+                                          reach, low, strong)
             if streak or (self.config.local_bar and not np.isfinite(out[k]).all()
                           and dim(window)):
-                c = chroma(window, DARK_SUM_DN)
+                c = chroma(window, DARK_SUM_DN, axis)
                 if self.config.floor_sand:
                     c = np.maximum(c, np.float32(FILTER_FLOOR))
                 corner = np.array([x0, y0], np.float64)
@@ -445,7 +503,8 @@ class MarkerDetector:
             return wanted
         return max(wanted, float(np.median(size_px)) / TYPICAL_SIZE)
 
-    def threshold_for(self, image: NDArray[np.uint8]) -> float:
+    def threshold_for(self, image: NDArray[np.uint8], floor: float = MIN_SUM_DN,
+                      axis: NDArray[np.float32] | None = None) -> float:
         """The chroma threshold of this frame (``DetectorConfig.adaptive``): the sand's median
         chroma plus ``noise_k`` robust standard deviations, from every 4th pixel of the whole
         frame (the same whatever part is searched), between ``min_threshold`` and
@@ -453,35 +512,44 @@ class MarkerDetector:
         cfg = self.config
         if not cfg.adaptive:
             return cfg.threshold
-        sample = chroma(np.ascontiguousarray(image[::4, ::4]))
+        sample = chroma(np.ascontiguousarray(image[::4, ::4]), floor, axis)
         med = float(np.median(sample))
         sigma = 1.4826 * float(np.median(np.abs(sample - med)))
         return float(np.clip(med + cfg.noise_k * sigma, cfg.min_threshold, cfg.threshold))
 
-    def _window(self, image: NDArray[np.uint8], thr: float,
+    def _window(self, image: NDArray[np.uint8], thr: float, floor: float = MIN_SUM_DN,
+                axis: NDArray[np.float32] | None = None,
                 ) -> tuple[int, int, NDArray[np.float32]]:
         """The chroma of the part of ``image`` that can hold markers: ``(x0, y0, chroma)``.
 
-        A pixel's chroma exceeds the threshold only where ``B - R > threshold * MIN_SUM_DN``
-        (the chroma's denominator is at least ``MIN_SUM_DN``), which a saturating byte
-        subtraction and a threshold find at a fraction of the chroma's cost. The window is the
-        bounding box of those pixels grown by the reach of the filter, the local-maximum search
-        and the centroid window (``_pad``): it holds every pixel above the threshold and all
-        that is read around them, so the detections equal those of the whole frame (tested).
+        A pixel's chroma exceeds the threshold only where ``B - R > threshold * floor``
+        (the chroma's denominator is at least the frame's ``floor`` [DN]), which a saturating
+        byte subtraction and a threshold find at a fraction of the chroma's cost (another
+        clay's axis: its weighted sum, :func:`~dempath_recon.tracking.colour_model.
+        axis_bound`). The window is the bounding box of those pixels grown by the reach of
+        the filter, the local-maximum search and the centroid window (``_pad``): it holds
+        every pixel above the threshold and all that is read around them, so the detections
+        equal those of the whole frame (tested).
         A frame whose blue pixels spread over most of the view is done whole.
         """
         h, w = image.shape[:2]
-        floor = max(int(np.floor(thr * MIN_SUM_DN)) - 1, 0)
-        blue = cv2.subtract(cv2.extractChannel(image, 0), cv2.extractChannel(image, 2))
-        x, y, bw, bh = cv2.boundingRect(cv2.threshold(blue, floor, 255, cv2.THRESH_TOZERO)[1])
+        level = max(int(np.floor(thr * floor)) - 1, 0)
+        if axis is None or is_blue(axis):
+            blue = cv2.subtract(cv2.extractChannel(image, 0), cv2.extractChannel(image, 2))
+            above = cv2.threshold(blue, level, 255, cv2.THRESH_TOZERO)[1]
+        else:
+            above = axis_bound(image, axis, level)
+        if floor < MIN_SUM_DN:  # only where a kept peak can lie (``lit_peaks``)
+            above = cv2.bitwise_and(above, near_lit(image, floor))
+        x, y, bw, bh = cv2.boundingRect(above)
         if bw == 0 or bh == 0:
             return 0, 0, np.zeros((0, 0), np.float32)
         pad = self._pad
         x0, y0 = max(x - pad, 0), max(y - pad, 0)
         x1, y1 = min(x + bw + pad, w), min(y + bh + pad, h)
         if (x1 - x0) * (y1 - y0) > 0.5 * h * w:
-            return 0, 0, chroma(image)
-        return x0, y0, chroma(np.ascontiguousarray(image[y0:y1, x0:x1]))
+            return 0, 0, chroma(image, floor, axis)
+        return x0, y0, chroma(np.ascontiguousarray(image[y0:y1, x0:x1]), floor, axis)
 
     def _refine(self, c: NDArray[np.float32], rows: NDArray[np.intp], cols: NDArray[np.intp],
                 thr: float) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:

@@ -206,10 +206,11 @@ class StereoMarkerTracker:
             self._relative[camera].append((stamp_s, shake.relative_px))
         counts.no_marker += int(len(det.uv) == 0)
         if counts.frames == BLIND_FRAMES and counts.no_marker == counts.frames:
+            det_cfg = self.detectors[camera].config
             msg = (f'{camera}: no marker found in the first {BLIND_FRAMES} frames: the detector '
-                   'looks for blue clay markers (chroma (B - R) / (B + G + R) above '
-                   f'{self.detectors[camera].config.threshold:g}); markers of another colour, '
-                   'an image far too dark, or a camera that does not see the grid give nothing')
+                   f'looks for {det_cfg.colour_name()} above {det_cfg.threshold:g}); markers of '
+                   'another colour (set marker_bgr), an image far too dark, or a camera that '
+                   'does not see the grid give nothing')
             LOG.warning(msg)
             events.append(msg)
         before = (tracker.counts.lost, tracker.counts.reattached)

@@ -1,0 +1,194 @@
+"""The detector's colour model: clay of any colour when set, the sand as the frame shows it, and
+a chroma floor that follows the frame's exposure. Real OpenCV JPEG frames (spots.py), the real
+detector; each rule is checked against the detector without it."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, str(Path(__file__).parent))
+from spots import SAND, spot_image
+
+from dempath_recon.tracking.colour_model import (
+    CLAY_CHROMA,
+    MIN_SUM_DN,
+    REFERENCE_SAND_BGR,
+    SAND_CHROMA,
+    chroma_floor,
+    colour_axis,
+    parse_bgr,
+)
+from dempath_recon.tracking.detect import DetectorConfig, MarkerDetector, decode_jpeg
+
+SHAPE = (240, 320)
+RADIUS = 4.2
+RED = (0.15, 0.18, 0.62)  # B, G, R albedos
+GREEN = (0.22, 0.50, 0.15)
+ORANGE = (0.08, 0.35, 0.80)
+GREY_SAND = (0.45, 0.45, 0.47)
+REDDISH_SAND = (0.25, 0.42, 0.72)
+
+
+def grid_centres(rng: np.random.Generator) -> np.ndarray:
+    """(35, 2) px: markers 40 px apart, jittered."""
+    gx, gy = np.meshgrid(np.arange(30, 300, 40), np.arange(30, 220, 40))
+    return np.column_stack([gx.ravel(), gy.ravel()]) + rng.uniform(-4, 4, (gx.size, 2))
+
+
+def matched(found: np.ndarray, truth: np.ndarray, within: float) -> tuple[int, int]:
+    """(true markers with a spot within ``within`` px, spots near no marker)."""
+    if not len(found):
+        return 0, 0
+    d = np.linalg.norm(found[:, None] - truth[None], axis=2)
+    return int((d.min(axis=0) < within).sum()), int((d.min(axis=1) >= within).sum())
+
+
+@pytest.mark.parametrize('clay', [RED, GREEN, ORANGE])
+def test_clay_of_another_colour_is_found_when_set(clay: tuple[float, float, float]) -> None:
+    """Red, green or orange clay on yellow-brown sand: blue clay's chroma finds none; with
+    ``marker_bgr`` set every marker is found within 1 px (JPEG keeps chroma at half size) and
+    nothing else."""
+    rng = np.random.default_rng(7)
+    truth = grid_centres(rng)
+    jpeg = spot_image(SHAPE, truth, RADIUS, rng, noise_dn=2.0, quality=85,
+                      clay_bgr=np.array(clay))
+    assert len(MarkerDetector().detect_jpeg(jpeg).uv) == 0
+    found = MarkerDetector(DetectorConfig(marker_bgr=clay)).detect_jpeg(jpeg).uv
+    assert matched(found, truth, 1.0) == (len(truth), 0)
+
+
+def test_the_axis_reads_clay_and_sand_as_blue_clay_does() -> None:
+    """On its axis a clay reads CLAY_CHROMA and the sand SAND_CHROMA; None is B - R exactly."""
+    clay, sand = np.array(RED), np.array(REFERENCE_SAND_BGR)
+    axis = colour_axis(RED)
+    assert axis @ clay / clay.sum() == pytest.approx(CLAY_CHROMA, abs=1e-6)
+    assert axis @ sand / sand.sum() == pytest.approx(SAND_CHROMA, abs=1e-6)
+    assert np.array_equal(colour_axis(None), np.array([1.0, 0.0, -1.0], np.float32))
+
+
+def test_bad_colours_are_refused_by_name() -> None:
+    """Not three numbers, out of range, or clay the sand's own colour: one ValueError each."""
+    assert parse_bgr('') is None and parse_bgr('blue') is None
+    assert parse_bgr('0.15, 0.18, 0.62') == RED
+    with pytest.raises(ValueError, match=r'marker_bgr.*three numbers'):
+        parse_bgr('red')
+    with pytest.raises(ValueError, match=r'marker_bgr.*albedos in'):
+        parse_bgr('0.1,0.2,1.5')
+    with pytest.raises(ValueError, match='cannot be told from sand'):
+        DetectorConfig(marker_bgr=(0.43, 0.59, 0.70))
+
+
+@pytest.mark.parametrize(('clay', 'sand'), [(RED, GREY_SAND), (ORANGE, GREY_SAND)])
+def test_the_frames_own_sand_sets_the_axis(clay: tuple[float, float, float],
+                                           sand: tuple[float, float, float]) -> None:
+    """Half-buried red or orange markers on grey sand (light x0.5, noise 3): the axis from the
+    frame's sand finds most; the axis from the yellow reference sand puts the grey sand near
+    the threshold's other side and finds few."""
+    rng = np.random.default_rng(7)
+    truth = grid_centres(rng)
+    jpeg = spot_image(SHAPE, truth, RADIUS, rng, gain=0.5, noise_dn=3.0, quality=80,
+                      sand_bgr=np.array(sand), clay_bgr=np.array(clay), buried=0.5)
+    seen = truth - [0.0, 0.4 * RADIUS]  # the middle of the visible half
+    own = MarkerDetector(DetectorConfig(marker_bgr=clay)).detect_jpeg(jpeg).uv
+    fixed = MarkerDetector(DetectorConfig(marker_bgr=clay, sand_bgr=REFERENCE_SAND_BGR)
+                           ).detect_jpeg(jpeg).uv
+    found, spurious = matched(own, seen, 3.0)
+    assert found >= 15 and spurious == 0, (found, spurious)
+    assert matched(fixed, seen, 3.0)[0] <= 5
+
+
+def test_reddish_sand_gives_no_spots_on_the_frames_axis() -> None:
+    """Red clay on reddish sand: the reference sand's axis reads the sand's redder grains as
+    clay (spots everywhere); the frame's own sand gives the markers and nothing else."""
+    rng = np.random.default_rng(7)
+    truth = grid_centres(rng)
+    jpeg = spot_image(SHAPE, truth, RADIUS, rng, gain=0.5, noise_dn=3.0, quality=80,
+                      sand_bgr=np.array(REDDISH_SAND), clay_bgr=np.array(RED), buried=0.5)
+    seen = truth - [0.0, 0.4 * RADIUS]
+    own = MarkerDetector(DetectorConfig(marker_bgr=RED)).detect_jpeg(jpeg).uv
+    fixed = MarkerDetector(DetectorConfig(marker_bgr=RED, sand_bgr=REFERENCE_SAND_BGR)
+                           ).detect_jpeg(jpeg).uv
+    assert matched(own, seen, 3.0) == (len(truth), 0)
+    assert matched(fixed, seen, 3.0)[1] >= 10
+
+
+def dusk_frame(rng: np.random.Generator, truth: np.ndarray | None) -> bytes:
+    """JPEG at light x0.3 in shadow (sand B + G + R about 40, as the twin's dusk looks),
+    markers 30 % buried, or bare sand (``truth`` None)."""
+    centres = np.zeros((0, 2)) if truth is None else truth
+    return spot_image(SHAPE, centres, RADIUS, rng, gain=0.3, noise_dn=2.0, quality=85,
+                      shadow_cols=SHAPE[1], buried=0.3)
+
+
+def test_dark_frames_floor_the_chroma_by_their_own_exposure() -> None:
+    """At dusk in shadow blue markers keep their colour but not the brightness the fixed floor
+    (MIN_SUM_DN) assumes: the fixed floor finds few; the frame's floor finds most within
+    2.5 px (the middles of their visible parts, in noise), no spot away from a marker, and
+    nothing in bare dark sand."""
+    rng = np.random.default_rng(5)
+    truth = grid_centres(rng)
+    jpeg = dusk_frame(rng, truth)
+    seen = truth - [0.0, 0.3 * RADIUS]
+    assert chroma_floor(decode_jpeg(jpeg, 2)) < 0.6 * MIN_SUM_DN
+    fixed = MarkerDetector(DetectorConfig(exposure_floor=False)).detect_jpeg(jpeg).uv
+    own = MarkerDetector().detect_jpeg(jpeg).uv
+    assert matched(fixed, seen, 2.5)[0] <= 5
+    assert matched(own, seen, 2.5)[0] >= 0.6 * len(truth)
+    assert matched(own, seen, 4.0)[1] == 0
+    for seed in range(3):
+        bare = dusk_frame(np.random.default_rng(seed), None)
+        assert len(MarkerDetector().detect_jpeg(bare).uv) == 0
+
+
+def test_frames_in_normal_light_keep_the_fixed_floor() -> None:
+    """Sand in normal light sums to 100 or more: the floor stays MIN_SUM_DN and the detections
+    are those of the fixed floor."""
+    rng = np.random.default_rng(9)
+    truth = grid_centres(rng)
+    jpeg = spot_image(SHAPE, truth, RADIUS, rng, sand_bgr=SAND, buried=0.4)
+    assert chroma_floor(decode_jpeg(jpeg, 2)) == MIN_SUM_DN
+    own = MarkerDetector().detect_jpeg(jpeg)
+    fixed = MarkerDetector(DetectorConfig(exposure_floor=False)).detect_jpeg(jpeg)
+    assert np.array_equal(own.uv, fixed.uv)
+
+
+def dusk_frame_with_black_corner(seed: int) -> tuple[bytes, np.ndarray]:
+    """JPEG of 15 markers at dusk (as ``dusk_frame``) whose lower part is near black (B + G + R
+    about 5, a vignetted corner or the tool's shadow) with faint bluish blotches (B + 7 DN over
+    3 px, as the twin's JPEG leaves in its black corners), and the markers' (15, 2) visible
+    middles [px]."""
+    import cv2
+
+    rng = np.random.default_rng(seed)
+    truth = grid_centres(rng)[:15]
+    jpeg = spot_image(SHAPE, truth, RADIUS, rng, gain=0.3, noise_dn=2.0, quality=85,
+                      shadow_cols=SHAPE[1], buried=0.3)
+    img = cv2.imdecode(np.frombuffer(jpeg, np.uint8), cv2.IMREAD_COLOR).astype(np.float64)
+    img[140:] = img[140:] * 0.06 + 1
+    yy, xx = np.mgrid[0:SHAPE[0], 0:SHAPE[1]]
+    for bx, by in np.column_stack([np.arange(20, 320, 40), np.full(8, 190)]):
+        img[..., 0] += 7.0 * np.exp(-((xx - bx) ** 2 + (yy - by) ** 2) / (2 * 3.0 ** 2))
+    ok, out = cv2.imencode('.jpg', np.clip(np.round(img), 0, 255).astype(np.uint8),
+                           [cv2.IMWRITE_JPEG_QUALITY, 85])
+    assert ok
+    return out.tobytes(), truth - [0.0, 0.3 * RADIUS]
+
+
+def test_no_spot_in_near_black_pixels_under_a_lowered_floor(monkeypatch) -> None:
+    """Under the dusk frame's lowered floor the bluish blotches of a near-black corner pass the
+    threshold as ratios of noise; ``lit_peaks`` keeps only spots where the pixels reach the
+    floor: the markers, no spot in the black part."""
+    import dempath_recon.tracking.detect as detect_module
+
+    jpeg, seen = dusk_frame_with_black_corner(3)
+    assert chroma_floor(decode_jpeg(jpeg, 2)) < MIN_SUM_DN
+    kept = MarkerDetector().detect_jpeg(jpeg).uv
+    assert matched(kept, seen, 2.5)[0] >= 12 and not (kept[:, 1] > 150).any()
+    monkeypatch.setattr(detect_module, 'lit_peaks',
+                        lambda image, rows, cols, floor: np.ones(len(rows), np.bool_))
+    ungated = MarkerDetector().detect_jpeg(jpeg).uv
+    assert (ungated[:, 1] > 150).sum() >= 2, 'the rule is needed: blotches pass without it'
