@@ -31,6 +31,7 @@ GREEN = (0.22, 0.50, 0.15)
 ORANGE = (0.08, 0.35, 0.80)
 GREY_SAND = (0.45, 0.45, 0.47)
 REDDISH_SAND = (0.25, 0.42, 0.72)
+ALL = DetectorConfig(exposure_floor='all')  # the frame's floor in its detection too
 
 
 def grid_centres(rng: np.random.Generator) -> np.ndarray:
@@ -134,14 +135,14 @@ def test_dark_frames_floor_the_chroma_by_their_own_exposure() -> None:
     jpeg = dusk_frame(rng, truth)
     seen = truth - [0.0, 0.3 * RADIUS]
     assert chroma_floor(decode_jpeg(jpeg, 2)) < 0.6 * MIN_SUM_DN
-    fixed = MarkerDetector(DetectorConfig(exposure_floor=False)).detect_jpeg(jpeg).uv
-    own = MarkerDetector().detect_jpeg(jpeg).uv
+    fixed = MarkerDetector(DetectorConfig(exposure_floor='off')).detect_jpeg(jpeg).uv
+    own = MarkerDetector(ALL).detect_jpeg(jpeg).uv
     assert matched(fixed, seen, 2.5)[0] <= 5
     assert matched(own, seen, 2.5)[0] >= 0.6 * len(truth)
     assert matched(own, seen, 4.0)[1] == 0
     for seed in range(3):
         bare = dusk_frame(np.random.default_rng(seed), None)
-        assert len(MarkerDetector().detect_jpeg(bare).uv) == 0
+        assert len(MarkerDetector(ALL).detect_jpeg(bare).uv) == 0
 
 
 def test_frames_in_normal_light_keep_the_fixed_floor() -> None:
@@ -151,8 +152,8 @@ def test_frames_in_normal_light_keep_the_fixed_floor() -> None:
     truth = grid_centres(rng)
     jpeg = spot_image(SHAPE, truth, RADIUS, rng, sand_bgr=SAND, buried=0.4)
     assert chroma_floor(decode_jpeg(jpeg, 2)) == MIN_SUM_DN
-    own = MarkerDetector().detect_jpeg(jpeg)
-    fixed = MarkerDetector(DetectorConfig(exposure_floor=False)).detect_jpeg(jpeg)
+    own = MarkerDetector(ALL).detect_jpeg(jpeg)
+    fixed = MarkerDetector(DetectorConfig(exposure_floor='off')).detect_jpeg(jpeg)
     assert np.array_equal(own.uv, fixed.uv)
 
 
@@ -186,9 +187,30 @@ def test_no_spot_in_near_black_pixels_under_a_lowered_floor(monkeypatch) -> None
 
     jpeg, seen = dusk_frame_with_black_corner(3)
     assert chroma_floor(decode_jpeg(jpeg, 2)) < MIN_SUM_DN
-    kept = MarkerDetector().detect_jpeg(jpeg).uv
+    kept = MarkerDetector(ALL).detect_jpeg(jpeg).uv
     assert matched(kept, seen, 2.5)[0] >= 12 and not (kept[:, 1] > 150).any()
     monkeypatch.setattr(detect_module, 'lit_peaks',
                         lambda image, rows, cols, floor: np.ones(len(rows), np.bool_))
-    ungated = MarkerDetector().detect_jpeg(jpeg).uv
+    ungated = MarkerDetector(ALL).detect_jpeg(jpeg).uv
     assert (ungated[:, 1] > 150).sum() >= 2, 'the rule is needed: blotches pass without it'
+
+
+def test_the_faint_search_uses_the_frames_floor_by_default() -> None:
+    """By default ('faint') the frame's own detections keep the fixed floor (none of the dark
+    markers), and the faint search beside predictions finds them within 2.5 px on the frame's
+    floor (most), where with the fixed floor (and no local bar) it finds about half; none in
+    bare sand."""
+    rng = np.random.default_rng(5)
+    truth = grid_centres(rng)
+    jpeg = dusk_frame(rng, truth)
+    seen = truth - [0.0, 0.3 * RADIUS]
+    pred = seen + np.random.default_rng(1).normal(0, 1.0, seen.shape)
+    own = MarkerDetector(DetectorConfig(local_bar=False)).detect_jpeg(jpeg)
+    fixed = MarkerDetector(DetectorConfig(local_bar=False, exposure_floor='off')
+                           ).detect_jpeg(jpeg)
+    assert matched(own.uv, seen, 2.5)[0] <= 5
+    assert own.faint is not None and fixed.faint is not None
+    near = np.linalg.norm(own.faint(pred, 4.0) - seen, axis=1) < 2.5
+    assert near.mean() >= 0.8, f'{near.mean():.0%} found beside predictions'
+    assert (np.linalg.norm(fixed.faint(pred, 4.0) - seen, axis=1) < 2.5).mean() <= 0.5
+    assert not np.isfinite(own.faint(seen + [20.0, 0.0], 4.0)).all(axis=1).any()

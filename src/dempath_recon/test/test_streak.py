@@ -118,7 +118,7 @@ def test_dark_markers_are_found_beside_a_prediction_by_the_windows_noise() -> No
     the window's own noise bar finds most (within 2 px), and none in bare dark sand."""
     rng = np.random.default_rng(5)
     jpeg, visible = dark_buried_markers(rng)
-    det = MarkerDetector(DetectorConfig(exposure_floor=False)).detect_jpeg(jpeg)
+    det = MarkerDetector(DetectorConfig(exposure_floor='off')).detect_jpeg(jpeg)
     assert det.faint is not None and len(det.uv) == 0
     pred = visible + rng.normal(0, 1.0, visible.shape)
     err = np.linalg.norm(det.faint(pred, 4.0) - visible, axis=1)
@@ -131,7 +131,7 @@ def test_without_the_local_bar_dark_markers_stay_lost() -> None:
     """The rule matters: with the fixed bar only, the faint search finds few of them."""
     rng = np.random.default_rng(5)
     jpeg, visible = dark_buried_markers(rng)
-    det = MarkerDetector(DetectorConfig(local_bar=False, exposure_floor=False)).detect_jpeg(jpeg)
+    det = MarkerDetector(DetectorConfig(local_bar=False, exposure_floor='off')).detect_jpeg(jpeg)
     assert det.faint is not None
     pred = visible + rng.normal(0, 1.0, visible.shape)
     err = np.linalg.norm(det.faint(pred, 4.0) - visible, axis=1)

@@ -209,11 +209,17 @@ class DetectorConfig:
             (:func:`~dempath_recon.tracking.colour_model.frame_axis`: the light's tint and
             the camera's white balance move the sand's colour, the clay's albedo does not say
             it). Not used for blue clay.
-        exposure_floor: the chroma's denominator is floored at a share of the frame's median
-            ``B + G + R`` (between ``DARK_SUM_DN`` and ``MIN_SUM_DN``,
+        exposure_floor: where the chroma's denominator is floored at a share of the frame's
+            median ``B + G + R`` (between ``DARK_SUM_DN`` and ``MIN_SUM_DN``,
             :func:`~dempath_recon.tracking.colour_model.chroma_floor`) rather than at
-            ``MIN_SUM_DN``: a dusk frame's markers in shadow (B + G + R 25-45) keep their
-            chroma; frames whose sand sums to 100 or more are unchanged. False: ``MIN_SUM_DN``.
+            ``MIN_SUM_DN``, so that a dusk frame's markers (B + G + R 25-45) keep their chroma
+            (frames whose sand sums to 100 or more are unchanged either way): 'faint' (the
+            default) in the faint search beside a numbered track's prediction only; 'all' in
+            the frame's detection too (spots there kept only where their pixels are lit,
+            ``colour_model.lit_peaks``), which found 3.5-7 points more marker-frames on dusk
+            looks but also caps of markers 10-25 % visible, numbered wrong at the grid fit
+            (session 17, on main ca95c75: 23 tuning looks 14 -> 19 wrong-pair points); 'off':
+            ``MIN_SUM_DN`` everywhere.
     """
 
     downscale: int = 2
@@ -235,7 +241,7 @@ class DetectorConfig:
     split_wide: bool = True
     marker_bgr: tuple[float, float, float] | None = None
     sand_bgr: tuple[float, float, float] | None = None
-    exposure_floor: bool = True
+    exposure_floor: str = 'faint'
 
     def __post_init__(self) -> None:
         checks = {'downscale': self.downscale in (1, 2), 'threshold': 0 < self.threshold < 1,
@@ -248,7 +254,8 @@ class DetectorConfig:
                   'up_px': len(self.up_px) == 2 and bool(np.isfinite(self.up_px).all())
                   and (tuple(self.up_px) == (0.0, 0.0)
                        or abs(float(np.hypot(*self.up_px)) - 1) < 1e-6),
-                  'view_elevation_deg': 0 <= self.view_elevation_deg <= 90}
+                  'view_elevation_deg': 0 <= self.view_elevation_deg <= 90,
+                  'exposure_floor': self.exposure_floor in ('off', 'faint', 'all')}
         for name, ok in checks.items():
             if not ok:
                 msg = f'{name}: out of range, got {getattr(self, name)!r}'
@@ -346,7 +353,9 @@ class MarkerDetector:
         if s == 2 and not prescaled:
             image = np.asarray(cv2.resize(image, (image.shape[1] // 2, image.shape[0] // 2),
                                           interpolation=cv2.INTER_AREA), np.uint8)
-        floor = chroma_floor(image) if self.config.exposure_floor else MIN_SUM_DN
+        mode = self.config.exposure_floor
+        frame_floor = MIN_SUM_DN if mode == 'off' else chroma_floor(image)
+        floor = frame_floor if mode == 'all' else MIN_SUM_DN
         axis = frame_axis(image, self.config.marker_bgr, self.config.sand_bgr)
         thr = self.threshold_for(image, floor, axis)
         ox, oy, c = self._window(image, thr, floor, axis)
@@ -356,7 +365,7 @@ class MarkerDetector:
         low = min(self.config.faint_threshold, thr)
         if len(rows) == 0:
             return Detections.empty()._replace(
-                faint=partial(self._faint, image, low, (floor, axis), np.zeros((0, 2)))
+                faint=partial(self._faint, image, low, (frame_floor, axis), np.zeros((0, 2)))
                 if low > 0 else None)
         uv, size, strength, mass = self._refine(c, rows, cols, thr)
         centre, parted = None, None
@@ -381,7 +390,8 @@ class MarkerDetector:
         full = (uv[ok] + 0.5) * s - 0.5  # half-size pixel centre i -> full-size 2i + 0.5
         size = size[ok] * s
         crowded = size > CROWDED_SIZE * diameter if diameter > 0 else None
-        faint = partial(self._faint, image, low, (floor, axis), full) if low > 0 else None
+        faint = partial(self._faint, image, low, (frame_floor, axis), full) if low > 0 \
+            else None
         if centre is not None:
             centre = (centre[ok] + 0.5) * s - 0.5
         return Detections(full, conf[ok], size, crowded, faint, centre,
