@@ -213,4 +213,4 @@ def test_the_faint_search_uses_the_frames_floor_by_default() -> None:
     near = np.linalg.norm(own.faint(pred, 4.0) - seen, axis=1) < 2.5
     assert near.mean() >= 0.8, f'{near.mean():.0%} found beside predictions'
     assert (np.linalg.norm(fixed.faint(pred, 4.0) - seen, axis=1) < 2.5).mean() <= 0.5
-    assert not np.isfinite(own.faint(seen + [20.0, 0.0], 4.0)).all(axis=1).any()
+    assert not np.isfinite(own.faint(seen + np.array([20.0, 0.0]), 4.0)).all(axis=1).any()
