@@ -8,7 +8,8 @@ stamp order), ``cut_discs`` (the image model of touching, partly covered markers
 the frame's chroma floor), ``detect`` (marker spots in one image), ``shake`` (each frame's image
 motion from the view's fixed parts), ``linker`` (one camera's tracks),
 ``associate`` (the marker grid, epipolar geometry, the markers' 3D positions), ``records``
-(settings, numbered frames, counts), ``release`` (the publication delay), ``trajectories``
+(settings, numbered frames, counts), ``release`` (the publication delay), ``publish_gate``
+(numbered points whose pair's 3D point jumps withheld as they go out), ``trajectories``
 (numbered tracks to 3D), ``state`` (the tracker's state, one record), ``link_guide`` (the
 other camera inside the 2D link: links barred off the epipolar line, spots that may hold two
 markers), ``one_camera``,

@@ -66,6 +66,9 @@ class StereoTrackConfig:
             calibration (``DetectorConfig.up_px``, unless that is set), so a partly covered
             marker's centre is its disc's, not the middle of its visible part
             (:mod:`~dempath_recon.tracking.covered`). False: centroids as found.
+        publish_gate: withhold, as frames are given out, a numbered point whose pair's 3D
+            point jumps away from where the marker's neighbours' motion puts it
+            (:mod:`~dempath_recon.tracking.publish_gate`; the grid engine only).
     """
 
     detector: DetectorConfig = field(default_factory=DetectorConfig)
@@ -84,6 +87,7 @@ class StereoTrackConfig:
     shake: bool = True
     engine: str = 'grid'
     uncover: bool = True
+    publish_gate: bool = True
 
     def __post_init__(self) -> None:
         if self.engine not in ENGINES:
@@ -148,6 +152,7 @@ class CameraCounts:
     revoked: int = 0
     confirmed_late: int = 0  # points withheld for the other camera, given out once it confirmed
     merged: int = 0  # numbered points withheld: a neighbour lost beside them may share the spot
+    gated: int = 0  # numbered points withheld as given out: their pair's 3D point jumped away
     shake_frames: int = 0  # frames whose image moved by more than 0.5 px (corrected)
     shake_max_px: float = 0.0  # largest estimated image shift [px]
     shake_unknown: int = 0  # frames whose image motion could not be estimated (not corrected)

@@ -54,6 +54,7 @@ from dempath_recon.tracking.numbering import (
 from dempath_recon.tracking.pair_checks import verify
 from dempath_recon.tracking.pair_numbering import number_pairs
 from dempath_recon.tracking.parted import flagged, revoke_at_parting
+from dempath_recon.tracking.publish_gate import PublicationGate
 from dempath_recon.tracking.ray_numbering import number_by_ray
 from dempath_recon.tracking.records import CameraCounts, PixelFrame, StereoTrackConfig
 from dempath_recon.tracking.release import HeldFrame, fill_confirmed, renumber
@@ -94,6 +95,8 @@ class StereoMarkerTracker:
         self.joint = JointStereoTracker(cameras, self.state.config, self.state.counts,
                                         self.state.last_stamp) \
             if self.state.config.engine == 'joint' else None
+        self.gate = PublicationGate(cameras, self.state.config.fps) \
+            if self.state.config.publish_gate and self.joint is None else None
         # the tracks linked to a crowded spot (two markers) in each camera's last frame
         self._crowded: dict[str, set[int]] = {c: set() for c in cameras}
         # each camera's latest frames' shifts against its first frame, by stamp (for release)
@@ -285,7 +288,17 @@ class StereoMarkerTracker:
                                        state.config.fps)
         state.counts[held.camera].numbered_late += late
         state.counts[held.camera].confirmed_late += filled
-        return self._reanchor(frame)
+        frame = self._reanchor(frame)
+        if self.gate is None:
+            return frame
+        frame, gated = self.gate.check(frame)
+        if gated:
+            state.counts[held.camera].gated += len(gated)
+            frame = frame._replace(events=frame.events + tuple(
+                f'{held.camera}: marker {m} withheld at {frame.stamp_s:.3f} s: its pair does '
+                'not fit (its 3D point jumped unlike its neighbours, or reprojects far off)'
+                for m in gated))
+        return frame
 
     def _reanchor(self, frame: PixelFrame) -> PixelFrame:
         """A frame given out later, its shake taken off against the calibration's view as
