@@ -92,6 +92,8 @@ PARAMETERS: tuple[tuple[str, Any, str], ...] = (
                             'on the parts of the view that do not move (tracking/shake.py)'),
     ('marker_bgr', '', "the markers' clay albedo B,G,R (0..1 each, e.g. '0.15,0.18,0.62' for "
                        "red clay); '': blue clay (tracking/colour_model.py)"),
+    ('publish_gate', True, "lossless: withhold a numbered point whose pair's 3D point jumps "
+                           "unlike its neighbours' motion (tracking/publish_gate.py)"),
     ('scene', '', "scene file or shipped scene name whose markers: block gives the marker grid "
                   "(overrides the marker_* parameters); '': the marker_* parameters"),
     ('marker_rows', 3, 'rows of the marker grid (row 0 on the tool axis; the paper: 3)'),
@@ -149,7 +151,8 @@ class DetectorNode(Node):
         self.core = StereoMarkerTracker(_load_cameras(str(p['calibration_file'])),
                                         StereoTrackConfig(grid=_grid(p),
                                                           shake=bool(p['correct_shake']),
-                                                          detector=_detector(p)))
+                                                          detector=_detector(p),
+                                                          publish_gate=bool(p['publish_gate'])))
         if self.camera not in self.core.cameras:
             msg = f'camera: {self.camera!r} not in the calibration ({sorted(self.core.cameras)})'
             raise ReconstructionError(msg)
