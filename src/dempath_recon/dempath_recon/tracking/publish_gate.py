@@ -190,8 +190,11 @@ class PublicationGate:
                 predicted = x1 + np.median(np.array(moves), axis=0)
             elif stamp_s - t1 <= 1.5 * self.period_s:  # no neighbour: its own motion, unbroken
                 predicted = x1
-                if len(hist.times) > 1 and 0 < t1 - hist.times[-2] <= 1.5 * self.period_s:
-                    predicted = x1 + (x1 - hist.xyz[-2]) * (stamp_s - t1) / (t1 - hist.times[-2])
+                # its velocity over about a frame period (the two cameras' points a few ms
+                # apart would multiply their noise)
+                j = bisect_left(hist.times, t1 - 0.75 * self.period_s) - 1
+                if j >= 0 and t1 - hist.times[j] <= 2.0 * self.period_s:
+                    predicted = x1 + (x1 - hist.xyz[j]) * (stamp_s - t1) / (t1 - hist.times[j])
             if predicted is None:  # back after a gap with no neighbour to say how far it went
                 hist = self._accepted[marker] = _History()
             elif np.linalg.norm(xyz - predicted) > cfg.gate_m \
