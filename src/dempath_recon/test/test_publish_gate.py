@@ -77,3 +77,22 @@ def test_marker_moving_unlike_its_neighbours_goes_out_again(rig) -> None:
     assert all(out[(k, c)] for k in range(10, 16) for c in ('cam_side', 'cam_front'))
     stuck = published(rig, moved, GateConfig(reseed_s=10.0))
     assert not any(stuck[(k, c)] for k in range(7, 16) for c in ('cam_side', 'cam_front'))
+
+
+def test_lone_marker_with_noisy_pixels_goes_out(rig) -> None:
+    """A marker with no neighbour within ``neighbour_m`` moving at 0.3 m/s, its pixels off by
+    1 px (seeded): its own velocity, taken over a frame period, predicts it, so every pair goes
+    out (a velocity between the two cameras' points 3 ms apart multiplies their noise about
+    six times and withholds some)."""
+    cams = {c.name: c for c in rig.cameras}
+    rng = np.random.default_rng(3)
+    gate = PublicationGate(cams, 1 / DT, GateConfig())
+    start, velocity = np.array([0.0, 0.0, -0.05]), np.array([0.0, 0.0, 0.3])
+    went_out = []
+    for k in range(40):
+        for name, t in (('cam_side', k * DT), ('cam_front', k * DT + OFFSET)):
+            uv = cams[name].project((start + velocity * t)[None]) + rng.normal(0, 1.0, (1, 2))
+            checked, _ = gate.check(PixelFrame(name, t, np.array([1], np.int32), uv,
+                                               np.ones(1), ()))
+            went_out.append(int(checked.markers[0]) == 1)
+    assert all(went_out)
