@@ -9,25 +9,24 @@ not make.
 
 :class:`PublicationGate` sees the frames as they are given out (both cameras, in order). For a
 numbered point it takes the other camera's latest point with that number (within 1.5 frame
-periods, moved to this frame's stamp by its 2D velocity), triangulates the pair, and predicts
-where the marker should be: its last accepted 3D point moved by the median motion, over the same
-interval, of the markers that lay within ``neighbour_m`` of it. A marker with no such neighbour is
-not predicted: its own velocity can change at once (the tool strikes it: 14 mm off its own
-velocity in one frame on the bundled render), and a marker back from under the sand may have
-moved anywhere the other checks allow. A pair
-farther than ``gate_m`` from that prediction is withheld (its number taken off the point), and
-the marker's history stays at the last accepted point. A run of withheld pairs longer than
-``reseed_s`` whose points follow each other smoothly is taken to be the marker after all (a
-marker near the tool can move unlike its neighbours): the run becomes its history and the pair
-goes out. After ``stale_s`` without an accepted point the history is dropped and the next pair
-starts it again. A marker's first pair, and a point whose other camera has no recent point with
-its number, pass unchecked.
+periods, moved to this frame's stamp by its 2D velocity) and triangulates the pair. The point is
+withheld (its number taken off) when the pair reprojects more than ``residual_px`` off (one view
+holds another marker), or when its 3D point lies more than ``gate_m`` from the marker's last
+accepted 3D point moved by the median motion, over the same interval, of the markers that lay
+within ``neighbour_m`` of it. The marker's history then stays at its last accepted point, so a
+run of such pairs stays withheld; a run longer than ``reseed_s`` whose points follow each other
+smoothly is the marker after all (near the tool a marker can move unlike its neighbours): the run
+becomes its history and the pair goes out. A marker with no such neighbour is not predicted: its
+own velocity can change at once (the tool strikes it), and a marker back from under the sand may
+have moved anywhere the other checks allow. After ``stale_s`` without an accepted point the
+history starts again. A marker's first pair, and a point whose other camera has no recent point
+with its number, pass unchecked.
 
 Measured on the tuning looks (session 17, track14): a wrong pair's first 3D point after a jump
-lies 13-21 mm off this prediction, a right one's 99th percentile 7 mm (most 1 mm). Wrong stretches
-that start with the marker's first pair, or last longer than ``reseed_s``, are not caught. Live,
-where a tracker gives out one camera's frames only, the gate sees no pairs and passes
-everything.
+lies 16-21 mm off this prediction, a right one's 99th percentile 7 mm (all within 12.3 mm). Wrong
+stretches that start with the marker's first pair, or last longer than ``reseed_s``, are not
+caught. Live, where a tracker gives out one camera's frames only, the gate sees no pairs and
+passes everything.
 """
 
 from __future__ import annotations
