@@ -95,7 +95,8 @@ class MarkerGrid:
 
 
 def number_by_grid(camera: Camera, uv: FloatArray, grid: MarkerGrid, gate_px: float = 12.0,
-                   wary: bool = False) -> tuple[NDArray[np.int32], FloatArray]:
+                   wary: bool = False, shift_px: FloatArray | None = None,
+                   ) -> tuple[NDArray[np.int32], FloatArray]:
     """Marker number of each detection (n, 2) px by the projected grid (-1 = none, or unsure).
 
     The projected grid is shifted by the image translation on which the grid points fit the
@@ -120,16 +121,18 @@ def number_by_grid(camera: Camera, uv: FloatArray, grid: MarkerGrid, gate_px: fl
         return out, proj
     offsets = (uv[:, None, :] - proj[None, :, :]).reshape(-1, 2)
     best, shift = -1.0, np.zeros(2, np.float64)
-    for off in offsets:
+    if shift_px is not None:  # no vote
+        shift = np.asarray(shift_px, np.float64).reshape(2)
+    for off in offsets if shift_px is None else ():
         score = grid_score(proj + off, uv, gate_px)
         if score > best:
             best, shift = score, np.asarray(off, np.float64).reshape(2)
-    if wary and max((grid_score(proj + shift + v, uv, gate_px)
+    if wary and shift_px is None and max((grid_score(proj + shift + v, uv, gate_px)
                      for v in pitch_steps(proj, xyz)), default=-1.0) > best - SHIFT_MARGIN:
         return out, proj + shift  # a fit one pitch over scores nearly as well: wait
     near = np.linalg.norm(proj[:, None, :] + shift - uv[None, :, :], axis=2)
     inside = near[near.min(axis=1) < gate_px]
-    if len(inside):  # refine the shift by the mean residual of the matched points
+    if len(inside) and shift_px is None:  # refine the shift by the matched points' residual
         shift = shift + np.mean(uv[inside.argmin(axis=1)] - (proj + shift)[near.min(axis=1)
                                                                            < gate_px], axis=0)
     cost = np.linalg.norm(proj[:, None, :] + shift - uv[None, :, :], axis=2)

@@ -23,6 +23,7 @@ from dempath_recon.tracking.associate import (
 from dempath_recon.tracking.grid_pairs import pairs_by_grid
 from dempath_recon.tracking.linker import UNNUMBERED
 from dempath_recon.tracking.one_camera import grid_anchor, late_grid, lost_nearby
+from dempath_recon.tracking.pair_anchor import pair_shift, vote_contradicted
 from dempath_recon.tracking.state import (
     MAX_DEPTH_AGE_S,
     RECENT_S,
@@ -116,9 +117,14 @@ def number_both_by_grid(state: StereoState, camera: str, track_ids: NDArray[np.i
         for tid, m in zip(ids, nums, strict=True):
             if m >= 0:
                 state.trackers[cam].number(int(tid), int(m))
-        state.grid_uv[cam] = dict(zip(state.config.grid.points()[0].tolist(), number_by_grid(
-            state.cameras[cam], pts, state.config.grid, state.config.grid_gate_px)[1],
-            strict=True))
+        voted, grid_uv = number_by_grid(state.cameras[cam], pts, state.config.grid,
+                                        state.config.grid_gate_px)
+        if vote_contradicted(voted, nums):  # the fitted grid points where the pairs put them
+            grid_uv = number_by_grid(state.cameras[cam], pts, state.config.grid,
+                                     state.config.grid_gate_px, shift_px=pair_shift(
+                                         state.cameras[cam], pts, nums, state.config.grid))[1]
+        state.grid_uv[cam] = dict(zip(state.config.grid.points()[0].tolist(), grid_uv,
+                                      strict=True))
     for m, p in zip(theirs, uv_o, strict=True):
         if m >= 0:
             state.latest[other][int(m)] = (t_o, p)
@@ -140,6 +146,8 @@ def one_camera_grid(state: StereoState, camera: str, uv: FloatArray, numbers: ND
     taken (-1: none), which :func:`number_grid_unsure` may give it later."""
     single, _ = number_by_grid(state.cameras[camera], uv, state.config.grid,
                                state.config.grid_gate_px)
+    if vote_contradicted(single, numbers):  # the pairs say the vote slipped: no grid numbers
+        single = np.full(len(uv), UNNUMBERED, np.int32)
     line = epipolar_distance(state.cameras[camera], state.cameras[state.other(camera)], uv,
                              uv_o) <= state.config.epipolar_px if len(uv_o) and len(uv) \
         else np.zeros((len(uv), len(uv_o)), bool)

@@ -1,0 +1,57 @@
+"""Where one camera's projected grid sits in its image, told by the spots both cameras numbered.
+
+A camera numbers the markers only it sees by its own projected grid (the grid shifted by the
+image translation most grid points vote for, :func:`~dempath_recon.tracking.associate.
+number_by_grid`). Where the view packs the grid's rows 13-15 px apart and a third of the
+markers are not found (grey sand, light blue clay of little contrast), that vote can land one
+pitch over: on a render of grey sand with light blue clay (hidden seed 33, JPEG 70) the front
+camera's vote put its one-camera spots one row off (markers 1, 2 and 7 numbered 2, 3 and 8
+from the first frame to the last) while the spots it had numbered with the side camera,
+triangulated and matched to the grid in 3D, sat each at its own grid point, and the vote
+numbered one of those one marker off too.
+
+So the pairs check the vote (:func:`vote_contradicted`): where, among the spots both number,
+more disagree than agree, the vote's numbers are not given, and the grid points later
+numbering looks at (a marker this camera never saw, appearing alone at its fitted grid point)
+are placed by the pairs instead (:func:`pair_shift`: the median of each numbered spot's offset
+from its projected grid point, the grid's image shift plus that marker's own 5-10 px where the
+bed moved it). Placing the grid by the pairs always, not only against a contradicted vote, cost
+26 tuning looks 78.79 -> 78.12 % numbered right, switches 60 -> 66, wrong pairs 14 -> 17: the
+vote, where the pairs do not contradict it, fits the one-camera spots better.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from dempath_recon.methods.triangulate import Camera
+from dempath_recon.tracking.associate import MarkerGrid
+
+FloatArray = NDArray[np.float64]
+MIN_ANCHORS = 2  # numbered spots needed to place the grid by the pairs
+
+
+def pair_shift(camera: Camera, uv: FloatArray, numbers: NDArray[np.int32],
+               grid: MarkerGrid) -> FloatArray | None:
+    """(2,) px the image shift of ``camera``'s projected grid on which its (n, 2) spots ``uv``
+    numbered by both cameras (``numbers``, -1: not numbered) sit at their grid points (the
+    median of their offsets), or None when fewer than ``MIN_ANCHORS`` are numbered."""
+    ids, xyz = grid.points()
+    row = {int(m): k for k, m in enumerate(ids.tolist())}
+    have = [i for i, m in enumerate(numbers.tolist()) if m >= 0 and m in row]
+    if len(have) < MIN_ANCHORS:
+        return None
+    proj = np.asarray(camera.project(xyz), np.float64)  # type: ignore[attr-defined]
+    off = uv[have] - proj[[row[int(numbers[i])] for i in have]]
+    return np.asarray(np.median(off, axis=0), np.float64)
+
+
+def vote_contradicted(voted: NDArray[np.int32], paired: NDArray[np.int32]) -> bool:
+    """Whether one camera's own grid vote (``voted``: each spot's number by it, -1: none) is
+    contradicted by the numbers its spots took with the other camera (``paired``): among the
+    spots both number, more disagree than agree (the vote slipped a pitch; its numbers for the
+    spots only this camera sees would be one marker off)."""
+    both = (voted >= 0) & (paired >= 0)
+    differ = int((voted[both] != paired[both]).sum())
+    return differ > int(both.sum()) - differ
