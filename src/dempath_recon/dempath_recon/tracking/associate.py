@@ -119,22 +119,13 @@ def number_by_grid(camera: Camera, uv: FloatArray, grid: MarkerGrid, gate_px: fl
     out = np.full(len(uv), -1, np.int32)
     if len(uv) == 0:
         return out, proj
-    offsets = (uv[:, None, :] - proj[None, :, :]).reshape(-1, 2)
-    best, shift = -1.0, np.zeros(2, np.float64)
-    if shift_px is not None:  # no vote
+    shift: FloatArray
+    if shift_px is not None:  # placed by the caller (pair_anchor): no vote, no refinement
         shift = np.asarray(shift_px, np.float64).reshape(2)
-    for off in offsets if shift_px is None else ():
-        score = grid_score(proj + off, uv, gate_px)
-        if score > best:
-            best, shift = score, np.asarray(off, np.float64).reshape(2)
-    if wary and shift_px is None and max((grid_score(proj + shift + v, uv, gate_px)
-                     for v in pitch_steps(proj, xyz)), default=-1.0) > best - SHIFT_MARGIN:
-        return out, proj + shift  # a fit one pitch over scores nearly as well: wait
-    near = np.linalg.norm(proj[:, None, :] + shift - uv[None, :, :], axis=2)
-    inside = near[near.min(axis=1) < gate_px]
-    if len(inside) and shift_px is None:  # refine the shift by the matched points' residual
-        shift = shift + np.mean(uv[inside.argmin(axis=1)] - (proj + shift)[near.min(axis=1)
-                                                                           < gate_px], axis=0)
+    else:
+        shift, wait = _voted_shift(proj, xyz, uv, gate_px, wary)
+        if wait:
+            return out, proj + shift  # a fit one pitch over scores nearly as well: wait
     cost = np.linalg.norm(proj[:, None, :] + shift - uv[None, :, :], axis=2)
     rows, cols = linear_sum_assignment(np.where(cost < gate_px, cost, 1e9))
     margin = gate_px / 2
@@ -146,6 +137,29 @@ def number_by_grid(camera: Camera, uv: FloatArray, grid: MarkerGrid, gate_px: fl
         if (others_g >= cost[r, c] + margin).all() and (others_d >= cost[r, c] + margin).all():
             out[c] = numbers[r]
     return out, proj + shift
+
+
+def _voted_shift(proj: FloatArray, xyz: FloatArray, uv: FloatArray, gate_px: float,
+                 wary: bool) -> tuple[FloatArray, bool]:
+    """(2,) px the image shift of the projected grid ``proj`` (m, 2) that the detections ``uv``
+    (n, 2) vote for (:func:`number_by_grid`), refined by the matched points' mean residual, and
+    whether a ``wary`` fit must wait (the grid one pitch over scores within ``SHIFT_MARGIN``;
+    the shift is then the unrefined best one)."""
+    offsets = (uv[:, None, :] - proj[None, :, :]).reshape(-1, 2)
+    best, shift = -1.0, np.zeros(2, np.float64)
+    for off in offsets:
+        score = grid_score(proj + off, uv, gate_px)
+        if score > best:
+            best, shift = score, np.asarray(off, np.float64).reshape(2)
+    if wary and max((grid_score(proj + shift + v, uv, gate_px)
+                     for v in pitch_steps(proj, xyz)), default=-1.0) > best - SHIFT_MARGIN:
+        return shift, True
+    near = np.linalg.norm(proj[:, None, :] + shift - uv[None, :, :], axis=2)
+    inside = near[near.min(axis=1) < gate_px]
+    if len(inside):  # refine the shift by the matched points' residual
+        shift = shift + np.mean(uv[inside.argmin(axis=1)] - (proj + shift)[near.min(axis=1)
+                                                                           < gate_px], axis=0)
+    return shift, False
 
 
 SHIFT_MARGIN = 1.0  # a grid fit is refused when one shifted by a pitch scores within this much
