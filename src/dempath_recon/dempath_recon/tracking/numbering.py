@@ -23,7 +23,7 @@ from dempath_recon.tracking.associate import (
 from dempath_recon.tracking.grid_pairs import pairs_by_grid
 from dempath_recon.tracking.linker import UNNUMBERED
 from dempath_recon.tracking.one_camera import grid_anchor, late_grid, lost_nearby
-from dempath_recon.tracking.pair_anchor import pair_shift, vote_contradicted
+from dempath_recon.tracking.pair_anchor import drop_contested, pair_shift, vote_contradicted
 from dempath_recon.tracking.state import (
     MAX_DEPTH_AGE_S,
     RECENT_S,
@@ -82,7 +82,9 @@ def number_both_by_grid(state: StereoState, camera: str, track_ids: NDArray[np.i
     two markers along one line of sight, :func:`~dempath_recon.tracking.grid_pairs.pairs_by_grid`)
     is refused both numbers for its track: later numbering by the epipolar line would pick
     between them by grid points the markers have left (on three tuning renders it gave a
-    front spot of 12 the number 13, 14 frames each)."""
+    front spot of 12 the number 13, 14 frames each). A pair whose number the provisional
+    camera's own grid gave its spot differently is not given (a ghost pair:
+    :func:`~dempath_recon.tracking.pair_anchor.drop_contested`)."""
     other = state.other(camera)
     last = state.last_tracks[other]
     if last is None or abs(last[0] - stamp_s) > 1.5 / state.config.fps or not len(last[1]):
@@ -102,6 +104,10 @@ def number_both_by_grid(state: StereoState, camera: str, track_ids: NDArray[np.i
                                    (other, ids_o, theirs, fit.merged_b)):
         state.refused[cam] |= {(int(ids[i]), m) for i, ms in merged.items() for m in ms
                                if m != nums[i]}
+    if other in state.provisional:  # the numbers it gave out alone check the pairs
+        own = {t.track_id: t.marker for t in state.trackers[other].tracks}
+        mine, theirs = drop_contested(mine, theirs, np.array(
+            [own.get(int(t), UNNUMBERED) for t in ids_o], np.int32), camera, other, events)
     alone, unsure = one_camera_grid(state, camera, uv, mine, uv_o, theirs)
     theirs, unsure_o = one_camera_grid(state, other, uv_o, theirs, uv, mine)
     mine = alone
@@ -348,4 +354,3 @@ def pick(state: StereoState, camera: str, track_id: int, uv: FloatArray,
     events.append(f'{camera}: track {track_id} numbered marker {fits[0]} by the epipolar '
                   'line')
     return fits[0]
-
