@@ -5,6 +5,7 @@ frames (light x0.5, 12 ms, JPEG 70) and on plain numbers."""
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -16,6 +17,9 @@ from dempath_recon.tracking.detect import Detections
 from dempath_recon.tracking.pair_anchor import drop_contested
 from dempath_recon.tracking.stereo import StereoMarkerTracker, StereoTrackConfig
 
+sys.path.insert(0, str(Path(__file__).parent))
+from test_pair_anchor import owner
+
 DATA = Path(__file__).parent / 'data' / 'faint_first_frames.json'
 
 
@@ -23,13 +27,6 @@ def look() -> dict[str, Any]:
     """The render's cameras, grid and first frame of each camera (detections and truth)."""
     out: dict[str, Any] = json.loads(DATA.read_text())
     return out
-
-
-def owner(frame: dict[str, Any], ids: list[int]) -> np.ndarray:
-    """(n,) the marker whose true centre lies within 3 px of each detection (-1: none)."""
-    uv, true = np.array(frame['uv']), np.array(frame['true_uv'])
-    d = np.linalg.norm(uv[:, None] - true[None], axis=2)
-    return np.where(d.min(axis=1) < 3.0, np.array(ids)[d.argmin(axis=1)], -1)
 
 
 def numbered(tracker: StereoMarkerTracker, frame: dict[str, Any],
