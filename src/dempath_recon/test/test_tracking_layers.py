@@ -12,8 +12,9 @@ ROOM = Path(dempath_recon.tracking.__file__).parent
 # Bottom to top: a module may import the modules before it, never one after it.
 ORDER = ('merge', 'cut_discs', 'split', 'covered', 'streak', 'colour_model', 'detect', 'shake',
          'linker', 'associate', 'grid_pairs', 'pair_anchor', 'records', 'release',
-         'publish_gate', 'trajectories', 'state', 'link_guide', 'parted', 'one_camera',
-         'numbering', 'pair_checks', 'pair_numbering', 'ray_numbering', 'stereo')
+         'publish_gate', 'trajectories', 'state', 'held_line', 'link_guide', 'parted',
+         'one_camera', 'numbering', 'pair_checks', 'pair_numbering', 'track_pairs',
+         'ray_numbering', 'stereo')
 
 
 def imported_modules(path: Path) -> set[str]:

@@ -10,10 +10,12 @@ motion from the view's fixed parts), ``linker`` (one camera's tracks),
 ``associate`` (the marker grid, epipolar geometry, the markers' 3D positions), ``records``
 (settings, numbered frames, counts), ``release`` (the publication delay), ``publish_gate``
 (numbered points whose pair's 3D point jumps withheld as they go out), ``trajectories``
-(numbered tracks to 3D), ``state`` (the tracker's state, one record), ``link_guide`` (the
+(numbered tracks to 3D), ``state`` (the tracker's state, one record), ``held_line`` (whether
+two tracks held on each other's epipolar line over their common frames), ``link_guide`` (the
 other camera inside the 2D link: links barred off the epipolar line, spots that may hold two
 markers), ``one_camera``,
-``numbering``, ``pair_checks``, ``pair_numbering``, ``ray_numbering`` (functions on that
+``numbering``, ``pair_checks``, ``pair_numbering``, ``track_pairs`` (an unnumbered track
+decided again by a partner held on its line), ``ray_numbering`` (functions on that
 record), ``stereo``
 (:class:`~dempath_recon.tracking.stereo.StereoMarkerTracker`, the pipeline, and
 ``track_bag``).

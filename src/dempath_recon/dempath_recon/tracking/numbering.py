@@ -104,6 +104,8 @@ def number_both_by_grid(state: StereoState, camera: str, track_ids: NDArray[np.i
                                    (other, ids_o, theirs, fit.merged_b)):
         state.refused[cam] |= {(int(ids[i]), m) for i, ms in merged.items() for m in ms
                                if m != nums[i]}
+        state.fit_merged[cam] = {int(ids[i]): {m for m in ms if m != nums[i]}
+                                 for i, ms in merged.items()}
     if other in state.provisional:  # the numbers it gave out alone check the pairs
         own = {t.track_id: t.marker for t in state.trackers[other].tracks}
         mine, theirs = drop_contested(mine, theirs, np.array(

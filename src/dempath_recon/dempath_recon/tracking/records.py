@@ -139,6 +139,7 @@ class CameraCounts:
     numbered_by_grid_late: int = 0
     numbered_by_pair: int = 0
     numbered_by_ray: int = 0
+    numbered_by_track_pair: int = 0  # numbered by a partner held on their line (track_pairs)
     numbered_late: int = 0
     unnumbered: int = 0
     epipolar_conflicts: int = 0

@@ -58,6 +58,9 @@ class StereoState:
         grid_unsure: per camera, track id -> the grid number it was left without at the grid
             fit because a spot of the other camera lay on its line
             (``numbering.number_grid_unsure``).
+        fit_merged: per camera, track id -> the markers the grid fit refused it as a merged
+            spot (two markers along one line of sight); ``track_pairs`` may give one of them
+            later, by depth.
         confirmed: per camera, track id -> stamp of the track's last passed pair check [s]
             (a point it withheld before then, unbroken since, goes out numbered).
         free: each camera's last frame's unnumbered tracks: (stamp s, track ids (k,),
@@ -85,6 +88,7 @@ class StereoState:
     pending: dict[str, dict[int, Sighting]]
     confirmed: dict[str, dict[int, float]]
     grid_unsure: dict[str, dict[int, int]]
+    fit_merged: dict[str, dict[int, set[int]]]
     free: dict[str, tuple[float, NDArray[np.int64], FloatArray] | None]
     queue: ReleaseQueue
     residuals: dict[str, list[float]]
@@ -105,7 +109,7 @@ class StereoState:
             last_stamp=dict.fromkeys(cameras), grid_uv={}, grid_time={},
             late_numbered={n: set() for n in cameras}, refused={n: set() for n in cameras},
             pending={n: {} for n in cameras}, confirmed={n: {} for n in cameras},
-            grid_unsure={n: {} for n in cameras},
+            grid_unsure={n: {} for n in cameras}, fit_merged={n: {} for n in cameras},
             free=dict.fromkeys(cameras),
             queue=ReleaseQueue(cameras, config.number_delay_frames),
             residuals={n: [] for n in cameras}, last_tracks=dict.fromkeys(cameras),

@@ -20,7 +20,9 @@ The tracker's parts live beside it in this room: its state, one record (``state`
 numbering of a camera's tracks by the grid and the epipolar lines (``numbering``), the checks on
 one camera's evidence (``one_camera``), the pair checks before anything is given out
 (``pair_checks``), the numbering of a marker back in both cameras as a pair
-(``pair_numbering``), the publication delay (``release``) and the records (``records``).
+(``pair_numbering``), the numbering of a track left unnumbered by a track of the other camera
+that held on its epipolar line over several frames (``track_pairs``), the publication delay
+(``release``) and the records (``records``).
 """
 
 from __future__ import annotations
@@ -66,6 +68,7 @@ from dempath_recon.tracking.state import (
     report,
     unnumbered_tracks,
 )
+from dempath_recon.tracking.track_pairs import number_by_track_pairs
 from dempath_recon.tracking.trajectories import marker_histories, triangulate_tracks
 
 __all__ = ['CameraCounts', 'PixelFrame', 'StereoMarkerTracker', 'StereoTrackConfig',
@@ -232,6 +235,8 @@ class StereoMarkerTracker:
         markers = number_grid_unsure(state, camera, tf.track_ids, markers, tf.uv, stamp_s,
                                      events)
         markers = number_pairs(state, camera, tf.track_ids, markers, tf.uv, stamp_s, events)
+        markers = number_by_track_pairs(state, camera, tf.track_ids, markers, tf.uv, stamp_s,
+                                        events)
         if state.config.ray_numbering:
             markers = number_by_ray(state, camera, tf.track_ids, markers, tf.uv, stamp_s,
                                     events)
