@@ -179,3 +179,25 @@ def test_a_pair_holds_on_the_line_by_the_look_s_own_residuals(rig) -> None:
     state.residuals['cam_side'] = [1.2] * 10
     assert held_on_line(state, wide)
     assert not held_on_line(state, np.array([0.3, 0.5, 4.5, 0.4]))
+
+
+def test_a_spot_waits_while_a_marker_neither_camera_holds_is_carried_beside_it(rig) -> None:
+    """``track_pairs._missing_beside``: marker 7, in the grid 25 mm behind 2 on the front's
+    line of sight and found by neither camera, is carried by the bed (with 1-6) to 2's spot
+    in the front: 2's spot may hold 7 too. Marker 4's spot has no such neighbour; and a
+    marker this camera holds elsewhere does not count."""
+    from dempath_recon.tracking.track_pairs import _missing_beside
+
+    two = np.array(GRID6[1])
+    ray = two - _centre(rig.cameras[1])
+    seven = two + 0.025 * ray / np.linalg.norm(ray)
+    scene = [([np.array(g) + k * STEP for g in GRID6],) * 2 for k in range(6)]
+    _, tracker = _run(rig, scene, seven)
+    front = rig.cameras[1]
+    last = len(scene) - 1
+    stamp = last * DT + OFFSET
+    at_two, at_four = front.project(np.array([two, GRID6[3]]) + last * STEP)
+    held = {1, 2, 3, 4, 5, 6}
+    assert _missing_beside(tracker.state, 'cam_front', 2, at_two, stamp, held)
+    assert not _missing_beside(tracker.state, 'cam_front', 4, at_four, stamp, held)
+    assert not _missing_beside(tracker.state, 'cam_front', 2, at_two, stamp, held | {7})

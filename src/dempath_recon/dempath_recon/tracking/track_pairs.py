@@ -32,7 +32,13 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from dempath_recon.tracking.associate import depth, epipolar_distance, triangulate_pairs
+from dempath_recon.tracking.associate import (
+    depth,
+    epipolar_distance,
+    marker_diameter_px,
+    project,
+    triangulate_pairs,
+)
 from dempath_recon.tracking.held_line import held_on_line, track_at
 from dempath_recon.tracking.linker import UNNUMBERED, Track
 from dempath_recon.tracking.pair_numbering import only_marker
@@ -47,6 +53,8 @@ from dempath_recon.tracking.state import (
 
 FloatArray = NDArray[np.float64]
 CARRIED_GATE_M = 0.015  # a pair's 3D point lies this near where the bed carried its marker [m]
+BESIDE_SHARE = 1.0  # a marker held by neither camera carried within this many diameters of a
+# spot may share it
 PAIR_FRAMES = 4  # common frames a pair must hold on the epipolar line (0.08 s at 50 FPS): on
 # a tuning render a wrong partner stayed on the line for 11 frames, so the line alone is not
 # enough, but a partner that crossed it once in passing is left out
@@ -98,7 +106,8 @@ def number_by_track_pairs(state: StereoState, camera: str, track_ids: NDArray[np
         partner = next(t for t in partners if t.track_id == chosen[0])
         number = chosen[1]
         if not _seen_by_partner(state, camera, track, partner, stamp_s) \
-                or _still_behind(state, camera, track, number, partners):
+                or _still_behind(state, camera, track, number, partners) \
+                or _missing_beside(state, camera, number, uv[k], stamp_s, held):
             continue
         _give(state, camera, track, number)
         if partner.marker < 0:
@@ -198,6 +207,28 @@ def _still_behind(state: StereoState, camera: str, track: Track, number: int,
     d = epipolar_distance(state.cameras[camera], state.cameras[state.other(camera)],
                           track.uv[None], np.array(list(where.values())))
     return bool((d <= state.config.epipolar_px).any())
+
+
+def _missing_beside(state: StereoState, camera: str, number: int, point: FloatArray,
+                    stamp_s: float, held: set[int]) -> bool:
+    """Whether a marker that neither camera holds now (not ``number``) lies, where the bed
+    has carried it, within ``BESIDE_SHARE`` marker diameters of the spot ``point`` (2,) px in
+    this camera: it may be in the spot beside the one numbered, pulling its centre between
+    the two (on a tuning render with a 12 ms shutter the front's spot of marker 10 was nearer
+    9's centre in 9 of its 16 frames; 9 was found in neither camera then). Markers that
+    cannot be placed are not counted."""
+    cam = state.cameras[camera]
+    seen_o = {t.marker for t in state.trackers[state.other(camera)].tracks
+              if t.marker >= 0 and not t.lost}
+    size = marker_diameter_px(cam, state.config.grid, state.config.marker_diameter_m)
+    for m in state.config.grid.points()[0].tolist():
+        if m == number or m in held or m in seen_o:
+            continue
+        placed = carried_point(state, m, stamp_s)
+        if placed is not None and float(np.linalg.norm(
+                project(cam, placed[0][None])[0] - point)) < BESIDE_SHARE * size:
+            return True
+    return False
 
 
 def _may_take(state: StereoState, camera: str, track_id: int, number: int) -> bool:
