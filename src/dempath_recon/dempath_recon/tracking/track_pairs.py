@@ -196,7 +196,7 @@ def _still_behind(state: StereoState, camera: str, track: Track, number: int,
     track now, or that track lies within ``epipolar_px`` of this track's epipolar line.
     Behind the marker nearer this camera, it may show beside it and pull the spot's centre
     between the two (on a tuning render with a 12 ms shutter the front's spot of markers 8
-    and 7 was nearer 7's centre in 7 of its 14 frames, while the side's 7 stayed 0.6-2.4 px
+    and 7 was nearer 7's centre in 8 of its 17 frames, while the side's 7 stayed 0.6-2.4 px
     from its line)."""
     behind = state.fit_merged[camera].get(track.track_id, set()) - {number}
     if not behind:
