@@ -17,7 +17,7 @@ import sys
 from collections.abc import Iterator
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import cv2
 import numpy as np
@@ -41,6 +41,9 @@ from dempath_twin.render.recording import (
     save_truth,
     truth_json,
 )
+
+if TYPE_CHECKING:
+    from dempath_sim.scene import SceneSpec
 
 LOG = logging.getLogger(__name__)
 
@@ -159,7 +162,13 @@ def _parser() -> argparse.ArgumentParser:
                    help='marker sphere diameter [m]')
     p.add_argument('--seed', type=int, default=0)
     p.add_argument('--hidden-seed', type=int, help='packing seed when SOURCE is a scene')
-    p.add_argument('--on', action='append', default=[], help='effect on when SOURCE is a scene')
+    p.add_argument('--on', action='append', default=[],
+                   help='effect on when SOURCE is a scene (an effect that is always on, such as '
+                        'tool_speed, keeps its default: set it with --effect)')
+    p.add_argument('--effect', action='append', default=[], metavar='EFFECT.PARAM=VALUE',
+                   help='set an effect parameter when SOURCE is a scene (switches the effect '
+                        'on), e.g. tool_speed.speed_scale=2 for a tool driven twice as fast; '
+                        'repeatable')
     p.add_argument('--rig', default='fixed', choices=('fixed', 'carriage'),
                    help="the twin's cameras: 'fixed' (paper_rig) or 'carriage' (carriage_rig)")
     return p
@@ -177,13 +186,23 @@ def _bgr(text: str) -> tuple[float, float, float]:
     return values[0], values[1], values[2]
 
 
-def _bed(args: argparse.Namespace, fps: float) -> BedRecord:
-    from dempath_sim.scene import resolve_scene
+def render_scene(source: str, effects: list[str], on: list[str], seed: int | None,
+                 ) -> SceneSpec:
+    """The scene a render runs when its source is a scene: ``effects`` are
+    ``EFFECT.PARAM=VALUE`` settings (as ``dempath simulate --effect``), ``on`` effects switched
+    on at their values, ``seed`` the packing seed (None: the scene's). Why ``effects`` too:
+    switching on an effect that is always on (``tool_speed``) keeps its default, so
+    ``--on tool_speed`` alone renders the scene's own speed; SceneError on a bad setting."""
+    from dempath_sim.scene import parse_overrides, resolve_scene
 
+    return resolve_scene(source).with_overrides(parse_overrides(effects), on=on, seed=seed)
+
+
+def _bed(args: argparse.Namespace, fps: float) -> BedRecord:
     source = Path(args.source)
     if (source / 'result.npz').is_file():
         return load_bed(source, fps)
-    scene = resolve_scene(args.source).with_overrides({}, on=args.on, seed=args.hidden_seed)
+    scene = render_scene(args.source, args.effect, args.on, args.hidden_seed)
     run_dir = args.out.with_name(args.out.name + '.run')
     return load_bed(run_for_recording(scene, run_dir, fps), fps, scene)
 
