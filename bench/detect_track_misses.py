@@ -38,7 +38,13 @@ from typing import Any
 
 import cv2
 import numpy as np
-from detect_track_variations import EXPOSURE_KNOWN, look_exposure, with_exposure
+from detect_track_variations import (
+    EXPOSURE_KNOWN,
+    TOOL_SPEED,
+    look_exposure,
+    with_exposure,
+    with_tool_speed,
+)
 
 from dempath_calib.camera import CameraModel
 from dempath_recon.tracking.associate import MarkerGrid
@@ -164,7 +170,8 @@ def run_bags(bags: list[Path]) -> dict[str, Any]:
         cams = {c['name']: CameraModel.from_dict(c) for c in truth['cameras']}
         frames = read_frames(bag, truth['calibration_segment']['field_start_ns'], list(cams))
         grid = MarkerGrid(layout_m=tuple(tuple(p) for p in truth['marker_grid_m']))
-        config = with_exposure(StereoTrackConfig(grid=grid), look_exposure(truth))
+        config = with_tool_speed(with_exposure(StereoTrackConfig(grid=grid),
+                                               look_exposure(truth)), truth)
         tally = classify(*track(frames, cams, config), truth)
         pool += tally
         print(json.dumps({'recording': bag.name, **shares(tally)}), flush=True)
@@ -185,7 +192,8 @@ def run_variations(bag: Path, cache: Path) -> dict[str, Any]:
     pools: dict[bool, Counter[str]] = {True: Counter(), False: Counter()}
     for cond in sorted(VARIATIONS, key=lambda c: not c.held_out):
         varied, moved = vary(frames, truth, cond, cache)
-        config = with_exposure(StereoTrackConfig(grid=grid), 1e-3 * cond.shutter_ms)
+        config = with_tool_speed(with_exposure(StereoTrackConfig(grid=grid),
+                                               1e-3 * cond.shutter_ms), truth)
         tally = classify(*track(varied, cams, config), moved)
         pools[cond.held_out] += tally
         print(json.dumps({'variation': cond.name, 'held_out': cond.held_out,
@@ -205,8 +213,12 @@ def main(argv: list[str]) -> int:
     p.add_argument('--cache', type=Path, default=HERE.parent / 'out' / 'bench_variations')
     p.add_argument('--exposure-unknown', action='store_true',
                    help='do not tell the trackers the exposure (no streak search)')
+    p.add_argument('--tool-speed', type=float, default=0.0, metavar='M_S',
+                   help="the tool's speed [m/s] for recordings whose truth does not give it "
+                        '(0: unknown)')
     args = p.parse_args(argv)
     EXPOSURE_KNOWN[0] = not args.exposure_unknown
+    TOOL_SPEED[0] = args.tool_speed
     for bag in args.bags:
         if not bag.with_name(bag.name + '.truth.json').is_file():
             print(f'error: {bag}: no {bag.name}.truth.json beside it', file=sys.stderr)

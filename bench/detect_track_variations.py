@@ -54,6 +54,8 @@ WRONG_PAIR_MM = 5.0
 Frames = list[tuple[str, int, bytes]]
 CLAY_SET = [False]  # the detectors are told a recording's clay colour when it is not blue
 # (``--marker-colour look``); default: blue clay, the detector's default
+TOOL_SPEED = [0.0]  # the tool's speed [m/s] for recordings whose truth does not give it
+# (``--tool-speed``); 0: not known (the linkers' speed bound is off)
 EXPOSURE_KNOWN = [True]  # the trackers are told each recording's exposure (``--exposure-unknown``:
 # not, as before session 16: no streak search)
 
@@ -77,6 +79,21 @@ def with_clay(config: StereoTrackConfig, truth: dict[str, Any]) -> StereoTrackCo
         return config
     bgr = (float(clay[0]), float(clay[1]), float(clay[2]))
     return replace(config, detector=replace(config.detector, marker_bgr=bgr))
+
+
+def with_tool_speed(config: StereoTrackConfig, truth: dict[str, Any]) -> StereoTrackConfig:
+    """``config`` told the tool's speed, as a user who drives the tractor knows it
+    (``StereoTrackConfig.tool_speed_m_s``: it bounds each camera's links): the truth's
+    ``tool_speed_m_s``, else its run's scene profile speed times the run's
+    ``tool_speed.speed_scale``, else ``--tool-speed`` (0: not known)."""
+    speed = truth.get('tool_speed_m_s')
+    run = truth.get('run', {})
+    scale = run.get('effects', {}).get('tool_speed', {}).get('speed_scale')
+    if speed is None and run.get('scene') and scale is not None:
+        from dempath_sim.scene import resolve_scene
+
+        speed = resolve_scene(run['scene']).tool.profile.speed_m_s * float(scale)
+    return replace(config, tool_speed_m_s=float(TOOL_SPEED[0] if speed is None else speed))
 
 
 def look_exposure(truth: dict[str, Any]) -> float:
@@ -297,8 +314,9 @@ def run_rendered(bags: list[Path], read: Any, engine: str = 'grid',
         row = {'variation': bag.name, 'held_out': held_out, 'rendered': True,
                'look': truth['config']['look'], 'jpeg_quality': truth['config']['jpeg_quality'],
                **figures(frames, truth, cams,
-                         with_clay(with_exposure(StereoTrackConfig(grid=grid, engine=engine),
-                                                 look_exposure(truth)), truth))}
+                         with_tool_speed(with_clay(with_exposure(
+                             StereoTrackConfig(grid=grid, engine=engine), look_exposure(truth)),
+                             truth), truth))}
         rows.append(row)
         print(json.dumps({k: v for k, v in row.items() if k != 'raw'}), flush=True)
     return {**summary([r['raw'] for r in rows]),

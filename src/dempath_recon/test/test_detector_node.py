@@ -122,3 +122,18 @@ def test_detector_node_marker_colour_parameter(ros_harness, rig, tmp_path) -> No
     with pytest.raises(ReconstructionError, match='marker_bgr'):
         ros_harness.start(DetectorNode, camera='cam_side', calibration_file=calib,
                           marker_bgr='red')
+
+
+def test_detector_node_tool_speed_parameter(ros_harness, rig, tmp_path) -> None:
+    """``tool_speed_m_s`` gives each camera's linker its speed bound (0, the default: none); a
+    negative speed is one ReconstructionError naming the parameter."""
+    calib = str(StereoCalibration(rig.side, rig.front, {}).save(tmp_path / 'calib.yaml'))
+    node = ros_harness.start(DetectorNode, camera='cam_side', calibration_file=calib,
+                             tool_speed_m_s=0.5)
+    assert node.core.config.tool_speed_m_s == 0.5
+    assert node.core.state.trackers['cam_side'].config.max_image_speed_px_s > 0
+    plain = ros_harness.start(DetectorNode, camera='cam_side', calibration_file=calib)
+    assert plain.core.state.trackers['cam_side'].config.max_image_speed_px_s == 0
+    with pytest.raises(ReconstructionError, match='tool_speed_m_s'):
+        ros_harness.start(DetectorNode, camera='cam_side', calibration_file=calib,
+                          tool_speed_m_s=-1.0)

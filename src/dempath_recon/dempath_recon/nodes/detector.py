@@ -92,6 +92,9 @@ PARAMETERS: tuple[tuple[str, Any, str], ...] = (
                             'on the parts of the view that do not move (tracking/shake.py)'),
     ('marker_bgr', '', "the markers' clay albedo B,G,R (0..1 each, e.g. '0.15,0.18,0.62' for "
                        "red clay); '': blue clay (tracking/colour_model.py)"),
+    ('tool_speed_m_s', 0.0, "the tool's speed [m/s]: no frame-to-frame link moves a marker "
+                            'farther than it can go at 1.2x that (tracking/speed_bound.py); '
+                            '0: not known, no bound'),
     ('publish_gate', True, "lossless: withhold a numbered point whose pair's 3D point jumps "
                            "unlike its neighbours' motion (tracking/publish_gate.py)"),
     ('scene', '', "scene file or shipped scene name whose markers: block gives the marker grid "
@@ -149,10 +152,7 @@ class DetectorNode(Node):
         p = {name: self.get_parameter(name).value for name, _, _ in PARAMETERS}
         self.camera = str(p['camera'])
         self.core = StereoMarkerTracker(_load_cameras(str(p['calibration_file'])),
-                                        StereoTrackConfig(grid=_grid(p),
-                                                          shake=bool(p['correct_shake']),
-                                                          detector=_detector(p),
-                                                          publish_gate=bool(p['publish_gate'])))
+                                        _track_config(p))
         if self.camera not in self.core.cameras:
             msg = f'camera: {self.camera!r} not in the calibration ({sorted(self.core.cameras)})'
             raise ReconstructionError(msg)
@@ -438,6 +438,17 @@ def _grid(p: dict[str, Any]) -> MarkerGrid:
                           spacing_z_m=float(p['marker_spacing_z_m']), side=int(p['marker_side']))
     except ValueError as err:
         raise ReconstructionError(f'marker grid parameters: {err}') from err
+
+
+def _track_config(p: dict[str, Any]) -> StereoTrackConfig:
+    """The tracker's settings of the node's parameters; ReconstructionError naming a bad one."""
+    grid, detector = _grid(p), _detector(p)
+    try:
+        return StereoTrackConfig(grid=grid, shake=bool(p['correct_shake']), detector=detector,
+                                 publish_gate=bool(p['publish_gate']),
+                                 tool_speed_m_s=float(p['tool_speed_m_s']))
+    except ValueError as err:
+        raise ReconstructionError(str(err)) from err
 
 
 def _detector(p: dict[str, Any]) -> DetectorConfig:

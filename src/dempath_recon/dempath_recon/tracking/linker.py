@@ -30,6 +30,11 @@ not take): the two-camera tracker bars a numbered track from detections its mark
 by the other camera's sighting of the marker (off its epipolar line), so the epipolar constraint
 decides the link itself rather than a check after it (:mod:`~dempath_recon.tracking.link_guide`).
 
+With the tool's speed known (``max_image_speed_px_s``, set by
+:mod:`~dempath_recon.tracking.speed_bound`), no link moves a track farther from its last
+position than its marker can have moved since: a covered marker's track then cannot take a
+neighbour's spot a pitch away within a frame or two.
+
 A track whose marker is not found (covered by sand, out of view) becomes LOST at once: it
 keeps its last position and is never linked to a detection farther than ``reattach_px`` from
 where it was last seen (plus its predicted drift). A detection near a lost track's last position
@@ -57,6 +62,8 @@ from dempath_recon.tracking.detect import Detections
 LOG = logging.getLogger(__name__)
 FloatArray = NDArray[np.float64]
 UNNUMBERED = -1  # marker number of a track that is not (yet) identified
+SLACK_PX = 3.0  # a link may exceed the image speed bound by this much [px] (centroid noise,
+# a covered marker's visible part moving over it; ``speed_bound`` explains the bound)
 
 
 @dataclass(frozen=True)
@@ -77,6 +84,10 @@ class TrackerConfig:
         hold_px: a running track and a detection that are each other's nearest, this near
             its prediction, are linked before the assignment (:func:`held_links`) [px]; 0:
             the assignment decides every link.
+        max_image_speed_px_s: the fastest a marker moves in this camera's image [px/s]: a
+            detection farther from a track's last position than this over the time since
+            (plus ``SLACK_PX``) is never linked to it
+            (:mod:`~dempath_recon.tracking.speed_bound`); 0: no bound.
     """
 
     gate_px: float = 25.0
@@ -86,6 +97,7 @@ class TrackerConfig:
     faint_gate_px: float = 4.0
     exposure_s: float = 0.0
     hold_px: float = 2.0
+    max_image_speed_px_s: float = 0.0
 
     def __post_init__(self) -> None:
         for name in ('gate_px', 'reattach_px', 'max_lost_s'):
@@ -97,6 +109,9 @@ class TrackerConfig:
             raise ValueError(msg)
         if not 0 <= self.exposure_s < 1:
             msg = f'exposure_s: must be in [0, 1) s, got {self.exposure_s!r}'
+            raise ValueError(msg)
+        if not self.max_image_speed_px_s >= 0:
+            msg = f'max_image_speed_px_s: must be >= 0, got {self.max_image_speed_px_s!r}'
             raise ValueError(msg)
 
 
@@ -271,6 +286,8 @@ class MarkerTracker:
             bar = barred.get(track.track_id)
             if bar is not None:
                 cost[row, bar] = np.inf  # outside every gate: never linked
+        if self.config.max_image_speed_px_s > 0:  # farther than the marker can have gone
+            cost[self._out_of_reach(stamp_s, uv)] = np.inf
         # a link's worth: the longest link allowed minus its length; no link (or one outside its
         # gate, or one exactly as long as the larger gate) is worth 0, so one more link is made
         # only when it is worth more than the misses the rearrangement it needs adds
@@ -284,6 +301,15 @@ class MarkerTracker:
         rows, cols = linear_sum_assignment(worth, maximize=True)
         return sorted(held + [(int(r), int(c)) for r, c in zip(rows, cols, strict=True)
                               if cost[r, c] <= gate[r] and worth[r, c] > 0])
+
+    def _out_of_reach(self, stamp_s: float, uv: FloatArray) -> NDArray[np.bool_]:
+        """(tracks, n): detections ``uv`` (n, 2) px farther from each track's last position
+        than its marker can have moved since (``max_image_speed_px_s``, plus ``SLACK_PX``)."""
+        last = np.array([t.uv for t in self.tracks])
+        since = np.array([stamp_s - t.last_stamp_s for t in self.tracks])
+        reach = self.config.max_image_speed_px_s * since + SLACK_PX
+        return np.asarray(np.linalg.norm(last[:, None] - uv[None], axis=2) > reach[:, None],
+                          bool)
 
     def _assign_faint(self, stamp_s: float, det: Detections, linked: set[int],
                       ) -> list[tuple[int, FloatArray]]:

@@ -45,6 +45,9 @@ class StereoTrackConfig:
             than this [px] (markers moving smoothly miss by a pixel or two).
         max_speed_m_s: fastest a marker can move [m/s] (the tool's speed, 1 m/s in the
             paper, with a margin: sand ahead of the tool does not outrun it by much).
+        tool_speed_m_s: the tool's speed as the user knows it [m/s]; it bounds each camera's
+            frame-to-frame links (:mod:`~dempath_recon.tracking.speed_bound`, unless
+            ``tracker.max_image_speed_px_s`` is set). 0: not known, no bound.
         number_delay_frames: frames of its camera a frame is held in
             ``StereoMarkerTracker.release`` before it is given out; a point of a then
             unnumbered track goes out with the number the track got within the delay (a
@@ -81,6 +84,7 @@ class StereoTrackConfig:
     position_gate_m: float = 0.01
     doubt_link_px: float = 5.0
     max_speed_m_s: float = 2.0
+    tool_speed_m_s: float = 0.0
     number_delay_frames: int = 5
     marker_diameter_m: float = 0.008
     ray_numbering: bool = False
@@ -98,6 +102,9 @@ class StereoTrackConfig:
             if not getattr(self, name) > 0:
                 msg = f'{name}: must be > 0, got {getattr(self, name)!r}'
                 raise ValueError(msg)
+        if not 0 <= self.tool_speed_m_s < 20:
+            msg = f'tool_speed_m_s: must be in [0, 20) m/s, got {self.tool_speed_m_s!r}'
+            raise ValueError(msg)
         if not 0 <= self.marker_diameter_m < 0.1:
             msg = f'marker_diameter_m: must be in [0, 0.1), got {self.marker_diameter_m!r}'
             raise ValueError(msg)

@@ -23,6 +23,7 @@ from dempath_recon.tracking.associate import MarkerPositions, back_project, dept
 from dempath_recon.tracking.linker import UNNUMBERED, MarkerTracker
 from dempath_recon.tracking.records import CameraCounts, StereoTrackConfig
 from dempath_recon.tracking.release import ReleaseQueue
+from dempath_recon.tracking.speed_bound import bounded_tracker
 
 FloatArray = NDArray[np.float64]
 RECENT_S = 0.05  # the other camera's position of a marker counts for numbering this long [s]
@@ -102,7 +103,9 @@ class StereoState:
             raise ValueError(f'cameras: need exactly two, got {sorted(cameras)}')
         return cls(
             cameras=cameras, config=config,
-            trackers={n: MarkerTracker(config.tracker) for n in cameras},
+            trackers={n: MarkerTracker(bounded_tracker(config.tracker, cam, config.grid,
+                                                       config.tool_speed_m_s))
+                      for n, cam in cameras.items()},
             counts={n: CameraCounts() for n in cameras},
             latest={n: {} for n in cameras},
             positions=MarkerPositions(config.position_gate_m, config.max_speed_m_s),
