@@ -291,12 +291,10 @@ def main(argv: list[str]) -> int:
                           'cpus': os.cpu_count()}))
         return 0
     if args.variations:
-        from detect_track_variations import run_all
+        from detect_track_variations import run_all, run_rendered
 
         found = run_all(frames, truth, cams, config, args.cache)
         if args.rendered:
-            from detect_track_variations import run_rendered
-
             found['rendered_held_out'] = run_rendered(args.rendered, read_frames,
                                                       args.engine)
         if args.rendered_tuning:
