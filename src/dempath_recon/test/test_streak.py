@@ -151,7 +151,7 @@ def test_in_bright_sand_a_sunk_markers_cap_stays_unfound(monkeypatch: pytest.Mon
     det = MarkerDetector().detect_jpeg(jpeg)
     assert det.faint is not None and len(det.uv) == 0
     assert np.isfinite(det.faint(cap, 4.0)).all(axis=1).sum() <= 3
-    monkeypatch.setattr(detect, 'dim', lambda image: True)
+    monkeypatch.setattr(detect, 'dim', lambda image, below=0.0: True)
     ungated = MarkerDetector().detect_jpeg(jpeg)
     assert ungated.faint is not None
     assert np.isfinite(ungated.faint(cap, 4.0)).all(axis=1).sum() > 20

@@ -43,6 +43,7 @@ from numpy.typing import NDArray
 from dempath_recon.errors import ReconstructionError
 from dempath_recon.tracking.colour_model import (
     DARK_SUM_DN,
+    FLOOR_SHARE,
     MIN_SUM_DN,
     REFERENCE_SAND_BGR,
     axis_bound,
@@ -79,19 +80,29 @@ FILTER_FLOOR = -0.2  # the matched filter sees sand no redder than the sand the 
 # then jumped onto them: more switches and wrong pairs on 5 of 13 tuning looks
 
 
-def dim(image: NDArray[np.uint8]) -> bool:
-    """Whether most of ``image`` (a window beside a prediction) is darker than the chroma's
-    floor ``MIN_SUM_DN`` (median ``B + G + R`` below it): there the floor divides a marker's
-    chroma down, and the fixed bar is the wrong bar."""
+SOUGHT_DIM_SUM_DN = MIN_SUM_DN / FLOOR_SHARE  # the noise bar's brightness limit (100) in a
+# search where the other camera holds the marker (:mod:`~dempath_recon.tracking.seek`): any
+# window darker than normal light (sand 105-200 on every daylight tuning look). Dusk sand at
+# 50-60 beside a marker (light x0.3 on the carriage rig) kept the fixed bar at ``MIN_SUM_DN``,
+# under which its markers (filtered chroma 0.05-0.15) stayed lost for whole looks. Only there:
+# the same limit in the linker's search too numbered more on dusk looks but added switches on
+# dark sand in daylight (t4_brown_small 0 -> 5, session 18)
+
+
+def dim(image: NDArray[np.uint8], below: float = MIN_SUM_DN) -> bool:
+    """Whether most of ``image`` (a window beside a prediction) is darker than ``below``
+    (median ``B + G + R`` [DN]; by default the chroma's floor ``MIN_SUM_DN``): there the floor
+    divides a marker's chroma down, and the fixed bar is the wrong bar."""
     total = np.asarray(cv2.transform(image, np.ones((1, 3), np.float32)), np.float32)
-    return bool(np.median(total) < MIN_SUM_DN)
+    return bool(np.median(total) < below)
 
 
 class FaintSearch(Protocol):
     """``Detections.faint``: spots below the threshold near given points (see there)."""
 
     def __call__(self, points: FloatArray, radius_px: float,
-                 steps: FloatArray | None = None) -> FloatArray: ...
+                 steps: FloatArray | None = None, dim_below: float = MIN_SUM_DN,
+                 ) -> FloatArray: ...
 
 
 class ImageDecodeError(ReconstructionError):
@@ -428,13 +439,14 @@ class MarkerDetector:
     def _faint(self, image: NDArray[np.uint8], low: float,
                colour: tuple[float, NDArray[np.float32]], strong: FloatArray,
                points: FloatArray, radius_px: float,
-               steps: FloatArray | None = None) -> FloatArray:
+               steps: FloatArray | None = None, dim_below: float = MIN_SUM_DN) -> FloatArray:
         """(k, 2) full-size centre of the strongest spot above ``low`` (the chroma of the
         frame's ``colour``: its floor [DN] and axis (3,)) (or of the streak along
         ``steps`` (k, 2) [full-size px] where one is at least ``STREAK_MIN_PX`` long) within
         ``radius_px`` of each point (k, 2) [full-size px], NaN where none or where it is the
         frame's own spot (within ``min_separation_px`` of one of ``strong`` (n, 2): a marker's
-        rim)."""
+        rim). The window's own noise bar is tried where the window's median ``B + G + R`` is
+        under ``dim_below`` [DN] (``local_bar``)."""
         s = self.config.downscale
         floor, axis = colour
         pts = np.asarray(points, np.float64).reshape(-1, 2)
@@ -458,7 +470,7 @@ class MarkerDetector:
                 out[k] = self._faint_spot(chroma(window, floor, axis), (x0, y0), q,
                                           reach, low, strong)
             if streak or (self.config.local_bar and not np.isfinite(out[k]).all()
-                          and dim(window)):
+                          and dim(window, dim_below)):
                 c = chroma(window, DARK_SUM_DN, axis)
                 if self.config.floor_sand:
                     c = np.maximum(c, np.float32(FILTER_FLOOR))

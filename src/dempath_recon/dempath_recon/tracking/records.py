@@ -72,6 +72,11 @@ class StereoTrackConfig:
         publish_gate: withhold, as frames are given out, a numbered point whose pair's 3D
             point jumps away from where the marker's neighbours' motion puts it
             (:mod:`~dempath_recon.tracking.publish_gate`; the grid engine only).
+        seek_other: where the other camera gives out a marker this camera holds no track
+            of, look for a faint spot on its line of sight at the depth the bed carried the
+            marker to (:mod:`~dempath_recon.tracking.seek`; the grid engine only): a marker
+            under the threshold in one camera for a whole look (dusk, long shutters) then
+            gets a track the pair numbering can number. False: only the frame's spots.
     """
 
     detector: DetectorConfig = field(default_factory=DetectorConfig)
@@ -92,6 +97,7 @@ class StereoTrackConfig:
     engine: str = 'grid'
     uncover: bool = True
     publish_gate: bool = True
+    seek_other: bool = True
 
     def __post_init__(self) -> None:
         if self.engine not in ENGINES:

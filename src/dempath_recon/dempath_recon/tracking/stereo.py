@@ -60,6 +60,7 @@ from dempath_recon.tracking.publish_gate import PublicationGate
 from dempath_recon.tracking.ray_numbering import number_by_ray
 from dempath_recon.tracking.records import CameraCounts, PixelFrame, StereoTrackConfig
 from dempath_recon.tracking.release import HeldFrame, fill_confirmed, renumber
+from dempath_recon.tracking.seek import seek_markers
 from dempath_recon.tracking.shake import ShakeEstimate, ShakeEstimator, remove_shake
 from dempath_recon.tracking.state import (
     Sighting,
@@ -219,6 +220,8 @@ class StereoMarkerTracker:
                    'does not see the grid give nothing')
             LOG.warning(msg)
             events.append(msg)
+        if state.config.seek_other:
+            det = seek_markers(state, camera, stamp_s, det)
         before = (tracker.counts.lost, tracker.counts.reattached)
         tf = tracker.update(stamp_s, det, barred_links(state, camera, det.uv, stamp_s))
         counts.detected += len(det.uv)
