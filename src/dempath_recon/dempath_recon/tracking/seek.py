@@ -111,3 +111,21 @@ def add_spots(det: Detections, spots: FloatArray) -> Detections:
         crowded=None if det.crowded is None else np.concatenate([det.crowded, np.zeros(k, bool)]),
         centre=None if det.centre is None else np.vstack([det.centre, spots]),
         parted=None if det.parted is None else np.concatenate([det.parted, np.zeros(k, bool)]))
+
+
+def bar_sought(state: StereoState, camera: str, barred: dict[int, NDArray[np.bool_]],
+               own: int, total: int) -> dict[int, NDArray[np.bool_]]:
+    """``barred`` (track id -> (total,) detections it may not link to) with the sought spots
+    (detections ``own`` to ``total``) barred to every numbered track of ``camera``: each was
+    sought for a marker this camera holds no track of, so a numbered track that took it (a
+    lost one re-attaching within its wider gate) would take another marker's spot."""
+    if total <= own:
+        return barred
+    out = dict(barred)
+    for track in state.trackers[camera].tracks:
+        if track.marker < 0:
+            continue
+        mask = np.array(out.get(track.track_id, np.zeros(total, bool)), bool)
+        mask[own:] = True
+        out[track.track_id] = mask
+    return out

@@ -60,7 +60,7 @@ from dempath_recon.tracking.publish_gate import PublicationGate
 from dempath_recon.tracking.ray_numbering import number_by_ray
 from dempath_recon.tracking.records import CameraCounts, PixelFrame, StereoTrackConfig
 from dempath_recon.tracking.release import HeldFrame, fill_confirmed, renumber
-from dempath_recon.tracking.seek import seek_markers
+from dempath_recon.tracking.seek import bar_sought, seek_markers
 from dempath_recon.tracking.shake import ShakeEstimate, ShakeEstimator, remove_shake
 from dempath_recon.tracking.state import (
     Sighting,
@@ -220,10 +220,13 @@ class StereoMarkerTracker:
                    'does not see the grid give nothing')
             LOG.warning(msg)
             events.append(msg)
+        own = len(det.uv)
         if state.config.seek_other:
             det = seek_markers(state, camera, stamp_s, det)
+        barred = bar_sought(state, camera, barred_links(state, camera, det.uv, stamp_s), own,
+                            len(det.uv))
         before = (tracker.counts.lost, tracker.counts.reattached)
-        tf = tracker.update(stamp_s, det, barred_links(state, camera, det.uv, stamp_s))
+        tf = tracker.update(stamp_s, det, barred)
         counts.detected += len(det.uv)
         counts.lost += tracker.counts.lost - before[0]
         counts.reattached += tracker.counts.reattached - before[1]
