@@ -28,11 +28,12 @@ from dempath_recon.tracking.detect import SOUGHT_DIM_SUM_DN, Detections
 from dempath_recon.tracking.state import RECENT_S, StereoState, carried_point
 
 FloatArray = NDArray[np.float64]
-SEEK_RADIUS_PX = 4.0  # farthest a sought spot may lie from the projected sighting [full-size
-# px]: about half a marker's image (8 mm markers are 10-16 px across in the twin's views); the
-# depth the bed carried the marker to is a few mm off, which moves the projection along the
-# epipolar line by a few px
-SEEK_UNSEEN = True  # also seek markers neither camera holds, at their carried place
+SEEK_RADIUS_PX = 3.0  # farthest a sought spot may lie from where it is sought [full-size px]:
+# the projections were 1-3 px from the markers' true centres on the twin's carriage rig at dusk
+# (session 18); 4 px took a neighbour's edge on r21_dusk (4 switches, 4 wrong-pair points on 29
+# tuning looks, 0 at 3 px) and 6 px more (r21_dusk16: 12 switches)
+SEEK_UNSEEN = True  # also seek a marker neither camera holds, at its carried place (at a 4 px
+# radius, 29 tuning looks: without 78.41 % numbered right, 69 switches; with 78.92 %, 55)
 CLEAR_PX = 12.0  # no search where a spot of the frame lies this near the projection [px]:
 # that spot is the marker's (numbered or not), or a neighbour's the search must not take
 
