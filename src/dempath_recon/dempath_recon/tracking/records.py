@@ -76,7 +76,10 @@ class StereoTrackConfig:
             of, look for a faint spot on its line of sight at the depth the bed carried the
             marker to (:mod:`~dempath_recon.tracking.seek`; the grid engine only): a marker
             under the threshold in one camera for a whole look (dusk, long shutters) then
-            gets a track the pair numbering can number. False: only the frame's spots.
+            gets a track the pair numbering can number. Off by default: on main a16ce79 it
+            numbered more on 29 tuning looks (77.98 -> 78.78 %; the carriage rig at dusk
+            81.3 -> 91.4 %) but added 2 switches there (49 -> 51) and lost 0.1 points on five
+            held-apart looks (87.93 -> 87.83 %; session 18). False: only the frame's spots.
     """
 
     detector: DetectorConfig = field(default_factory=DetectorConfig)
@@ -97,7 +100,7 @@ class StereoTrackConfig:
     engine: str = 'grid'
     uncover: bool = True
     publish_gate: bool = True
-    seek_other: bool = True
+    seek_other: bool = False
 
     def __post_init__(self) -> None:
         if self.engine not in ENGINES:
