@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from dempath_calib.camera import StereoCalibration
-from dempath_recon.tracking.associate import MarkerGrid, depth
+from dempath_recon.tracking.associate import MarkerGrid, depth, marker_diameter_px
 from dempath_recon.tracking.detect import Detections
 from dempath_recon.tracking.linker import SLACK_PX, MarkerTracker, TrackerConfig
 from dempath_recon.tracking.records import StereoTrackConfig
@@ -80,12 +80,15 @@ def test_the_bound_is_the_tool_speed_at_the_grids_depth(rig: StereoCalibration) 
 
 def test_the_stereo_tracker_gives_each_camera_its_bound(rig: StereoCalibration) -> None:
     """With the tool's speed set, each camera's linker gets that camera's bound; unset (the
-    default), none; a bound the tracker settings give is kept."""
+    default), none; a bound the tracker settings give is kept. Each camera's held links get
+    the markers' image diameter as their rival distance."""
     cams = {c.name: c for c in rig.cameras}
     fast = StereoMarkerTracker(cams, StereoTrackConfig(grid=GRID, tool_speed_m_s=1.0))
     for name, cam in cams.items():
         got = fast.state.trackers[name].config.max_image_speed_px_s
         assert got == pytest.approx(image_speed_bound(cam, GRID, 1.0)) and got > 0
+        rival = fast.state.trackers[name].config.hold_rival_px
+        assert rival == pytest.approx(marker_diameter_px(cam, GRID, 0.008)) and rival > 0
     plain = StereoMarkerTracker(cams, StereoTrackConfig(grid=GRID))
     assert all(t.config.max_image_speed_px_s == 0 for t in plain.state.trackers.values())
     given = StereoMarkerTracker(cams, StereoTrackConfig(
@@ -97,6 +100,7 @@ def test_the_stereo_tracker_gives_each_camera_its_bound(rig: StereoCalibration) 
     (lambda: StereoTrackConfig(tool_speed_m_s=-1.0), 'tool_speed_m_s'),
     (lambda: StereoTrackConfig(tool_speed_m_s=float('nan')), 'tool_speed_m_s'),
     (lambda: TrackerConfig(max_image_speed_px_s=-5.0), 'max_image_speed_px_s'),
+    (lambda: TrackerConfig(hold_rival_px=-1.0), 'hold_rival_px'),
 ])
 def test_bad_speeds_are_refused_by_name(make, field: str) -> None:
     """A negative or NaN speed is one ValueError naming the field."""

@@ -117,6 +117,36 @@ def test_held_links_need_each_other_nearest_and_a_running_track() -> None:
     assert held_links(cost, np.array([True, True, True]), 0.0) == []
 
 
+def test_a_spot_another_track_predicts_as_well_is_held_for_none() -> None:
+    """Two fast markers crossing (a rendered pass with the tool at 1 m/s): marker 3's running
+    track predicts marker 8's spot (detection 1) 1.6 px off, 8's track, lost a frame before,
+    5.7 px off; 3's own spot (detection 0) lies 6.0 px from 3's prediction, 12.4 px from 8's.
+    Within a marker's image diameter (8 px) of the rival's prediction the spot is held for
+    neither, and the assignment then gives each its own spot; without the rival test (0) the
+    spot is held for 3, which left 8 only 3's spot."""
+    cost = np.array([[6.0, 1.6], [12.4, 5.7]])
+    running = np.array([True, False])
+    assert held_links(cost, running, 2.0) == [(0, 1)]
+    assert held_links(cost, running, 2.0, 8.0) == []
+    assert held_links(cost, running, 2.0, 5.0) == [(0, 1)]  # the rival beyond the distance
+    assert crossing(8.0) == {(935.3, 521.2): 3, (939.3, 527.3): 8}
+    assert crossing(0.0) == {(935.3, 521.2): 8, (939.3, 527.3): 3}  # the rule off: swapped
+
+
+def crossing(rival_px: float) -> dict[tuple[float, float], int]:
+    """The crossing above on a real linker: marker 3 running at (-232, -76) px/s, marker 8 lost
+    a frame before at (-128, -135) px/s; the numbers its two spots get."""
+    tracker = MarkerTracker(TrackerConfig(hold_rival_px=rival_px))
+    for uv, marker, velocity, seen in (((944.4, 527.3), 3, (-232.0, -76.0), -DT),
+                                      ((947.1, 536.5), 8, (-128.0, -135.0), -2 * DT)):
+        tracker.seed(np.array([uv]), np.array([marker], np.int32), seen)
+        tracker.tracks[-1].velocity = np.array(velocity)
+    tracker.tracks[1].lost = True
+    frame = tracker.update(0.0, dets([[935.3, 521.2], [939.3, 527.3]]))
+    return {(float(p[0]), float(p[1])): int(m)
+            for p, m in zip(frame.uv, frame.markers, strict=True)}
+
+
 def test_hold_radius_is_checked() -> None:
     """A negative hold radius, or one as wide as the gate, is one clear error."""
     for bad in (-1.0, 25.0):

@@ -20,6 +20,13 @@ and 8 each moved one marker over at once; 9 wrong numbers and 4 wrong 3D points 
 So a running track and a detection that are each other's nearest, within ``hold_px`` (2 px,
 a quarter of a marker's image), are linked first (:func:`held_links`): a spot its track
 predicts that well is that marker's, and no chain may move it; the assignment links the rest.
+Unless another track (running or lost) predicts the same spot within a marker's image diameter
+(``hold_rival_px``): two markers can be there, and a prediction within 2 px is no proof. Two
+fast markers crossing (a tool driven at 1 m/s, 4-5 px a frame): the side camera's track of
+marker 3 predicted marker 8's spot 1.6 px off, the track of 8, lost a frame before, 5.7 px off
+(its own spot 6.0 px from 3's prediction, 12.4 px from 8's); held, 3 took 8's spot and 8
+re-attached onto 3's: the two numbers swapped for the rest of the pass (5 switches, 5 wrong 3D
+points).
 Why not trackpy's linking: with 15 markers the exact global assignment costs microseconds,
 needs no new dependency, and every decision (link, loss, re-attachment) is explicit and
 reported, which the paper's validation needs; trackpy's
@@ -84,6 +91,10 @@ class TrackerConfig:
         hold_px: a running track and a detection that are each other's nearest, this near
             its prediction, are linked before the assignment (:func:`held_links`) [px]; 0:
             the assignment decides every link.
+        hold_rival_px: a detection another track (running or lost) predicts within this is
+            held for none (:func:`held_links`) [px]; None: 0 here, the markers' image diameter
+            when the two-camera tracker sets it per camera
+            (:func:`~dempath_recon.tracking.speed_bound.camera_tracker`); 0: held regardless.
         max_image_speed_px_s: the fastest a marker moves in this camera's image [px/s]: a
             detection farther from a track's last position than this over the time since
             (plus ``SLACK_PX``) is never linked to it
@@ -97,6 +108,7 @@ class TrackerConfig:
     faint_gate_px: float = 4.0
     exposure_s: float = 0.0
     hold_px: float = 2.0
+    hold_rival_px: float | None = None
     max_image_speed_px_s: float = 0.0
 
     def __post_init__(self) -> None:
@@ -109,6 +121,9 @@ class TrackerConfig:
             raise ValueError(msg)
         if not 0 <= self.exposure_s < 1:
             msg = f'exposure_s: must be in [0, 1) s, got {self.exposure_s!r}'
+            raise ValueError(msg)
+        if self.hold_rival_px is not None and not self.hold_rival_px >= 0:
+            msg = f'hold_rival_px: must be >= 0 or None, got {self.hold_rival_px!r}'
             raise ValueError(msg)
         if not self.max_image_speed_px_s >= 0:
             msg = f'max_image_speed_px_s: must be >= 0, got {self.max_image_speed_px_s!r}'
@@ -294,7 +309,7 @@ class MarkerTracker:
         reach = max(self.config.gate_px, self.config.reattach_px)
         worth = np.where(cost <= gate[:, None], reach - cost, 0.0)
         held = held_links(cost, np.array([not t.lost for t in self.tracks]),
-                          self.config.hold_px)
+                          self.config.hold_px, self.config.hold_rival_px or 0.0)
         if held:
             worth[[r for r, _ in held], :] = 0.0
             worth[:, [c for _, c in held]] = 0.0
@@ -363,22 +378,28 @@ class MarkerTracker:
 
 
 def held_links(cost: FloatArray, running: NDArray[np.bool_], within_px: float,
-               ) -> list[tuple[int, int]]:
+               rival_px: float = 0.0) -> list[tuple[int, int]]:
     """The links made before the assignment: (track index, detection index) of each running
-    track and detection that are each other's nearest, within ``within_px``.
+    track and detection that are each other's nearest, within ``within_px``, that no other
+    track predicts within ``rival_px``.
 
     Args:
         cost: (tracks, detections) distance of each detection from each track's prediction
             [px] (inf: barred).
         running: (tracks,) whether each track was linked in the last frame (not lost).
         within_px: the largest such distance [px]; 0: none held.
+        rival_px: a detection another track's prediction lies this near is held for none
+            [px]; 0: no such test.
     """
     if within_px <= 0 or not cost.size:
         return []
     nearest_det = np.argmin(cost, axis=1)
     nearest_track = np.argmin(cost, axis=0)
-    return [(r, int(c)) for r, c in enumerate(nearest_det.tolist())
+    held = [(r, int(c)) for r, c in enumerate(nearest_det.tolist())
             if running[r] and nearest_track[c] == r and cost[r, c] <= within_px]
+    if rival_px <= 0 or len(cost) < 2:
+        return held
+    return [(r, c) for r, c in held if np.delete(cost[:, c], r).min() > rival_px]
 
 
 def track_sequence(frames: Iterable[tuple[float, Detections]],

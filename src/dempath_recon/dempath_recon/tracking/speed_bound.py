@@ -12,6 +12,10 @@ track's last position than ``OUTRUN`` times that speed over the time since, plus
 made (:class:`~dempath_recon.tracking.linker.MarkerTracker` takes the bound as
 ``TrackerConfig.max_image_speed_px_s``).
 
+:func:`camera_tracker` gives each camera's linker its settings in that camera's image scale:
+this bound, and the distance within which another track's prediction keeps a spot from being
+held before the assignment (``TrackerConfig.hold_rival_px``, a marker's image diameter).
+
 The image scale is the camera's at the grid's median depth (``f / Z``, the scale the detector's
 expected marker size uses); a marker lifted towards the camera looks faster by the ratio of
 depths, a few per cent at the tiny scene's 0.3-0.5 m, inside ``OUTRUN``'s margin.
@@ -42,3 +46,15 @@ def bounded_tracker(config: TrackerConfig, cam: Camera, grid: MarkerGrid,
     if config.max_image_speed_px_s > 0:
         return config
     return replace(config, max_image_speed_px_s=image_speed_bound(cam, grid, tool_speed_m_s))
+
+
+def camera_tracker(config: TrackerConfig, cam: Camera, grid: MarkerGrid, tool_speed_m_s: float,
+                   marker_diameter_m: float) -> TrackerConfig:
+    """One camera's linker settings: the speed bound (:func:`bounded_tracker`) and, unless
+    set, the rival distance of a held link (``TrackerConfig.hold_rival_px``): the markers'
+    diameter in ``cam``'s image at the grid's depth (fast markers crossing: a prediction
+    within 2 px of a spot another track predicts within a marker's width proves nothing)."""
+    config = bounded_tracker(config, cam, grid, tool_speed_m_s)
+    if config.hold_rival_px is not None:
+        return config
+    return replace(config, hold_rival_px=marker_diameter_px(cam, grid, marker_diameter_m))

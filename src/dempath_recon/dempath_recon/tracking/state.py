@@ -23,7 +23,7 @@ from dempath_recon.tracking.associate import MarkerPositions, back_project, dept
 from dempath_recon.tracking.linker import UNNUMBERED, MarkerTracker
 from dempath_recon.tracking.records import CameraCounts, StereoTrackConfig
 from dempath_recon.tracking.release import ReleaseQueue
-from dempath_recon.tracking.speed_bound import bounded_tracker
+from dempath_recon.tracking.speed_bound import camera_tracker
 
 FloatArray = NDArray[np.float64]
 RECENT_S = 0.05  # the other camera's position of a marker counts for numbering this long [s]
@@ -103,8 +103,9 @@ class StereoState:
             raise ValueError(f'cameras: need exactly two, got {sorted(cameras)}')
         return cls(
             cameras=cameras, config=config,
-            trackers={n: MarkerTracker(bounded_tracker(config.tracker, cam, config.grid,
-                                                       config.tool_speed_m_s))
+            trackers={n: MarkerTracker(camera_tracker(config.tracker, cam, config.grid,
+                                                      config.tool_speed_m_s,
+                                                      config.marker_diameter_m))
                       for n, cam in cameras.items()},
             counts={n: CameraCounts() for n in cameras},
             latest={n: {} for n in cameras},
