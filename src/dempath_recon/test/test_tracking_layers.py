@@ -14,7 +14,7 @@ ORDER = ('merge', 'cut_discs', 'split', 'covered', 'streak', 'colour_model', 'de
          'linker', 'associate', 'speed_bound', 'grid_pairs', 'pair_anchor', 'records', 'release',
          'publish_gate', 'trajectories', 'state', 'held_line', 'link_guide', 'parted',
          'one_camera', 'numbering', 'pair_checks', 'pair_numbering', 'track_pairs',
-         'ray_numbering', 'seek', 'stereo')
+         'grid_elimination', 'ray_numbering', 'seek', 'stereo')
 
 
 def imported_modules(path: Path) -> set[str]:

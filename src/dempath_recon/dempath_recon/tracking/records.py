@@ -80,6 +80,9 @@ class StereoTrackConfig:
             numbered more on 29 tuning looks (77.98 -> 78.78 %; the carriage rig at dusk
             81.3 -> 91.4 %) but added 2 switches there (49 -> 51) and lost 0.1 points on five
             held-apart looks (87.93 -> 87.83 %; session 18). False: only the frame's spots.
+        elimination: number a track only one camera sees, left unnumbered at the grid fit,
+            by the grid point it started nearest among the markers nobody holds
+            (:mod:`~dempath_recon.tracking.grid_elimination`; the grid engine only).
     """
 
     detector: DetectorConfig = field(default_factory=DetectorConfig)
@@ -101,6 +104,7 @@ class StereoTrackConfig:
     uncover: bool = True
     publish_gate: bool = True
     seek_other: bool = False
+    elimination: bool = True
 
     def __post_init__(self) -> None:
         if self.engine not in ENGINES:
@@ -156,6 +160,7 @@ class CameraCounts:
     numbered_by_pair: int = 0
     numbered_by_ray: int = 0
     numbered_by_track_pair: int = 0  # numbered by a partner held on their line (track_pairs)
+    numbered_by_elimination: int = 0  # one camera's, by the free grid point it started at
     numbered_late: int = 0
     unnumbered: int = 0
     epipolar_conflicts: int = 0

@@ -73,6 +73,9 @@ class StereoState:
             None before its first frame.
         provisional: cameras numbered by their own grid before the other camera's first
             frame; the grid numbering of both cameras at once renumbers them.
+        eliminated: per camera, track id -> (stamp of its numbering by elimination [s], its
+            largest link miss then [px]) (``grid_elimination``: watched till a pair check
+            passes).
     """
 
     cameras: dict[str, Camera]
@@ -95,6 +98,7 @@ class StereoState:
     residuals: dict[str, list[float]]
     last_tracks: dict[str, tuple[float, NDArray[np.int64], FloatArray] | None]
     provisional: set[str]
+    eliminated: dict[str, dict[int, tuple[float, float]]]
 
     @classmethod
     def start(cls, cameras: dict[str, Camera], config: StereoTrackConfig) -> StereoState:
@@ -117,7 +121,7 @@ class StereoState:
             free=dict.fromkeys(cameras),
             queue=ReleaseQueue(cameras, config.number_delay_frames),
             residuals={n: [] for n in cameras}, last_tracks=dict.fromkeys(cameras),
-            provisional=set())
+            provisional=set(), eliminated={n: {} for n in cameras})
 
     def other(self, camera: str) -> str:
         """The other camera's name."""

@@ -44,6 +44,11 @@ from dempath_recon.tracking.detect import (
     MarkerDetector,
     decode_jpeg,
 )
+from dempath_recon.tracking.grid_elimination import (
+    number_by_elimination,
+    revoke_jumped,
+    revoke_shared,
+)
 from dempath_recon.tracking.joint3d.engine import JointStereoTracker
 from dempath_recon.tracking.link_guide import ambiguous_spots, barred_links
 from dempath_recon.tracking.linker import UNNUMBERED
@@ -243,6 +248,10 @@ class StereoMarkerTracker:
         markers = number_pairs(state, camera, tf.track_ids, markers, tf.uv, stamp_s, events)
         markers = number_by_track_pairs(state, camera, tf.track_ids, markers, tf.uv, stamp_s,
                                         events)
+        if state.config.elimination:
+            markers = revoke_jumped(state, camera, tf.track_ids, markers, events)
+            markers = number_by_elimination(state, camera, tf.track_ids, markers, tf.uv,
+                                            stamp_s, events)
         if state.config.ray_numbering:
             markers = number_by_ray(state, camera, tf.track_ids, markers, tf.uv, stamp_s,
                                     events)
@@ -252,6 +261,7 @@ class StereoMarkerTracker:
         merged = ambiguous_spots(tracker, tf._replace(markers=markers),
                                  self.detectors[camera].config.marker_diameter_px)
         if merged.any():
+            revoke_shared(state, camera, tf.track_ids, merged, events)
             counts.merged += int(merged.sum())
             events += [f'{camera}: marker {m} withheld at {stamp_s:.3f} s: its spot may hold '
                        'a neighbour lost beside it' for m in markers[merged].tolist()]
