@@ -43,7 +43,7 @@ from numpy.typing import NDArray
 
 from dempath_recon.tracking.associate import epipolar_distance
 from dempath_recon.tracking.linker import UNNUMBERED
-from dempath_recon.tracking.state import StereoState
+from dempath_recon.tracking.state import StereoState, take_back
 
 FloatArray = NDArray[np.float64]
 LINE_FACTOR = 3.0  # a marker the other camera gives out and this one holds no track of may be
@@ -78,7 +78,6 @@ def number_by_elimination(state: StereoState, camera: str, track_ids: NDArray[np
     seen = set(markers[markers >= 0].tolist())  # markers on their own spots in this frame
     tracks = {t.track_id: t for t in state.trackers[camera].tracks}
     claims: dict[int, list[int]] = {}  # free marker -> the rows whose start lies nearest it
-    best: dict[int, int] = {}
     for k in np.flatnonzero(markers < 0).tolist():
         track = tracks.get(int(track_ids[k]))
         if track is None or track.reattached is not None or not track.history:
@@ -102,7 +101,6 @@ def number_by_elimination(state: StereoState, camera: str, track_ids: NDArray[np
                if dn < radius):
             continue
         claims.setdefault(m, []).append(k)
-        best[k] = m
     if not claims:
         return markers
     out = markers.copy()
@@ -170,10 +168,8 @@ def revoke_jumped(state: StereoState, camera: str, track_ids: NDArray[np.int64],
             continue
         m = track.marker
         del watched[tid]
-        state.trackers[camera].number(tid, UNNUMBERED)
-        state.refused[camera].add((tid, m))
         state.late_numbered[camera].discard(tid)
-        state.counts[camera].revoked += 1
+        take_back(state, camera, tid, m)
         out[track_ids == tid] = UNNUMBERED
         events.append(f'{camera}: track {tid} gave back marker {m} (numbered by elimination): '
                       'it jumped since')
@@ -193,9 +189,7 @@ def revoke_shared(state: StereoState, camera: str, track_ids: NDArray[np.int64],
         del watched[tid]
         if track.marker < 0:
             continue
-        state.refused[camera].add((tid, track.marker))
-        state.late_numbered[camera].discard(tid)
-        state.counts[camera].revoked += 1
         events.append(f'{camera}: track {tid} gave back marker {track.marker} (numbered by '
                       'elimination): its spot may hold a neighbour')
-        state.trackers[camera].number(tid, UNNUMBERED)
+        state.late_numbered[camera].discard(tid)
+        take_back(state, camera, tid, track.marker)

@@ -15,7 +15,13 @@ from dempath_recon.tracking.associate import project, triangulate_pairs
 from dempath_recon.tracking.link_guide import DRIFT_PX, DRIFT_WINDOW, lines_in_doubt
 from dempath_recon.tracking.linker import UNNUMBERED
 from dempath_recon.tracking.one_camera import alone
-from dempath_recon.tracking.state import RECENT_S, StereoState, at_stamp, carried_point
+from dempath_recon.tracking.state import (
+    RECENT_S,
+    StereoState,
+    at_stamp,
+    carried_point,
+    take_back,
+)
 
 LOG = logging.getLogger('dempath_recon.tracking.stereo')  # the pipeline's logger
 FloatArray = NDArray[np.float64]
@@ -136,17 +142,13 @@ def verify(state: StereoState, camera: str, track_ids: NDArray[np.int64],
         elif tid in state.late_numbered[camera] or rival is not None \
                 or (jump > state.config.doubt_link_px and not view_jumped):
             state.late_numbered[camera].discard(tid)
-            state.refused[camera].add((tid, m))
-            state.trackers[camera].number(tid, UNNUMBERED)
-            counts.revoked += 1
+            take_back(state, camera, tid, m)
             why += '; its number taken back'
         if rival is not None:  # the other camera's unchecked re-attachment is the same spot
             for t in state.trackers[other].tracks:
                 if t.marker == m and t.back_unchecked:
-                    state.refused[other].add((t.track_id, m))
-                    state.trackers[other].number(t.track_id, UNNUMBERED)
+                    take_back(state, other, t.track_id, m)
                     state.pending[other].pop(m, None)
-                    state.counts[other].revoked += 1
                     why += f' (and in {other})'
         msg = f'{camera}: marker {m} withheld at {stamp_s:.3f} s: {why}'
         events.append(msg)

@@ -29,7 +29,7 @@ from numpy.typing import NDArray
 
 from dempath_recon.tracking.detect import Detections
 from dempath_recon.tracking.linker import UNNUMBERED
-from dempath_recon.tracking.state import StereoState
+from dempath_recon.tracking.state import StereoState, take_back
 
 FloatArray = NDArray[np.float64]
 SIBLING_DIAMETERS = 1.5  # parts of one split blob lie closer than this many diameters
@@ -82,9 +82,7 @@ def revoke_at_parting(state: StereoState, camera: str, track_ids: NDArray[np.int
             continue
         m = int(out[k])
         out[k] = UNNUMBERED
-        state.refused[camera].add((tid, m))
-        state.trackers[camera].number(tid, UNNUMBERED)
-        state.counts[camera].revoked += 1
+        take_back(state, camera, tid, m)
         events.append(f'{camera}: track {tid} gave back marker {m} at {stamp_s:.3f} s: its spot '
                       'parted in two and either part could be it')
     return out

@@ -204,6 +204,14 @@ def forget_refusals(state: StereoState, camera: str, stamp_s: float) -> None:
             state.refused[camera] = {r for r in state.refused[camera] if r[0] != track.track_id}
 
 
+def take_back(state: StereoState, camera: str, track_id: int, number: int) -> None:
+    """Take a track's number back for good: it is unnumbered, refuses that number from now on
+    (a later numbering may give it another), and the camera counts a revocation."""
+    state.refused[camera].add((track_id, number))
+    state.trackers[camera].number(track_id, UNNUMBERED)
+    state.counts[camera].revoked += 1
+
+
 def retire(state: StereoState, camera: str, number: int) -> None:
     """Drop the lost track that held ``number`` (its marker came back as a new track)."""
     tracker = state.trackers[camera]
