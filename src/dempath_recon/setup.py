@@ -25,6 +25,7 @@ setup(
         'pillow',
         'matplotlib',
         'simplejpeg',
+        'numba',
     ],
     extras_require={'mlp': ['torch']},  # the paper's MLP reconstructor (optional)
     zip_safe=False,

@@ -12,7 +12,14 @@ import pytest
 sys.path.insert(0, str(Path(__file__).parent))
 from spots import spot_image
 
-from dempath_recon.tracking.cut_discs import fit_cut_discs, pixel_grid, union_jacobian, union_model
+from dempath_recon.tracking.cut_discs import (
+    EDGE_BLUR,
+    fit_cut_discs,
+    pixel_grid,
+    union_jacobian,
+    union_model,
+)
+from dempath_recon.tracking.cut_discs_kernel import residual_and_jacobian
 from dempath_recon.tracking.detect import DetectorConfig, MarkerDetector
 
 SHAPE = (240, 320)
@@ -124,6 +131,29 @@ def test_the_jacobian_is_the_models_derivative() -> None:
             ahead, back = union_model(p + step, xy, 2, cut), union_model(p - step, xy, 2, cut)
             numeric = (ahead - back) / 2e-6
             assert np.allclose(jac[:, j], numeric, atol=1e-6), j
+
+
+def test_the_compiled_kernel_is_the_reference_model() -> None:
+    """``residual_and_jacobian`` (the fit's compiled path) gives ``union_model`` less the values
+    and ``union_jacobian``, then the radius prior, to rounding: one, two and three discs, cut
+    and whole."""
+    rng = np.random.default_rng(5)
+    xy = pixel_grid((15, 21), (2, 3))
+    up = np.array([0.6, -0.8])
+    values = rng.normal(0.2, 0.1, len(xy))
+    for k in (1, 2, 3):
+        for cut in (up, None):
+            per = 2 if cut is None else 3
+            discs = np.column_stack([rng.uniform(6, 18, k), rng.uniform(6, 14, k)]
+                                    + ([rng.uniform(-5, 2, k)] if cut is not None else []))
+            p = np.concatenate([[0.55, -0.12, 4.1], discs.ravel()])
+            res, jac = np.empty(len(xy) + 1), np.empty((len(xy) + 1, 3 + per * k))
+            residual_and_jacobian(p, xy, k, up, cut is not None, EDGE_BLUR, values, 4.0, 0.2,
+                                  res, jac)
+            assert np.allclose(res[:-1], union_model(p, xy, k, cut) - values, atol=1e-12)
+            assert np.allclose(jac[:-1], union_jacobian(p, xy, k, cut), atol=1e-12)
+            assert res[-1] == pytest.approx((4.1 - 4.0) / 0.2)
+            assert jac[-1, 2] == pytest.approx(1 / 0.2) and not jac[-1, [0, 1, 3]].any()
 
 
 def test_a_cut_disc_fit_finds_the_centre_below_the_seen_part() -> None:

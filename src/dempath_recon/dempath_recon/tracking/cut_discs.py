@@ -20,8 +20,10 @@ disc centre ``x_i`` is the marker's centre, whatever share of it the sand leaves
 it from the seen rim's arc, where a whole-disc fit put a covered marker's disc on its visible
 part, 3-3.5 px off (session 16, track7).
 
-Fitted by Levenberg-Marquardt (``scipy.optimize.least_squares(method='lm')``) with the
-analytic Jacobian.
+Fitted by Levenberg-Marquardt (MINPACK's ``lmder`` through ``scipy.optimize.leastsq``) with
+the analytic Jacobian; residual and Jacobian come from one compiled pass over the pixels
+(:mod:`~dempath_recon.tracking.cut_discs_kernel`), which ``union_model`` and
+``union_jacobian`` here state readably and the tests hold it to.
 """
 
 from __future__ import annotations
@@ -30,8 +32,10 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.optimize import least_squares
+from scipy.optimize import leastsq
 from scipy.special import erfc
+
+from dempath_recon.tracking.cut_discs_kernel import residual_and_jacobian
 
 FloatArray = NDArray[np.float64]
 EDGE_BLUR = 0.6  # edge blur s of the model [detector px] (JPEG chroma at half resolution)
@@ -154,30 +158,35 @@ def fit_cut_discs(patch: NDArray[np.float32], origin: tuple[int, int], start: Fl
     level = max(high - low, 1e-3)
     spread = RADIUS_SPREAD * radius / level  # the prior's weight against a pixel's residual
 
-    last: dict[bytes, Parts] = {}
+    n, m = len(values), 3 + per * k
+    res, jac = np.empty(n + 1), np.empty((n + 1, m))
+    at = np.full(m, np.nan)  # the parameters res and jac were last filled for
+    direction = np.zeros(2) if up is None else np.asarray(up, np.float64)
 
-    def parts(p: FloatArray) -> Parts:  # MINPACK asks the Jacobian where it asked the residual
-        key = p.tobytes()
-        if key not in last:
-            last.clear()
-            last[key] = _parts(p, xy, k, up)
-        return last[key]
+    def fill(p: FloatArray) -> None:  # MINPACK asks the Jacobian where it asked the residual
+        if not np.array_equal(p, at):
+            residual_and_jacobian(p, xy, k, direction, up is not None, EDGE_BLUR, values,
+                                  radius, spread, res, jac)
+            at[:] = p
 
     def residual(p: FloatArray) -> FloatArray:
-        model = union_model(p, xy, k, up, parts(p))
-        return np.concatenate([model - values, [(p[2] - radius) / spread]])
+        fill(p)
+        return res.copy()
 
     def jacobian(p: FloatArray) -> FloatArray:
-        prior = np.zeros((1, len(p)))
-        prior[0, 2] = 1.0 / spread
-        return np.vstack([union_jacobian(p, xy, k, up, parts(p)), prior])
+        fill(p)
+        return jac.copy()
 
     first = start if up is None else np.column_stack([start, np.full(k, -radius)])
     p0 = np.concatenate([[level, low, radius], first.ravel()])
-    fit = least_squares(residual, p0, jac=jacobian, method='lm',
-                        max_nfev=20 * (k + 1) * (per - 1), xtol=1e-4, ftol=1e-4)
-    q = fit.x[3:].reshape(k, per)
-    r = float(fit.x[2])
+    # MINPACK's lmder as least_squares(method='lm', x_scale='jac') calls it (scipy 1.16), without
+    # that wrapper's per-call bookkeeping (its own Jacobian call at the end, array checks)
+    with np.errstate(over='ignore'):  # leastsq's covariance estimate, not used
+        x, _, info, _, _ = leastsq(residual, p0, Dfun=jacobian, full_output=True, ftol=1e-4,
+                                   xtol=1e-4, gtol=1e-8, maxfev=20 * (k + 1) * (per - 1))
+    fvec = info['fvec']
+    q = x[3:].reshape(k, per)
+    r = float(x[2])
     cuts = np.full(k, -1.0) if up is None else np.maximum(q[:, 2] / max(r, 1e-6), -1.0)
     return BlobFit(np.asarray(q[:, :2], np.float64), np.asarray(cuts, np.float64), r,
-                   float(fit.x[0]), float(2 * fit.cost))
+                   float(x[0]), float(np.dot(fvec, fvec)))
