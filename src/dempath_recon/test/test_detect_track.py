@@ -6,6 +6,7 @@ import sys
 from dataclasses import replace
 from pathlib import Path
 
+import cv2
 import numpy as np
 import pytest
 
@@ -131,6 +132,25 @@ def test_window_around_candidates_gives_the_whole_frame_result(corner: tuple[int
         assert len(ref.uv) >= (2 if look == 'dusk' else 4)
         assert np.allclose(found.uv, ref.uv, atol=1e-9)
         assert np.allclose(found.confidence, ref.confidence)
+
+
+def test_stray_bluish_pixels_across_the_view_do_not_widen_the_window() -> None:
+    """A bright, slightly bluish speck in each corner (its ``B - R`` above the byte bound but its
+    chroma 0.06, under the threshold: a grey bed's glints) beside markers mid-frame: the window
+    is narrowed to the markers (under a tenth of the frame, where the byte bound's box is the
+    whole frame) and the detections equal those of the whole frame's chroma."""
+    rng = np.random.default_rng(8)
+    centres = np.array([[900.0, 500.0], [930.0, 520.0], [880.0, 540.0]]) + rng.uniform(0, 1, 2)
+    image = cv2.imdecode(np.frombuffer(spot_image((1080, 1920), centres, 4.5, rng, quality=95),
+                                       np.uint8), cv2.IMREAD_COLOR)
+    for x, y in ((3, 3), (1915, 4), (5, 1075), (1914, 1074)):
+        image[y - 1:y + 2, x - 1:x + 2] = (130, 110, 110)  # B - R = 20 DN, chroma 0.06
+    config = DetectorConfig(downscale=1, adaptive=False)
+    detector = MarkerDetector(config)
+    _, _, window = detector._window(image, config.threshold)
+    assert 0 < window.size < 0.1 * 1080 * 1920
+    found, ref = detector.detect(image), WholeFrameDetector(config).detect(image)
+    assert len(found.uv) == 3 and np.allclose(found.uv, ref.uv, atol=1e-9)
 
 
 def moving(n_frames: int, rng: np.random.Generator) -> np.ndarray:
