@@ -33,7 +33,7 @@ from __future__ import annotations
 import logging
 from dataclasses import dataclass
 from functools import partial
-from typing import NamedTuple, Protocol
+from typing import Any, NamedTuple, Protocol
 
 import cv2
 import numpy as np
@@ -581,7 +581,7 @@ class MarkerDetector:
         return x0, y0, chroma(np.ascontiguousarray(image[y0:y1, x0:x1]), floor, axis)
 
     @staticmethod
-    def _exact_box(image: NDArray[np.uint8], above: NDArray[np.uint8], thr: float, floor: float,
+    def _exact_box(image: NDArray[np.uint8], above: NDArray[Any], thr: float, floor: float,
                    axis: NDArray[np.float32] | None) -> tuple[int, int, int, int]:
         """The bounding box ``(x, y, w, h)`` of the pixels whose chroma exceeds ``thr``, from
         the chroma of the pixels the byte bound ``above`` keeps (the chroma is per pixel, so
@@ -600,7 +600,8 @@ class MarkerDetector:
         passed = chroma(np.ascontiguousarray(image[ys, xs][None]), floor, axis)[0] > thr
         if not passed.any():
             return 0, 0, 0, 0
-        return cv2.boundingRect(pts[passed])
+        x, y, w, h = cv2.boundingRect(pts[passed])
+        return x, y, w, h
 
     def _refine(self, c: NDArray[np.float32], rows: NDArray[np.intp], cols: NDArray[np.intp],
                 thr: float) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
