@@ -40,6 +40,22 @@ def test_bundled_scenes_load() -> None:
         assert bundled_scene(name).name == name
 
 
+def test_tiny_long_runs_the_chisel_past_the_marker_grid() -> None:
+    """``tiny_long`` (tracking's longer test pass) is tiny with a longer bin and travel: its
+    chisel ends 70 mm past the grid's last row, where tiny's stops inside the grid."""
+    def end_past_grid(name: str) -> float:
+        scene = bundled_scene(name)
+        last_row = scene.markers.first_z_m + (scene.markers.columns - 1) \
+            * scene.markers.spacing_z_m
+        return scene.tool.start_z_m + scene.tool.travel_m - last_row
+
+    assert end_past_grid('tiny_long') == pytest.approx(0.07)
+    assert end_past_grid('tiny') < 0
+    long, tiny = bundled_scene('tiny_long'), bundled_scene('tiny')
+    assert (long.layers, long.tool.depth_m, long.markers) == (tiny.layers, tiny.tool.depth_m,
+                                                            tiny.markers)
+
+
 def test_paper_scene_has_table_values() -> None:
     """The paper scene carries Tables 2 and 6 and the paper's geometry."""
     scene = bundled_scene('paper_1ms')
