@@ -21,6 +21,16 @@ apart, as ``detect_track.py --variations``). Each miss falls in the first cause 
   (numbering not reached), while the other camera gives that marker out within a frame period
   (numbering by the epipolar line did not happen) / does not (a marker only this camera has).
 
+Each wrong number and each late number is traced to the rule that gave it, by the tracker's
+record of which rule numbered what (``StereoTrackConfig.record_numbers``,
+:mod:`~dempath_recon.tracking.number_record`): ``switch_rules`` counts the numbered points given
+out on another marker's spot (the bench's ``id_switches``) by the rule behind the number and
+``/given_wrong`` (the track was on another marker's spot when numbered) or ``/moved`` (it was on
+its own marker then and its links later took it to another; ``/untraced``: no truth then);
+``late_rules`` counts the points numbered right that were unnumbered on arrival, by the rule
+that numbered their track later. ``--trace`` prints each switch (one JSON line: the frame, the
+number, the true owner, the rule and its evidence, and the track's record).
+
 Prints one JSON line per recording and a last line with the pooled counts (and, with
 ``--variations``, ``tuned`` and ``held_out`` pools). Shares are of the visible marker-frames.
 """
@@ -32,6 +42,7 @@ import json
 import os
 import sys
 from collections import Counter
+from dataclasses import replace
 from itertools import pairwise
 from pathlib import Path
 from typing import Any
@@ -48,6 +59,7 @@ from detect_track_variations import (
 
 from dempath_calib.camera import CameraModel
 from dempath_recon.tracking.associate import MarkerGrid
+from dempath_recon.tracking.number_record import NumberChange, NumberRecord
 from dempath_recon.tracking.records import PixelFrame, StereoTrackConfig
 from dempath_recon.tracking.stereo import StereoMarkerTracker
 
@@ -62,12 +74,14 @@ RULES = (('its spot may hold a neighbour', 'withheld_ambiguous'),
          ('from its last position', 'withheld_position'))
 Frames = list[tuple[str, int, bytes]]
 Key = tuple[str, int]  # (camera, stamp us)
+TRACE = [False]  # --trace: print each switch
 
 
 def track(frames: Frames, cams: dict[str, CameraModel], config: StereoTrackConfig,
-          ) -> tuple[list[PixelFrame], dict[Key, tuple[Any, Any]]]:
-    """The offline path's released frames, and each frame's raw detections (uv, crowded)."""
-    tracker = StereoMarkerTracker(cams, config)
+          ) -> tuple[list[PixelFrame], dict[Key, tuple[Any, Any]], NumberRecord]:
+    """The offline path's released frames, each frame's raw detections (uv, crowded), and
+    the record of which rule numbered what."""
+    tracker = StereoMarkerTracker(cams, replace(config, record_numbers=True))
     raw: dict[Key, tuple[Any, Any]] = {}
     out: list[PixelFrame] = []
     for cam, stamp, data in frames:
@@ -75,7 +89,9 @@ def track(frames: Frames, cams: dict[str, CameraModel], config: StereoTrackConfi
         raw[(cam, round(stamp * 1e-3))] = (det.uv, det.crowded)
         tracker.update_detections(cam, stamp * 1e-9, det)
         out += tracker.release()
-    return out + tracker.flush(), raw
+    out += tracker.flush()
+    assert tracker.state.record is not None
+    return out, raw, tracker.state.record
 
 
 def withheld_rule(events: tuple[str, ...], camera: str, marker: int) -> str | None:
@@ -87,9 +103,59 @@ def withheld_rule(events: tuple[str, ...], camera: str, marker: int) -> str | No
     return None
 
 
+def owner_then(change: NumberChange, by_key: dict[Key, Any], ids: Any) -> int | None:
+    """The true marker whose spot the track was on when its number changed (-1: none within
+    ``OWNER_PX``; None: no truth for that frame)."""
+    t = by_key.get((change.camera, round(change.seen_s * 1e6)))
+    if t is None:
+        return None
+    d = np.linalg.norm(np.array(t['uv']) - np.array(change.uv), axis=1)
+    return int(ids[np.argmin(d)]) if d.min() < OWNER_PX else -1
+
+
+def rule_behind(record: NumberRecord, fr: PixelFrame, k: int, by_key: dict[Key, Any],
+                ids: Any) -> tuple[str, NumberChange | None]:
+    """``rule/how`` behind point ``k``'s number (see the module docstring) and the change."""
+    change = record.behind(fr.camera, fr.stamp_s, k, int(fr.markers[k]))
+    if change is None:
+        return 'unrecorded', None
+    then = owner_then(change, by_key, ids)
+    how = 'untraced' if then is None else 'moved' if then == change.after else 'given_wrong'
+    return f'{change.rule}/{how}', change
+
+
+def trace_rules(fr: PixelFrame, t: dict[str, Any], record: NumberRecord,
+                by_key: dict[Key, Any], ids: Any, tally: Counter[str]) -> None:
+    """Count the rule behind each switch and each late number of one frame (and print each
+    switch with ``--trace``)."""
+    true_uv = np.array(t['uv'])
+    uv = fr.uv if fr.shake_px is None else fr.uv + fr.shake_px  # where seen, as the bench
+    for k in np.flatnonzero(fr.markers >= 0).tolist():
+        m = int(fr.markers[k])
+        d = np.linalg.norm(true_uv - uv[k], axis=1)
+        owner = int(ids[np.argmin(d)]) if d.min() < OWNER_PX else -1
+        own = float(d[list(ids).index(m)]) < MATCH_PX if m in ids else False
+        if owner == m or owner < 0 or own:
+            if owner == m and record.arrival_number(fr.camera, fr.stamp_s, k) == -1:
+                tally['late:' + rule_behind(record, fr, k, by_key, ids)[0]] += 1
+            continue
+        rule, change = rule_behind(record, fr, k, by_key, ids)
+        tally['switch:' + rule] += 1
+        if TRACE[0]:
+            track = record.track_of(fr.camera, fr.stamp_s, k)
+            print(json.dumps({'switch': fr.camera, 'stamp_s': round(fr.stamp_s, 4),
+                              'number': m, 'owner': owner, 'rule': rule,
+                              'change': None if change is None else change._asdict(),
+                              'track': [c._asdict() for c in
+                                        record.history(fr.camera, -1 if track is None
+                                                       else track)]}))
+
+
 def classify(out: list[PixelFrame], raw: dict[Key, tuple[Any, Any]], truth: dict[str, Any],
-             ) -> Counter[str]:
-    """Counts of each cause over the visible marker-frames (``right`` and ``want`` too)."""
+             record: NumberRecord | None = None) -> Counter[str]:
+    """Counts of each cause over the visible marker-frames (``right`` and ``want`` too), and
+    with ``record``, the rules behind the switches (``switch:<rule>/<how>``) and the late
+    numbers (``late:<rule>/<how>``)."""
     ids = np.array(truth['marker_ids'])
     by_key = {(f['camera'], round(f['stamp_ns'] * 1e-3)): f for f in truth['frames']}
     tally: Counter[str] = Counter()
@@ -106,6 +172,8 @@ def classify(out: list[PixelFrame], raw: dict[Key, tuple[Any, Any]], truth: dict
             continue
         true_uv, vis = np.array(t['uv']), np.array(t['visible'])
         det_uv, crowded = raw.get(key, (np.zeros((0, 2)), None))
+        if record is not None:
+            trace_rules(fr, t, record, by_key, ids, tally)
         for i, m in enumerate(ids.tolist()):
             if vis[i] < 0.5:
                 continue
@@ -155,9 +223,13 @@ def cause(fr: PixelFrame, det_uv: Any, crowded: Any, true_uv: Any, vis: Any, i: 
 def shares(tally: Counter[str]) -> dict[str, Any]:
     """The counts and their shares of the visible marker-frames, largest miss first."""
     want = max(tally['want'], 1)
-    misses = {k: v for k, v in tally.most_common() if k not in ('want', 'right')}
+    misses = {k: v for k, v in tally.most_common() if k not in ('want', 'right')
+              and ':' not in k}
+    rules = {f'{kind}_rules': {k.split(':', 1)[1]: v for k, v in tally.most_common()
+                               if k.startswith(kind + ':')} for kind in ('switch', 'late')}
     return {'want': tally['want'], 'numbered_right': tally['right'] / want,
-            'misses': misses, 'miss_share': {k: round(v / want, 4) for k, v in misses.items()}}
+            'misses': misses, 'miss_share': {k: round(v / want, 4) for k, v in misses.items()},
+            **rules}
 
 
 def run_bags(bags: list[Path]) -> dict[str, Any]:
@@ -172,7 +244,8 @@ def run_bags(bags: list[Path]) -> dict[str, Any]:
         grid = MarkerGrid(layout_m=tuple(tuple(p) for p in truth['marker_grid_m']))
         config = with_tool_speed(with_exposure(StereoTrackConfig(grid=grid),
                                                look_exposure(truth)), truth)
-        tally = classify(*track(frames, cams, config), truth)
+        out, raw, record = track(frames, cams, config)
+        tally = classify(out, raw, truth, record)
         pool += tally
         print(json.dumps({'recording': bag.name, **shares(tally)}), flush=True)
     return shares(pool)
@@ -194,7 +267,8 @@ def run_variations(bag: Path, cache: Path) -> dict[str, Any]:
         varied, moved = vary(frames, truth, cond, cache)
         config = with_tool_speed(with_exposure(StereoTrackConfig(grid=grid),
                                                1e-3 * cond.shutter_ms), truth)
-        tally = classify(*track(varied, cams, config), moved)
+        out, raw, record = track(varied, cams, config)
+        tally = classify(out, raw, moved, record)
         pools[cond.held_out] += tally
         print(json.dumps({'variation': cond.name, 'held_out': cond.held_out,
                           **shares(tally)}), flush=True)
@@ -216,7 +290,10 @@ def main(argv: list[str]) -> int:
     p.add_argument('--tool-speed', type=float, default=0.0, metavar='M_S',
                    help="the tool's speed [m/s] for recordings whose truth does not give it "
                         '(0: unknown)')
+    p.add_argument('--trace', action='store_true',
+                   help='print each switch with the rule behind its number and its evidence')
     args = p.parse_args(argv)
+    TRACE[0] = args.trace
     EXPOSURE_KNOWN[0] = not args.exposure_unknown
     TOOL_SPEED[0] = args.tool_speed
     for bag in args.bags:

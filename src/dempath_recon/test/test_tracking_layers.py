@@ -13,8 +13,8 @@ ROOM = Path(dempath_recon.tracking.__file__).parent
 ORDER = ('merge', 'cut_discs_kernel', 'cut_discs', 'split', 'covered', 'streak', 'colour_model',
          'detect', 'shake',
          'linker', 'associate', 'speed_bound', 'grid_pairs', 'pair_anchor', 'records', 'release',
-         'publish_gate', 'trajectories', 'state', 'held_line', 'link_guide', 'parted',
-         'one_camera', 'numbering', 'pair_checks', 'pair_numbering', 'track_pairs',
+         'publish_gate', 'trajectories', 'number_record', 'state', 'held_line', 'link_guide',
+         'parted', 'one_camera', 'numbering', 'pair_checks', 'pair_numbering', 'track_pairs',
          'grid_elimination', 'ray_numbering', 'seek', 'stereo')
 
 

@@ -56,7 +56,7 @@ form over a sequence of frames and gives the same result (tested).
 from __future__ import annotations
 
 import logging
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
@@ -203,6 +203,9 @@ class MarkerTracker:
         self.counts = TrackCounts()
         self._next_id = 0
         self._last_stamp: float | None = None
+        # called with (track, new number) before a track's number changes (a record of who
+        # numbered what, ``number_record``); None: nobody listens
+        self.on_number: Callable[[Track, int], None] | None = None
 
     def seed(self, uv: FloatArray, markers: NDArray[np.int32], stamp_s: float) -> None:
         """Start numbered tracks at positions (m, 2) px (the initial grid), before frame one."""
@@ -374,6 +377,8 @@ class MarkerTracker:
         """Give a track its marker number (from the grid or the other camera)."""
         for track in self.tracks:
             if track.track_id == track_id:
+                if self.on_number is not None and track.marker != marker:
+                    self.on_number(track, marker)
                 track.marker = marker
 
 

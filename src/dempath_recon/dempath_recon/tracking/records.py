@@ -83,6 +83,10 @@ class StereoTrackConfig:
         elimination: number a track only one camera sees, left unnumbered at the grid fit,
             by the grid point it started nearest among the markers nobody holds
             (:mod:`~dempath_recon.tracking.grid_elimination`; the grid engine only).
+        record_numbers: keep a record of every number a track is given or has taken back,
+            with the rule, the frame and the evidence (``StereoMarkerTracker.record``,
+            :mod:`~dempath_recon.tracking.number_record`; the grid engine only). Off by
+            default: it grows with the recording (for benches and tracing, not live nodes).
     """
 
     detector: DetectorConfig = field(default_factory=DetectorConfig)
@@ -105,6 +109,7 @@ class StereoTrackConfig:
     publish_gate: bool = True
     seek_other: bool = False
     elimination: bool = True
+    record_numbers: bool = False
 
     def __post_init__(self) -> None:
         if self.engine not in ENGINES:

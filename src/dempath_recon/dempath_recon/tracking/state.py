@@ -21,6 +21,7 @@ from numpy.typing import NDArray
 from dempath_recon.methods.triangulate import Camera
 from dempath_recon.tracking.associate import MarkerPositions, back_project, depth
 from dempath_recon.tracking.linker import UNNUMBERED, MarkerTracker
+from dempath_recon.tracking.number_record import NumberRecord
 from dempath_recon.tracking.records import CameraCounts, StereoTrackConfig
 from dempath_recon.tracking.release import ReleaseQueue
 from dempath_recon.tracking.speed_bound import camera_tracker
@@ -76,6 +77,7 @@ class StereoState:
         eliminated: per camera, track id -> (stamp of its numbering by elimination [s], its
             largest link miss then [px]) (``grid_elimination``: watched till a pair check
             passes).
+        record: which rule numbered what (``config.record_numbers``; None: not kept).
     """
 
     cameras: dict[str, Camera]
@@ -99,18 +101,22 @@ class StereoState:
     last_tracks: dict[str, tuple[float, NDArray[np.int64], FloatArray] | None]
     provisional: set[str]
     eliminated: dict[str, dict[int, tuple[float, float]]]
+    record: NumberRecord | None = None
 
     @classmethod
     def start(cls, cameras: dict[str, Camera], config: StereoTrackConfig) -> StereoState:
         """The state before the first frame; ValueError unless there are exactly two cameras."""
         if len(cameras) != 2:
             raise ValueError(f'cameras: need exactly two, got {sorted(cameras)}')
+        trackers = {n: MarkerTracker(camera_tracker(config.tracker, cam, config.grid,
+                                                    config.tool_speed_m_s,
+                                                    config.marker_diameter_m))
+                    for n, cam in cameras.items()}
+        record = NumberRecord() if config.record_numbers else None
+        for n, tracker in trackers.items():
+            tracker.on_number = None if record is None else record.hook(n)
         return cls(
-            cameras=cameras, config=config,
-            trackers={n: MarkerTracker(camera_tracker(config.tracker, cam, config.grid,
-                                                      config.tool_speed_m_s,
-                                                      config.marker_diameter_m))
-                      for n, cam in cameras.items()},
+            cameras=cameras, config=config, trackers=trackers,
             counts={n: CameraCounts() for n in cameras},
             latest={n: {} for n in cameras},
             positions=MarkerPositions(config.position_gate_m, config.max_speed_m_s),
@@ -121,7 +127,7 @@ class StereoState:
             free=dict.fromkeys(cameras),
             queue=ReleaseQueue(cameras, config.number_delay_frames),
             residuals={n: [] for n in cameras}, last_tracks=dict.fromkeys(cameras),
-            provisional=set(), eliminated={n: {} for n in cameras})
+            provisional=set(), eliminated={n: {} for n in cameras}, record=record)
 
     def other(self, camera: str) -> str:
         """The other camera's name."""

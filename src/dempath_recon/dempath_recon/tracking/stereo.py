@@ -232,35 +232,54 @@ class StereoMarkerTracker:
                             len(det.uv))
         before = (tracker.counts.lost, tracker.counts.reattached)
         tf = tracker.update(stamp_s, det, barred)
+        record = state.record
+        if record is not None:
+            record.reattached(camera, stamp_s, tracker.tracks)
+
+        def step(rule: str) -> None:  # the next numbering rule starts (for the record)
+            if record is not None:
+                record.begin(rule, camera, stamp_s, events)
+
         counts.detected += len(det.uv)
         counts.lost += tracker.counts.lost - before[0]
         counts.reattached += tracker.counts.reattached - before[1]
         forget_refusals(state, camera, stamp_s)
+        step('parted')
         markers = revoke_at_parting(state, camera, tf.track_ids, tf.markers, tf.uv, det,
                                     self._crowded[camera], stamp_s,
                                     self.detectors[camera].config.marker_diameter_px, events)
         self._crowded[camera] = {int(t) for t in tf.track_ids[flagged(det, det.crowded, tf.uv)]}
+        step('grid_fit')
         if camera not in state.grid_uv:
             markers = number_all_by_grid(state, camera, tf.track_ids, tf.uv, stamp_s, events)
+        step('number_new')
         markers = number_new(state, camera, tf.track_ids, markers, tf.uv, stamp_s, events)
+        step('grid_unsure')
         markers = number_grid_unsure(state, camera, tf.track_ids, markers, tf.uv, stamp_s,
                                      events)
+        step('pair_numbering')
         markers = number_pairs(state, camera, tf.track_ids, markers, tf.uv, stamp_s, events)
+        step('track_pairs')
         markers = number_by_track_pairs(state, camera, tf.track_ids, markers, tf.uv, stamp_s,
                                         events)
         if state.config.elimination:
+            step('elimination_jumped')
             markers = revoke_jumped(state, camera, tf.track_ids, markers, events)
+            step('elimination')
             markers = number_by_elimination(state, camera, tf.track_ids, markers, tf.uv,
                                             stamp_s, events)
         if state.config.ray_numbering:
+            step('ray')
             markers = number_by_ray(state, camera, tf.track_ids, markers, tf.uv, stamp_s,
                                     events)
+        step('pair_checks')
         markers = verify(state, camera, tf.track_ids, markers, tf.uv, stamp_s, events)
         waiting = waiting_points(state, camera, markers, tf.uv, stamp_s)
         markers = withhold_crowded(det, tf.uv, markers)
         merged = ambiguous_spots(tracker, tf._replace(markers=markers),
                                  self.detectors[camera].config.marker_diameter_px)
         if merged.any():
+            step('merged_spot')
             revoke_shared(state, camera, tf.track_ids, merged, events)
             counts.merged += int(merged.sum())
             events += [f'{camera}: marker {m} withheld at {stamp_s:.3f} s: its spot may hold '
@@ -274,6 +293,8 @@ class StereoMarkerTracker:
         for m, p in zip(markers, tf.uv, strict=True):
             if m >= 0:
                 state.latest[camera][int(m)] = (stamp_s, p)
+        if record is not None:
+            record.frame_done(camera, stamp_s, tf.track_ids, markers)
         frame = PixelFrame(camera, stamp_s, markers, published_centres(det, tf.uv),
                            tf.confidence, tuple(events) + tf.events, shake_px)
         state.queue.hold(frame, tf.track_ids, free_mask, waiting)
