@@ -29,7 +29,7 @@ def spot_image(shape: tuple[int, int], centres: np.ndarray, radius: float,
                dirt: tuple[float, float, float] | None = None,
                sand_bgr: np.ndarray = SAND, clay_bgr: np.ndarray = CLAY,
                buried: float | np.ndarray = 0.0,
-               streak: tuple[float, float] = (0.0, 0.0)) -> bytes:
+               streak: tuple[float, float] = (0.0, 0.0), lit_from_up: float = 0.0) -> bytes:
     """JPEG of markers at ``centres`` (n, 2) px (pixel-centre convention) on sand.
 
     ``shadow_cols`` > 0 darkens the left part of the image to 35 % (a shadow);
@@ -38,7 +38,8 @@ def spot_image(shape: tuple[int, int], centres: np.ndarray, radius: float,
     ``buried`` is the share of each marker's height below the sand (its lower part hidden), one
     for all or one per marker; ``streak`` (du, dv) px is each marker's motion during the
     exposure (a long shutter): the disc is drawn at 16 places along it, centred on its centre,
-    and the exposures averaged.
+    and the exposures averaged; ``lit_from_up`` (0..1) lights each marker from above the image:
+    its top ``1 + lit_from_up`` times as bright as its middle, its bottom ``1 - lit_from_up``.
     """
     h, w = shape
     img = sand(shape, rng, sand_bgr)
@@ -57,7 +58,8 @@ def spot_image(shape: tuple[int, int], centres: np.ndarray, radius: float,
             px, py = cx + t * du, cy + t * dv
             d2 = ((xx - px) ** 2 + (yy - py) ** 2) / radius ** 2
             inside = (d2 < 1) & (yy < py + radius * (1 - 2 * depth[k]))
-            shade = np.where(inside, 0.5 + 0.5 * np.sqrt(np.clip(1 - d2, 0, 1)), 0)
+            shade = np.where(inside, (0.5 + 0.5 * np.sqrt(np.clip(1 - d2, 0, 1)))
+                             * (1 - lit_from_up * (yy - py) / radius), 0)
             cov += cv2.resize(inside.astype(np.float64), (n, n), interpolation=cv2.INTER_AREA)
             rad += cv2.resize(shade, (n, n), interpolation=cv2.INTER_AREA)
         cov, rad = cov / len(steps), rad / len(steps)

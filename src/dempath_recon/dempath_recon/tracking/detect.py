@@ -56,6 +56,7 @@ from dempath_recon.tracking.colour_model import (
     near_lit,
 )
 from dempath_recon.tracking.covered import MAX_ELEVATION_DEG, seen_share, uncover
+from dempath_recon.tracking.shaded import lit_centroids, shade_floor
 from dempath_recon.tracking.split import split_touching
 from dempath_recon.tracking.streak import STREAK_MIN_PX, find_streak
 
@@ -234,6 +235,10 @@ class DetectorConfig:
             looks but also caps of markers 10-25 % visible, numbered wrong at the grid fit
             (session 17, on main ca95c75: 23 tuning looks 14 -> 19 wrong-pair points); 'off':
             ``MIN_SUM_DN`` everywhere.
+        shade_centres: in a dim frame (the frame's own chroma floor under the detection's) the
+            published centres (``Detections.centre``) are centroids on the chroma floored at
+            the frame's light, so a marker's shaded side keeps its weight
+            (:mod:`~dempath_recon.tracking.shaded`); False: the detection's centroids.
     """
 
     downscale: int = 2
@@ -256,6 +261,7 @@ class DetectorConfig:
     marker_bgr: tuple[float, float, float] | None = None
     sand_bgr: tuple[float, float, float] | None = None
     exposure_floor: str = 'faint'
+    shade_centres: bool = True
 
     def __post_init__(self) -> None:
         checks = {'downscale': self.downscale in (1, 2), 'threshold': 0 < self.threshold < 1,
@@ -392,12 +398,23 @@ class MarkerDetector:
             # a fitted marker's size is one disc's radius of gyration, not its blob's
             size = np.where(parted, radius / np.sqrt(2.0), size[source])
             strength, mass = strength[source], mass[source]
-            share = seen_share(mass, strength - base)
+            seen_uv, dim_floor = uv, shade_floor(frame_floor, floor) \
+                if self.config.shade_centres else None
+            if dim_floor is not None:  # a dim frame: published centres on the own light
+                lit = chroma(np.ascontiguousarray(image[oy:oy + c.shape[0], ox:ox + c.shape[1]]),
+                             dim_floor, axis)
+                seen_uv, lit_peak, lit_mass = lit_centroids(lit, uv, self._refine, thr)
+                share = seen_share(np.where(np.isfinite(lit_mass), lit_mass, mass),
+                                   np.where(np.isfinite(lit_peak), lit_peak, strength) - base)
+            else:
+                share = seen_share(mass, strength - base)
             if tuple(self.config.up_px) != (0.0, 0.0):
                 centre = disc if share is None else uncover(
-                    uv, share, radius, self.config.up_px, ~parted,
+                    seen_uv, share, radius, self.config.up_px, ~parted,
                     self.config.view_elevation_deg)[0]
                 centre = np.where(parted[:, None], disc, centre) + np.array([ox, oy], np.float64)
+            elif dim_floor is not None:
+                centre = np.where(parted[:, None], uv, seen_uv) + np.array([ox, oy], np.float64)
         uv += (ox, oy)
         ok = np.isfinite(uv).all(axis=1)
         conf = np.clip((strength - thr) / (2 * thr), 0, 1)
