@@ -401,9 +401,9 @@ class MarkerDetector:
             seen_uv, dim_floor = uv, shade_floor(frame_floor, floor) \
                 if self.config.shade_centres else None
             if dim_floor is not None:  # a dim frame: published centres on the own light
-                lit = chroma(np.ascontiguousarray(image[oy:oy + c.shape[0], ox:ox + c.shape[1]]),
+                own = chroma(np.ascontiguousarray(image[oy:oy + c.shape[0], ox:ox + c.shape[1]]),
                              dim_floor, axis)
-                seen_uv, lit_peak, lit_mass = lit_centroids(lit, uv, self._refine, thr)
+                seen_uv, lit_peak, lit_mass = lit_centroids(own, uv, self._refine, thr)
                 share = seen_share(np.where(np.isfinite(lit_mass), lit_mass, mass),
                                    np.where(np.isfinite(lit_peak), lit_peak, strength) - base)
             else:
