@@ -83,6 +83,9 @@ class StereoTrackConfig:
         elimination: number a track only one camera sees, left unnumbered at the grid fit,
             by the grid point it started nearest among the markers nobody holds
             (:mod:`~dempath_recon.tracking.grid_elimination`; the grid engine only).
+        carried_pair: number a track on the epipolar line of a marker the other camera
+            numbers, never triangulated or not recently, when the pair's 3D point is where the
+            bed has carried that marker (:mod:`~dempath_recon.tracking.carried_pair`).
         record_numbers: keep a record of every number a track is given or has taken back,
             with the rule, the frame and the evidence (``StereoMarkerTracker.record``,
             :mod:`~dempath_recon.tracking.number_record`; the grid engine only). Off by
@@ -109,6 +112,7 @@ class StereoTrackConfig:
     publish_gate: bool = True
     seek_other: bool = False
     elimination: bool = True
+    carried_pair: bool = True
     record_numbers: bool = False
 
     def __post_init__(self) -> None:
