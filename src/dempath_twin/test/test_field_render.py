@@ -4,6 +4,7 @@ markers a rig's cameras can see (coverage without images)."""
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -16,6 +17,8 @@ from dempath_twin.render.coverage import rig_coverage, truth_coverage
 from dempath_twin.render.recording import (
     FieldScene,
     RecordingConfig,
+    field_frames,
+    light_change,
     lighting,
     render_frame,
 )
@@ -137,6 +140,44 @@ def test_look_sets_light_sand_and_marker_colours() -> None:
     assert b < 0.8 and r > 1.0, (b, g, r)
     u, v = np.rint(uv[0]).astype(int)
     assert red[v, u, 0] < image[v, u, 0] and red[v, u, 0] > red[v, u, 2] + 20
+
+
+def test_light_changes_within_a_pass() -> None:
+    """``twin render --flicker --cloud``: each frame's light level within 1 +- flicker, not the
+    same from frame to frame, repeatable by seed; a cloud dims the middle of the pass to its
+    level and leaves the ends; neither set: every level 1 (renders as before)."""
+    times = np.arange(21) / 50.0
+    assert np.array_equal(light_change(times, 0.0, 1.0, 5), np.ones(21))
+    flick = light_change(times, 0.3, 1.0, 5)
+    assert np.all(np.abs(flick - 1) <= 0.3) and np.ptp(flick) > 0.3, flick
+    assert np.array_equal(flick, light_change(times, 0.3, 1.0, 5))
+    assert not np.array_equal(flick, light_change(times, 0.3, 1.0, 6))
+    cloud = light_change(times, 0.0, 0.4, 5)
+    assert cloud[0] == pytest.approx(1.0) and cloud[-1] == pytest.approx(1.0)
+    assert cloud[10] == pytest.approx(0.4) and cloud.min() == pytest.approx(0.4)
+    rng = np.random.default_rng(0)
+    plain = lighting(times, rng)
+    rng = np.random.default_rng(0)
+    dimmed = lighting(times, rng, cloud)
+    assert dimmed[0] == plain[0] and dimmed[10].gain == pytest.approx(0.4 * plain[10].gain)
+    with pytest.raises(ValueError, match='flicker'):
+        Look(flicker=1.5)
+    with pytest.raises(ValueError, match='cloud'):
+        Look(cloud=0.0)
+
+
+def test_a_cloud_darkens_the_recordings_middle_frames() -> None:
+    """A recording with ``Look.cloud`` 0.4: its middle frame's sand is darker than the same
+    recording's without the cloud by about that factor, its first frame as bright."""
+    def means(look: Look) -> list[float]:
+        config = RecordingConfig(scale=0.25, calib_views=1, max_frames=5, look=look)
+        frames = field_frames(small_bed(12), paper_rig(), config, 0.0, [])
+        return [float(image.mean()) for cam, image, _ in frames if cam == 'cam_side']
+
+    look = Look(blur_subframes=1, supersample=1, noise_dn=0.0)
+    clear, cloudy = means(look), means(replace(look, cloud=0.4))
+    assert len(clear) == 5 and cloudy[0] == pytest.approx(clear[0], rel=0.02)
+    assert 0.3 < cloudy[2] / clear[2] < 0.5, (cloudy, clear)
 
 
 def test_coverage_without_images_is_the_renders_truth(tmp_path) -> None:

@@ -152,6 +152,10 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument('--blur-subframes', type=int, default=3, help='sub-frames per exposure')
     p.add_argument('--light', type=float, default=1.0,
                    help='light level relative to the default scene')
+    p.add_argument('--flicker', type=float, default=0.0,
+                   help='light change from frame to frame: each frame x (1 + F u), u in [-1, 1]')
+    p.add_argument('--cloud', type=float, default=1.0,
+                   help='lowest relative light while a cloud passes mid-pass (1: none)')
     p.add_argument('--noise', type=float, default=2.0, help='read noise [grey levels]')
     p.add_argument('--ambient', type=float, default=0.35,
                    help='share of light reaching shadowed surfaces')
@@ -222,7 +226,8 @@ def render_main(argv: list[str] | None = None) -> int:
                                               light=args.light, noise_dn=args.noise,
                                               ambient=args.ambient, sand_bgr=args.sand_bgr,
                                               marker_bgr=args.marker_bgr,
-                                              marker_diameter_m=args.marker_diameter))
+                                              marker_diameter_m=args.marker_diameter,
+                                              flicker=args.flicker, cloud=args.cloud))
         bed = _bed(args, config.fps)
         out, truth = write_field_recording(bed, RIGS[args.rig](), args.out, config)
     except (DempathError, OSError, ValueError) as err:

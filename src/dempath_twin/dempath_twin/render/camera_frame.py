@@ -56,6 +56,12 @@ class Look:
             noise follows the signal) [-].
         sand_bgr: mean albedo of the sand grains (B, G, R).
         marker_bgr: albedo of the clay markers (B, G, R).
+        flicker: the light's change from frame to frame: each frame's light times ``1 + f u``,
+            ``u`` uniform in [-1, 1] (a lamp beating against the frame rate, a sun through
+            blown dust) [-]; 0: none.
+        cloud: the light's lowest level while a cloud passes, relative [-]: the light falls
+            to it at the middle of the pass and recovers by its end (a raised cosine over
+            the recording); 1: no cloud.
     """
 
     supersample: int = 2
@@ -68,6 +74,8 @@ class Look:
     light: float = 1.0
     sand_bgr: tuple[float, float, float] = SAND_BGR
     marker_bgr: tuple[float, float, float] = CLAY_BGR
+    flicker: float = 0.0
+    cloud: float = 1.0
 
     def __post_init__(self) -> None:
         checks = {'supersample': 1 <= self.supersample <= 4,
@@ -76,7 +84,8 @@ class Look:
                   'noise_dn': self.noise_dn >= 0, 'blur_subframes': self.blur_subframes >= 1,
                   'exposure_s': 0 <= self.exposure_s <= 0.02, 'light': 0 < self.light <= 10,
                   'sand_bgr': all(0 < c < 1 for c in self.sand_bgr),
-                  'marker_bgr': all(0 < c < 1 for c in self.marker_bgr)}
+                  'marker_bgr': all(0 < c < 1 for c in self.marker_bgr),
+                  'flicker': 0 <= self.flicker < 1, 'cloud': 0 < self.cloud <= 1}
         for name, ok in checks.items():
             if not ok:
                 msg = f'{name}: out of range, got {getattr(self, name)!r}'

@@ -133,18 +133,37 @@ class FieldScene:
         return np.asarray(self.at(t).centres[self.bed.marker_index], np.float64)
 
 
-def lighting(times: FloatArray, rng: np.random.Generator) -> list[Light]:
-    """A light that changes over the recording: the sun's azimuth drifts, clouds dim it."""
+def light_change(times: FloatArray, flicker: float, cloud: float, seed: int) -> FloatArray:
+    """(n,) the light's relative level at each frame time ``times`` (n,) [s]: ``1 + flicker
+    u`` (``u`` uniform in [-1, 1], drawn from ``seed``'s own generator so a render without it
+    keeps its noise) times a cloud's dip, a raised cosine from 1 at the first and last frame
+    to ``cloud`` at the middle (``Look.flicker``, ``Look.cloud``)."""
+    n = len(times)
+    level = np.ones(n)
+    if flicker > 0:
+        level *= 1.0 + flicker * np.random.default_rng([seed, 7]).uniform(-1.0, 1.0, n)
+    if cloud < 1 and n > 1:
+        span = max(float(times[-1] - times[0]), 1e-9)
+        phase = (np.asarray(times, np.float64) - times[0]) / span  # 0..1 over the pass
+        level *= 1.0 - (1.0 - cloud) * 0.5 * (1.0 - np.cos(2 * np.pi * phase))
+    return level
+
+
+def lighting(times: FloatArray, rng: np.random.Generator,
+             level: FloatArray | None = None) -> list[Light]:
+    """A light that changes over the recording: the sun's azimuth drifts, clouds dim it;
+    ``level`` (n,) scales each frame's gain (:func:`light_change`; None: 1)."""
     az0, drift = rng.uniform(0, 2 * np.pi), rng.uniform(0.2, 0.4)
     period, phase = rng.uniform(0.8, 1.6), rng.uniform(0, 2 * np.pi)
     span = max(float(times[-1] - times[0]), 1e-9)
     out = []
-    for t in times:
+    scale = np.ones(len(times)) if level is None else np.asarray(level, np.float64)
+    for t, k in zip(times, scale, strict=True):
         az = az0 + drift * (t - times[0]) / span
         elev = np.radians(50.0)
         direction = (float(np.cos(elev) * np.cos(az)), float(np.sin(elev)),
                      float(np.cos(elev) * np.sin(az)))
-        gain = 1.0 + 0.12 * np.sin(2 * np.pi * t / period + phase)
+        gain = (1.0 + 0.12 * np.sin(2 * np.pi * t / period + phase)) * k
         grad = (0.2 * np.sin(az), 0.15 * np.cos(az))
         out.append(Light(direction, float(gain), (float(grad[0]), float(grad[1]))))
     return out
@@ -198,7 +217,8 @@ def field_frames(bed: BedRecord, rig: Any, config: RecordingConfig, t0_s: float,
     cams = [FieldCamera(c, config.look, seed=config.seed + i)
             for i, c in enumerate(cameras_for(rig, config))]
     times = frame_times(bed, config)
-    lights = lighting(times, rng)
+    look = config.look
+    lights = lighting(times, rng, light_change(times, look.flicker, look.cloud, config.seed))
     for k, t in enumerate(times):
         for c, cam in enumerate(cams):
             offset = config.front_offset_s if c == 1 else 0.0
