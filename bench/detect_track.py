@@ -257,15 +257,20 @@ def main(argv: list[str]) -> int:
     p.add_argument('--seek-other', action='store_true',
                    help='seek faint spots where the other camera holds a marker this camera '
                         'does not (StereoTrackConfig.seek_other; off by default)')
+    p.add_argument('--exposure-floor', choices=('off', 'faint', 'all', 'bed'), default='',
+                   help="the detectors' chroma floor (DetectorConfig.exposure_floor; 'bed': the "
+                        "bed around the markers, session 19; unset: the default)")
     args = p.parse_args(argv)
     from detect_track_variations import (
         CLAY_SET,
         EXPOSURE_KNOWN,
+        FLOOR,
         SEEK,
         TOOL_SPEED,
         look_exposure,
         with_clay,
         with_exposure,
+        with_floor,
         with_seek,
         with_tool_speed,
     )
@@ -273,6 +278,7 @@ def main(argv: list[str]) -> int:
     EXPOSURE_KNOWN[0] = not args.exposure_unknown
     TOOL_SPEED[0] = args.tool_speed
     SEEK[0] = args.seek_other
+    FLOOR[0] = args.exposure_floor
     CLAY_SET[0] = args.marker_colour == 'look'
     cv2.setNumThreads(1)
     truth = json.loads(args.bag.with_name(args.bag.name + '.truth.json').read_text())
@@ -280,8 +286,8 @@ def main(argv: list[str]) -> int:
     frames = read_frames(args.bag, truth['calibration_segment']['field_start_ns'], list(cams))
     # the experiment's marker layout (the scene's grid points), as an experimenter knows it
     grid = MarkerGrid(layout_m=tuple(tuple(p) for p in truth['marker_grid_m']))
-    config = with_seek(with_tool_speed(with_clay(with_exposure(
-        StereoTrackConfig(grid=grid, engine=args.engine), look_exposure(truth)), truth), truth))
+    config = with_floor(with_seek(with_tool_speed(with_clay(with_exposure(
+        StereoTrackConfig(grid=grid, engine=args.engine), look_exposure(truth)), truth), truth)))
     load = [round(x, 2) for x in os.getloadavg()]
     if (args.rendered or args.rendered_tuning) and not args.variations:  # re-rendered bags alone
         from detect_track_variations import run_rendered

@@ -57,6 +57,7 @@ CLAY_SET = [False]  # the detectors are told a recording's clay colour when it i
 TOOL_SPEED = [0.0]  # the tool's speed [m/s] for recordings whose truth does not give it
 # (``--tool-speed``); 0: not known (the linkers' speed bound is off)
 SEEK = [False]  # ``--seek-other``: StereoTrackConfig.seek_other (off by default, session 18)
+FLOOR = ['']  # ``--exposure-floor``: DetectorConfig.exposure_floor ('': the default)
 EXPOSURE_KNOWN = [True]  # the trackers are told each recording's exposure (``--exposure-unknown``:
 # not, as before session 16: no streak search)
 
@@ -86,6 +87,14 @@ def with_seek(config: StereoTrackConfig) -> StereoTrackConfig:
     """``config`` with the search for markers the other camera holds
     (``StereoTrackConfig.seek_other``) as ``--seek-other`` asks."""
     return replace(config, seek_other=SEEK[0])
+
+
+def with_floor(config: StereoTrackConfig) -> StereoTrackConfig:
+    """``config`` whose detectors floor the chroma as ``--exposure-floor`` asks
+    (``DetectorConfig.exposure_floor``; unset: the detector's default)."""
+    if not FLOOR[0]:
+        return config
+    return replace(config, detector=replace(config.detector, exposure_floor=FLOOR[0]))
 
 
 def with_tool_speed(config: StereoTrackConfig, truth: dict[str, Any]) -> StereoTrackConfig:
@@ -321,9 +330,9 @@ def run_rendered(bags: list[Path], read: Any, engine: str = 'grid',
         row = {'variation': bag.name, 'held_out': held_out, 'rendered': True,
                'look': truth['config']['look'], 'jpeg_quality': truth['config']['jpeg_quality'],
                **figures(frames, truth, cams,
-                         with_seek(with_tool_speed(with_clay(with_exposure(
+                         with_floor(with_seek(with_tool_speed(with_clay(with_exposure(
                              StereoTrackConfig(grid=grid, engine=engine), look_exposure(truth)),
-                             truth), truth)))}
+                             truth), truth))))}
         rows.append(row)
         print(json.dumps({k: v for k, v in row.items() if k != 'raw'}), flush=True)
     return {**summary([r['raw'] for r in rows]),

@@ -42,18 +42,25 @@ from numpy.typing import NDArray
 
 from dempath_recon.errors import ReconstructionError
 from dempath_recon.tracking.colour_model import (
+    BED_CELL,
+    BLUE_AXIS,
+    CLAY_CHROMA,
     DARK_SUM_DN,
     FLOOR_SHARE,
     MIN_SUM_DN,
     REFERENCE_SAND_BGR,
+    BedFloor,
     axis_bound,
     axis_chroma,
+    bed_candidates,
+    bed_floor,
     chroma_floor,
     colour_axis,
     frame_axis,
     is_blue,
     lit_peaks,
     near_lit,
+    ring_sand_chroma,
 )
 from dempath_recon.tracking.covered import MAX_ELEVATION_DEG, seen_share, uncover
 from dempath_recon.tracking.shaded import lit_centroids, shade_floor
@@ -84,6 +91,8 @@ FILTER_FLOOR = -0.2  # the matched filter sees sand no redder than the sand the 
 SPARSE_BOX = 0.1  # a byte-bound box over this share of the frame is narrowed to the pixels
 # whose chroma passes (``MarkerDetector._exact_box``)
 
+BED_REACH_DIAMETERS = 4.0  # the bed search reaches this many marker diameters past the
+# markers the frame's own detection found: the bed around them, not the ground beyond the bin
 SOUGHT_DIM_SUM_DN = MIN_SUM_DN / FLOOR_SHARE  # the noise bar's brightness limit (100) in a
 # search where the other camera holds the marker (:mod:`~dempath_recon.tracking.seek`): any
 # window darker than normal light (sand 105-200 on every daylight tuning look). Dusk sand at
@@ -234,7 +243,15 @@ class DetectorConfig:
             ``colour_model.lit_peaks``), which found 3.5-7 points more marker-frames on dusk
             looks but also caps of markers 10-25 % visible, numbered wrong at the grid fit
             (session 17, on main ca95c75: 23 tuning looks 14 -> 19 wrong-pair points); 'off':
-            ``MIN_SUM_DN`` everywhere.
+            ``MIN_SUM_DN`` everywhere; 'bed' (session 19, not the default): as 'faint', and
+            where the light is dim a second search of the frame adds the markers a floor of
+            ``BED_SHARE`` of the bed's brightness around each pixel finds
+            (:func:`~dempath_recon.tracking.colour_model.bed_floor`), near the markers the
+            first search found, on a threshold midway between the sand beside them and the
+            clay (``MarkerDetector._bed_spots``); the first search's spots are kept as found.
+            On 33 tuned looks 80.68 -> 81.76 % numbered right, but switches 54 -> 58 and
+            wrong-pair points 1 -> 7 (r21_dusk, s79_carriage_dusk: markers found at dusk that
+            the trackers then swap where they merge), so not the default.
         shade_centres: in a dim frame (the frame's own chroma floor under the detection's) the
             published centres (``Detections.centre``) are centroids on the chroma floored at
             the frame's light, so a marker's shaded side keeps its weight
@@ -275,7 +292,7 @@ class DetectorConfig:
                   and (tuple(self.up_px) == (0.0, 0.0)
                        or abs(float(np.hypot(*self.up_px)) - 1) < 1e-6),
                   'view_elevation_deg': 0 <= self.view_elevation_deg <= 90,
-                  'exposure_floor': self.exposure_floor in ('off', 'faint', 'all')}
+                  'exposure_floor': self.exposure_floor in ('off', 'faint', 'all', 'bed')}
         for name, ok in checks.items():
             if not ok:
                 msg = f'{name}: out of range, got {getattr(self, name)!r}'
@@ -315,7 +332,7 @@ def decode_jpeg(data: bytes | NDArray[np.uint8], downscale: int = 1) -> NDArray[
     return np.asarray(img, np.uint8)
 
 
-def chroma(image: NDArray[np.uint8], min_sum: float = MIN_SUM_DN,
+def chroma(image: NDArray[np.uint8], min_sum: float | NDArray[np.float32] = MIN_SUM_DN,
            axis: NDArray[np.float32] | None = None) -> NDArray[np.float32]:
     """(h, w) float32 ``(B - R) / max(B + G + R, min_sum)`` of a BGR image, or with ``axis``
     (3,) B, G, R weights ``(axis . [B, G, R]) / max(B + G + R, min_sum)`` (another clay's
@@ -327,6 +344,9 @@ def chroma(image: NDArray[np.uint8], min_sum: float = MIN_SUM_DN,
     search beside a track's prediction measures the noise instead and floors at
     ``DARK_SUM_DN``).
     """
+    if isinstance(min_sum, np.ndarray):  # a floor per pixel (h, w) (``exposure_floor`` 'bed')
+        return axis_chroma(image, np.array(BLUE_AXIS, np.float32) if axis is None else axis,
+                           min_sum)
     if axis is not None and not is_blue(axis):
         return axis_chroma(image, axis, min_sum)
     b, g, r = cv2.split(image)
@@ -334,6 +354,39 @@ def chroma(image: NDArray[np.uint8], min_sum: float = MIN_SUM_DN,
     total = cv2.add(cv2.add(b, g, dtype=cv2.CV_16S), r, dtype=cv2.CV_16S)
     np.maximum(total, np.int16(min_sum), out=total)
     return np.asarray(cv2.divide(diff, total, scale=1.0, dtype=cv2.CV_32F), np.float32)
+
+
+def add_apart(found: Detections, more: Detections, apart_px: float) -> Detections:
+    """``found`` and the spots of ``more`` farther than ``apart_px`` [px] from every spot of
+    ``found`` (a second search's new markers; ``found``'s own spots are kept as they are).
+    Fields one of them lacks (None) are filled: ``crowded`` and ``parted`` False, ``centre``
+    the spot's ``uv``."""
+    if not len(more.uv):
+        return found
+    new = np.ones(len(more.uv), np.bool_)
+    if len(found.uv):
+        new = np.linalg.norm(more.uv[:, None] - found.uv[None], axis=2).min(axis=1) > apart_px
+    if not new.any():
+        return found
+    if not len(found.uv):
+        return more
+    def flags(d: Detections, name: str) -> NDArray[np.bool_] | None:
+        v = getattr(d, name)
+        return np.zeros(len(d.uv), np.bool_) if v is None else v
+    both = [found, more._replace(uv=more.uv[new], confidence=more.confidence[new],
+                                 size_px=more.size_px[new],
+                                 crowded=None if more.crowded is None else more.crowded[new],
+                                 centre=None if more.centre is None else more.centre[new],
+                                 parted=None if more.parted is None else more.parted[new])]
+    crowded = None if found.crowded is None and more.crowded is None else \
+        np.concatenate([flags(d, 'crowded') for d in both])
+    parted = None if found.parted is None and more.parted is None else \
+        np.concatenate([flags(d, 'parted') for d in both])
+    centre = None if found.centre is None and more.centre is None else \
+        np.concatenate([d.uv if d.centre is None else d.centre for d in both])
+    return Detections(np.concatenate([d.uv for d in both]),
+                      np.concatenate([d.confidence for d in both]),
+                      np.concatenate([d.size_px for d in both]), crowded, None, centre, parted)
 
 
 class MarkerDetector:
@@ -375,18 +428,83 @@ class MarkerDetector:
                                           interpolation=cv2.INTER_AREA), np.uint8)
         mode = self.config.exposure_floor
         frame_floor = MIN_SUM_DN if mode == 'off' else chroma_floor(image)
-        floor = frame_floor if mode == 'all' else MIN_SUM_DN
         axis = frame_axis(image, self.config.marker_bgr, self.config.sand_bgr)
-        thr = self.threshold_for(image, floor, axis)
+        floor = frame_floor if mode == 'all' else MIN_SUM_DN
+        found = self._spots(image, floor, axis, frame_floor=frame_floor)
+        if mode == 'bed':  # a floor per pixel from the bed around it (None: normal light)
+            found = add_apart(found, self._bed_spots(image, axis, found.uv),
+                              self.config.min_separation_px)
+        low = min(self.config.faint_threshold, self.threshold_for(image, floor, axis))
+        if low <= 0:
+            return found
+        return found._replace(faint=partial(self._faint, image, low, (frame_floor, axis),
+                                            found.uv))
+
+    def _bed_spots(self, image: NDArray[np.uint8], axis: NDArray[np.float32],
+                   known: FloatArray) -> Detections:
+        """Markers of ``image`` (at the detector's scale) the chroma floored by the bed around
+        each pixel finds (:func:`~dempath_recon.tracking.colour_model.bed_floor`), apart from
+        the ``known`` (n, 2) [full-size px] spots (blotted out of the chroma: their blobs are
+        measured already), within ``BED_REACH_DIAMETERS`` marker diameters of them (the bed
+        around the markers; the whole frame when fewer than ``MIN_SPOTS`` are known), on a
+        threshold midway
+        between the sand's chroma beside the known markers and the clay's (``CLAY_CHROMA``):
+        grey or pale sand lies nearer the clay than yellow-brown sand, and at dusk the
+        noise of a dim pixel's chroma reaches the fixed threshold from it. Empty where the
+        light is normal (no floor lowered)."""
+        s = self.config.downscale
+        h, w = image.shape[:2]
+        centres = (np.asarray(known, np.float64).reshape(-1, 2) + 0.5) / s - 0.5
+        radius = 0.5 * self.config.marker_diameter_px / s
+        x0, y0, x1, y1 = 0, 0, w, h
+        if len(centres) >= MIN_SPOTS and radius > 0:
+            reach = BED_REACH_DIAMETERS * 2 * radius
+            lo = np.floor((centres.min(axis=0) - reach) / BED_CELL).astype(int) * BED_CELL
+            hi = np.ceil((centres.max(axis=0) + reach) / BED_CELL).astype(int) * BED_CELL
+            x0, y0 = max(int(lo[0]), 0), max(int(lo[1]), 0)
+            x1, y1 = min(int(hi[0]), w), min(int(hi[1]), h)
+        if x1 - x0 < BED_CELL or y1 - y0 < BED_CELL:
+            return Detections.empty()
+        part = np.ascontiguousarray(image[y0:y1, x0:x1])
+        beds = bed_floor(part)
+        if beds is None:
+            return Detections.empty()
+        thr = self.config.threshold
+        sand = ring_sand_chroma(part, centres - (x0, y0), radius, axis) if radius > 0 else None
+        if sand is not None:
+            thr = max(thr, 0.5 * (sand + CLAY_CHROMA))
+        found = self._spots(part, beds, axis, centres - (x0, y0), thr)
+        if not len(found.uv):
+            return found
+        shift = np.array([x0, y0], np.float64) * s
+        return found._replace(uv=found.uv + shift,
+                              centre=None if found.centre is None else found.centre + shift)
+
+    def _spots(self, image: NDArray[np.uint8], floor: float | BedFloor,
+               axis: NDArray[np.float32], blot: FloatArray | None = None,
+               thr: float | None = None, frame_floor: float = MIN_SUM_DN) -> Detections:
+        """The markers of ``image`` (at the detector's scale) on the chroma of ``axis`` (3,)
+        floored at ``floor`` [DN] (one, or one per ``BedFloor`` cell), without the faint
+        search; ``blot`` (n, 2) [detector px]: spots left out (the chroma there set to the
+        sand's); ``thr``: the threshold (None: :meth:`threshold_for`); ``frame_floor``: the
+        frame's own floor [DN] (``chroma_floor``), on which a dim frame's published centres
+        are measured (``shade_centres``; not in the bed search, whose floor is the bed's
+        light already)."""
+        s = self.config.downscale
+        thr = self.threshold_for(image, floor, axis) if thr is None else thr
         ox, oy, c = self._window(image, thr, floor, axis)
+        if blot is not None and len(blot) and c.size:
+            mask = np.zeros(c.shape, np.uint8)
+            r = max(round(0.5 * self.config.marker_diameter_px / s) + 1, 2)
+            for bx, by in blot - (ox, oy):
+                if np.isfinite([bx, by]).all():
+                    cv2.circle(mask, (round(bx), round(by)), r, 255, -1)
+            c[mask > 0] = np.float32(FILTER_FLOOR)
         rows, cols = self._peaks(c, thr)
         lit = lit_peaks(image, rows + oy, cols + ox, floor)  # not noise in near-black pixels
         rows, cols = rows[lit], cols[lit]
-        low = min(self.config.faint_threshold, thr)
         if len(rows) == 0:
-            return Detections.empty()._replace(
-                faint=partial(self._faint, image, low, (frame_floor, axis), np.zeros((0, 2)))
-                if low > 0 else None)
+            return Detections.empty()
         uv, size, strength, mass = self._refine(c, rows, cols, thr)
         centre, parted = None, None
         diameter = self.marker_size(size * s)
@@ -399,7 +517,7 @@ class MarkerDetector:
             size = np.where(parted, radius / np.sqrt(2.0), size[source])
             strength, mass = strength[source], mass[source]
             seen_uv, dim_floor = uv, shade_floor(frame_floor, floor) \
-                if self.config.shade_centres else None
+                if self.config.shade_centres and not isinstance(floor, BedFloor) else None
             if dim_floor is not None:  # a dim frame: published centres on the own light
                 own = chroma(np.ascontiguousarray(image[oy:oy + c.shape[0], ox:ox + c.shape[1]]),
                              dim_floor, axis)
@@ -421,11 +539,9 @@ class MarkerDetector:
         full = (uv[ok] + 0.5) * s - 0.5  # half-size pixel centre i -> full-size 2i + 0.5
         size = size[ok] * s
         crowded = size > CROWDED_SIZE * diameter if diameter > 0 else None
-        faint = partial(self._faint, image, low, (frame_floor, axis), full) if low > 0 \
-            else None
         if centre is not None:
             centre = (centre[ok] + 0.5) * s - 0.5
-        return Detections(full, conf[ok], size, crowded, faint, centre,
+        return Detections(full, conf[ok], size, crowded, None, centre,
                           None if parted is None else parted[ok])
 
     def _peaks(self, c: NDArray[np.float32], thr: float,
@@ -545,7 +661,7 @@ class MarkerDetector:
             return wanted
         return max(wanted, float(np.median(size_px)) / TYPICAL_SIZE)
 
-    def threshold_for(self, image: NDArray[np.uint8], floor: float = MIN_SUM_DN,
+    def threshold_for(self, image: NDArray[np.uint8], floor: float | BedFloor = MIN_SUM_DN,
                       axis: NDArray[np.float32] | None = None) -> float:
         """The chroma threshold of this frame (``DetectorConfig.adaptive``): the sand's median
         chroma plus ``noise_k`` robust standard deviations, from every 4th pixel of the whole
@@ -554,12 +670,14 @@ class MarkerDetector:
         cfg = self.config
         if not cfg.adaptive:
             return cfg.threshold
-        sample = chroma(np.ascontiguousarray(image[::4, ::4]), floor, axis)
+        h, w = image.shape[:2]
+        sample = chroma(np.ascontiguousarray(image[::4, ::4]), floor.at(0, h, 0, w)[::4, ::4]
+                        if isinstance(floor, BedFloor) else floor, axis)
         med = float(np.median(sample))
         sigma = 1.4826 * float(np.median(np.abs(sample - med)))
         return float(np.clip(med + cfg.noise_k * sigma, cfg.min_threshold, cfg.threshold))
 
-    def _window(self, image: NDArray[np.uint8], thr: float, floor: float = MIN_SUM_DN,
+    def _window(self, image: NDArray[np.uint8], thr: float, floor: float | BedFloor = MIN_SUM_DN,
                 axis: NDArray[np.float32] | None = None,
                 ) -> tuple[int, int, NDArray[np.float32]]:
         """The chroma of the part of ``image`` that can hold markers: ``(x0, y0, chroma)``.
@@ -577,16 +695,22 @@ class MarkerDetector:
         done whole.
         """
         h, w = image.shape[:2]
-        level = max(int(np.floor(thr * floor)) - 1, 0)
-        if axis is None or is_blue(axis):
-            blue = cv2.subtract(cv2.extractChannel(image, 0), cv2.extractChannel(image, 2))
-            above = cv2.threshold(blue, level, 255, cv2.THRESH_TOZERO)[1]
+        above: NDArray[np.generic]
+        if isinstance(floor, BedFloor):  # a floor per pixel: where it adds markers
+            above = bed_candidates(image, floor, thr, np.array(BLUE_AXIS, np.float32)
+                                   if axis is None else axis)
         else:
-            above = axis_bound(image, axis, level)
-        if floor < MIN_SUM_DN:  # only where a kept peak can lie (``lit_peaks``)
-            above = cv2.bitwise_and(above, near_lit(image, floor))
+            level = max(int(np.floor(thr * floor)) - 1, 0)
+            if axis is None or is_blue(axis):
+                blue = cv2.subtract(cv2.extractChannel(image, 0), cv2.extractChannel(image, 2))
+                above = cv2.threshold(blue, level, 255, cv2.THRESH_TOZERO)[1]
+            else:
+                above = axis_bound(image, axis, level)
+            if floor < MIN_SUM_DN:  # only where a kept peak can lie (``lit_peaks``)
+                above = cv2.bitwise_and(above, near_lit(image, floor))
         x, y, bw, bh = cv2.boundingRect(above)
-        if bw * bh > SPARSE_BOX * h * w:  # stray pixels far apart spread the box
+        if bw * bh > SPARSE_BOX * h * w and not isinstance(floor, BedFloor):
+            # stray pixels far apart spread the box
             x, y, bw, bh = self._exact_box(image, above, thr, floor, axis)
         if bw == 0 or bh == 0:
             return 0, 0, np.zeros((0, 0), np.float32)
@@ -594,8 +718,9 @@ class MarkerDetector:
         x0, y0 = max(x - pad, 0), max(y - pad, 0)
         x1, y1 = min(x + bw + pad, w), min(y + bh + pad, h)
         if (x1 - x0) * (y1 - y0) > 0.5 * h * w:
-            return 0, 0, chroma(image, floor, axis)
-        return x0, y0, chroma(np.ascontiguousarray(image[y0:y1, x0:x1]), floor, axis)
+            x0, y0, x1, y1 = 0, 0, w, h
+        part = floor.at(y0, y1, x0, x1) if isinstance(floor, BedFloor) else floor
+        return x0, y0, chroma(np.ascontiguousarray(image[y0:y1, x0:x1]), part, axis)
 
     @staticmethod
     def _exact_box(image: NDArray[np.uint8], above: NDArray[Any], thr: float, floor: float,
