@@ -11,7 +11,9 @@ is known.
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
+from dempath_recon.tracking import track_pairs
 from dempath_recon.tracking.associate import MarkerGrid
 from dempath_recon.tracking.detect import Detections
 from dempath_recon.tracking.linker import TrackerConfig
@@ -201,3 +203,74 @@ def test_a_spot_waits_while_a_marker_neither_camera_holds_is_carried_beside_it(r
     assert _missing_beside(tracker.state, 'cam_front', 2, at_two, stamp, held)
     assert not _missing_beside(tracker.state, 'cam_front', 4, at_four, stamp, held)
     assert not _missing_beside(tracker.state, 'cam_front', 2, at_two, stamp, held | {7})
+
+
+GRID15 = tuple((x, 0.0, z) for x in (-0.025, 0.0, 0.025)
+               for z in (-0.05, -0.025, 0.0, 0.025, 0.05))  # markers 1-15, 25 mm pitch
+FLOW = np.array([0.0, 0.0, 0.001])  # the bed's slow flow along Z [m/frame]
+PUSH = np.array([0.0, 0.0, 0.003])  # the tool pushes markers 8 and 9 this much more [m/frame]
+SIDE_FROM = 4  # the frame the side camera first sees marker 8
+
+
+def _pushed_run(rig, intruder: bool = False) -> list:
+    """Released frames of a pass on GRID15: the tool pushes markers 8 and 9 ahead of the bed,
+    so where the bed carried them (their grid points moved with their neighbours) falls behind
+    them, 8 ending 4 mm from 9's carried point; the front sees every marker, the side never 9
+    nor 8 before ``SIDE_FROM``. With ``intruder``, a spot the front alone sees lies on the side
+    8's line of sight 40 mm nearer the side camera from frame 6 (a young front track that may
+    hide 8 from the side)."""
+    cams = {c.name: c for c in rig.cameras}
+    config = StereoTrackConfig(grid=MarkerGrid(layout_m=GRID15), number_delay_frames=5)
+    tracker = StereoMarkerTracker(cams, config)
+    side_c = _centre(cams['cam_side'])
+    out = []
+    for k in range(FRAMES):
+        pts = np.array(GRID15) + k * FLOW
+        pts[7:9] += k * PUSH
+        side = [p for m, p in enumerate(pts, 1) if m != 9 and (m != 8 or k >= SIDE_FROM)]
+        front = list(pts)
+        if intruder and k >= 6:
+            ray = side_c - pts[7]
+            front.append(pts[7] + 0.04 * ray / np.linalg.norm(ray))
+        tracker.update_detections('cam_side', k * DT, _dets(cams['cam_side'], np.array(side)))
+        out += tracker.release()
+        tracker.update_detections('cam_front', k * DT + OFFSET,
+                                  _dets(cams['cam_front'], np.array(front)))
+        out += tracker.release()
+    return out + tracker.flush()
+
+
+def _side_numbers_of_eight(rig, out: list) -> list[int]:
+    """The number the side gave marker 8's spot in each frame from ``SIDE_FROM``."""
+    side = rig.cameras[0]
+    sides = sorted((f for f in out if f.camera == 'cam_side'), key=lambda f: f.stamp_s)
+    got = []
+    for k, f in enumerate(sides[SIDE_FROM:], SIDE_FROM):
+        uv = side.project((np.array(GRID15[7]) + k * (FLOW + PUSH))[None])[0]
+        d = np.linalg.norm(f.uv - uv, axis=1)
+        assert d.min() < 0.5
+        got.append(int(f.markers[int(np.argmin(d))]))
+    return got
+
+
+@pytest.mark.parametrize('numbered_gate', [track_pairs.CARRIED_GATE_M,
+                                           track_pairs.NUMBERED_GATE_M])
+def test_a_numbered_partner_names_a_pair_the_bed_did_not_carry_there(
+        rig, monkeypatch: pytest.MonkeyPatch, numbered_gate: float) -> None:
+    """Side marker 8, never triangulated, out at frame 4 on the line of the front's 8: its
+    carried point lags 12-25 mm behind and 9's (hidden in the side, seen by the front on its
+    own spot) is nearer. With the other camera's number counted (9 is not a rival, 30 mm
+    gate) it is numbered 8; with the old test (every free marker a rival, 15 mm) it waits."""
+    monkeypatch.setattr(track_pairs, 'NUMBERED_GATE_M', numbered_gate)
+    got = _side_numbers_of_eight(rig, _pushed_run(rig))
+    if numbered_gate == track_pairs.CARRIED_GATE_M:
+        assert set(got) == {-1}
+        return
+    assert got[-4:] == [8] * 4 and set(got) <= {8, -1}
+
+
+def test_a_young_track_on_the_line_nearer_this_camera_keeps_the_pair_waiting(rig) -> None:
+    """A front-only spot on the side 8's line 40 mm nearer the side camera from frame 6: the
+    side cannot tell which of the two it sees, so 8 is never given."""
+    got = _side_numbers_of_eight(rig, _pushed_run(rig, intruder=True))
+    assert 8 not in got

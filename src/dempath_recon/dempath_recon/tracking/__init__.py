@@ -16,8 +16,10 @@ two tracks held on each other's epipolar line over their common frames), ``link_
 other camera inside the 2D link: links barred off the epipolar line, spots that may hold two
 markers), ``one_camera``,
 ``numbering``, ``pair_checks``, ``pair_numbering``, ``track_pairs`` (an unnumbered track
-decided again by a partner held on its line), ``ray_numbering`` (functions on that
-record), ``stereo``
+decided again by a partner held on its line), ``grid_elimination`` (a marker one camera sees
+numbered by elimination at the grid fit), ``coming_out`` (a marker coming out of the sand
+mid-pass in one camera, numbered where the bed carried it), ``ray_numbering`` (functions on
+that record), ``stereo``
 (:class:`~dempath_recon.tracking.stereo.StereoMarkerTracker`, the pipeline, and
 ``track_bag``).
 """

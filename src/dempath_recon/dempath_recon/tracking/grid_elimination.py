@@ -112,10 +112,10 @@ def number_by_elimination(state: StereoState, camera: str, track_ids: NDArray[np
         if len(rows) != 1:
             continue
         k = rows[0]
-        if _on_a_line(state, camera, uv[k], free_o[2] if free_o is not None
+        if on_a_line(state, camera, uv[k], free_o[2] if free_o is not None
                       and abs(free_o[0] - stamp_s) <= 1.0 / state.config.fps else None,
                       state.config.epipolar_px) \
-                or _on_a_line(state, camera, uv[k], np.array(theirs) if theirs else None,
+                or on_a_line(state, camera, uv[k], np.array(theirs) if theirs else None,
                               LINE_FACTOR * state.config.epipolar_px):
             continue
         tid = int(track_ids[k])
@@ -129,7 +129,7 @@ def number_by_elimination(state: StereoState, camera: str, track_ids: NDArray[np
     return out
 
 
-def _on_a_line(state: StereoState, camera: str, uv: FloatArray, uv_o: FloatArray | None,
+def on_a_line(state: StereoState, camera: str, uv: FloatArray, uv_o: FloatArray | None,
                gate_px: float) -> bool:
     """Whether ``camera``'s spot ``uv`` (2,) lies within ``gate_px`` of the epipolar line of
     any of the other camera's spots ``uv_o`` (k, 2) (None: none)."""

@@ -90,6 +90,9 @@ class StereoTrackConfig:
             with the rule, the frame and the evidence (``StereoMarkerTracker.record``,
             :mod:`~dempath_recon.tracking.number_record`; the grid engine only). Off by
             default: it grows with the recording (for benches and tracing, not live nodes).
+        coming_out: number a new track only one camera sees, born after the grid fit, by the
+            marker the bed has carried nearest it (a marker coming out of the sand mid-pass:
+            :mod:`~dempath_recon.tracking.coming_out`; the grid engine only).
     """
 
     detector: DetectorConfig = field(default_factory=DetectorConfig)
@@ -114,6 +117,7 @@ class StereoTrackConfig:
     elimination: bool = True
     carried_pair: bool = True
     record_numbers: bool = False
+    coming_out: bool = True
 
     def __post_init__(self) -> None:
         if self.engine not in ENGINES:
@@ -170,6 +174,7 @@ class CameraCounts:
     numbered_by_ray: int = 0
     numbered_by_track_pair: int = 0  # numbered by a partner held on their line (track_pairs)
     numbered_by_elimination: int = 0  # one camera's, by the free grid point it started at
+    numbered_by_carried: int = 0  # one camera's new track, by where the bed carried a marker
     numbered_late: int = 0
     unnumbered: int = 0
     epipolar_conflicts: int = 0

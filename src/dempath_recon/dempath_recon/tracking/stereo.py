@@ -39,6 +39,7 @@ from numpy.typing import NDArray
 from dempath_recon.methods.triangulate import Camera
 from dempath_recon.tracking.associate import marker_diameter_px, view_of_up
 from dempath_recon.tracking.carried_pair import number_by_carried_pair
+from dempath_recon.tracking.coming_out import number_coming_out
 from dempath_recon.tracking.detect import (
     Detections,
     ImageDecodeError,
@@ -273,6 +274,10 @@ class StereoMarkerTracker:
             step('elimination')
             markers = number_by_elimination(state, camera, tf.track_ids, markers, tf.uv,
                                             stamp_s, events)
+        if state.config.coming_out:
+            step('coming_out')
+            markers = number_coming_out(state, camera, tf.track_ids, markers, tf.uv, stamp_s,
+                                        events)
         if state.config.ray_numbering:
             step('ray')
             markers = number_by_ray(state, camera, tf.track_ids, markers, tf.uv, stamp_s,

@@ -17,7 +17,13 @@ within ``CARRIED_GATE_M`` of it. Along a line of sight a camera sees the nearest
 behind it is hidden), so of the partners the one whose pair lies nearest this camera is taken
 when every other lies a marker's diameter farther (``_nearest``), and the track must be, of
 this camera's tracks on the partner's line, the one nearest the partner's camera
-(``_seen_by_partner``). Numbers the grid fit refused a merged spot (``state.fit_merged``) may
+(``_seen_by_partner``). A numbered partner whose marker was never triangulated (it came out of the
+sand in this camera only now) is often carried poorly: the test is then done again, when no
+other track of the other camera lies on this track's line at a pair nearer this camera
+(``_alone_on_line``: it could hide the partner's marker from this camera), with only the
+markers the other camera does not see on a running track as rivals (a marker it sees
+elsewhere is not on this line of sight) and ``NUMBERED_GATE_M`` as the gate
+(``_numbered_partner``). Numbers the grid fit refused a merged spot (``state.fit_merged``) may
 be given here, once the other camera holds each other marker of that spot off the spot's line
 (``_still_behind``: until then it may show beside the near one and pull the centre between);
 other refusals hold. The numbers reach the frames still held by the publication delay through
@@ -53,6 +59,10 @@ from dempath_recon.tracking.state import (
 
 FloatArray = NDArray[np.float64]
 CARRIED_GATE_M = 0.015  # a pair's 3D point lies this near where the bed carried its marker [m]
+NUMBERED_GATE_M = 0.03  # ... for a partner the other camera numbers, alone on the line [m]: a
+# marker never triangulated is carried from its grid point with its neighbours, and a tool
+# pushes it ahead of them (right pairs lay 13-32 mm off on tuning and seed-87 renders); still
+# under a grid pitch (50 mm), and another marker's carried point must be 2.5 times as far
 BESIDE_SHARE = 1.0  # a marker held by neither camera carried within this many diameters of a
 # spot may share it
 PAIR_FRAMES = 4  # common frames a pair must hold on the epipolar line (0.08 s at 50 FPS): on
@@ -152,13 +162,16 @@ def _partners(state: StereoState, camera: str, track: Track, partners: list[Trac
     xyz, _ = triangulate_pairs(cam, cam_o, np.repeat(uv[None], len(kept), 0), np.array(moved))
     names = state.config.grid.points()[0].tolist()
     free = [m for m in names if m not in held]
-    missing = [m for m in free if m not in given_o]
+    seen_o = {t.marker for t in state.trackers[other].tracks
+              if t.marker >= 0 and not t.lost}  # markers the other camera sees now
     out = []
     for p, x in zip(kept, xyz, strict=True):
-        number = only_marker(state, x, stamp_s, free if p.marker >= 0 else missing)
-        if (p.marker >= 0 and number != p.marker) or (
-                number >= 0 and not _near_carried(state, number, x, stamp_s)):
-            number = UNNUMBERED
+        if p.marker >= 0:
+            number = _numbered_name(state, camera, uv, p, x, stamp_s, held, free, seen_o)
+        else:
+            number = only_marker(state, x, stamp_s, [m for m in free if m not in given_o])
+            if number >= 0 and not _near_carried(state, number, x, stamp_s):
+                number = UNNUMBERED
         if number >= 0 and not (_may_take(state, camera, track.track_id, number)
                                 and _may_take(state, other, p.track_id, number)):
             number = UNNUMBERED
@@ -166,14 +179,75 @@ def _partners(state: StereoState, camera: str, track: Track, partners: list[Trac
     return out
 
 
-def _near_carried(state: StereoState, marker: int, xyz: FloatArray, stamp_s: float) -> bool:
+def _numbered_name(state: StereoState, camera: str, uv: FloatArray, partner: Track,
+                   xyz: FloatArray, stamp_s: float, held: set[int], free: list[int],
+                   seen_o: set[int]) -> int:
+    """The partner's number (it is numbered) for the pair's 3D point ``xyz`` (3,) m of this
+    camera's spot ``uv`` (2,) px, else -1: the only marker of ``free`` (those this camera does
+    not hold) the bed can have carried there, within ``CARRIED_GATE_M``; failing that, when the
+    partner is alone on the line (``_alone_on_line``), the only one of the free markers the
+    other camera does not see now (``seen_o``) besides it, within ``NUMBERED_GATE_M``
+    (``_numbered_partner``)."""
+    number = only_marker(state, xyz, stamp_s, free)
+    if number == partner.marker and _near_carried(state, number, xyz, stamp_s):
+        return number
+    if not _alone_on_line(state, camera, uv, partner, stamp_s, held):
+        return UNNUMBERED
+    return _numbered_partner(state, xyz, stamp_s, partner.marker,
+                             [m for m in free if m not in seen_o or m == partner.marker])
+
+
+def _alone_on_line(state: StereoState, camera: str, uv: FloatArray, partner: Track,
+                   stamp_s: float, held: set[int]) -> bool:
+    """Whether every other running track of the other camera (of any age) whose point now lies
+    within ``epipolar_px`` of the epipolar line of this camera's spot ``uv`` (2,) px pairs
+    with it at least a marker's diameter farther from this camera than ``partner`` does
+    (hidden behind the partner's marker), or holds a marker this camera holds elsewhere
+    (``held``: explained there). A track on the line at a nearer pair may be a marker hiding
+    the partner's from this camera (on a tuning render the front's spot of 8 lay on the line
+    of the side's 7, hidden behind 8 in the front, while the side's 8 had been found two
+    frames before: with any track counted there, 7 was taken, 7 switches)."""
+    other = state.other(camera)
+    period = 1.0 / state.config.fps
+    now = [t.uv + t.velocity * (stamp_s - t.last_stamp_s) for t in state.trackers[other].tracks
+           if not t.lost and abs(t.last_stamp_s - stamp_s) <= period
+           and t.track_id != partner.track_id and t.marker not in held]
+    if not now:
+        return True
+    cam, cam_o = state.cameras[camera], state.cameras[other]
+    d = epipolar_distance(cam, cam_o, uv[None], np.array(now))[0]
+    on = [p for p, dist in zip(now, d, strict=True) if dist <= state.config.epipolar_px]
+    if not on:
+        return True
+    mine = partner.uv + partner.velocity * (stamp_s - partner.last_stamp_s)
+    xyz, _ = triangulate_pairs(cam, cam_o, np.repeat(uv[None], len(on) + 1, 0),
+                               np.array([mine, *on]))
+    z = np.array([depth(cam, x) for x in xyz])
+    return bool((z[1:] >= z[0] + state.config.marker_diameter_m).all())
+
+
+def _numbered_partner(state: StereoState, xyz: FloatArray, stamp_s: float, marker: int,
+                      rivals: list[int]) -> int:
+    """``marker`` (the other camera's number of a partner) when the pair's 3D point ``xyz``
+    (3,) m can be no other marker, else -1: of ``rivals`` (the markers this camera does not
+    hold and the other camera does not see on a running track: a marker the other camera sees
+    elsewhere is not on this line of sight) it is the only one the bed can have carried there
+    (``only_marker``), and it lies within ``NUMBERED_GATE_M`` of where the bed carried it."""
+    if only_marker(state, xyz, stamp_s, rivals) != marker:
+        return UNNUMBERED
+    return marker if _near_carried(state, marker, xyz, stamp_s, NUMBERED_GATE_M) \
+        else UNNUMBERED
+
+
+def _near_carried(state: StereoState, marker: int, xyz: FloatArray, stamp_s: float,
+                  gate_m: float = CARRIED_GATE_M) -> bool:
     """Whether a pair's 3D point ``xyz`` (3,) m lies within ``CARRIED_GATE_M`` of where the bed
     has carried ``marker`` (``state.carried_point``). ``only_marker`` lets a marker reach as far
     as the fastest marker could have moved since it was placed, which after a few frames
     covers a spot 100 mm off on the same line of sight; the bed carries a marker with its
     neighbours, and right pairs here lay 5-9 mm from that (tuning renders)."""
     placed = carried_point(state, marker, stamp_s)
-    return placed is not None and float(np.linalg.norm(xyz - placed[0])) <= CARRIED_GATE_M
+    return placed is not None and float(np.linalg.norm(xyz - placed[0])) <= gate_m
 
 
 def _nearest(found: list[Partner], diameter_m: float) -> tuple[int, int] | None:
@@ -280,3 +354,4 @@ def _seen_by_partner(state: StereoState, camera: str, track: Track, partner: Tra
     if not rows or rows[0][1] != track.track_id:
         return False
     return len(rows) == 1 or rows[1][0] - rows[0][0] >= state.config.marker_diameter_m
+
