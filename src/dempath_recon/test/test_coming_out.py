@@ -36,10 +36,12 @@ def _dets(cam, xyz: np.ndarray) -> Detections:
     return Detections(uv, np.ones(len(uv)), np.full(len(uv), 4.0))
 
 
-def _run(rig, coming_out: bool, shift: np.ndarray, back: int = 8) -> list:
+def _run(rig, coming_out: bool, shift: np.ndarray, back: int = 8,
+         debris: np.ndarray | None = None) -> list:
     """Released frames of a pass on GRID15 flowing along Z: 8 and 13 covered in both cameras
     (and marker ``back`` too, from frame 1, when it is not 8); from ``OUT_AT`` the side sees
-    marker ``back`` ``shift`` off where the bed carried marker 8."""
+    marker ``back`` ``shift`` off where the bed carried marker 8; with ``debris`` (3,) m, a
+    still spot there that only the side sees, from the start."""
     cams = {c.name: c for c in rig.cameras}
     config = replace(StereoTrackConfig(grid=MarkerGrid(layout_m=GRID15)), coming_out=coming_out)
     tracker = StereoMarkerTracker(cams, config)
@@ -48,7 +50,8 @@ def _run(rig, coming_out: bool, shift: np.ndarray, back: int = 8) -> list:
         pts = np.array(GRID15) + k * FLOW
         gone = {8, 13, back} if k >= 1 else {8, 13}
         front = [p for m, p in enumerate(pts, 1) if m not in gone]
-        side = front + ([pts[7] + shift] if k >= OUT_AT else [])
+        side = front + ([pts[7] + shift] if k >= OUT_AT else []) \
+            + ([debris] if debris is not None else [])
         tracker.update_detections('cam_side', k * DT, _dets(cams['cam_side'], np.array(side)))
         out += tracker.release()
         tracker.update_detections('cam_front', k * DT + OFFSET,
@@ -100,3 +103,17 @@ def test_a_lost_marker_back_near_a_covered_ones_place_is_not_given_its_number(ri
     7 could have got there from its last sighting, so the spot is not given 8."""
     shift = np.array([0.0, 0.0, -0.005])
     assert 8 not in _side_numbers_of_eight(rig, _run(rig, True, shift, back=7), shift)
+
+
+def test_a_spot_touching_another_waits(rig) -> None:
+    """A still spot the side alone sees (a clod, a stone) 6 mm beside where 8 comes out,
+    under a marker's diameter in the side view: two touching spots, whose tracks the 2D link
+    may swap, so the new spot waits."""
+    shift = np.zeros(3)
+    debris = np.array(GRID15[7]) + OUT_AT * FLOW + np.array([0.006, 0.0, 0.0])
+    side = rig.cameras[0]
+    gap = np.linalg.norm(side.project(debris[None]) - side.project(
+        (np.array(GRID15[7]) + OUT_AT * FLOW)[None]))
+    assert gap < 8, f'precondition: the clod is {gap:.1f} px from 8 in the side view'
+    assert set(_side_numbers_of_eight(rig, _run(rig, True, shift, debris=debris), shift)) \
+        == {-1}

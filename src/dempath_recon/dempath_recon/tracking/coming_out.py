@@ -26,6 +26,8 @@ grid fit's window (elimination's before), when
   its own);
 - no unnumbered spot of the other camera's latest frame lies on its epipolar line, nor a marker
   the other camera gives out and this one holds no track of (the pair rules decide those);
+- no other spot of the frame lies within ``TOUCH_DIAMETERS`` marker diameters (two touching
+  markers, whose tracks the 2D link may have swapped);
 - no other new track of this frame claims the same marker.
 
 The number is watched as elimination's are (``state.eliminated``: taken back for good when the
@@ -37,7 +39,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from dempath_recon.tracking.associate import project
+from dempath_recon.tracking.associate import marker_diameter_px, project
 from dempath_recon.tracking.grid_elimination import (
     LINE_FACTOR,
     SECOND_RATIO,
@@ -54,6 +56,8 @@ from dempath_recon.tracking.state import (
 )
 
 FloatArray = NDArray[np.float64]
+TOUCH_DIAMETERS = 1.0  # a new spot with another spot this many marker diameters away waits (on
+# a fast-tool render the front's new spot of 8, 4 px from 7's, took 7 while 8's track held 7's)
 BIRTH_FRAMES = 2  # a track decides in its first frames only: the carried point of a marker no
 # camera sees drifts from it by a few px a frame (on a tuning render 3 px at birth, 15 px 4
 # frames later, when a neighbour's was nearer)
@@ -82,8 +86,12 @@ def number_coming_out(state: StereoState, camera: str, track_ids: NDArray[np.int
                                      if m not in seen], stamp_s)
     if placed is None:
         return markers
+    size = marker_diameter_px(state.cameras[camera], state.config.grid,
+                              state.config.marker_diameter_m)
     claims: dict[int, list[int]] = {}
     for k in new:
+        if _touching(uv, k, TOUCH_DIAMETERS * size):
+            continue
         m = _nearest_free(state, placed, uv[k], held | given_o)
         if m is not None and (int(track_ids[k]), m) not in state.refused[camera] \
                 and lost_nearby(state, camera, m, uv[k], sure, stamp_s) is None:
@@ -101,6 +109,14 @@ def number_coming_out(state: StereoState, camera: str, track_ids: NDArray[np.int
         events.append(f'{camera}: track {tid} numbered marker {m}: new where the bed carried '
                       'it, a marker no camera holds')
     return out
+
+
+def _touching(uv: FloatArray, k: int, reach_px: float) -> bool:
+    """Whether another of the frame's points ``uv`` (n, 2) px lies within ``reach_px`` of
+    point ``k``: two touching markers, whose tracks the 2D link may have swapped."""
+    d = np.linalg.norm(uv - uv[k], axis=1)
+    d[k] = np.inf
+    return bool((d < reach_px).any())
 
 
 def _newborn(state: StereoState, camera: str, track: Track | None) -> bool:
