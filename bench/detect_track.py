@@ -260,11 +260,19 @@ def main(argv: list[str]) -> int:
     p.add_argument('--exposure-floor', choices=('off', 'faint', 'all', 'bed'), default='',
                    help="the detectors' chroma floor (DetectorConfig.exposure_floor; 'bed': the "
                         "bed around the markers, session 19; unset: the default)")
+    p.add_argument('--coming-out', action='store_true',
+                   help='number a marker coming out of the sand in one camera by where the bed '
+                        'carried it (StereoTrackConfig.coming_out; off by default)')
+    p.add_argument('--numbered-partner', action='store_true',
+                   help="name a pair by the other camera's number when the carried point is far "
+                        '(StereoTrackConfig.numbered_partner; off by default)')
     args = p.parse_args(argv)
     from detect_track_variations import (
         CLAY_SET,
         EXPOSURE_KNOWN,
         FLOOR,
+        ONE_CAMERA,
+        PARTNER,
         SEEK,
         TOOL_SPEED,
         look_exposure,
@@ -279,6 +287,8 @@ def main(argv: list[str]) -> int:
     TOOL_SPEED[0] = args.tool_speed
     SEEK[0] = args.seek_other
     FLOOR[0] = args.exposure_floor
+    ONE_CAMERA[0] = args.coming_out
+    PARTNER[0] = args.numbered_partner
     CLAY_SET[0] = args.marker_colour == 'look'
     cv2.setNumThreads(1)
     truth = json.loads(args.bag.with_name(args.bag.name + '.truth.json').read_text())

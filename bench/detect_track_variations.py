@@ -58,6 +58,8 @@ TOOL_SPEED = [0.0]  # the tool's speed [m/s] for recordings whose truth does not
 # (``--tool-speed``); 0: not known (the linkers' speed bound is off)
 SEEK = [False]  # ``--seek-other``: StereoTrackConfig.seek_other (off by default, session 18)
 FLOOR = ['']  # ``--exposure-floor``: DetectorConfig.exposure_floor ('': the default)
+ONE_CAMERA = [False]  # ``--coming-out``: StereoTrackConfig.coming_out (off by default, session 19)
+PARTNER = [False]  # ``--numbered-partner``: StereoTrackConfig.numbered_partner (off by default)
 EXPOSURE_KNOWN = [True]  # the trackers are told each recording's exposure (``--exposure-unknown``:
 # not, as before session 16: no streak search)
 
@@ -85,8 +87,11 @@ def with_clay(config: StereoTrackConfig, truth: dict[str, Any]) -> StereoTrackCo
 
 def with_seek(config: StereoTrackConfig) -> StereoTrackConfig:
     """``config`` with the search for markers the other camera holds
-    (``StereoTrackConfig.seek_other``) as ``--seek-other`` asks."""
-    return replace(config, seek_other=SEEK[0])
+    (``StereoTrackConfig.seek_other``) as ``--seek-other`` asks, and the numberings of session
+    19 that are off by default (``coming_out``, ``numbered_partner``) as ``--coming-out`` and
+    ``--numbered-partner`` ask."""
+    return replace(config, seek_other=SEEK[0], coming_out=ONE_CAMERA[0],
+                   numbered_partner=PARTNER[0])
 
 
 def with_floor(config: StereoTrackConfig) -> StereoTrackConfig:

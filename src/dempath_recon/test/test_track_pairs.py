@@ -13,7 +13,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dempath_recon.tracking import track_pairs
 from dempath_recon.tracking.associate import MarkerGrid
 from dempath_recon.tracking.detect import Detections
 from dempath_recon.tracking.linker import TrackerConfig
@@ -212,15 +211,16 @@ PUSH = np.array([0.0, 0.0, 0.003])  # the tool pushes markers 8 and 9 this much 
 SIDE_FROM = 4  # the frame the side camera first sees marker 8
 
 
-def _pushed_run(rig, intruder: bool = False) -> list:
+def _pushed_run(rig, numbered_partner: bool = True, intruder: bool = False) -> list:
     """Released frames of a pass on GRID15: the tool pushes markers 8 and 9 ahead of the bed,
     so where the bed carried them (their grid points moved with their neighbours) falls behind
     them, 8 ending 4 mm from 9's carried point; the front sees every marker, the side never 9
     nor 8 before ``SIDE_FROM``. With ``intruder``, a spot the front alone sees lies on the side
     8's line of sight 40 mm nearer the side camera from frame 6 (a young front track that may
-    hide 8 from the side)."""
+    hide 8 from the side). ``numbered_partner``: ``StereoTrackConfig.numbered_partner``."""
     cams = {c.name: c for c in rig.cameras}
-    config = StereoTrackConfig(grid=MarkerGrid(layout_m=GRID15), number_delay_frames=5)
+    config = StereoTrackConfig(grid=MarkerGrid(layout_m=GRID15), number_delay_frames=5,
+                               numbered_partner=numbered_partner)
     tracker = StereoMarkerTracker(cams, config)
     side_c = _centre(cams['cam_side'])
     out = []
@@ -253,17 +253,16 @@ def _side_numbers_of_eight(rig, out: list) -> list[int]:
     return got
 
 
-@pytest.mark.parametrize('numbered_gate', [track_pairs.CARRIED_GATE_M,
-                                           track_pairs.NUMBERED_GATE_M])
+@pytest.mark.parametrize('numbered_partner', [False, True])
 def test_a_numbered_partner_names_a_pair_the_bed_did_not_carry_there(
-        rig, monkeypatch: pytest.MonkeyPatch, numbered_gate: float) -> None:
+        rig, numbered_partner: bool) -> None:
     """Side marker 8, never triangulated, out at frame 4 on the line of the front's 8: its
     carried point lags 12-25 mm behind and 9's (hidden in the side, seen by the front on its
     own spot) is nearer. With the other camera's number counted (9 is not a rival, 30 mm
-    gate) it is numbered 8; with the old test (every free marker a rival, 15 mm) it waits."""
-    monkeypatch.setattr(track_pairs, 'NUMBERED_GATE_M', numbered_gate)
-    got = _side_numbers_of_eight(rig, _pushed_run(rig))
-    if numbered_gate == track_pairs.CARRIED_GATE_M:
+    gate) it is numbered 8; with the carried-point test alone (every free marker a rival,
+    15 mm) it waits."""
+    got = _side_numbers_of_eight(rig, _pushed_run(rig, numbered_partner))
+    if not numbered_partner:
         assert set(got) == {-1}
         return
     assert got[-4:] == [8] * 4 and set(got) <= {8, -1}
@@ -273,4 +272,5 @@ def test_a_young_track_on_the_line_nearer_this_camera_keeps_the_pair_waiting(rig
     """A front-only spot on the side 8's line 40 mm nearer the side camera from frame 6: the
     side cannot tell which of the two it sees, so 8 is never given."""
     got = _side_numbers_of_eight(rig, _pushed_run(rig, intruder=True))
+    assert 8 in _side_numbers_of_eight(rig, _pushed_run(rig))  # numbered without the spot
     assert 8 not in got

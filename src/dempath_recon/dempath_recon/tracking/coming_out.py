@@ -31,7 +31,8 @@ grid fit's window (elimination's before), when
 - no other new track of this frame claims the same marker.
 
 The number is watched as elimination's are (``state.eliminated``: taken back for good when the
-track jumps or its spot may hold a neighbour, until a pair check passes).
+track jumps or its spot may hold a neighbour, until a pair check passes). Off by default
+(``StereoTrackConfig.coming_out``): the looks held apart when it was built did not gain.
 """
 
 from __future__ import annotations

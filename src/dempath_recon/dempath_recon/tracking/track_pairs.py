@@ -18,11 +18,11 @@ behind it is hidden), so of the partners the one whose pair lies nearest this ca
 when every other lies a marker's diameter farther (``_nearest``), and the track must be, of
 this camera's tracks on the partner's line, the one nearest the partner's camera
 (``_seen_by_partner``). A numbered partner whose marker was never triangulated (it came out of the
-sand in this camera only now) is often carried poorly: the test is then done again, when no
-other track of the other camera lies on this track's line at a pair nearer this camera
-(``_alone_on_line``: it could hide the partner's marker from this camera), with only the
-markers the other camera does not see on a running track as rivals (a marker it sees
-elsewhere is not on this line of sight) and ``NUMBERED_GATE_M`` as the gate
+sand in this camera only now) is often carried poorly: with ``StereoTrackConfig.numbered_partner``
+(off by default) the test is then done again, when no other track of the other camera lies on this
+track's line at a pair nearer this camera (``_alone_on_line``: it could hide the partner's marker
+from this camera), with only the markers the other camera does not see on a running track as rivals
+(a marker it sees elsewhere is not on this line of sight) and ``NUMBERED_GATE_M`` as the gate
 (``_numbered_partner``). Numbers the grid fit refused a merged spot (``state.fit_merged``) may
 be given here, once the other camera holds each other marker of that spot off the spot's line
 (``_still_behind``: until then it may show beside the near one and pull the centre between);
@@ -184,14 +184,15 @@ def _numbered_name(state: StereoState, camera: str, uv: FloatArray, partner: Tra
                    seen_o: set[int]) -> int:
     """The partner's number (it is numbered) for the pair's 3D point ``xyz`` (3,) m of this
     camera's spot ``uv`` (2,) px, else -1: the only marker of ``free`` (those this camera does
-    not hold) the bed can have carried there, within ``CARRIED_GATE_M``; failing that, when the
-    partner is alone on the line (``_alone_on_line``), the only one of the free markers the
-    other camera does not see now (``seen_o``) besides it, within ``NUMBERED_GATE_M``
-    (``_numbered_partner``)."""
+    not hold) the bed can have carried there, within ``CARRIED_GATE_M``; failing that, with
+    ``StereoTrackConfig.numbered_partner`` and the partner alone on the line
+    (``_alone_on_line``), the only one of the free markers the other camera does not see now
+    (``seen_o``) besides it, within ``NUMBERED_GATE_M`` (``_numbered_partner``)."""
     number = only_marker(state, xyz, stamp_s, free)
     if number == partner.marker and _near_carried(state, number, xyz, stamp_s):
         return number
-    if not _alone_on_line(state, camera, uv, partner, stamp_s, held):
+    if not state.config.numbered_partner \
+            or not _alone_on_line(state, camera, uv, partner, stamp_s, held):
         return UNNUMBERED
     return _numbered_partner(state, xyz, stamp_s, partner.marker,
                              [m for m in free if m not in seen_o or m == partner.marker])
