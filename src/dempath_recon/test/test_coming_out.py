@@ -12,28 +12,22 @@ known.
 
 from __future__ import annotations
 
+import sys
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
 
+sys.path.insert(0, str(Path(__file__).parent))
+from projected import GRID15, feed_frame, numbers_given
+
 from dempath_recon.tracking.associate import MarkerGrid
-from dempath_recon.tracking.detect import Detections
 from dempath_recon.tracking.stereo import StereoMarkerTracker, StereoTrackConfig
 
-DT = 0.02  # frame period [s]
-OFFSET = 0.003  # the front camera exposes this much after the side one [s]
-GRID15 = tuple((x, 0.0, z) for x in (-0.025, 0.0, 0.025)
-               for z in (-0.05, -0.025, 0.0, 0.025, 0.05))  # markers 1-15, 25 mm pitch
 FLOW = np.array([0.0, 0.0, 0.004])  # the bed's flow along Z [m/frame]
 OUT_AT = 6  # the frame marker 8 comes out in the side camera
 FRAMES = 12
-
-
-def _dets(cam, xyz: np.ndarray) -> Detections:
-    """Exact detections of the points (k, 3) m in one camera."""
-    uv = cam.project(np.asarray(xyz, np.float64).reshape(-1, 3))
-    return Detections(uv, np.ones(len(uv)), np.full(len(uv), 4.0))
 
 
 def _run(rig, coming_out: bool, shift: np.ndarray, back: int = 8,
@@ -52,25 +46,14 @@ def _run(rig, coming_out: bool, shift: np.ndarray, back: int = 8,
         front = [p for m, p in enumerate(pts, 1) if m not in gone]
         side = front + ([pts[7] + shift] if k >= OUT_AT else []) \
             + ([debris] if debris is not None else [])
-        tracker.update_detections('cam_side', k * DT, _dets(cams['cam_side'], np.array(side)))
-        out += tracker.release()
-        tracker.update_detections('cam_front', k * DT + OFFSET,
-                                  _dets(cams['cam_front'], np.array(front)))
-        out += tracker.release()
+        out += feed_frame(tracker, cams, k, side, front)
     return out + tracker.flush()
 
 
 def _side_numbers_of_eight(rig, out: list, shift: np.ndarray) -> list[int]:
     """The number the side gave marker 8's spot in each frame from ``OUT_AT``."""
-    side = rig.cameras[0]
-    sides = sorted((f for f in out if f.camera == 'cam_side'), key=lambda f: f.stamp_s)
-    got = []
-    for k, f in enumerate(sides[OUT_AT:], OUT_AT):
-        uv = side.project((np.array(GRID15[7]) + k * FLOW + shift)[None])[0]
-        d = np.linalg.norm(f.uv - uv, axis=1)
-        assert d.min() < 0.5  # the spot is there in every frame
-        got.append(int(f.markers[int(np.argmin(d))]))
-    return got
+    return numbers_given(out, rig.cameras[0],
+                         lambda k: np.array(GRID15[7]) + k * FLOW + shift, OUT_AT)
 
 
 def test_the_spot_is_far_from_its_grid_point(rig) -> None:

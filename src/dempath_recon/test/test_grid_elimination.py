@@ -12,28 +12,23 @@ is known.
 
 from __future__ import annotations
 
+import sys
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
 
+sys.path.insert(0, str(Path(__file__).parent))
+from projected import DT, GRID15, OFFSET, feed_frame, numbers_given
+from projected import exact_detections as _dets
+
 from dempath_recon.tracking.associate import MarkerGrid
-from dempath_recon.tracking.detect import Detections
 from dempath_recon.tracking.grid_elimination import revoke_jumped, revoke_shared
 from dempath_recon.tracking.stereo import StereoMarkerTracker, StereoTrackConfig
 
-DT = 0.02  # frame period [s]
-OFFSET = 0.003  # the front camera exposes this much after the side one [s]
-GRID15 = tuple((x, 0.0, z) for x in (-0.025, 0.0, 0.025)
-               for z in (-0.05, -0.025, 0.0, 0.025, 0.05))  # markers 1-15, 25 mm pitch
 FLOW = np.array([0.0, 0.0005, 0.001])  # the bed's slow heave before the tool arrives [m/frame]
 FRAMES = 10
-
-
-def _dets(cam, xyz: np.ndarray) -> Detections:
-    """Exact detections of the points (k, 3) m in one camera."""
-    uv = cam.project(np.asarray(xyz, np.float64).reshape(-1, 3))
-    return Detections(uv, np.ones(len(uv)), np.full(len(uv), 4.0))
 
 
 def _run(rig, moved: np.ndarray, side_hides: tuple[int, ...], elimination: bool) -> list:
@@ -51,25 +46,13 @@ def _run(rig, moved: np.ndarray, side_hides: tuple[int, ...], elimination: bool)
         pts = start + k * FLOW
         side = [p for m, p in enumerate(pts, 1) if m not in side_hides]
         front = [p for m, p in enumerate(pts, 1) if m not in hidden_front]
-        tracker.update_detections('cam_side', k * DT, _dets(cams['cam_side'], np.array(side)))
-        out += tracker.release()
-        tracker.update_detections('cam_front', k * DT + OFFSET,
-                                  _dets(cams['cam_front'], np.array(front)))
-        out += tracker.release()
+        out += feed_frame(tracker, cams, k, side, front)
     return out + tracker.flush()
 
 
 def _side_numbers_of_eight(rig, out: list, moved: np.ndarray) -> list[int]:
     """The number the side gave marker 8's spot in each of its frames."""
-    side = rig.cameras[0]
-    sides = sorted((f for f in out if f.camera == 'cam_side'), key=lambda f: f.stamp_s)
-    got = []
-    for k, f in enumerate(sides):
-        uv = side.project((np.array(GRID15[7]) + moved + k * FLOW)[None])[0]
-        d = np.linalg.norm(f.uv - uv, axis=1)
-        assert d.min() < 0.5  # the spot is there in every frame
-        got.append(int(f.markers[int(np.argmin(d))]))
-    return got
+    return numbers_given(out, rig.cameras[0], lambda k: np.array(GRID15[7]) + moved + k * FLOW)
 
 
 MOVED = np.array([0.0, 0.007, 0.007])

@@ -10,8 +10,14 @@ is known.
 
 from __future__ import annotations
 
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
+
+sys.path.insert(0, str(Path(__file__).parent))
+from projected import GRID15, feed_frame, numbers_given
 
 from dempath_recon.tracking.associate import MarkerGrid
 from dempath_recon.tracking.detect import Detections
@@ -204,8 +210,6 @@ def test_a_spot_waits_while_a_marker_neither_camera_holds_is_carried_beside_it(r
     assert not _missing_beside(tracker.state, 'cam_front', 2, at_two, stamp, held | {7})
 
 
-GRID15 = tuple((x, 0.0, z) for x in (-0.025, 0.0, 0.025)
-               for z in (-0.05, -0.025, 0.0, 0.025, 0.05))  # markers 1-15, 25 mm pitch
 FLOW = np.array([0.0, 0.0, 0.001])  # the bed's slow flow along Z [m/frame]
 PUSH = np.array([0.0, 0.0, 0.003])  # the tool pushes markers 8 and 9 this much more [m/frame]
 SIDE_FROM = 4  # the frame the side camera first sees marker 8
@@ -233,25 +237,14 @@ def _pushed_run(rig, numbered_partner: bool = True, intruder: bool = False) -> l
         if intruder and k >= 6:
             ray = side_c - pts[7]
             front.append(pts[7] + 0.04 * ray / np.linalg.norm(ray))
-        tracker.update_detections('cam_side', k * DT, _dets(cams['cam_side'], np.array(side)))
-        out += tracker.release()
-        tracker.update_detections('cam_front', k * DT + OFFSET,
-                                  _dets(cams['cam_front'], np.array(front)))
-        out += tracker.release()
+        out += feed_frame(tracker, cams, k, side, front)
     return out + tracker.flush()
 
 
 def _side_numbers_of_eight(rig, out: list) -> list[int]:
     """The number the side gave marker 8's spot in each frame from ``SIDE_FROM``."""
-    side = rig.cameras[0]
-    sides = sorted((f for f in out if f.camera == 'cam_side'), key=lambda f: f.stamp_s)
-    got = []
-    for k, f in enumerate(sides[SIDE_FROM:], SIDE_FROM):
-        uv = side.project((np.array(GRID15[7]) + k * (FLOW + PUSH))[None])[0]
-        d = np.linalg.norm(f.uv - uv, axis=1)
-        assert d.min() < 0.5
-        got.append(int(f.markers[int(np.argmin(d))]))
-    return got
+    return numbers_given(out, rig.cameras[0],
+                         lambda k: np.array(GRID15[7]) + k * (FLOW + PUSH), SIDE_FROM)
 
 
 @pytest.mark.parametrize('numbered_partner', [False, True])
