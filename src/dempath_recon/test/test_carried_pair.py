@@ -11,29 +11,23 @@ is known.
 
 from __future__ import annotations
 
+import sys
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
 
+sys.path.insert(0, str(Path(__file__).parent))
+from projected import DT, GRID15, feed_frame, numbers_given
+
 from dempath_recon.tracking.associate import MarkerGrid
-from dempath_recon.tracking.detect import Detections
 from dempath_recon.tracking.state import MAX_DEPTH_AGE_S
 from dempath_recon.tracking.stereo import StereoMarkerTracker, StereoTrackConfig
 
-DT = 0.02  # frame period [s]
-OFFSET = 0.003  # the front camera exposes this much after the side one [s]
-GRID15 = tuple((x, 0.0, z) for x in (-0.025, 0.0, 0.025)
-               for z in (-0.05, -0.025, 0.0, 0.025, 0.05))  # markers 1-15, 25 mm pitch
 FLOW = np.array([0.0, 0.0005, 0.001])  # the bed's slow heave [m/frame]
 FRAMES = 12
 OUT_AT = 6  # the side camera sees marker 8 from this frame on
-
-
-def _dets(cam, xyz: np.ndarray) -> Detections:
-    """Exact detections of the points (k, 3) m in one camera."""
-    uv = cam.project(np.asarray(xyz, np.float64).reshape(-1, 3))
-    return Detections(uv, np.ones(len(uv)), np.full(len(uv), 4.0))
 
 
 def _side_numbers_of_eight(rig, moved: np.ndarray, hidden: tuple[int, ...],
@@ -53,19 +47,9 @@ def _side_numbers_of_eight(rig, moved: np.ndarray, hidden: tuple[int, ...],
         side_hides = set(hidden) | ({8} if k < OUT_AT else set())
         side = [p for m, p in enumerate(pts, 1) if m not in side_hides]
         front = [p for m, p in enumerate(pts, 1) if m not in hidden]
-        tracker.update_detections('cam_side', k * DT, _dets(cams['cam_side'], np.array(side)))
-        out += tracker.release()
-        tracker.update_detections('cam_front', k * DT + OFFSET,
-                                  _dets(cams['cam_front'], np.array(front)))
-        out += tracker.release()
+        out += feed_frame(tracker, cams, k, side, front)
     out += tracker.flush()
-    sides = sorted((f for f in out if f.camera == 'cam_side'), key=lambda f: f.stamp_s)
-    got = []
-    for k, f in enumerate(sides[OUT_AT:], OUT_AT):
-        uv = cams['cam_side'].project((start[7] + k * FLOW)[None])[0]
-        d = np.linalg.norm(f.uv - uv, axis=1)
-        assert d.min() < 0.5  # the spot is there in every frame
-        got.append(int(f.markers[int(np.argmin(d))]))
+    got = numbers_given(out, cams['cam_side'], lambda k: start[7] + k * FLOW, OUT_AT)
     for f in out:  # nobody took a number twice
         assert len(set(f.markers[f.markers >= 0].tolist())) == int((f.markers >= 0).sum())
     return got
