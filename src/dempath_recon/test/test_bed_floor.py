@@ -24,15 +24,9 @@ from test_colour_model import (
     matched,
 )
 
-from dempath_recon.tracking import colour_model
-from dempath_recon.tracking.colour_model import (
-    BED_SHARE,
-    MIN_SUM_DN,
-    SAND_CHROMA,
-    bed_floor,
-    chroma_floor,
-    ring_sand_chroma,
-)
+from dempath_recon.tracking import bed_floor as bed_module
+from dempath_recon.tracking.bed_floor import BED_SHARE, bed_floor, ring_sand_chroma
+from dempath_recon.tracking.colour_model import DARK_SUM_DN, MIN_SUM_DN, SAND_CHROMA, chroma_floor
 from dempath_recon.tracking.detect import DetectorConfig, MarkerDetector, decode_jpeg
 
 DEFAULT = DetectorConfig(marker_diameter_px=2 * RADIUS)  # the frame's own floor, 'faint'
@@ -131,6 +125,6 @@ def test_no_spot_in_a_vignetted_corner(monkeypatch) -> None:
     jpeg, seen = dusk_frame_with_black_corner(3)
     kept = MarkerDetector(BED).detect_jpeg(jpeg).uv
     assert matched(kept, seen, 2.5)[0] >= 12 and not (kept[:, 1] > 150).any()
-    monkeypatch.setattr(colour_model, 'BED_MIN_DN', colour_model.DARK_SUM_DN)
+    monkeypatch.setattr(bed_module, 'BED_MIN_DN', DARK_SUM_DN)
     low = MarkerDetector(BED).detect_jpeg(jpeg).uv
     assert (low[:, 1] > 150).sum() >= 1, 'the rule is needed: blotches pass without it'

@@ -41,26 +41,28 @@ import simplejpeg
 from numpy.typing import NDArray
 
 from dempath_recon.errors import ReconstructionError
-from dempath_recon.tracking.colour_model import (
+from dempath_recon.tracking.bed_floor import (
     BED_CELL,
+    BedFloor,
+    bed_candidates,
+    bed_floor,
+    ring_sand_chroma,
+)
+from dempath_recon.tracking.colour_model import (
     BLUE_AXIS,
     CLAY_CHROMA,
     DARK_SUM_DN,
     FLOOR_SHARE,
     MIN_SUM_DN,
     REFERENCE_SAND_BGR,
-    BedFloor,
     axis_bound,
     axis_chroma,
-    bed_candidates,
-    bed_floor,
     chroma_floor,
     colour_axis,
     frame_axis,
     is_blue,
     lit_peaks,
     near_lit,
-    ring_sand_chroma,
 )
 from dempath_recon.tracking.covered import MAX_ELEVATION_DEG, seen_share, uncover
 from dempath_recon.tracking.shaded import lit_centroids, shade_floor
@@ -246,7 +248,7 @@ class DetectorConfig:
             ``MIN_SUM_DN`` everywhere; 'bed' (session 19, not the default): as 'faint', and
             where the light is dim a second search of the frame adds the markers a floor of
             ``BED_SHARE`` of the bed's brightness around each pixel finds
-            (:func:`~dempath_recon.tracking.colour_model.bed_floor`), near the markers the
+            (:func:`~dempath_recon.tracking.bed_floor.bed_floor`), near the markers the
             first search found, on a threshold midway between the sand beside them and the
             clay (``MarkerDetector._bed_spots``); the first search's spots are kept as found.
             On 33 tuned looks 80.68 -> 81.76 % numbered right, but switches 54 -> 58 and
@@ -443,7 +445,7 @@ class MarkerDetector:
     def _bed_spots(self, image: NDArray[np.uint8], axis: NDArray[np.float32],
                    known: FloatArray) -> Detections:
         """Markers of ``image`` (at the detector's scale) the chroma floored by the bed around
-        each pixel finds (:func:`~dempath_recon.tracking.colour_model.bed_floor`), apart from
+        each pixel finds (:func:`~dempath_recon.tracking.bed_floor.bed_floor`), apart from
         the ``known`` (n, 2) [full-size px] spots (blotted out of the chroma: their blobs are
         measured already), within ``BED_REACH_DIAMETERS`` marker diameters of them (the bed
         around the markers; the whole frame when fewer than ``MIN_SPOTS`` are known), on a
@@ -501,7 +503,9 @@ class MarkerDetector:
                     cv2.circle(mask, (round(bx), round(by)), r, 255, -1)
             c[mask > 0] = np.float32(FILTER_FLOOR)
         rows, cols = self._peaks(c, thr)
-        lit = lit_peaks(image, rows + oy, cols + ox, floor)  # not noise in near-black pixels
+        lit = lit_peaks(image, rows + oy, cols + ox,  # not noise in near-black pixels
+                        floor.at_points(rows + oy, cols + ox) if isinstance(floor, BedFloor)
+                        else floor)
         rows, cols = rows[lit], cols[lit]
         if len(rows) == 0:
             return Detections.empty()
