@@ -23,7 +23,12 @@ from dempath_recon.tracking.associate import (
 from dempath_recon.tracking.grid_pairs import pairs_by_grid
 from dempath_recon.tracking.linker import UNNUMBERED
 from dempath_recon.tracking.one_camera import grid_anchor, late_grid, lost_nearby
-from dempath_recon.tracking.pair_anchor import drop_contested, pair_shift, vote_contradicted
+from dempath_recon.tracking.pair_anchor import (
+    drop_contested,
+    drop_unclaimed_nearer,
+    pair_shift,
+    vote_contradicted,
+)
 from dempath_recon.tracking.state import (
     MAX_DEPTH_AGE_S,
     RECENT_S,
@@ -110,6 +115,13 @@ def number_both_by_grid(state: StereoState, camera: str, track_ids: NDArray[np.i
         own = {t.track_id: t.marker for t in state.trackers[other].tracks}
         mine, theirs = drop_contested(mine, theirs, np.array(
             [own.get(int(t), UNNUMBERED) for t in ids_o], np.int32), camera, other, events)
+    kept, kept_o = drop_unclaimed_nearer(mine, theirs, grid_rival(state, camera, uv, mine),
+                                         grid_rival(state, other, uv_o, theirs), camera,
+                                         events)
+    for cam, ids, nums, left in ((camera, track_ids, mine, kept), (other, ids_o, theirs, kept_o)):
+        state.refused[cam] |= {(int(ids[i]), int(nums[i]))  # a ghost's spots are not its number
+                               for i in np.flatnonzero((nums >= 0) & (left < 0)).tolist()}
+    mine, theirs = kept, kept_o
     alone, unsure = one_camera_grid(state, camera, uv, mine, uv_o, theirs)
     theirs, unsure_o = one_camera_grid(state, other, uv_o, theirs, uv, mine)
     mine = alone
@@ -140,6 +152,28 @@ def number_both_by_grid(state: StereoState, camera: str, track_ids: NDArray[np.i
     events.append(f"{camera}: {found} of {len(uv)} detections numbered with {other}'s "
                   'by the grid in 3D')
     return mine
+
+
+def grid_rival(state: StereoState, camera: str, uv: FloatArray, numbers: NDArray[np.int32],
+               ) -> NDArray[np.int32]:
+    """(n,) for each of ``camera``'s spots ``uv`` (n, 2) px numbered ``numbers`` (n,) by the
+    pairs, the other marker whose grid point, as this camera's own grid vote fits it, lies
+    nearest the spot, when the spot's own grid point lies at least ``GHOST_RATIO`` times as far
+    (-1 otherwise, for unnumbered spots, and for all when the pairs contradict the vote: it
+    slipped a pitch and its grid points say nothing)."""
+    out = np.full(len(uv), UNNUMBERED, np.int32)
+    voted, grid_uv = number_by_grid(state.cameras[camera], uv, state.config.grid,
+                                    state.config.grid_gate_px)
+    if not len(uv) or vote_contradicted(voted, numbers):
+        return out
+    ids = state.config.grid.points()[0].tolist()
+    d = np.linalg.norm(uv[:, None] - np.asarray(grid_uv)[None], axis=2)
+    for i in np.flatnonzero(numbers >= 0).tolist():
+        own = d[i, ids.index(int(numbers[i]))]
+        j = int(np.argmin(d[i]))
+        if ids[j] != numbers[i] and own >= GHOST_RATIO * d[i, j]:
+            out[i] = ids[j]
+    return out
 
 
 def one_camera_grid(state: StereoState, camera: str, uv: FloatArray, numbers: NDArray[np.int32],
@@ -291,6 +325,10 @@ def number_grid_unsure(state: StereoState, camera: str, track_ids: NDArray[np.in
     return out
 
 
+GHOST_RATIO = 1.25  # a pair's spot is nearer another marker's grid point when its own is this
+# many times as far (the fitted grid points sit 3-8 px from markers the bed has moved: a right
+# pair of a seed-65 render sat 7.1 and 7.6 px from its own, 6.9 and 7.0 px from others'; a
+# ghost pair of a seed-83 render 5.6 and 3.3 px from other markers', 7.8 and 8.2 px from its own)
 GRID_RATIO = 2.0  # a spot is another marker's when that one's grid point is this many times
 # nearer than the candidate's
 

@@ -101,3 +101,49 @@ def drop_contested(mine: NDArray[np.int32], theirs: NDArray[np.int32],
         events.append(f'{camera}: the pair numbered {m} at the grid fit is not given: {other} '
                       f'numbered its spot {int(provisional[j])} by its own grid')
     return mine, theirs
+
+
+def drop_unclaimed_nearer(mine: NDArray[np.int32], theirs: NDArray[np.int32],
+                          near_a: NDArray[np.int32], near_b: NDArray[np.int32], camera: str,
+                          events: list[str]) -> tuple[NDArray[np.int32], NDArray[np.int32]]:
+    """The grid pairs' numbers without those both cameras' own grids put elsewhere.
+
+    A ghost pair (two different markers, each hidden in the other camera, whose spots lie on
+    each other's epipolar lines and meet near a third marker's grid point) sits within the 3D
+    gate like a right pair. But in each camera its spot lies nearest the image grid point of
+    the marker it is, and no pair claims that marker (its partner is hidden). On a render of
+    hidden seed 83 (cohesion) the side's spot of marker 2 (4.7 px from 2's fitted grid point,
+    8.6 px from 7's) and the front's spot of 6 (2.6 and 8.9 px) met 9 mm from grid point 7 and
+    took 7 in both cameras for the whole pass (21 wrong numbers, 4 3D points 5-20 mm off). A
+    right pair may sit nearer another grid point in one camera (a view that packs the rows),
+    or about as near another's in both (the bed moved it between grid points: a seed-65
+    render's marker 14 sat 7.1 and 7.6 px from its own, 6.9 and 7.0 px from 9's and 13's), but
+    on the tuned looks never clearly nearer an unclaimed one in both (the caller's margin).
+
+    Args:
+        mine: (n,) the numbers the pairs give ``camera``'s spots (-1: none).
+        theirs: (k,) the numbers they give the other camera's spots (-1: none).
+        near_a: (n,) the other marker whose fitted image grid point lies clearly nearer each
+            of ``camera``'s spots than its pair's number's (-1: none, or not known).
+        near_b: (k,) the same for the other camera's spots.
+        camera: the camera whose frame the pairs were fitted on (for the events).
+        events: the frame's events (one is added per pair not given).
+
+    Returns:
+        ``(mine, theirs)`` with such pairs unnumbered in both cameras.
+    """
+    claimed = set(mine[mine >= 0].tolist()) | set(theirs[theirs >= 0].tolist())
+    mine, theirs = mine.copy(), theirs.copy()
+    for i in np.flatnonzero(mine >= 0).tolist():
+        m = int(mine[i])
+        j = np.flatnonzero(theirs == m)
+        if not len(j):
+            continue
+        a, b = int(near_a[i]), int(near_b[j[0]])
+        if a < 0 or b < 0 or a in claimed or b in claimed:
+            continue
+        mine[i], theirs[j[0]] = -1, -1
+        events.append(f'{camera}: the pair numbered {m} at the grid fit is not given: its '
+                      f'spots lie nearest the grid points of markers {a} and {b}, which no pair '
+                      'claims (a ghost of two markers each hidden in the other camera)')
+    return mine, theirs
