@@ -61,11 +61,12 @@ def pose(stamp_s: float, z: float) -> PoseStamped:
     return msg
 
 
-def start_graph(ros_harness, rig, tmp_path: Path):
-    """Reconstructor + pass node, probe publishers and collectors."""
+def start_graph(ros_harness, rig, tmp_path: Path, camera_timeout_s: float = 0.3):
+    """Reconstructor + pass node (a camera silent ``camera_timeout_s`` mid-pass aborts the
+    pass), probe publishers and collectors."""
     ros_harness.start(ReconstructorNode, method='dlt', slop=0.01,
                       calibration_file=str(rig.save(tmp_path / 'calib.yaml')))
-    ros_harness.start(PassNode, trigger='tool_motion', camera_timeout_s=0.3)
+    ros_harness.start(PassNode, trigger='tool_motion', camera_timeout_s=camera_timeout_s)
     pubs = {c: ros_harness.publisher(PixelPoints, topics.camera_topic(topics.PIXEL_POINTS, c))
             for c in topics.CAMERAS}
     tool = ros_harness.publisher(PoseStamped, topics.TOOL_POSE, qos_profile_sensor_data)
@@ -97,7 +98,11 @@ def test_live_frames_at_50_fps_do_not_queue_up(ros_harness, rig, tmp_path: Path)
     points = ros_harness.collect(MarkerPoints3D, topics.MARKER_POINTS, 1000)
     diags = ros_harness.collect(DiagnosticArray, topics.DIAGNOSTICS)
     events = ros_harness.collect(RunEvent, topics.PASS_EVENTS)
-    pubs, tool = start_graph(ros_harness, rig, tmp_path)
+    # the graph, the probe publishers and this loop share one process and executor: a stall of
+    # the process (the other test worker on a 2-core machine) held frames back past 0.3 s twice
+    # in 19 sessions and aborted the pass; this test is about the queue, the camera watchdog
+    # has its own test below
+    pubs, tool = start_graph(ros_harness, rig, tmp_path, camera_timeout_s=1.0)
     xyz = sample_working_volume(15, np.random.default_rng(3))
     uv = [cam.project(xyz) for cam in rig.cameras]
     n = stream(ros_harness, pubs, tool, uv, 10.0)
