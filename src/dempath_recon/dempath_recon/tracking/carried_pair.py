@@ -23,15 +23,14 @@ marker that cannot be placed could be anywhere: then nothing is numbered.
 
 from __future__ import annotations
 
-from collections import Counter
-
 import numpy as np
 from numpy.typing import NDArray
 
 from dempath_recon.tracking.associate import on_epipolar_line, triangulate_pairs
 from dempath_recon.tracking.linker import UNNUMBERED
+from dempath_recon.tracking.numbering import LineCandidates
 from dempath_recon.tracking.pair_numbering import only_marker
-from dempath_recon.tracking.state import RECENT_S, StereoState, at_stamp, retire
+from dempath_recon.tracking.state import StereoState, retire
 
 FloatArray = NDArray[np.float64]
 
@@ -51,28 +50,21 @@ def number_by_carried_pair(state: StereoState, camera: str, track_ids: NDArray[n
         return markers
     other = state.other(camera)
     held = {int(m) for m in markers if m >= 0}
-    recent = {m: at_stamp(state, other, m, (t, p), stamp_s)
-              for m, (t, p) in state.latest[other].items()
-              if m not in held and abs(t - stamp_s) <= RECENT_S}
-    if not recent:
+    lines = LineCandidates.of(state, camera, uv, todo, held, stamp_s)
+    if not lines.recent:
         return markers
     cam, cam_o = state.cameras[camera], state.cameras[other]
-    lines = Counter(m for k in todo for m in on_epipolar_line(cam, cam_o, uv[k], recent,
-                                                              state.config.epipolar_px))
-    starts = {t.track_id: t.history[0][0] for t in state.trackers[camera].tracks}
     everyone = set(state.grid_uv.get(camera, {})) | set(state.grid_uv.get(other, {}))
     out = markers.copy()
     for k in todo:
         tid = int(track_ids[k])
-        cands = {m: p for m, p in recent.items()
-                 if m not in held and lines[m] == 1 and (tid, m) not in state.refused[camera]
-                 and state.latest[camera].get(m, (-np.inf, None))[0] < starts.get(tid, 0.0)}
+        cands = lines.for_track(state, camera, tid, held)
         close = on_epipolar_line(cam, cam_o, uv[k], cands, state.config.epipolar_px)
         if len(close) != 1:
             continue
         m = close[0]
         xyz, _ = triangulate_pairs(cam, cam_o, uv[k][None], cands[m][None])
-        missing = [m, *sorted(n for n in everyone - held - {m} if n not in recent)]
+        missing = [m, *sorted(n for n in everyone - held - {m} if n not in lines.recent)]
         if only_marker(state, xyz[0], stamp_s, missing) != m:
             continue
         retire(state, camera, m)

@@ -42,10 +42,9 @@ from numpy.typing import NDArray
 
 from dempath_recon.tracking.associate import marker_diameter_px, project
 from dempath_recon.tracking.grid_elimination import (
-    LINE_FACTOR,
     SECOND_RATIO,
     START_WINDOW_S,
-    on_a_line,
+    other_decides,
 )
 from dempath_recon.tracking.linker import Track
 from dempath_recon.tracking.one_camera import lost_nearby
@@ -99,7 +98,7 @@ def number_coming_out(state: StereoState, camera: str, track_ids: NDArray[np.int
             claims.setdefault(m, []).append(k)
     out = markers.copy()
     for m, rows in claims.items():
-        if len(rows) != 1 or _other_decides(state, camera, uv[rows[0]], stamp_s):
+        if len(rows) != 1 or other_decides(state, camera, uv[rows[0]], stamp_s):
             continue
         tid = int(track_ids[rows[0]])
         state.trackers[camera].number(tid, m)
@@ -154,20 +153,3 @@ def _nearest_free(state: StereoState, placed: dict[int, FloatArray], point: Floa
             or (len(ranked) > 1 and ranked[1][0] < SECOND_RATIO * near):
         return None
     return m
-
-
-def _other_decides(state: StereoState, camera: str, point: FloatArray, stamp_s: float) -> bool:
-    """Whether the other camera's latest frame (within a frame period) has an unnumbered spot
-    on ``point``'s epipolar line, or gives out a marker this camera holds no track of within
-    ``LINE_FACTOR`` times ``epipolar_px`` of it: the pair rules decide such a spot."""
-    other = state.other(camera)
-    period = 1.0 / state.config.fps
-    free_o = state.free[other]
-    mine = {t.marker for t in state.trackers[camera].tracks if t.marker >= 0}
-    theirs = [p for m, (t, p) in state.latest[other].items()
-              if m not in mine and abs(t - stamp_s) <= period]
-    return on_a_line(state, camera, point, free_o[2] if free_o is not None
-                      and abs(free_o[0] - stamp_s) <= period else None,
-                      state.config.epipolar_px) \
-        or on_a_line(state, camera, point, np.array(theirs) if theirs else None,
-                      LINE_FACTOR * state.config.epipolar_px)

@@ -432,11 +432,12 @@ class MarkerDetector:
         frame_floor = MIN_SUM_DN if mode == 'off' else chroma_floor(image)
         axis = frame_axis(image, self.config.marker_bgr, self.config.sand_bgr)
         floor = frame_floor if mode == 'all' else MIN_SUM_DN
-        found = self._spots(image, floor, axis, frame_floor=frame_floor)
+        thr = self.threshold_for(image, floor, axis)
+        found = self._spots(image, floor, axis, thr=thr, frame_floor=frame_floor)
         if mode == 'bed':  # a floor per pixel from the bed around it (None: normal light)
             found = add_apart(found, self._bed_spots(image, axis, found.uv),
                               self.config.min_separation_px)
-        low = min(self.config.faint_threshold, self.threshold_for(image, floor, axis))
+        low = min(self.config.faint_threshold, thr)
         if low <= 0:
             return found
         return found._replace(faint=partial(self._faint, image, low, (frame_floor, axis),

@@ -104,19 +104,11 @@ def number_by_elimination(state: StereoState, camera: str, track_ids: NDArray[np
     if not claims:
         return markers
     out = markers.copy()
-    free_o = state.free[other]
-    mine = {t.marker for t in state.trackers[camera].tracks if t.marker >= 0}
-    theirs = [p for m, (t, p) in state.latest[other].items()
-              if m not in mine and abs(t - stamp_s) <= 1.0 / state.config.fps]
     for m, rows in claims.items():
         if len(rows) != 1:
             continue
         k = rows[0]
-        if on_a_line(state, camera, uv[k], free_o[2] if free_o is not None
-                      and abs(free_o[0] - stamp_s) <= 1.0 / state.config.fps else None,
-                      state.config.epipolar_px) \
-                or on_a_line(state, camera, uv[k], np.array(theirs) if theirs else None,
-                              LINE_FACTOR * state.config.epipolar_px):
+        if other_decides(state, camera, uv[k], stamp_s):
             continue
         tid = int(track_ids[k])
         state.trackers[camera].number(tid, m)
@@ -127,6 +119,24 @@ def number_by_elimination(state: StereoState, camera: str, track_ids: NDArray[np
         events.append(f'{camera}: track {tid} numbered marker {m} by elimination: it started '
                       'nearest its grid point among the markers nobody holds')
     return out
+
+
+def other_decides(state: StereoState, camera: str, point: FloatArray, stamp_s: float) -> bool:
+    """Whether the other camera's latest frame (within a frame period) has an unnumbered spot
+    on ``point``'s epipolar line, or gives out a marker this camera holds no track of within
+    ``LINE_FACTOR`` times ``epipolar_px`` of it: the pair rules decide such a spot, not one
+    camera's (elimination, :mod:`~dempath_recon.tracking.coming_out`)."""
+    other = state.other(camera)
+    period = 1.0 / state.config.fps
+    free_o = state.free[other]
+    mine = {t.marker for t in state.trackers[camera].tracks if t.marker >= 0}
+    theirs = [p for m, (t, p) in state.latest[other].items()
+              if m not in mine and abs(t - stamp_s) <= period]
+    return on_a_line(state, camera, point, free_o[2] if free_o is not None
+                     and abs(free_o[0] - stamp_s) <= period else None,
+                     state.config.epipolar_px) \
+        or on_a_line(state, camera, point, np.array(theirs) if theirs else None,
+                     LINE_FACTOR * state.config.epipolar_px)
 
 
 def on_a_line(state: StereoState, camera: str, uv: FloatArray, uv_o: FloatArray | None,

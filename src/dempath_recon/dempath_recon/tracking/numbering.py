@@ -10,6 +10,7 @@ back if a later pair contradicts it (:func:`~dempath_recon.tracking.pair_checks.
 from __future__ import annotations
 
 from collections import Counter
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
@@ -221,6 +222,50 @@ def other_says_else(line: NDArray[np.bool_], numbers_o: NDArray[np.int32], marke
     return bool(((on >= 0) & (on != marker) & ~np.isin(on, list(used))).any())
 
 
+@dataclass(frozen=True)
+class LineCandidates:
+    """The other camera's recent markers an unnumbered track of this camera may be, by the
+    epipolar line (:func:`number_new`, :func:`~dempath_recon.tracking.carried_pair.
+    number_by_carried_pair`).
+
+    Attributes:
+        recent: marker -> (2,) px: the other camera's markers given out within ``RECENT_S``
+            and not held here, moved to this frame's stamp along their tracks.
+        lines: marker -> how many of this frame's unnumbered spots lie on its epipolar line.
+        starts: track id -> the stamp each of this camera's tracks started [s].
+    """
+
+    recent: dict[int, FloatArray]
+    lines: Counter[int]
+    starts: dict[int, float]
+
+    @classmethod
+    def of(cls, state: StereoState, camera: str, uv: FloatArray, todo: NDArray[np.intp],
+           held: set[int], stamp_s: float) -> LineCandidates:
+        """The candidates of this frame's unnumbered spots ``todo`` (indices into ``uv`` (k,
+        2) px), ``held`` the numbers this camera gives out now."""
+        other = state.other(camera)
+        recent = {m: at_stamp(state, other, m, (t, p), stamp_s)
+                  for m, (t, p) in state.latest[other].items()
+                  if m not in held and abs(t - stamp_s) <= RECENT_S}
+        lines = Counter(m for k in todo for m in on_epipolar_line(
+            state.cameras[camera], state.cameras[other], uv[k], recent,
+            state.config.epipolar_px))
+        return cls(recent, lines, {t.track_id: t.history[0][0]
+                                   for t in state.trackers[camera].tracks})
+
+    def for_track(self, state: StereoState, camera: str, track_id: int,
+                  held: set[int]) -> dict[int, FloatArray]:
+        """The markers track ``track_id`` may be: not held here (``held``), on no other
+        unnumbered spot's line, not refused to it, and not seen by this camera since the
+        track started (a track that ran beside marker m's own track is not m)."""
+        start = self.starts.get(track_id, 0.0)
+        return {m: p for m, p in self.recent.items()
+                if m not in held and self.lines[m] == 1
+                and (track_id, m) not in state.refused[camera]
+                and state.latest[camera].get(m, (-np.inf, None))[0] < start}
+
+
 def number_new(state: StereoState, camera: str, track_ids: NDArray[np.int64],
                markers: NDArray[np.int32], uv: FloatArray, stamp_s: float, events: list[str],
                ) -> NDArray[np.int32]:
@@ -241,25 +286,16 @@ def number_new(state: StereoState, camera: str, track_ids: NDArray[np.int64],
     (:func:`~dempath_recon.tracking.pair_checks.verify`).
     """
     markers = markers.copy()
-    other = state.other(camera)
     seen = {int(m) for m in markers if m >= 0}
-    starts = {t.track_id: t.history[0][0] for t in state.trackers[camera].tracks}
     todo = np.flatnonzero(markers == UNNUMBERED)
-    recent = {m: at_stamp(state, other, m, (t, p), stamp_s)
-              for m, (t, p) in state.latest[other].items()
-              if m not in seen and abs(t - stamp_s) <= RECENT_S}
-    lines = Counter(m for k in todo for m in on_epipolar_line(
-        state.cameras[camera], state.cameras[other], uv[k], recent, state.config.epipolar_px))
+    lines = LineCandidates.of(state, camera, uv, todo, seen, stamp_s)
     for k in todo:
         tid = int(track_ids[k])
-        cands = {m: p for m, p in recent.items()
-                 if m not in seen and lines[m] == 1
-                 and (tid, m) not in state.refused[camera]
-                 and state.latest[camera].get(m, (-np.inf, None))[0] < starts.get(tid, 0.0)}
+        cands = lines.for_track(state, camera, tid, seen)
         number = pick(state, camera, tid, uv[k], cands, stamp_s, events)
-        if number < 0 and starts.get(tid) == stamp_s:  # only a track's first frame
+        if number < 0 and lines.starts.get(tid) == stamp_s:  # only a track's first frame
             # a marker the other camera sees now is numbered only on its epipolar line
-            number = late_grid(state, camera, uv, k, seen | set(recent))
+            number = late_grid(state, camera, uv, k, seen | set(lines.recent))
             rival = lost_nearby(state, camera, number, uv[k], sure_numbers(
                 state, camera, track_ids, markers), stamp_s) if number >= 0 else None
             if rival is not None:
