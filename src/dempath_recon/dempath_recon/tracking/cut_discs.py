@@ -151,7 +151,13 @@ def fit_cut_discs(patch: NDArray[np.float32], origin: tuple[int, int], start: Fl
         radius: expected disc radius [detector px].
         up: (2,) the image direction of world up (a unit vector), or None: whole discs.
     """
-    xy = pixel_grid(patch.shape, origin)
+    # fitted in the patch's own pixel coordinates and moved to ``origin`` after: MINPACK's
+    # stopping test is relative to the size of the parameters, so centres at window coordinates
+    # of hundreds of pixels stopped far coarser than near zero, and one spot's fit depended on
+    # where its window began (the windowed and the whole-frame detector up to 0.97 px apart on
+    # real renders, session 19)
+    shift = np.asarray(origin, np.float64)
+    xy = pixel_grid(patch.shape, (0, 0))
     values = patch.ravel().astype(np.float64)
     k, per = len(start), (2 if up is None else 3)
     low, high = float(np.percentile(values, 10)), float(values.max())
@@ -177,7 +183,8 @@ def fit_cut_discs(patch: NDArray[np.float32], origin: tuple[int, int], start: Fl
         fill(p)
         return jac.copy()
 
-    first = start if up is None else np.column_stack([start, np.full(k, -radius)])
+    local = np.asarray(start, np.float64) - shift
+    first = local if up is None else np.column_stack([local, np.full(k, -radius)])
     p0 = np.concatenate([[level, low, radius], first.ravel()])
     # MINPACK's lmder as least_squares(method='lm', x_scale='jac') calls it (scipy 1.16), without
     # that wrapper's per-call bookkeeping (its own Jacobian call at the end, array checks)
@@ -188,5 +195,5 @@ def fit_cut_discs(patch: NDArray[np.float32], origin: tuple[int, int], start: Fl
     q = x[3:].reshape(k, per)
     r = float(x[2])
     cuts = np.full(k, -1.0) if up is None else np.maximum(q[:, 2] / max(r, 1e-6), -1.0)
-    return BlobFit(np.asarray(q[:, :2], np.float64), np.asarray(cuts, np.float64), r,
+    return BlobFit(np.asarray(q[:, :2] + shift, np.float64), np.asarray(cuts, np.float64), r,
                    float(x[0]), float(np.dot(fvec, fvec)))
