@@ -242,8 +242,6 @@ def main(argv: list[str]) -> int:
                    help='score these re-rendered bags (held out; with --variations: as well)')
     p.add_argument('--rendered-tuning', type=Path, nargs='*', default=[],
                    help='re-rendered bags a change was tuned on: labelled tuned, pooled apart')
-    p.add_argument('--engine', choices=('grid', 'joint'), default='grid',
-                   help="the tracker (StereoTrackConfig.engine): 'grid' or the joint 3D one")
     p.add_argument('--cache', type=Path, default=HERE.parent / 'out' / 'bench_variations',
                    help='where the varied frames are kept between runs')
     p.add_argument('--exposure-unknown', action='store_true',
@@ -302,14 +300,14 @@ def main(argv: list[str]) -> int:
     # the experiment's marker layout (the scene's grid points), as an experimenter knows it
     grid = MarkerGrid(layout_m=tuple(tuple(p) for p in truth['marker_grid_m']))
     config = with_floor(with_seek(with_tool_speed(with_clay(with_exposure(
-        StereoTrackConfig(grid=grid, engine=args.engine), look_exposure(truth)), truth), truth)))
+        StereoTrackConfig(grid=grid), look_exposure(truth)), truth), truth)))
     load = [round(x, 2) for x in os.getloadavg()]
     if (args.rendered or args.rendered_tuning) and not args.variations:  # re-rendered bags alone
         from detect_track_variations import run_rendered
 
-        tuned = (run_rendered(args.rendered_tuning, read_frames, args.engine, held_out=False)
+        tuned = (run_rendered(args.rendered_tuning, read_frames, held_out=False)
                  if args.rendered_tuning else None)
-        rendered = (run_rendered(args.rendered, read_frames, args.engine) if args.rendered
+        rendered = (run_rendered(args.rendered, read_frames) if args.rendered
                     else tuned)
         print(json.dumps({**rendered, 'held_out': bool(args.rendered),
                           **({'tuned': tuned} if tuned and args.rendered else {}),
@@ -322,11 +320,10 @@ def main(argv: list[str]) -> int:
 
         found = run_all(frames, truth, cams, config, args.cache)
         if args.rendered:
-            found['rendered_held_out'] = run_rendered(args.rendered, read_frames,
-                                                      args.engine)
+            found['rendered_held_out'] = run_rendered(args.rendered, read_frames)
         if args.rendered_tuning:
             found['rendered_tuned'] = run_rendered(args.rendered_tuning, read_frames,
-                                                   args.engine, held_out=False)
+                                                   held_out=False)
         held = found['held_out']
         print(json.dumps({**{k: held[k] for k in (
             'recall', 'numbered_right', 'id_switches', 'wrong_pair_points', 'traj_rms_mm',

@@ -317,14 +317,13 @@ def figures(frames: Frames, truth: dict[str, Any], cams: dict[str, CameraModel],
             'graph_equals_offline': graph, 'live_order_independent': live, 'raw': s}
 
 
-def run_rendered(bags: list[Path], read: Any, engine: str = 'grid',
-                 held_out: bool = True) -> dict[str, Any]:
+def run_rendered(bags: list[Path], read: Any, held_out: bool = True) -> dict[str, Any]:
     """Recordings re-rendered by the twin's renderer (``dempath twin render`` with other light,
     shutter, sand and marker colours, marker size, noise, JPEG quality, on another run), each
     with its own truth and cameras. One JSON line each, then their pooled figures.
-    ``read(bag, start_ns, cameras)`` reads the frames; ``engine`` is
-    ``StereoTrackConfig.engine``; ``held_out`` labels the rows: True for a set never run while
-    changing the code, False for the looks a change was tuned on (pooled apart by the caller)."""
+    ``read(bag, start_ns, cameras)`` reads the frames; ``held_out`` labels the rows: True for a
+    set never run while changing the code, False for the looks a change was tuned on (pooled
+    apart by the caller)."""
     import json as _json
 
     rows = []
@@ -337,7 +336,7 @@ def run_rendered(bags: list[Path], read: Any, engine: str = 'grid',
                'look': truth['config']['look'], 'jpeg_quality': truth['config']['jpeg_quality'],
                **figures(frames, truth, cams,
                          with_floor(with_seek(with_tool_speed(with_clay(with_exposure(
-                             StereoTrackConfig(grid=grid, engine=engine), look_exposure(truth)),
+                             StereoTrackConfig(grid=grid), look_exposure(truth)),
                              truth), truth))))}
         rows.append(row)
         print(json.dumps({k: v for k, v in row.items() if k != 'raw'}), flush=True)

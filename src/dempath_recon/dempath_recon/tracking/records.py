@@ -17,8 +17,6 @@ from dempath_recon.tracking.associate import MarkerGrid
 from dempath_recon.tracking.detect import DetectorConfig
 from dempath_recon.tracking.linker import TrackerConfig
 
-ENGINES = ('grid', 'joint')  # StereoTrackConfig.engine
-
 FloatArray = NDArray[np.float64]
 
 
@@ -71,10 +69,10 @@ class StereoTrackConfig:
             (:mod:`~dempath_recon.tracking.covered`). False: centroids as found.
         publish_gate: withhold, as frames are given out, a numbered point whose pair's 3D
             point jumps away from where the marker's neighbours' motion puts it
-            (:mod:`~dempath_recon.tracking.publish_gate`; the grid engine only).
+            (:mod:`~dempath_recon.tracking.publish_gate`).
         seek_other: where the other camera gives out a marker this camera holds no track
             of, look for a faint spot on its line of sight at the depth the bed carried the
-            marker to (:mod:`~dempath_recon.tracking.seek`; the grid engine only): a marker
+            marker to (:mod:`~dempath_recon.tracking.seek`): a marker
             under the threshold in one camera for a whole look (dusk, long shutters) then
             gets a track the pair numbering can number. Off by default: on main a16ce79 it
             numbered more on 29 tuning looks (77.98 -> 78.78 %; the carriage rig at dusk
@@ -82,7 +80,7 @@ class StereoTrackConfig:
             held-apart looks (87.93 -> 87.83 %; session 18). False: only the frame's spots.
         elimination: number a track only one camera sees, left unnumbered at the grid fit,
             by the grid point it started nearest among the markers nobody holds
-            (:mod:`~dempath_recon.tracking.grid_elimination`; the grid engine only).
+            (:mod:`~dempath_recon.tracking.grid_elimination`).
         carried_pair: number a track on the epipolar line of a marker the other camera
             numbers, never triangulated or not recently, when the pair's 3D point is where the
             bed has carried that marker (:mod:`~dempath_recon.tracking.carried_pair`). Off by
@@ -92,11 +90,11 @@ class StereoTrackConfig:
             (136 -> 157, 76 -> 84; session 19): a wrong number is worse than none.
         record_numbers: keep a record of every number a track is given or has taken back,
             with the rule, the frame and the evidence (``StereoMarkerTracker.record``,
-            :mod:`~dempath_recon.tracking.number_record`; the grid engine only). Off by
+            :mod:`~dempath_recon.tracking.number_record`). Off by
             default: it grows with the recording (for benches and tracing, not live nodes).
         coming_out: number a new track only one camera sees, born after the grid fit, by the
             marker the bed has carried nearest it (a marker coming out of the sand mid-pass:
-            :mod:`~dempath_recon.tracking.coming_out`; the grid engine only).
+            :mod:`~dempath_recon.tracking.coming_out`).
         numbered_partner: when ``track_pairs``' carried-point test refuses a partner the other
             camera numbers, name it again with only the markers the other camera does not see
             as rivals and a 30 mm gate, if no other track of the other camera lies on the line
@@ -122,7 +120,6 @@ class StereoTrackConfig:
     marker_diameter_m: float = 0.008
     ray_numbering: bool = False
     shake: bool = True
-    engine: str = 'grid'
     uncover: bool = True
     publish_gate: bool = True
     seek_other: bool = False
@@ -133,9 +130,6 @@ class StereoTrackConfig:
     numbered_partner: bool = False
 
     def __post_init__(self) -> None:
-        if self.engine not in ENGINES:
-            msg = f'engine: must be one of {ENGINES}, got {self.engine!r}'
-            raise ValueError(msg)
         for name in ('fps', 'epipolar_px', 'grid_gate_px', 'position_gate_m',
                      'max_speed_m_s'):
             if not getattr(self, name) > 0:

@@ -51,7 +51,6 @@ from dempath_recon.tracking.grid_elimination import (
     revoke_jumped,
     revoke_shared,
 )
-from dempath_recon.tracking.joint3d.engine import JointStereoTracker
 from dempath_recon.tracking.link_guide import ambiguous_spots, barred_links
 from dempath_recon.tracking.linker import UNNUMBERED
 from dempath_recon.tracking.merge import StampMerge
@@ -103,11 +102,8 @@ class StereoMarkerTracker:
         self.detectors = camera_detectors(cameras, self.state.config)
         self.shakers = {c: ShakeEstimator() for c in cameras} if self.state.config.shake \
             else {}
-        self.joint = JointStereoTracker(cameras, self.state.config, self.state.counts,
-                                        self.state.last_stamp) \
-            if self.state.config.engine == 'joint' else None
         self.gate = PublicationGate(cameras, self.state.config.fps) \
-            if self.state.config.publish_gate and self.joint is None else None
+            if self.state.config.publish_gate else None
         # the tracks linked to a crowded spot (two markers) in each camera's last frame
         self._crowded: dict[str, set[int]] = {c: set() for c in cameras}
         # each camera's latest frames' shifts against its first frame, by stamp (for release)
@@ -135,7 +131,7 @@ class StereoMarkerTracker:
 
     def held(self) -> int:
         """Frames held for the publication delay (``release``/``flush`` give them out)."""
-        return len(self.state.queue) if self.joint is None else self.joint.held()
+        return len(self.state.queue)
 
     def report(self) -> dict[str, Any]:
         """Counts per camera, and the stamp gaps where frames were missing."""
@@ -192,11 +188,6 @@ class StereoMarkerTracker:
         number disagrees with the other camera (off the epipolar line, or a 3D point the
         marker cannot have reached): such a point is withheld, never given out as the marker.
         """
-        if self.joint is not None:
-            noted: list[str] = []
-            moved = note_shake(self.counts[camera], camera, stamp_s, shake, noted)
-            det = det if moved is None else remove_shake(det, moved)
-            return self.joint.update_detections(camera, stamp_s, det, moved, noted)
         state = self.state
         counts, tracker = state.counts[camera], state.trackers[camera]
         last = state.last_stamp[camera]
@@ -322,14 +313,10 @@ class StereoMarkerTracker:
         and no other point of the frame has that number. Held frames keep their stamps: the
         delay only postpones them.
         """
-        if self.joint is not None:
-            return self.joint.release()
         return [self._amend(h) for h in self.state.queue.due()]
 
     def flush(self) -> list[PixelFrame]:
         """All frames still held (end of a recording), with the numbers known now."""
-        if self.joint is not None:
-            return self.joint.flush()
         return [self._amend(h) for h in self.state.queue.rest()]
 
     def _amend(self, held: HeldFrame) -> PixelFrame:
