@@ -55,17 +55,15 @@ def condition(name: str) -> Condition:
 
 
 @cache
-def track(cond: Condition, ray: bool = False, shake: bool = True,
+def track(cond: Condition, shake: bool = True,
           ) -> tuple[list[PixelFrame], dict[str, Any], dict[str, Any]]:
     """The offline path's frames (``release``/``flush``) on the varied render, the truth
-    moved with any image shift, and the tracker's report (``ray``: with the one-camera
-    numbering by the line of sight, an option; ``shake``: the shake correction)."""
+    moved with any image shift, and the tracker's report (``shake``: the shake correction)."""
     frames, truth = recording()
     varied, shifts = vary_recording(frames, truth, cond)
     cams = {c['name']: CameraModel.from_dict(c) for c in truth['cameras']}
     config = StereoTrackConfig(grid=MarkerGrid(
-        layout_m=tuple(tuple(p) for p in truth['marker_grid_m'])), ray_numbering=ray,
-        shake=shake)
+        layout_m=tuple(tuple(p) for p in truth['marker_grid_m'])), shake=shake)
     tracker = StereoMarkerTracker(cams, config)
     out: list[PixelFrame] = []
     for cam, stamp, data in varied:
@@ -112,18 +110,14 @@ def outcome(out: list[PixelFrame], truth: dict[str, Any], one_camera: bool = Fal
 def test_a_marker_one_camera_loses_keeps_its_number() -> None:
     """Near the end of the pass the heave hides markers 1 and 2 from the side camera for five
     frames each while the front camera sees them: no pair can number them there, and the
-    tracker keeps the numbers they had (every such frame numbered right), with or without the
-    one-camera numbering by the line of sight (``ray_numbering``, an option); no detection
-    gets another marker's number. (On the fixed rig's recording of session 12, marker 11 came
-    out of the heap in one camera only and only ``ray_numbering`` numbered it; the carriage
-    rig's recording has no such marker, so that case is no longer exercised here.)"""
-    for ray in (False, True):
-        out, truth, _ = track(condition('as_rendered'), ray=ray)
-        right, wrong = outcome(out, truth, one_camera=True)
-        assert wrong == 0
-        for m in (1, 2):
-            seen = right[('cam_front', m)]
-            assert len(seen) >= 4 and all(seen), (ray, m, seen)
+    tracker keeps the numbers they had (every such frame numbered right); no detection gets
+    another marker's number."""
+    out, truth, _ = track(condition('as_rendered'))
+    right, wrong = outcome(out, truth, one_camera=True)
+    assert wrong == 0
+    for m in (1, 2):
+        seen = right[('cam_front', m)]
+        assert len(seen) >= 4 and all(seen), (m, seen)
 
 
 @pytest.mark.slow

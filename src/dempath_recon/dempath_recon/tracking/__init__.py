@@ -18,8 +18,7 @@ markers), ``one_camera``,
 ``numbering``, ``pair_checks``, ``pair_numbering``, ``track_pairs`` (an unnumbered track
 decided again by a partner held on its line), ``grid_elimination`` (a marker one camera sees
 numbered by elimination at the grid fit), ``coming_out`` (a marker coming out of the sand
-mid-pass in one camera, numbered where the bed carried it), ``ray_numbering`` (functions on
-that record), ``stereo``
+mid-pass in one camera, numbered where the bed carried it), ``stereo``
 (:class:`~dempath_recon.tracking.stereo.StereoMarkerTracker`, the pipeline, and
 ``track_bag``).
 """

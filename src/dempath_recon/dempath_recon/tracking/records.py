@@ -56,10 +56,6 @@ class StereoTrackConfig:
             with the calibration and the grid's depth it gives each camera's detector the
             expected size of a marker in the image, by which touching markers are split
             (``DetectorConfig.marker_diameter_px``, unless that is set). 0: no splitting.
-        ray_numbering: number a marker only one camera sees by the line of sight the bed
-            carried it onto (``ray_numbering``). Off by default: on the re-rendered held-out
-            recordings (another run, another look) it gave more wrong-pair 3D points (13 against
-            8 without it) for 0.7 points more numbered right.
         shake: estimate each camera's image motion per frame from the parts of the view that
             do not move and move the detections back by it (``shake``) before anything else
             uses them; off: the detections are taken where they are seen.
@@ -118,7 +114,6 @@ class StereoTrackConfig:
     tool_speed_m_s: float = 0.0
     number_delay_frames: int = 5
     marker_diameter_m: float = 0.008
-    ray_numbering: bool = False
     shake: bool = True
     uncover: bool = True
     publish_gate: bool = True
@@ -178,7 +173,6 @@ class CameraCounts:
     numbered_by_epipolar: int = 0
     numbered_by_grid_late: int = 0
     numbered_by_pair: int = 0
-    numbered_by_ray: int = 0
     numbered_by_track_pair: int = 0  # numbered by a partner held on their line (track_pairs)
     numbered_by_elimination: int = 0  # one camera's, by the free grid point it started at
     numbered_by_carried: int = 0  # one camera's new track, by where the bed carried a marker

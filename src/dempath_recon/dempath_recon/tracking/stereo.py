@@ -63,7 +63,6 @@ from dempath_recon.tracking.pair_checks import verify
 from dempath_recon.tracking.pair_numbering import number_pairs
 from dempath_recon.tracking.parted import flagged, revoke_at_parting
 from dempath_recon.tracking.publish_gate import PublicationGate
-from dempath_recon.tracking.ray_numbering import number_by_ray
 from dempath_recon.tracking.records import CameraCounts, PixelFrame, StereoTrackConfig
 from dempath_recon.tracking.release import HeldFrame, fill_confirmed, renumber
 from dempath_recon.tracking.seek import bar_sought, seek_markers
@@ -269,10 +268,6 @@ class StereoMarkerTracker:
             step('coming_out')
             markers = number_coming_out(state, camera, tf.track_ids, markers, tf.uv, stamp_s,
                                         events)
-        if state.config.ray_numbering:
-            step('ray')
-            markers = number_by_ray(state, camera, tf.track_ids, markers, tf.uv, stamp_s,
-                                    events)
         step('pair_checks')
         markers = verify(state, camera, tf.track_ids, markers, tf.uv, stamp_s, events)
         waiting = waiting_points(state, camera, markers, tf.uv, stamp_s)
