@@ -264,12 +264,8 @@ def main(argv: list[str]) -> int:
     p.add_argument('--numbered-partner', action='store_true',
                    help="name a pair by the other camera's number when the carried point is far "
                         '(StereoTrackConfig.numbered_partner; off by default)')
-    p.add_argument('--carried-pair', action='store_true',
-                   help='number a track on the line of a marker the other camera numbers where '
-                        'the bed carried it (StereoTrackConfig.carried_pair; off by default)')
     args = p.parse_args(argv)
     from detect_track_variations import (
-        CARRIED,
         CLAY_SET,
         EXPOSURE_KNOWN,
         FLOOR,
@@ -291,7 +287,6 @@ def main(argv: list[str]) -> int:
     FLOOR[0] = args.exposure_floor
     ONE_CAMERA[0] = args.coming_out
     PARTNER[0] = args.numbered_partner
-    CARRIED[0] = args.carried_pair
     CLAY_SET[0] = args.marker_colour == 'look'
     cv2.setNumThreads(1)
     truth = json.loads(args.bag.with_name(args.bag.name + '.truth.json').read_text())

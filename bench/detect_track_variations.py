@@ -60,7 +60,6 @@ SEEK = [False]  # ``--seek-other``: StereoTrackConfig.seek_other (off by default
 FLOOR = ['']  # ``--exposure-floor``: DetectorConfig.exposure_floor ('': the default)
 ONE_CAMERA = [False]  # ``--coming-out``: StereoTrackConfig.coming_out (off by default, session 19)
 PARTNER = [False]  # ``--numbered-partner``: StereoTrackConfig.numbered_partner (off by default)
-CARRIED = [False]  # ``--carried-pair``: StereoTrackConfig.carried_pair (off by default)
 EXPOSURE_KNOWN = [True]  # the trackers are told each recording's exposure (``--exposure-unknown``:
 # not, as before session 16: no streak search)
 
@@ -89,10 +88,10 @@ def with_clay(config: StereoTrackConfig, truth: dict[str, Any]) -> StereoTrackCo
 def with_seek(config: StereoTrackConfig) -> StereoTrackConfig:
     """``config`` with the search for markers the other camera holds
     (``StereoTrackConfig.seek_other``) as ``--seek-other`` asks, and the numberings of session
-    19 that are off by default (``coming_out``, ``numbered_partner``, ``carried_pair``) as
-    ``--coming-out``, ``--numbered-partner`` and ``--carried-pair`` ask."""
+    19 that are off by default (``coming_out``, ``numbered_partner``) as ``--coming-out`` and
+    ``--numbered-partner`` ask."""
     return replace(config, seek_other=SEEK[0], coming_out=ONE_CAMERA[0],
-                   numbered_partner=PARTNER[0], carried_pair=CARRIED[0])
+                   numbered_partner=PARTNER[0])
 
 
 def with_floor(config: StereoTrackConfig) -> StereoTrackConfig:

@@ -221,11 +221,10 @@ def _pushed_run(rig, numbered_partner: bool = True, intruder: bool = False) -> l
     them, 8 ending 4 mm from 9's carried point; the front sees every marker, the side never 9
     nor 8 before ``SIDE_FROM``. With ``intruder``, a spot the front alone sees lies on the side
     8's line of sight 40 mm nearer the side camera from frame 6 (a young front track that may
-    hide 8 from the side). ``numbered_partner``: ``StereoTrackConfig.numbered_partner``;
-    ``carried_pair``, which numbers such a spot from one frame, is off to see this rule alone."""
+    hide 8 from the side). ``numbered_partner``: ``StereoTrackConfig.numbered_partner``."""
     cams = {c.name: c for c in rig.cameras}
     config = StereoTrackConfig(grid=MarkerGrid(layout_m=GRID15), number_delay_frames=5,
-                               numbered_partner=numbered_partner, carried_pair=False)
+                               numbered_partner=numbered_partner)
     tracker = StereoMarkerTracker(cams, config)
     side_c = _centre(cams['cam_side'])
     out = []

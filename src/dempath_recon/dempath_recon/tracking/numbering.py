@@ -225,8 +225,7 @@ def other_says_else(line: NDArray[np.bool_], numbers_o: NDArray[np.int32], marke
 @dataclass(frozen=True)
 class LineCandidates:
     """The other camera's recent markers an unnumbered track of this camera may be, by the
-    epipolar line (:func:`number_new`, :func:`~dempath_recon.tracking.carried_pair.
-    number_by_carried_pair`).
+    epipolar line (:func:`number_new`).
 
     Attributes:
         recent: marker -> (2,) px: the other camera's markers given out within ``RECENT_S``

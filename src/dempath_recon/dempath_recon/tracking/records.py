@@ -77,13 +77,6 @@ class StereoTrackConfig:
         elimination: number a track only one camera sees, left unnumbered at the grid fit,
             by the grid point it started nearest among the markers nobody holds
             (:mod:`~dempath_recon.tracking.grid_elimination`).
-        carried_pair: number a track on the epipolar line of a marker the other camera
-            numbers, never triangulated or not recently, when the pair's 3D point is where the
-            bed has carried that marker (:mod:`~dempath_recon.tracking.carried_pair`). Off by
-            default: it numbered more on every set (23 tuning looks 78.9 -> 80.1 %, six looks
-            held apart 87.5 -> 89.6 %, 14 seed-87 looks 83.2 -> 84.1 %) but added switches and
-            wrong-pair points on the tuning looks (26 -> 31, 1 -> 5) and on the seed-87 looks
-            (136 -> 157, 76 -> 84; session 19): a wrong number is worse than none.
         record_numbers: keep a record of every number a track is given or has taken back,
             with the rule, the frame and the evidence (``StereoMarkerTracker.record``,
             :mod:`~dempath_recon.tracking.number_record`). Off by
@@ -119,7 +112,6 @@ class StereoTrackConfig:
     publish_gate: bool = True
     seek_other: bool = False
     elimination: bool = True
-    carried_pair: bool = False
     record_numbers: bool = False
     coming_out: bool = False
     numbered_partner: bool = False

@@ -38,7 +38,6 @@ from numpy.typing import NDArray
 
 from dempath_recon.methods.triangulate import Camera
 from dempath_recon.tracking.associate import marker_diameter_px, view_of_up
-from dempath_recon.tracking.carried_pair import number_by_carried_pair
 from dempath_recon.tracking.coming_out import number_coming_out
 from dempath_recon.tracking.detect import (
     Detections,
@@ -251,10 +250,6 @@ class StereoMarkerTracker:
                                      events)
         step('pair_numbering')
         markers = number_pairs(state, camera, tf.track_ids, markers, tf.uv, stamp_s, events)
-        if state.config.carried_pair:
-            step('carried_pair')
-            markers = number_by_carried_pair(state, camera, tf.track_ids, markers, tf.uv,
-                                             stamp_s, events)
         step('track_pairs')
         markers = number_by_track_pairs(state, camera, tf.track_ids, markers, tf.uv, stamp_s,
                                         events)
