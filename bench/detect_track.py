@@ -252,9 +252,6 @@ def main(argv: list[str]) -> int:
     p.add_argument('--tool-speed', type=float, default=0.0, metavar='M_S',
                    help="the tool's speed [m/s] for recordings whose truth does not give it "
                         "(StereoTrackConfig.tool_speed_m_s, as the user knows it; 0: unknown)")
-    p.add_argument('--seek-other', action='store_true',
-                   help='seek faint spots where the other camera holds a marker this camera '
-                        'does not (StereoTrackConfig.seek_other; off by default)')
     p.add_argument('--exposure-floor', choices=('off', 'faint', 'all', 'bed'), default='',
                    help="the detectors' chroma floor (DetectorConfig.exposure_floor; 'bed': the "
                         "bed around the markers, session 19; unset: the default)")
@@ -271,7 +268,6 @@ def main(argv: list[str]) -> int:
         FLOOR,
         ONE_CAMERA,
         PARTNER,
-        SEEK,
         TOOL_SPEED,
         look_exposure,
         with_clay,
@@ -283,7 +279,6 @@ def main(argv: list[str]) -> int:
 
     EXPOSURE_KNOWN[0] = not args.exposure_unknown
     TOOL_SPEED[0] = args.tool_speed
-    SEEK[0] = args.seek_other
     FLOOR[0] = args.exposure_floor
     ONE_CAMERA[0] = args.coming_out
     PARTNER[0] = args.numbered_partner

@@ -56,7 +56,6 @@ CLAY_SET = [False]  # the detectors are told a recording's clay colour when it i
 # (``--marker-colour look``); default: blue clay, the detector's default
 TOOL_SPEED = [0.0]  # the tool's speed [m/s] for recordings whose truth does not give it
 # (``--tool-speed``); 0: not known (the linkers' speed bound is off)
-SEEK = [False]  # ``--seek-other``: StereoTrackConfig.seek_other (off by default, session 18)
 FLOOR = ['']  # ``--exposure-floor``: DetectorConfig.exposure_floor ('': the default)
 ONE_CAMERA = [False]  # ``--coming-out``: StereoTrackConfig.coming_out (off by default, session 19)
 PARTNER = [False]  # ``--numbered-partner``: StereoTrackConfig.numbered_partner (off by default)
@@ -86,11 +85,9 @@ def with_clay(config: StereoTrackConfig, truth: dict[str, Any]) -> StereoTrackCo
 
 
 def with_seek(config: StereoTrackConfig) -> StereoTrackConfig:
-    """``config`` with the search for markers the other camera holds
-    (``StereoTrackConfig.seek_other``) as ``--seek-other`` asks, and the numberings of session
-    19 that are off by default (``coming_out``, ``numbered_partner``) as ``--coming-out`` and
-    ``--numbered-partner`` ask."""
-    return replace(config, seek_other=SEEK[0], coming_out=ONE_CAMERA[0],
+    """``config`` with the numberings of session 19 that are off by default (``coming_out``,
+    ``numbered_partner``) as ``--coming-out`` and ``--numbered-partner`` ask."""
+    return replace(config, coming_out=ONE_CAMERA[0],
                    numbered_partner=PARTNER[0])
 
 

@@ -52,7 +52,6 @@ from dempath_recon.tracking.colour_model import (
     BLUE_AXIS,
     CLAY_CHROMA,
     DARK_SUM_DN,
-    FLOOR_SHARE,
     MIN_SUM_DN,
     REFERENCE_SAND_BGR,
     axis_bound,
@@ -95,13 +94,6 @@ SPARSE_BOX = 0.1  # a byte-bound box over this share of the frame is narrowed to
 
 BED_REACH_DIAMETERS = 4.0  # the bed search reaches this many marker diameters past the
 # markers the frame's own detection found: the bed around them, not the ground beyond the bin
-SOUGHT_DIM_SUM_DN = MIN_SUM_DN / FLOOR_SHARE  # the noise bar's brightness limit (100) in a
-# search where the other camera holds the marker (:mod:`~dempath_recon.tracking.seek`): any
-# window darker than normal light (sand 105-200 on every daylight tuning look). Dusk sand at
-# 50-60 beside a marker (light x0.3 on the carriage rig) kept the fixed bar at ``MIN_SUM_DN``,
-# under which its markers (filtered chroma 0.05-0.15) stayed lost for whole looks. Only there:
-# the same limit in the linker's search too numbered more on dusk looks but added switches on
-# dark sand in daylight (t4_brown_small 0 -> 5, session 18)
 
 
 def dim(image: NDArray[np.uint8], below: float = MIN_SUM_DN) -> bool:
@@ -116,8 +108,7 @@ class FaintSearch(Protocol):
     """``Detections.faint``: spots below the threshold near given points (see there)."""
 
     def __call__(self, points: FloatArray, radius_px: float,
-                 steps: FloatArray | None = None, dim_below: float = MIN_SUM_DN,
-                 ) -> FloatArray: ...
+                 steps: FloatArray | None = None) -> FloatArray: ...
 
 
 class ImageDecodeError(ReconstructionError):
@@ -580,14 +571,14 @@ class MarkerDetector:
     def _faint(self, image: NDArray[np.uint8], low: float,
                colour: tuple[float, NDArray[np.float32]], strong: FloatArray,
                points: FloatArray, radius_px: float,
-               steps: FloatArray | None = None, dim_below: float = MIN_SUM_DN) -> FloatArray:
+               steps: FloatArray | None = None) -> FloatArray:
         """(k, 2) full-size centre of the strongest spot above ``low`` (the chroma of the
         frame's ``colour``: its floor [DN] and axis (3,)) (or of the streak along
         ``steps`` (k, 2) [full-size px] where one is at least ``STREAK_MIN_PX`` long) within
         ``radius_px`` of each point (k, 2) [full-size px], NaN where none or where it is the
         frame's own spot (within ``min_separation_px`` of one of ``strong`` (n, 2): a marker's
         rim). The window's own noise bar is tried where the window's median ``B + G + R`` is
-        under ``dim_below`` [DN] (``local_bar``)."""
+        under ``MIN_SUM_DN`` (``local_bar``)."""
         s = self.config.downscale
         floor, axis = colour
         pts = np.asarray(points, np.float64).reshape(-1, 2)
@@ -611,7 +602,7 @@ class MarkerDetector:
                 out[k] = self._faint_spot(chroma(window, floor, axis), (x0, y0), q,
                                           reach, low, strong)
             if streak or (self.config.local_bar and not np.isfinite(out[k]).all()
-                          and dim(window, dim_below)):
+                          and dim(window)):
                 c = chroma(window, DARK_SUM_DN, axis)
                 if self.config.floor_sand:
                     c = np.maximum(c, np.float32(FILTER_FLOOR))

@@ -66,14 +66,6 @@ class StereoTrackConfig:
         publish_gate: withhold, as frames are given out, a numbered point whose pair's 3D
             point jumps away from where the marker's neighbours' motion puts it
             (:mod:`~dempath_recon.tracking.publish_gate`).
-        seek_other: where the other camera gives out a marker this camera holds no track
-            of, look for a faint spot on its line of sight at the depth the bed carried the
-            marker to (:mod:`~dempath_recon.tracking.seek`): a marker
-            under the threshold in one camera for a whole look (dusk, long shutters) then
-            gets a track the pair numbering can number. Off by default: on main a16ce79 it
-            numbered more on 29 tuning looks (77.98 -> 78.78 %; the carriage rig at dusk
-            81.3 -> 91.4 %) but added 2 switches there (49 -> 51) and lost 0.1 points on five
-            held-apart looks (87.93 -> 87.83 %; session 18). False: only the frame's spots.
         elimination: number a track only one camera sees, left unnumbered at the grid fit,
             by the grid point it started nearest among the markers nobody holds
             (:mod:`~dempath_recon.tracking.grid_elimination`).
@@ -110,7 +102,6 @@ class StereoTrackConfig:
     shake: bool = True
     uncover: bool = True
     publish_gate: bool = True
-    seek_other: bool = False
     elimination: bool = True
     record_numbers: bool = False
     coming_out: bool = False

@@ -46,7 +46,6 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import fft
 
-from dempath_recon.tracking.colour_model import MIN_SUM_DN
 from dempath_recon.tracking.detect import Detections
 
 FloatArray = NDArray[np.float64]
@@ -204,10 +203,9 @@ def remove_shake(det: Detections, shift_px: FloatArray) -> Detections:
         inner = faint
 
         def faint_moved(points: FloatArray, radius_px: float,
-                        steps: FloatArray | None = None,
-                        dim_below: float = MIN_SUM_DN) -> FloatArray:
+                        steps: FloatArray | None = None) -> FloatArray:
             moved = np.asarray(points, np.float64) + shift
-            return inner(moved, radius_px, steps, dim_below) - shift
+            return inner(moved, radius_px, steps) - shift
 
         faint = faint_moved
     centre = det.centre - shift if det.centre is not None else None

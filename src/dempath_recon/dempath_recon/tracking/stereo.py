@@ -64,7 +64,6 @@ from dempath_recon.tracking.parted import flagged, revoke_at_parting
 from dempath_recon.tracking.publish_gate import PublicationGate
 from dempath_recon.tracking.records import CameraCounts, PixelFrame, StereoTrackConfig
 from dempath_recon.tracking.release import HeldFrame, fill_confirmed, renumber
-from dempath_recon.tracking.seek import bar_sought, seek_markers
 from dempath_recon.tracking.shake import ShakeEstimate, ShakeEstimator, remove_shake
 from dempath_recon.tracking.state import (
     Sighting,
@@ -216,11 +215,7 @@ class StereoMarkerTracker:
                    'does not see the grid give nothing')
             LOG.warning(msg)
             events.append(msg)
-        own = len(det.uv)
-        if state.config.seek_other:
-            det = seek_markers(state, camera, stamp_s, det)
-        barred = bar_sought(state, camera, barred_links(state, camera, det.uv, stamp_s), own,
-                            len(det.uv))
+        barred = barred_links(state, camera, det.uv, stamp_s)
         before = (tracker.counts.lost, tracker.counts.reattached)
         tf = tracker.update(stamp_s, det, barred)
         record = state.record
