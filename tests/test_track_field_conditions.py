@@ -134,40 +134,6 @@ def test_pair_of_unsynchronised_cameras_is_checked_at_one_instant() -> None:
     assert sum(side1) >= len(side1) - 2, side1
 
 
-def test_adaptive_threshold_finds_markers_the_colour_cast_weakened() -> None:
-    """Under a reddish cast (``reddish_sand``: blue x0.85, red x1.1) half-buried markers keep
-    less chroma than the fixed threshold (0.15) asks: 95.6 % of the markers at least half
-    visible are found. The frame's threshold from its sand (``DetectorConfig.adaptive``: the
-    sand's median chroma plus 8 robust standard deviations, at least 0.08) finds more of them,
-    but also spots far from every marker (68 in these 62 frames, none with the fixed
-    threshold), and on the other variations the tracker then gave wrong numbers: the
-    adaptation is an option, off by default."""
-    from dataclasses import replace
-
-    from dempath_recon.tracking.detect import DetectorConfig, MarkerDetector
-
-    frames, truth = recording()
-    varied, shifts = vary_recording(frames, truth, condition('reddish_sand'))
-    moved = moved_truth(truth, shifts)
-    by_key = {(f['camera'], int(f['stamp_ns'])): f for f in moved['frames']}
-    found, strays = {}, {}
-    for adaptive in (False, True):
-        detector = MarkerDetector(replace(DetectorConfig(), adaptive=adaptive))
-        want = hit = stray = 0
-        for cam, stamp, data in varied:
-            det = detector.detect_jpeg(data)
-            t = by_key[(cam, stamp)]
-            uv, vis = np.array(t['uv']), np.array(t['visible'])
-            d = np.linalg.norm(det.uv[:, None] - uv[None], axis=2) if len(det.uv) else \
-                np.full((0, len(uv)), np.inf)
-            want += int((vis >= 0.5).sum())
-            hit += int(((d < MATCH_PX).any(axis=0) & (vis >= 0.5)).sum())
-            stray += int((d.min(axis=1) > 3 * OWNER_PX).sum()) if len(det.uv) else 0
-        found[adaptive], strays[adaptive] = hit / want, stray
-    assert found[False] < 0.97 and found[True] > found[False] + 0.02, found
-    assert strays[False] == 0 and strays[True] > 0, strays
-
-
 @pytest.mark.slow
 def test_cameras_moved_against_the_calibration_are_reported() -> None:
     """Camera shake (the image moves up to 3 px a frame, the calibration stays), left

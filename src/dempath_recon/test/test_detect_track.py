@@ -120,10 +120,9 @@ def test_window_around_candidates_gives_the_whole_frame_result(corner: tuple[int
               'red': spot_image((1080, 1920), centres, 4.5, rng, quality=90, clay_bgr=RED_CLAY),
               'dusk': spot_image((1080, 1920), centres, 4.5, rng, gain=0.3, noise_dn=2.0,
                                  quality=85, shadow_cols=1920)}
-    for downscale, adaptive, look in ((1, False, 'blue'), (2, False, 'blue'), (2, True, 'blue'),
-                                      (2, False, 'red'), (1, True, 'red'), (2, False, 'dusk'),
-                                      (1, False, 'dusk')):
-        config = DetectorConfig(downscale=downscale, adaptive=adaptive,
+    for downscale, look in ((1, 'blue'), (2, 'blue'), (2, 'red'), (1, 'red'), (2, 'dusk'),
+                            (1, 'dusk')):
+        config = DetectorConfig(downscale=downscale,
                                 marker_bgr=tuple(RED_CLAY) if look == 'red' else None)
         jpeg = frames[look]
         found = MarkerDetector(config).detect_jpeg(jpeg)
@@ -145,7 +144,7 @@ def test_stray_bluish_pixels_across_the_view_do_not_widen_the_window() -> None:
                                        np.uint8), cv2.IMREAD_COLOR)
     for x, y in ((3, 3), (1915, 4), (5, 1075), (1914, 1074)):
         image[y - 1:y + 2, x - 1:x + 2] = (130, 110, 110)  # B - R = 20 DN, chroma 0.06
-    config = DetectorConfig(downscale=1, adaptive=False)
+    config = DetectorConfig(downscale=1)
     detector = MarkerDetector(config)
     _, _, window = detector._window(image, config.threshold)
     assert 0 < window.size < 0.1 * 1080 * 1920

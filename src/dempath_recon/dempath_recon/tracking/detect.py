@@ -170,15 +170,6 @@ class DetectorConfig:
         window_px: radius of the centroid window [full-size px] (a bit more than the radius).
         min_separation_px: closest two markers may be [full-size px].
         max_markers: keep at most this many spots (the strongest).
-        adaptive: lower the threshold in frames whose sand is quiet: to the sand's median
-            chroma plus ``noise_k`` robust standard deviations (median absolute deviation x
-            1.4826, over every 4th pixel of the part of the frame searched), never above
-            ``threshold`` nor below ``min_threshold``. A half-buried marker, a marker under a
-            colour cast or in a dark, noisy frame keeps less chroma than the fixed threshold
-            asks, while the sand around it stays far below.
-        noise_k: robust standard deviations of the sand's chroma the threshold keeps above
-            its median [-].
-        min_threshold: lowest threshold the adaptation may set [-].
         faint_threshold: spots whose filtered peak lies between this and the threshold are
             reported apart (``Detections.faint``) [-]; 0: not searched.
         marker_diameter_px: a marker's expected diameter in the image [full-size px] (from the
@@ -257,9 +248,6 @@ class DetectorConfig:
     window_px: float = 6.0
     min_separation_px: float = 6.0
     max_markers: int = 64
-    adaptive: bool = False
-    noise_k: float = 8.0
-    min_threshold: float = 0.08
     marker_diameter_px: float = 0.0
     faint_threshold: float = 0.08
     floor_sand: bool = True
@@ -277,8 +265,7 @@ class DetectorConfig:
         checks = {'downscale': self.downscale in (1, 2), 'threshold': 0 < self.threshold < 1,
                   'sigma_px': 0 < self.sigma_px < 50, 'window_px': 1 <= self.window_px < 100,
                   'min_separation_px': 1 <= self.min_separation_px < 200,
-                  'max_markers': self.max_markers >= 1, 'noise_k': self.noise_k > 0,
-                  'min_threshold': 0 < self.min_threshold <= self.threshold,
+                  'max_markers': self.max_markers >= 1,
                   'faint_threshold': 0 <= self.faint_threshold <= self.threshold,
                   'marker_diameter_px': 0 <= self.marker_diameter_px < 200,
                   'up_px': len(self.up_px) == 2 and bool(np.isfinite(self.up_px).all())
@@ -423,7 +410,7 @@ class MarkerDetector:
         frame_floor = MIN_SUM_DN if mode == 'off' else chroma_floor(image)
         axis = frame_axis(image, self.config.marker_bgr, self.config.sand_bgr)
         floor = frame_floor if mode == 'all' else MIN_SUM_DN
-        thr = self.threshold_for(image, floor, axis)
+        thr = self.config.threshold
         found = self._spots(image, floor, axis, thr=thr, frame_floor=frame_floor)
         if mode == 'bed':  # a floor per pixel from the bed around it (None: normal light)
             found = add_apart(found, self._bed_spots(image, axis, found.uv),
@@ -480,12 +467,12 @@ class MarkerDetector:
         """The markers of ``image`` (at the detector's scale) on the chroma of ``axis`` (3,)
         floored at ``floor`` [DN] (one, or one per ``BedFloor`` cell), without the faint
         search; ``blot`` (n, 2) [detector px]: spots left out (the chroma there set to the
-        sand's); ``thr``: the threshold (None: :meth:`threshold_for`); ``frame_floor``: the
+        sand's); ``thr``: the threshold (None: ``threshold``); ``frame_floor``: the
         frame's own floor [DN] (``chroma_floor``), on which a dim frame's published centres
         are measured (``shade_centres``; not in the bed search, whose floor is the bed's
         light already)."""
         s = self.config.downscale
-        thr = self.threshold_for(image, floor, axis) if thr is None else thr
+        thr = self.config.threshold if thr is None else thr
         ox, oy, c = self._window(image, thr, floor, axis)
         if blot is not None and len(blot) and c.size:
             mask = np.zeros(c.shape, np.uint8)
@@ -656,22 +643,6 @@ class MarkerDetector:
         if wanted <= 0 or len(size_px) < MIN_SPOTS:
             return wanted
         return max(wanted, float(np.median(size_px)) / TYPICAL_SIZE)
-
-    def threshold_for(self, image: NDArray[np.uint8], floor: float | BedFloor = MIN_SUM_DN,
-                      axis: NDArray[np.float32] | None = None) -> float:
-        """The chroma threshold of this frame (``DetectorConfig.adaptive``): the sand's median
-        chroma plus ``noise_k`` robust standard deviations, from every 4th pixel of the whole
-        frame (the same whatever part is searched), between ``min_threshold`` and
-        ``threshold``."""
-        cfg = self.config
-        if not cfg.adaptive:
-            return cfg.threshold
-        h, w = image.shape[:2]
-        sample = chroma(np.ascontiguousarray(image[::4, ::4]), floor.at(0, h, 0, w)[::4, ::4]
-                        if isinstance(floor, BedFloor) else floor, axis)
-        med = float(np.median(sample))
-        sigma = 1.4826 * float(np.median(np.abs(sample - med)))
-        return float(np.clip(med + cfg.noise_k * sigma, cfg.min_threshold, cfg.threshold))
 
     def _window(self, image: NDArray[np.uint8], thr: float, floor: float | BedFloor = MIN_SUM_DN,
                 axis: NDArray[np.float32] | None = None,
