@@ -168,20 +168,6 @@ def lit_peaks(image: NDArray[np.uint8], rows: NDArray[np.intp], cols: NDArray[np
     return keep
 
 
-def near_lit(image: NDArray[np.uint8], floor: float) -> NDArray[np.uint8]:
-    """(h, w) uint8: 255 within 2 px of a pixel whose ``B + G + R`` reaches ``LIT_SHARE`` of
-    ``floor`` [DN] (at most 255), else 0: every peak :func:`lit_peaks` keeps lies there (a
-    5 x 5 mean at that level needs one pixel at it), so the detector's search window may
-    leave the rest out: a dusk frame's near-black corners, whose noise passes a lowered
-    floor's bound, made it search the whole frame (r21_dusk: 4.5 ms a frame, 2.4 with this;
-    0.8 with the fixed floor; noise in dim sand still spreads it on some looks)."""
-    total = cv2.add(cv2.add(cv2.extractChannel(image, 0), cv2.extractChannel(image, 1)),
-                    cv2.extractChannel(image, 2))
-    level = float(np.ceil(LIT_SHARE * floor)) - 1  # B + G + R above it: at the share at least
-    lit = cv2.threshold(total, level, 255, cv2.THRESH_BINARY)[1]
-    return np.asarray(cv2.dilate(lit, np.ones((5, 5), np.uint8)), np.uint8)
-
-
 def axis_chroma(image: NDArray[np.uint8], axis: NDArray[np.float32],
                 min_sum: float | NDArray[np.float32]) -> NDArray[np.float32]:
     """(h, w) float32 ``(axis . [B, G, R]) / max(B + G + R, min_sum)`` of a BGR image

@@ -61,7 +61,6 @@ from dempath_recon.tracking.colour_model import (
     frame_axis,
     is_blue,
     lit_peaks,
-    near_lit,
 )
 from dempath_recon.tracking.covered import MAX_ELEVATION_DEG, seen_share, uncover
 from dempath_recon.tracking.shaded import lit_centroids, shade_floor
@@ -222,11 +221,7 @@ class DetectorConfig:
             :func:`~dempath_recon.tracking.colour_model.chroma_floor`) rather than at
             ``MIN_SUM_DN``, so that a dusk frame's markers (B + G + R 25-45) keep their chroma
             (frames whose sand sums to 100 or more are unchanged either way): 'faint' (the
-            default) in the faint search beside a numbered track's prediction only; 'all' in
-            the frame's detection too (spots there kept only where their pixels are lit,
-            ``colour_model.lit_peaks``), which found 3.5-7 points more marker-frames on dusk
-            looks but also caps of markers 10-25 % visible, numbered wrong at the grid fit
-            (session 17, on main ca95c75: 23 tuning looks 14 -> 19 wrong-pair points); 'off':
+            default) in the faint search beside a numbered track's prediction only; 'off':
             ``MIN_SUM_DN`` everywhere; 'bed' (session 19, not the default): as 'faint', and
             where the light is dim a second search of the frame adds the markers a floor of
             ``BED_SHARE`` of the bed's brightness around each pixel finds
@@ -272,7 +267,7 @@ class DetectorConfig:
                   and (tuple(self.up_px) == (0.0, 0.0)
                        or abs(float(np.hypot(*self.up_px)) - 1) < 1e-6),
                   'view_elevation_deg': 0 <= self.view_elevation_deg <= 90,
-                  'exposure_floor': self.exposure_floor in ('off', 'faint', 'all', 'bed')}
+                  'exposure_floor': self.exposure_floor in ('off', 'faint', 'bed')}
         for name, ok in checks.items():
             if not ok:
                 msg = f'{name}: out of range, got {getattr(self, name)!r}'
@@ -409,9 +404,8 @@ class MarkerDetector:
         mode = self.config.exposure_floor
         frame_floor = MIN_SUM_DN if mode == 'off' else chroma_floor(image)
         axis = frame_axis(image, self.config.marker_bgr, self.config.sand_bgr)
-        floor = frame_floor if mode == 'all' else MIN_SUM_DN
         thr = self.config.threshold
-        found = self._spots(image, floor, axis, thr=thr, frame_floor=frame_floor)
+        found = self._spots(image, MIN_SUM_DN, axis, thr=thr, frame_floor=frame_floor)
         if mode == 'bed':  # a floor per pixel from the bed around it (None: normal light)
             found = add_apart(found, self._bed_spots(image, axis, found.uv),
                               self.config.min_separation_px)
@@ -673,8 +667,6 @@ class MarkerDetector:
                 above = cv2.threshold(blue, level, 255, cv2.THRESH_TOZERO)[1]
             else:
                 above = axis_bound(image, axis, level)
-            if floor < MIN_SUM_DN:  # only where a kept peak can lie (``lit_peaks``)
-                above = cv2.bitwise_and(above, near_lit(image, floor))
         x, y, bw, bh = cv2.boundingRect(above)
         if bw * bh > SPARSE_BOX * h * w and not isinstance(floor, BedFloor):
             # stray pixels far apart spread the box
