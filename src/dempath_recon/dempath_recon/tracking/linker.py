@@ -27,6 +27,22 @@ marker 3 predicted marker 8's spot 1.6 px off, the track of 8, lost a frame befo
 (its own spot 6.0 px from 3's prediction, 12.4 px from 8's); held, 3 took 8's spot and 8
 re-attached onto 3's: the two numbers swapped for the rest of the pass (5 switches, 5 wrong 3D
 points).
+A fast track's hold knows its speed (:func:`hold_radii`, :func:`rival_tracks`). A constant
+velocity misses an accelerating marker by a share of its step, not by a fixed number of
+pixels: a track moving ``s`` px a frame holds a spot within ``hold_step_share * s`` of its
+prediction when that exceeds ``hold_px``. And such a fast track's hold is not given up for a
+track unseen for longer than ``hold_rival_unseen_s``: around a marker that fast the sand moves
+as fast, and a marker covered that long moved with it, so its old track lying near the spot
+says nothing. With the tool at twice its speed (a tuning render of hidden seed 111, the side
+camera) the running track of marker 7, moving 12 px a frame, predicted its own spot 2.1 px off
+and a spot of marker 3, coming out of the sand, 8.9 px off; 3's track, unseen for 0.06 s,
+predicted 7's spot 7.7 px off, so nothing was held and the assignment's two ways of making both
+links were worth the same (63.4): 3's track re-attached onto 7 and 7's track took 3 (6
+switches, 1 wrong 3D point). Held by its step and without that rival, 7 keeps its spot. Slow
+tracks keep every rival: a marker that sank where it lay comes out where its old track
+predicts it (a cohesive dusk render of hidden seed 129: marker 3 back 2.8 px from its track,
+unseen 0.2 s, beside marker 4's track 1.4 px off; ignoring that rival for slow tracks too
+moved 4's number onto 3: 15 -> 26 switches on that look).
 Why not trackpy's linking: with 15 markers the exact global assignment costs microseconds,
 needs no new dependency, and every decision (link, loss, re-attachment) is explicit and
 reported, which the paper's validation needs; trackpy's
@@ -99,6 +115,12 @@ class TrackerConfig:
             detection farther from a track's last position than this over the time since
             (plus ``SLACK_PX``) is never linked to it
             (:mod:`~dempath_recon.tracking.speed_bound`); 0: no bound.
+        hold_step_share: a running track's hold radius grows to this share of its predicted
+            step (its velocity times the time since it was seen) where that exceeds
+            ``hold_px`` (:func:`hold_radii`) [-]; 0: ``hold_px`` whatever the speed.
+        hold_rival_unseen_s: a track unseen for longer than this is no rival of a fast
+            track's held link (one whose radius its step widened: :func:`rival_tracks`) [s];
+            0: every other track is (as before session 20).
     """
 
     gate_px: float = 25.0
@@ -110,6 +132,11 @@ class TrackerConfig:
     hold_px: float = 2.0
     hold_rival_px: float | None = None
     max_image_speed_px_s: float = 0.0
+    hold_step_share: float = 0.25  # markers pushed by a tool at 2x speed: a 12 px step missed
+    # by 2.1 px (a tenth to a fifth of the step on the fast tuning looks' right links)
+    hold_rival_unseen_s: float = 0.05  # between two and three frame periods at 50 FPS: a track
+    # lost a frame before (unseen 0.04 s) still rivals (two markers crossing), one lost for two
+    # frames (0.06 s) no more
 
     def __post_init__(self) -> None:
         for name in ('gate_px', 'reattach_px', 'max_lost_s'):
@@ -127,6 +154,12 @@ class TrackerConfig:
             raise ValueError(msg)
         if not self.max_image_speed_px_s >= 0:
             msg = f'max_image_speed_px_s: must be >= 0, got {self.max_image_speed_px_s!r}'
+            raise ValueError(msg)
+        if not 0 <= self.hold_step_share < 1:
+            msg = f'hold_step_share: must be in [0, 1), got {self.hold_step_share!r}'
+            raise ValueError(msg)
+        if not self.hold_rival_unseen_s >= 0:
+            msg = f'hold_rival_unseen_s: must be >= 0, got {self.hold_rival_unseen_s!r}'
             raise ValueError(msg)
 
 
@@ -311,8 +344,11 @@ class MarkerTracker:
         # only when it is worth more than the misses the rearrangement it needs adds
         reach = max(self.config.gate_px, self.config.reattach_px)
         worth = np.where(cost <= gate[:, None], reach - cost, 0.0)
+        radii = hold_radii(self.tracks, stamp_s, self.config)
         held = held_links(cost, np.array([not t.lost for t in self.tracks]),
-                          self.config.hold_px, self.config.hold_rival_px or 0.0)
+                          radii, self.config.hold_rival_px or 0.0,
+                          rival_tracks(self.tracks, stamp_s, self.config.hold_rival_unseen_s,
+                                       radii > self.config.hold_px))
         if held:
             worth[[r for r, _ in held], :] = 0.0
             worth[:, [c for _, c in held]] = 0.0
@@ -382,29 +418,68 @@ class MarkerTracker:
                 track.marker = marker
 
 
-def held_links(cost: FloatArray, running: NDArray[np.bool_], within_px: float,
-               rival_px: float = 0.0) -> list[tuple[int, int]]:
+def hold_radii(tracks: list[Track], stamp_s: float, config: TrackerConfig) -> FloatArray:
+    """(tracks,) each track's hold radius at ``stamp_s`` [px]: ``hold_px``, or
+    ``hold_step_share`` of its predicted step (velocity [px/s] times the time since it was
+    seen) where larger: a constant velocity misses an accelerating marker by a share of its
+    step (module docstring). 0 everywhere when ``hold_px`` is 0 (nothing held)."""
+    base = np.full(len(tracks), config.hold_px)
+    if config.hold_px <= 0 or config.hold_step_share <= 0 or not tracks:
+        return base
+    step = np.array([float(np.hypot(*t.velocity)) * (stamp_s - t.last_stamp_s) for t in tracks])
+    return np.asarray(np.maximum(base, config.hold_step_share * step), np.float64)
+
+
+def rival_tracks(tracks: list[Track], stamp_s: float, unseen_s: float,
+                 fast: NDArray[np.bool_]) -> NDArray[np.bool_]:
+    """(holders, rivals): whether track ``o`` may rival track ``r``'s held link: always, unless
+    ``r`` is ``fast`` (its hold radius widened by its step) and ``o`` was unseen for longer than
+    ``unseen_s`` [s] before ``stamp_s`` (0: always): around a marker that fast the sand moves
+    as fast, and a marker covered that long moved with it unseen, so its track's prediction
+    lying near the spot says nothing of whose the spot is."""
+    n = len(tracks)
+    if unseen_s <= 0 or not n:
+        return np.ones((n, n), bool)
+    recent = np.array([stamp_s - t.last_stamp_s <= unseen_s for t in tracks], bool)
+    return np.asarray(recent[None, :] | ~np.asarray(fast, bool)[:, None], bool)
+
+
+def held_links(cost: FloatArray, running: NDArray[np.bool_], within_px: float | FloatArray,
+               rival_px: float = 0.0, rivals: NDArray[np.bool_] | None = None,
+               ) -> list[tuple[int, int]]:
     """The links made before the assignment: (track index, detection index) of each running
-    track and detection that are each other's nearest, within ``within_px``, that no other
-    track predicts within ``rival_px``.
+    track and detection that are each other's nearest, within the track's ``within_px``, that
+    no other rival track predicts within ``rival_px``.
 
     Args:
         cost: (tracks, detections) distance of each detection from each track's prediction
             [px] (inf: barred).
         running: (tracks,) whether each track was linked in the last frame (not lost).
-        within_px: the largest such distance [px]; 0: none held.
+        within_px: the largest such distance [px], one for all or (tracks,) one per track
+            (:func:`hold_radii`); 0: none held.
         rival_px: a detection another track's prediction lies this near is held for none
             [px]; 0: no such test.
+        rivals: (tracks, tracks) whether track ``o`` may rival track ``r``'s held link
+            (``rivals[r, o]``, :func:`rival_tracks`); None: every other track.
     """
-    if within_px <= 0 or not cost.size:
+    radius = np.broadcast_to(np.asarray(within_px, np.float64), (len(cost),))
+    if not cost.size or not (radius > 0).any():
         return []
     nearest_det = np.argmin(cost, axis=1)
     nearest_track = np.argmin(cost, axis=0)
     held = [(r, int(c)) for r, c in enumerate(nearest_det.tolist())
-            if running[r] and nearest_track[c] == r and cost[r, c] <= within_px]
+            if running[r] and nearest_track[c] == r and radius[r] > 0 and cost[r, c] <= radius[r]]
     if rival_px <= 0 or len(cost) < 2:
         return held
-    return [(r, c) for r, c in held if np.delete(cost[:, c], r).min() > rival_px]
+    others = np.ones((len(cost), len(cost)), bool) if rivals is None \
+        else np.asarray(rivals, bool)
+    out = []
+    for r, c in held:
+        seen = others[r].copy()
+        seen[r] = False
+        if not seen.any() or cost[seen, c].min() > rival_px:
+            out.append((r, c))
+    return out
 
 
 def track_sequence(frames: Iterable[tuple[float, Detections]],
