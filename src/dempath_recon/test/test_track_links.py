@@ -142,13 +142,25 @@ def test_a_spot_another_track_predicts_as_well_is_held_for_none() -> None:
 def crossing(rival_px: float) -> dict[tuple[float, float], int]:
     """The crossing above on a real linker: marker 3 running at (-232, -76) px/s, marker 8 lost
     a frame before at (-128, -135) px/s; the numbers its two spots get."""
-    tracker = MarkerTracker(TrackerConfig(hold_rival_px=rival_px))
-    for uv, marker, velocity, seen in (((944.4, 527.3), 3, (-232.0, -76.0), -DT),
-                                      ((947.1, 536.5), 8, (-128.0, -135.0), -2 * DT)):
-        tracker.seed(np.array([uv]), np.array([marker], np.int32), seen)
+    return two_tracks(TrackerConfig(hold_rival_px=rival_px),
+                      (((944.4, 527.3), 3, (-232.0, -76.0), -DT, False),
+                       ((947.1, 536.5), 8, (-128.0, -135.0), -2 * DT, True)),
+                      [[935.3, 521.2], [939.3, 527.3]])
+
+
+Seed = tuple[tuple[float, float], int, tuple[float, float], float, bool]
+
+
+def two_tracks(config: TrackerConfig, seeds: tuple[Seed, ...],
+               uv: list[list[float]]) -> dict[tuple[float, float], int]:
+    """A real linker started with tracks (position px, marker, velocity px/s, last seen s,
+    lost), given one frame of detections ``uv`` at 0 s: the number each detection gets."""
+    tracker = MarkerTracker(config)
+    for at, marker, velocity, seen, lost in seeds:
+        tracker.seed(np.array([at]), np.array([marker], np.int32), seen)
         tracker.tracks[-1].velocity = np.array(velocity)
-    tracker.tracks[1].lost = True
-    frame = tracker.update(0.0, dets([[935.3, 521.2], [939.3, 527.3]]))
+        tracker.tracks[-1].lost = lost
+    frame = tracker.update(0.0, dets(np.array(uv)))
     return {(float(p[0]), float(p[1])): int(m)
             for p, m in zip(frame.uv, frame.markers, strict=True)}
 
@@ -182,15 +194,9 @@ def test_a_fast_track_keeps_its_spot_from_a_track_unseen_for_long() -> None:
 
 def fast_and_unseen(config: TrackerConfig) -> dict[tuple[float, float], int]:
     """The case above on a real linker: the numbers its two spots get."""
-    tracker = MarkerTracker(config)
-    for uv, marker, velocity, seen in (((952.9, 526.5), 3, (-80.0, -4.0), -3 * DT),
-                                      ((953.7, 530.3), 7, (-545.0, -280.0), -DT)):
-        tracker.seed(np.array([uv]), np.array([marker], np.int32), seen)
-        tracker.tracks[-1].velocity = np.array(velocity)
-    tracker.tracks[0].lost = True
-    frame = tracker.update(0.0, dets([[937.2, 518.6], [941.2, 526.0]]))
-    return {(float(p[0]), float(p[1])): int(m)
-            for p, m in zip(frame.uv, frame.markers, strict=True)}
+    return two_tracks(config, (((952.9, 526.5), 3, (-80.0, -4.0), -3 * DT, True),
+                               ((953.7, 530.3), 7, (-545.0, -280.0), -DT, False)),
+                      [[937.2, 518.6], [941.2, 526.0]])
 
 
 def test_hold_radius_grows_with_the_step_and_old_tracks_rival_only_slow_holds() -> None:
@@ -228,18 +234,11 @@ def test_a_slow_track_still_gives_way_to_a_marker_back_where_it_sank() -> None:
     (2 px a frame) predicts 3's spot 1.4 px off and its own 3.2 px off. The unseen track still
     rivals a slow hold, so nothing is held and each keeps its own spot; were it no rival, 4's
     track would be held on 3's spot."""
-    def numbers(unseen_s: float) -> dict[tuple[float, float], int]:
-        tracker = MarkerTracker(TrackerConfig(hold_rival_px=8.0, hold_rival_unseen_s=unseen_s))
-        for uv, marker, velocity, seen in (((929.5, 552.2), 3, (-4.0, -2.0), -10 * DT),
-                                          ((931.8, 553.9), 4, (60.0, -85.0), -DT)):
-            tracker.seed(np.array([uv]), np.array([marker], np.int32), seen)
-            tracker.tracks[-1].velocity = np.array(velocity)
-        tracker.tracks[0].lost = True
-        frame = tracker.update(0.0, dets([[935.9, 550.8], [931.7, 552.8]]))
-        return {(float(p[0]), float(p[1])): int(m)
-                for p, m in zip(frame.uv, frame.markers, strict=True)}
-
-    assert numbers(0.05) == {(935.9, 550.8): 4, (931.7, 552.8): 3}
+    config = TrackerConfig(hold_rival_px=8.0)
+    got = two_tracks(config, (((929.5, 552.2), 3, (-4.0, -2.0), -10 * DT, True),
+                              ((931.8, 553.9), 4, (60.0, -85.0), -DT, False)),
+                     [[935.9, 550.8], [931.7, 552.8]])
+    assert got == {(935.9, 550.8): 4, (931.7, 552.8): 3}
 
 
 def test_hold_step_and_rival_time_are_checked() -> None:
