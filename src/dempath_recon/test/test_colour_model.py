@@ -180,3 +180,50 @@ def test_the_faint_search_uses_the_frames_floor_by_default() -> None:
     assert near.mean() >= 0.8, f'{near.mean():.0%} found beside predictions'
     assert (np.linalg.norm(fixed.faint(pred, 4.0) - seen, axis=1) < 2.5).mean() <= 0.5
     assert not np.isfinite(own.faint(seen + np.array([20.0, 0.0]), 4.0)).all(axis=1).any()
+
+
+RED_ON_SLATE = (0.30, 0.42, 0.78)  # red clay the twin renders on slate sand
+SLATE = np.array([0.42, 0.44, 0.47])
+
+
+def red_clay_with_dark_corners(seed: int) -> tuple[bytes, np.ndarray]:
+    """JPEG of red clay on slate sand in normal light whose bottom rows and right columns,
+    beyond the markers, are near black (B + G + R about 6-25, a vignetted view's corners) with
+    faint warm blotches (R + 8 DN over 3 px, as the twin's JPEG leaves there), and the
+    markers' (35, 2) px centres."""
+    import cv2
+
+    rng = np.random.default_rng(seed)
+    truth = grid_centres(rng)
+    jpeg = spot_image(SHAPE, truth, RADIUS, rng, noise_dn=2.0, quality=85, sand_bgr=SLATE,
+                      clay_bgr=np.array(RED_ON_SLATE))
+    img = cv2.imdecode(np.frombuffer(jpeg, np.uint8), cv2.IMREAD_COLOR).astype(np.float64)
+    dark = np.zeros(SHAPE, bool)
+    dark[205:] = True
+    dark[:, 287:] = True
+    img[dark] = img[dark] * 0.06 + 1
+    yy, xx = np.mgrid[0:SHAPE[0], 0:SHAPE[1]]
+    blotches = [*((x, 222) for x in range(20, 280, 30)), *((303, y) for y in range(20, 200, 30))]
+    for bx, by in blotches:
+        img[..., 2] += 8.0 * np.exp(-((xx - bx) ** 2 + (yy - by) ** 2) / (2 * 3.0 ** 2))
+    ok, out = cv2.imencode('.jpg', np.clip(np.round(img), 0, 255).astype(np.uint8),
+                           [cv2.IMWRITE_JPEG_QUALITY, 85])
+    assert ok
+    return out.tobytes(), truth
+
+
+def test_another_clays_spots_in_near_black_corners_are_dropped(monkeypatch) -> None:
+    """Red clay on slate sand: the near-black corners' warm JPEG tint passes the red clay's
+    axis (its weights 2-3 times blue's) as spots; ``clay_bar`` keeps only spots at least half
+    the frame's median brightness: every marker in the lit part, no spot in the dark part. Blue
+    clay's axis has no such bar."""
+    import dempath_recon.tracking.colour_model as colour_module
+
+    jpeg, lit = red_clay_with_dark_corners(11)
+    config = DetectorConfig(marker_bgr=RED_ON_SLATE)
+    kept = MarkerDetector(config).detect_jpeg(jpeg).uv
+    assert matched(kept, lit, 1.5) == (len(lit), 0), matched(kept, lit, 1.5)
+    monkeypatch.setattr(colour_module, 'CLAY_DARK_SHARE', 0.0)
+    ungated = MarkerDetector(config).detect_jpeg(jpeg).uv
+    assert matched(ungated, lit, 1.5)[1] >= 2, 'the bar is needed: the tint passes without it'
+    assert colour_module.clay_bar(decode_jpeg(jpeg, 2), colour_module.colour_axis(None)) == 0.0

@@ -58,6 +58,11 @@ LIT_SHARE = 0.5  # under a lowered floor a spot's 5 x 5 pixels must sum to this 
 # floor (0.3 of the frame's median at FLOOR_SHARE 0.6): the spots off every marker on the dusk
 # tuning looks lay at 0.11-0.21 of the median, blue clay (albedo sum 0.94 against the sand's
 # 1.72) at 0.55 or more
+CLAY_DARK_SHARE = 0.5  # another clay's spot must be at least this share of the frame's median
+# B + G + R bright (5 x 5 mean): on 11 renders of red, orange and green clay (session 20) every
+# marker at least half visible lay at 0.69 or more (0.80 but on green clay), the spots off every
+# marker (a vignetted view's near-black corners, whose JPEG tint passes another clay's axis)
+# at 0.61 at most, 95 % under 0.33; 0.45 and 0.55 gave the same figures
 SAMPLE_STEP = 16  # every 16th pixel of every 16th row (about 2000 at half size) measures the
 # frame's median brightness and its sand's colour
 
@@ -135,15 +140,24 @@ def is_blue(axis: NDArray[np.float32]) -> bool:
     return bool(np.array_equal(axis, np.array(BLUE_AXIS, np.float32)))
 
 
-def chroma_floor(image: NDArray[np.uint8], share: float = FLOOR_SHARE) -> float:
-    """The chroma's floor for ``image`` (h, w, 3) BGR: ``share`` times its median ``B + G + R``
-    (every ``SAMPLE_STEP``-th pixel), between ``DARK_SUM_DN`` and ``MIN_SUM_DN`` [DN]."""
+def frame_brightness(image: NDArray[np.uint8]) -> float:
+    """The median ``B + G + R`` [DN] of ``image`` (h, w, 3) BGR over every ``SAMPLE_STEP``-th
+    pixel (the sand, most of the view; saturating at 255); NaN for an empty image."""
     sample = np.ascontiguousarray(image[::SAMPLE_STEP, ::SAMPLE_STEP])
     if sample.size == 0:
-        return MIN_SUM_DN
-    # saturates at 255: the floor's bound MIN_SUM_DN / FLOOR_SHARE = 100 lies below
+        return float('nan')
     total = np.asarray(cv2.transform(sample, np.ones((1, 3), np.float32)), np.float64)
-    return float(np.clip(share * float(np.median(total)), DARK_SUM_DN, MIN_SUM_DN))
+    return float(np.median(total))
+
+
+def chroma_floor(image: NDArray[np.uint8], share: float = FLOOR_SHARE) -> float:
+    """The chroma's floor for ``image`` (h, w, 3) BGR: ``share`` times its median ``B + G + R``
+    (:func:`frame_brightness`), between ``DARK_SUM_DN`` and ``MIN_SUM_DN`` [DN]."""
+    median = frame_brightness(image)
+    if not np.isfinite(median):
+        return MIN_SUM_DN
+    # the median saturates at 255: the floor's bound MIN_SUM_DN / FLOOR_SHARE = 100 lies below
+    return float(np.clip(share * median, DARK_SUM_DN, MIN_SUM_DN))
 
 
 def lit_peaks(image: NDArray[np.uint8], rows: NDArray[np.intp], cols: NDArray[np.intp],
@@ -158,14 +172,40 @@ def lit_peaks(image: NDArray[np.uint8], rows: NDArray[np.intp], cols: NDArray[np
     times the median (session 17: 2-13 such spots per dusk tuning look at a floor of 0.6 x the
     median, none of them near a marker); blue clay darker than its sand, 0.55 of it.
     """
-    keep = np.ones(len(rows), np.bool_)
     if not isinstance(floor, np.ndarray) and floor >= MIN_SUM_DN:
-        return keep
+        return np.ones(len(rows), np.bool_)
+    at = np.asarray(floor, np.float64) if isinstance(floor, np.ndarray) else float(floor)
+    return np.asarray(patch_brightness(image, rows, cols) >= LIT_SHARE * at, np.bool_)
+
+
+def patch_brightness(image: NDArray[np.uint8], rows: NDArray[np.intp],
+                     cols: NDArray[np.intp]) -> NDArray[np.float64]:
+    """(n,) the mean ``B + G + R`` [DN] of the 5 x 5 pixels around each peak (``rows``,
+    ``cols`` (n,) in ``image``; clipped at the image's edges)."""
+    out = np.zeros(len(rows), np.float64)
     for k, (y, x) in enumerate(zip(rows, cols, strict=True)):
-        at = float(floor[k]) if isinstance(floor, np.ndarray) else floor
         patch = image[max(int(y) - 2, 0):int(y) + 3, max(int(x) - 2, 0):int(x) + 3]
-        keep[k] = float(patch.astype(np.float32).sum(axis=2).mean()) >= LIT_SHARE * at
-    return keep
+        out[k] = float(patch.astype(np.float32).sum(axis=2).mean())
+    return out
+
+
+def bright_peaks(image: NDArray[np.uint8], rows: NDArray[np.intp], cols: NDArray[np.intp],
+                 bar: float) -> NDArray[np.bool_]:
+    """(n,) whether each peak (``rows``, ``cols`` (n,) in ``image``) lies where the mean
+    ``B + G + R`` of its 5 x 5 pixels reaches ``bar`` [DN] (all True for a bar of 0)."""
+    if bar <= 0:
+        return np.ones(len(rows), np.bool_)
+    return np.asarray(patch_brightness(image, rows, cols) >= bar, np.bool_)
+
+
+def clay_bar(image: NDArray[np.uint8], axis: NDArray[np.float32]) -> float:
+    """The least 5 x 5 mean ``B + G + R`` [DN] a spot of ``axis``'s clay may have in
+    ``image``: ``CLAY_DARK_SHARE`` of the frame's median brightness on another clay's axis, 0
+    on ``BLUE_AXIS`` (blue clay keeps its tuned detection)."""
+    if is_blue(axis):
+        return 0.0
+    median = frame_brightness(image)
+    return CLAY_DARK_SHARE * median if np.isfinite(median) else 0.0
 
 
 def axis_chroma(image: NDArray[np.uint8], axis: NDArray[np.float32],

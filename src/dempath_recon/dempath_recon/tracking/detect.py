@@ -56,7 +56,9 @@ from dempath_recon.tracking.colour_model import (
     REFERENCE_SAND_BGR,
     axis_bound,
     axis_chroma,
+    bright_peaks,
     chroma_floor,
+    clay_bar,
     colour_axis,
     frame_axis,
     is_blue,
@@ -405,7 +407,8 @@ class MarkerDetector:
         frame_floor = MIN_SUM_DN if mode == 'off' else chroma_floor(image)
         axis = frame_axis(image, self.config.marker_bgr, self.config.sand_bgr)
         thr = self.config.threshold
-        found = self._spots(image, MIN_SUM_DN, axis, thr=thr, frame_floor=frame_floor)
+        found = self._spots(image, MIN_SUM_DN, axis, thr=thr, frame_floor=frame_floor,
+                            dark_bar=clay_bar(image, axis))
         if mode == 'bed':  # a floor per pixel from the bed around it (None: normal light)
             found = add_apart(found, self._bed_spots(image, axis, found.uv),
                               self.config.min_separation_px)
@@ -457,11 +460,14 @@ class MarkerDetector:
 
     def _spots(self, image: NDArray[np.uint8], floor: float | BedFloor,
                axis: NDArray[np.float32], blot: FloatArray | None = None,
-               thr: float | None = None, frame_floor: float = MIN_SUM_DN) -> Detections:
+               thr: float | None = None, frame_floor: float = MIN_SUM_DN,
+               dark_bar: float = 0.0) -> Detections:
         """The markers of ``image`` (at the detector's scale) on the chroma of ``axis`` (3,)
         floored at ``floor`` [DN] (one, or one per ``BedFloor`` cell), without the faint
         search; ``blot`` (n, 2) [detector px]: spots left out (the chroma there set to the
-        sand's); ``thr``: the threshold (None: ``threshold``); ``frame_floor``: the
+        sand's); ``thr``: the threshold (None: ``threshold``); ``dark_bar`` [DN]: the least
+        5 x 5 mean ``B + G + R`` of a spot (:func:`~dempath_recon.tracking.colour_model.
+        clay_bar`; 0: none); ``frame_floor``: the
         frame's own floor [DN] (``chroma_floor``), on which a dim frame's published centres
         are measured (``shade_centres``; not in the bed search, whose floor is the bed's
         light already)."""
@@ -479,6 +485,7 @@ class MarkerDetector:
         lit = lit_peaks(image, rows + oy, cols + ox,  # not noise in near-black pixels
                         floor.at_points(rows + oy, cols + ox) if isinstance(floor, BedFloor)
                         else floor)
+        lit &= bright_peaks(image, rows + oy, cols + ox, dark_bar)
         rows, cols = rows[lit], cols[lit]
         if len(rows) == 0:
             return Detections.empty()
