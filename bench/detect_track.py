@@ -258,9 +258,12 @@ def main(argv: list[str]) -> int:
     p.add_argument('--coming-out', action='store_true',
                    help='number a marker coming out of the sand in one camera by where the bed '
                         'carried it (StereoTrackConfig.coming_out; off by default)')
-    p.add_argument('--numbered-partner', action='store_true',
-                   help="name a pair by the other camera's number when the carried point is far "
-                        '(StereoTrackConfig.numbered_partner; off by default)')
+    p.add_argument('--no-numbered-partner', action='store_true',
+                   help="do not name a pair by the other camera's number when the carried point "
+                        'is far (StereoTrackConfig.numbered_partner; on by default)')
+    p.add_argument('--no-regain', action='store_true',
+                   help='do not give back a number elimination took back for a jump '
+                        '(StereoTrackConfig.regain; on by default)')
     args = p.parse_args(argv)
     from detect_track_variations import (
         CLAY_SET,
@@ -268,6 +271,7 @@ def main(argv: list[str]) -> int:
         FLOOR,
         ONE_CAMERA,
         PARTNER,
+        REGAIN,
         TOOL_SPEED,
         look_exposure,
         with_clay,
@@ -281,7 +285,8 @@ def main(argv: list[str]) -> int:
     TOOL_SPEED[0] = args.tool_speed
     FLOOR[0] = args.exposure_floor
     ONE_CAMERA[0] = args.coming_out
-    PARTNER[0] = args.numbered_partner
+    PARTNER[0] = not args.no_numbered_partner
+    REGAIN[0] = not args.no_regain
     CLAY_SET[0] = args.marker_colour == 'look'
     cv2.setNumThreads(1)
     truth = json.loads(args.bag.with_name(args.bag.name + '.truth.json').read_text())

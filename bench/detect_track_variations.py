@@ -58,7 +58,9 @@ TOOL_SPEED = [0.0]  # the tool's speed [m/s] for recordings whose truth does not
 # (``--tool-speed``); 0: not known (the linkers' speed bound is off)
 FLOOR = ['']  # ``--exposure-floor``: DetectorConfig.exposure_floor ('': the default)
 ONE_CAMERA = [False]  # ``--coming-out``: StereoTrackConfig.coming_out (off by default, session 19)
-PARTNER = [False]  # ``--numbered-partner``: StereoTrackConfig.numbered_partner (off by default)
+PARTNER = [True]  # ``--no-numbered-partner``: StereoTrackConfig.numbered_partner (on since
+# session 20)
+REGAIN = [True]  # ``--no-regain``: StereoTrackConfig.regain (on by default, session 20)
 EXPOSURE_KNOWN = [True]  # the trackers are told each recording's exposure (``--exposure-unknown``:
 # not, as before session 16: no streak search)
 
@@ -85,10 +87,11 @@ def with_clay(config: StereoTrackConfig, truth: dict[str, Any]) -> StereoTrackCo
 
 
 def with_seek(config: StereoTrackConfig) -> StereoTrackConfig:
-    """``config`` with the numberings of session 19 that are off by default (``coming_out``,
-    ``numbered_partner``) as ``--coming-out`` and ``--numbered-partner`` ask."""
-    return replace(config, coming_out=ONE_CAMERA[0],
-                   numbered_partner=PARTNER[0])
+    """``config`` with the numbering of session 19 that is off by default (``coming_out``) as
+    ``--coming-out`` asks, and ``numbered_partner`` and ``regain`` (on by default) unless
+    ``--no-numbered-partner`` or ``--no-regain``."""
+    return replace(config, coming_out=ONE_CAMERA[0], numbered_partner=PARTNER[0],
+                   regain=REGAIN[0])
 
 
 def with_floor(config: StereoTrackConfig) -> StereoTrackConfig:

@@ -17,7 +17,7 @@ ORDER = ('merge', 'cut_discs_kernel', 'cut_discs', 'split', 'covered', 'streak',
          'publish_gate', 'trajectories', 'number_record', 'state', 'held_line', 'link_guide',
          'parted', 'one_camera', 'numbering', 'pair_checks', 'pair_numbering',
          'track_pairs',
-         'grid_elimination', 'coming_out', 'stereo')
+         'grid_elimination', 'regain', 'coming_out', 'stereo')
 
 
 def imported_modules(path: Path) -> set[str]:

@@ -158,7 +158,10 @@ def revoke_jumped(state: StereoState, camera: str, track_ids: NDArray[np.int64],
     check would catch its track moving onto a neighbour's spot when the marker goes under
     (on two renders the track of a marker numbered so took a neighbour's spot a few frames
     later and kept its number, 5 switches each); once a pair check of the other camera passes,
-    the track is checked like any other and no longer watched here."""
+    the track is checked like any other and no longer watched here. A number taken back for a
+    link (no re-attachment since it was given) is noted in ``state.jumped``: a marker the tool
+    starts pushing leaves its prediction with its track still on it, and
+    :mod:`~dempath_recon.tracking.regain` gives the number back once both cameras pair it."""
     watched = state.eliminated[camera]
     if not watched:
         return markers
@@ -178,6 +181,8 @@ def revoke_jumped(state: StereoState, camera: str, track_ids: NDArray[np.int64],
             continue
         m = track.marker
         del watched[tid]
+        if track.reattached is None or track.reattached[0] <= since:  # a link, kept since
+            state.jumped[camera][tid] = (m, since)
         state.late_numbered[camera].discard(tid)
         take_back(state, camera, tid, m)
         out[track_ids == tid] = UNNUMBERED

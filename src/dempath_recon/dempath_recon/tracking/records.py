@@ -76,14 +76,23 @@ class StereoTrackConfig:
         coming_out: number a new track only one camera sees, born after the grid fit, by the
             marker the bed has carried nearest it (a marker coming out of the sand mid-pass:
             :mod:`~dempath_recon.tracking.coming_out`).
+            Off by default: together with ``numbered_partner`` it numbered the 23 tuning looks
+            78.94 -> 79.40 % right (switches 26, wrong pairs 1, unchanged), 14 seed-87 looks
+            more or the same, but six seed-89 looks held apart went 92.66 -> 92.24 % (session
+            19, track23); the loss is this rule's alone (``s89_grey_glare`` 98.33 -> 94.44 %:
+            it numbers one camera's spot of a marker both cameras then found, which the pair
+            numbering would have numbered in both; session 20, track25).
         numbered_partner: when ``track_pairs``' carried-point test refuses a partner the other
             camera numbers, name it again with only the markers the other camera does not see
             as rivals and a 30 mm gate, if no other track of the other camera lies on the line
-            at a nearer pair (``track_pairs._numbered_name``). Both off by default: on the 23
-            tuning looks they numbered 78.94 -> 79.40 % right (switches 26, wrong pairs 1,
-            unchanged), on 14 seed-87 looks more or the same, but six seed-89 looks held apart
-            went 92.66 -> 92.24 % (one look -3.9 points, one +2.6; switches and wrong pairs
-            unchanged; session 19, track23).
+            at a nearer pair (``track_pairs._numbered_name``). On since session 20 (track25):
+            it never added a switch or a wrong-pair point on any set scored (10 long tuning
+            looks 84.80 -> 85.25 % numbered right, 23 tiny tuning looks 78.99 -> 79.06, 14
+            seed-87 looks 83.22 -> 83.76, six seed-89 looks 92.66 -> 92.90).
+        regain: give a number elimination took back for a jump (a link off its prediction, no
+            re-attachment) back to the track and its partner once the other camera's track
+            held on its epipolar line where the bed carried the marker
+            (:mod:`~dempath_recon.tracking.regain`; with ``elimination``).
     """
 
     detector: DetectorConfig = field(default_factory=DetectorConfig)
@@ -105,7 +114,8 @@ class StereoTrackConfig:
     elimination: bool = True
     record_numbers: bool = False
     coming_out: bool = False
-    numbered_partner: bool = False
+    numbered_partner: bool = True
+    regain: bool = True
 
     def __post_init__(self) -> None:
         for name in ('fps', 'epipolar_px', 'grid_gate_px', 'position_gate_m',
@@ -159,6 +169,7 @@ class CameraCounts:
     numbered_by_track_pair: int = 0  # numbered by a partner held on their line (track_pairs)
     numbered_by_elimination: int = 0  # one camera's, by the free grid point it started at
     numbered_by_carried: int = 0  # one camera's new track, by where the bed carried a marker
+    numbered_by_regain: int = 0  # a number elimination took back for a jump, given back (regain)
     numbered_late: int = 0
     unnumbered: int = 0
     epipolar_conflicts: int = 0

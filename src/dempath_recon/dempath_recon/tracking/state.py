@@ -77,6 +77,10 @@ class StereoState:
         eliminated: per camera, track id -> (stamp of its numbering by elimination [s], its
             largest link miss then [px]) (``grid_elimination``: watched till a pair check
             passes).
+        jumped: per camera, track id -> (the number elimination took back from it for a
+            jump without a re-attachment, the stamp it was numbered at [s])
+            (``grid_elimination.revoke_jumped``; :mod:`~dempath_recon.tracking.regain` may
+            give it back).
         record: which rule numbered what (``config.record_numbers``; None: not kept).
     """
 
@@ -101,6 +105,7 @@ class StereoState:
     last_tracks: dict[str, tuple[float, NDArray[np.int64], FloatArray] | None]
     provisional: set[str]
     eliminated: dict[str, dict[int, tuple[float, float]]]
+    jumped: dict[str, dict[int, tuple[int, float]]]
     record: NumberRecord | None = None
 
     @classmethod
@@ -127,7 +132,8 @@ class StereoState:
             free=dict.fromkeys(cameras),
             queue=ReleaseQueue(cameras, config.number_delay_frames),
             residuals={n: [] for n in cameras}, last_tracks=dict.fromkeys(cameras),
-            provisional=set(), eliminated={n: {} for n in cameras}, record=record)
+            provisional=set(), eliminated={n: {} for n in cameras},
+            jumped={n: {} for n in cameras}, record=record)
 
     def other(self, camera: str) -> str:
         """The other camera's name."""

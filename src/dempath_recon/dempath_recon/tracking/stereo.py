@@ -63,6 +63,7 @@ from dempath_recon.tracking.pair_numbering import number_pairs
 from dempath_recon.tracking.parted import flagged, revoke_at_parting
 from dempath_recon.tracking.publish_gate import PublicationGate
 from dempath_recon.tracking.records import CameraCounts, PixelFrame, StereoTrackConfig
+from dempath_recon.tracking.regain import number_regained
 from dempath_recon.tracking.release import HeldFrame, fill_confirmed, renumber
 from dempath_recon.tracking.shake import ShakeEstimate, ShakeEstimator, remove_shake
 from dempath_recon.tracking.state import (
@@ -254,6 +255,10 @@ class StereoMarkerTracker:
             step('elimination')
             markers = number_by_elimination(state, camera, tf.track_ids, markers, tf.uv,
                                             stamp_s, events)
+            if state.config.regain:
+                step('regain')
+                markers = number_regained(state, camera, tf.track_ids, markers, stamp_s,
+                                          events)
         if state.config.coming_out:
             step('coming_out')
             markers = number_coming_out(state, camera, tf.track_ids, markers, tf.uv, stamp_s,

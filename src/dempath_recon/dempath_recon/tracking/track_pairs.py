@@ -119,9 +119,9 @@ def number_by_track_pairs(state: StereoState, camera: str, track_ids: NDArray[np
                 or _still_behind(state, camera, track, number, partners) \
                 or _missing_beside(state, camera, number, uv[k], stamp_s, held):
             continue
-        _give(state, camera, track, number)
+        give_late(state, camera, track, number)
         if partner.marker < 0:
-            _give(state, other, partner, number)
+            give_late(state, other, partner, number)
             state.latest[other][number] = (partner.last_stamp_s, partner.uv.copy())
         out[k] = number
         held.add(number)
@@ -314,8 +314,9 @@ def _may_take(state: StereoState, camera: str, track_id: int, number: int) -> bo
         or number in state.fit_merged[camera].get(track_id, set())
 
 
-def _give(state: StereoState, camera: str, track: Track, number: int) -> None:
-    """Number ``track`` of ``camera`` (a later pair may take it back)."""
+def give_late(state: StereoState, camera: str, track: Track, number: int) -> None:
+    """Number ``track`` of ``camera`` after the start (a later pair may take it back;
+    :mod:`~dempath_recon.tracking.regain` gives numbers so too)."""
     retire(state, camera, number)
     state.trackers[camera].number(track.track_id, number)
     state.late_numbered[camera].add(track.track_id)
