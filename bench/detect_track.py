@@ -252,9 +252,9 @@ def main(argv: list[str]) -> int:
     p.add_argument('--tool-speed', type=float, default=0.0, metavar='M_S',
                    help="the tool's speed [m/s] for recordings whose truth does not give it "
                         "(StereoTrackConfig.tool_speed_m_s, as the user knows it; 0: unknown)")
-    p.add_argument('--exposure-floor', choices=('off', 'faint', 'bed'), default='',
-                   help="the detectors' chroma floor (DetectorConfig.exposure_floor; 'bed': the "
-                        "bed around the markers, session 19; unset: the default)")
+    p.add_argument('--exposure-floor', choices=('off', 'faint'), default='',
+                   help="the detectors' chroma floor (DetectorConfig.exposure_floor; unset: the "
+                        "default)")
     p.add_argument('--coming-out', action='store_true',
                    help='number a marker coming out of the sand in one camera by where the bed '
                         'carried it (StereoTrackConfig.coming_out; off by default)')

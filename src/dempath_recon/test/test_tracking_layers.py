@@ -11,7 +11,6 @@ import dempath_recon.tracking
 ROOM = Path(dempath_recon.tracking.__file__).parent
 # Bottom to top: a module may import the modules before it, never one after it.
 ORDER = ('merge', 'cut_discs_kernel', 'cut_discs', 'split', 'covered', 'streak', 'colour_model',
-         'bed_floor',
          'shaded', 'detect', 'shake',
          'linker', 'associate', 'speed_bound', 'grid_pairs', 'pair_anchor', 'records', 'release',
          'publish_gate', 'trajectories', 'number_record', 'state', 'held_line', 'link_guide',

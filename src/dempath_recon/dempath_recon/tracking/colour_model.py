@@ -24,9 +24,6 @@ floor)`` is high. Two things set that chroma:
   of the view) times ``FLOOR_SHARE``, between ``DARK_SUM_DN`` and ``MIN_SUM_DN``: frames in
   normal light keep today's floor, dark frames a floor that keeps the same ratio to the sand.
 
-- the bed floor (session 19, ``exposure_floor='bed'``) is its own module,
-  :mod:`~dempath_recon.tracking.bed_floor`.
-
 Both are plain arrays; :mod:`~dempath_recon.tracking.detect` applies them.
 """
 
@@ -209,9 +206,9 @@ def clay_bar(image: NDArray[np.uint8], axis: NDArray[np.float32]) -> float:
 
 
 def axis_chroma(image: NDArray[np.uint8], axis: NDArray[np.float32],
-                min_sum: float | NDArray[np.float32]) -> NDArray[np.float32]:
+                min_sum: float) -> NDArray[np.float32]:
     """(h, w) float32 ``(axis . [B, G, R]) / max(B + G + R, min_sum)`` of a BGR image
-    (``min_sum`` [DN] one floor, or one per pixel (h, w))."""
+    (``min_sum`` [DN])."""
     pixels = image.astype(np.float32)
     num = cv2.transform(pixels, axis.reshape(1, 3))
     total = cv2.transform(pixels, np.ones((1, 3), np.float32))

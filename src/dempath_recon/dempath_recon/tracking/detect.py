@@ -41,16 +41,7 @@ import simplejpeg
 from numpy.typing import NDArray
 
 from dempath_recon.errors import ReconstructionError
-from dempath_recon.tracking.bed_floor import (
-    BED_CELL,
-    BedFloor,
-    bed_candidates,
-    bed_floor,
-    ring_sand_chroma,
-)
 from dempath_recon.tracking.colour_model import (
-    BLUE_AXIS,
-    CLAY_CHROMA,
     DARK_SUM_DN,
     MIN_SUM_DN,
     REFERENCE_SAND_BGR,
@@ -93,8 +84,6 @@ FILTER_FLOOR = -0.2  # the matched filter sees sand no redder than the sand the 
 SPARSE_BOX = 0.1  # a byte-bound box over this share of the frame is narrowed to the pixels
 # whose chroma passes (``MarkerDetector._exact_box``)
 
-BED_REACH_DIAMETERS = 4.0  # the bed search reaches this many marker diameters past the
-# markers the frame's own detection found: the bed around them, not the ground beyond the bin
 
 
 def dim(image: NDArray[np.uint8], below: float = MIN_SUM_DN) -> bool:
@@ -224,15 +213,9 @@ class DetectorConfig:
             ``MIN_SUM_DN``, so that a dusk frame's markers (B + G + R 25-45) keep their chroma
             (frames whose sand sums to 100 or more are unchanged either way): 'faint' (the
             default) in the faint search beside a numbered track's prediction only; 'off':
-            ``MIN_SUM_DN`` everywhere; 'bed' (session 19, not the default): as 'faint', and
-            where the light is dim a second search of the frame adds the markers a floor of
-            ``BED_SHARE`` of the bed's brightness around each pixel finds
-            (:func:`~dempath_recon.tracking.bed_floor.bed_floor`), near the markers the
-            first search found, on a threshold midway between the sand beside them and the
-            clay (``MarkerDetector._bed_spots``); the first search's spots are kept as found.
-            On 33 tuned looks 80.68 -> 81.76 % numbered right, but switches 54 -> 58 and
-            wrong-pair points 1 -> 7 (r21_dusk, s79_carriage_dusk: markers found at dusk that
-            the trackers then swap where they merge), so not the default.
+            ``MIN_SUM_DN`` everywhere. (A second search of dim frames on a floor from the bed
+            around each pixel, 'bed', numbered more but added switches and wrong pairs; it
+            was removed in session 20: docs/reconstruction.md.)
         shade_centres: in a dim frame (the frame's own chroma floor under the detection's) the
             published centres (``Detections.centre``) are centroids on the chroma floored at
             the frame's light, so a marker's shaded side keeps its weight
@@ -269,7 +252,7 @@ class DetectorConfig:
                   and (tuple(self.up_px) == (0.0, 0.0)
                        or abs(float(np.hypot(*self.up_px)) - 1) < 1e-6),
                   'view_elevation_deg': 0 <= self.view_elevation_deg <= 90,
-                  'exposure_floor': self.exposure_floor in ('off', 'faint', 'bed')}
+                  'exposure_floor': self.exposure_floor in ('off', 'faint')}
         for name, ok in checks.items():
             if not ok:
                 msg = f'{name}: out of range, got {getattr(self, name)!r}'
@@ -309,7 +292,7 @@ def decode_jpeg(data: bytes | NDArray[np.uint8], downscale: int = 1) -> NDArray[
     return np.asarray(img, np.uint8)
 
 
-def chroma(image: NDArray[np.uint8], min_sum: float | NDArray[np.float32] = MIN_SUM_DN,
+def chroma(image: NDArray[np.uint8], min_sum: float = MIN_SUM_DN,
            axis: NDArray[np.float32] | None = None) -> NDArray[np.float32]:
     """(h, w) float32 ``(B - R) / max(B + G + R, min_sum)`` of a BGR image, or with ``axis``
     (3,) B, G, R weights ``(axis . [B, G, R]) / max(B + G + R, min_sum)`` (another clay's
@@ -321,9 +304,6 @@ def chroma(image: NDArray[np.uint8], min_sum: float | NDArray[np.float32] = MIN_
     search beside a track's prediction measures the noise instead and floors at
     ``DARK_SUM_DN``).
     """
-    if isinstance(min_sum, np.ndarray):  # a floor per pixel (h, w) (``exposure_floor`` 'bed')
-        return axis_chroma(image, np.array(BLUE_AXIS, np.float32) if axis is None else axis,
-                           min_sum)
     if axis is not None and not is_blue(axis):
         return axis_chroma(image, axis, min_sum)
     b, g, r = cv2.split(image)
@@ -331,39 +311,6 @@ def chroma(image: NDArray[np.uint8], min_sum: float | NDArray[np.float32] = MIN_
     total = cv2.add(cv2.add(b, g, dtype=cv2.CV_16S), r, dtype=cv2.CV_16S)
     np.maximum(total, np.int16(min_sum), out=total)
     return np.asarray(cv2.divide(diff, total, scale=1.0, dtype=cv2.CV_32F), np.float32)
-
-
-def add_apart(found: Detections, more: Detections, apart_px: float) -> Detections:
-    """``found`` and the spots of ``more`` farther than ``apart_px`` [px] from every spot of
-    ``found`` (a second search's new markers; ``found``'s own spots are kept as they are).
-    Fields one of them lacks (None) are filled: ``crowded`` and ``parted`` False, ``centre``
-    the spot's ``uv``."""
-    if not len(more.uv):
-        return found
-    new = np.ones(len(more.uv), np.bool_)
-    if len(found.uv):
-        new = np.linalg.norm(more.uv[:, None] - found.uv[None], axis=2).min(axis=1) > apart_px
-    if not new.any():
-        return found
-    if not len(found.uv):
-        return more
-    def flags(d: Detections, name: str) -> NDArray[np.bool_] | None:
-        v = getattr(d, name)
-        return np.zeros(len(d.uv), np.bool_) if v is None else v
-    both = [found, more._replace(uv=more.uv[new], confidence=more.confidence[new],
-                                 size_px=more.size_px[new],
-                                 crowded=None if more.crowded is None else more.crowded[new],
-                                 centre=None if more.centre is None else more.centre[new],
-                                 parted=None if more.parted is None else more.parted[new])]
-    crowded = None if found.crowded is None and more.crowded is None else \
-        np.concatenate([flags(d, 'crowded') for d in both])
-    parted = None if found.parted is None and more.parted is None else \
-        np.concatenate([flags(d, 'parted') for d in both])
-    centre = None if found.centre is None and more.centre is None else \
-        np.concatenate([d.uv if d.centre is None else d.centre for d in both])
-    return Detections(np.concatenate([d.uv for d in both]),
-                      np.concatenate([d.confidence for d in both]),
-                      np.concatenate([d.size_px for d in both]), crowded, None, centre, parted)
 
 
 class MarkerDetector:
@@ -409,82 +356,27 @@ class MarkerDetector:
         thr = self.config.threshold
         found = self._spots(image, MIN_SUM_DN, axis, thr=thr, frame_floor=frame_floor,
                             dark_bar=clay_bar(image, axis))
-        if mode == 'bed':  # a floor per pixel from the bed around it (None: normal light)
-            found = add_apart(found, self._bed_spots(image, axis, found.uv),
-                              self.config.min_separation_px)
         low = min(self.config.faint_threshold, thr)
         if low <= 0:
             return found
         return found._replace(faint=partial(self._faint, image, low, (frame_floor, axis),
                                             found.uv))
 
-    def _bed_spots(self, image: NDArray[np.uint8], axis: NDArray[np.float32],
-                   known: FloatArray) -> Detections:
-        """Markers of ``image`` (at the detector's scale) the chroma floored by the bed around
-        each pixel finds (:func:`~dempath_recon.tracking.bed_floor.bed_floor`), apart from
-        the ``known`` (n, 2) [full-size px] spots (blotted out of the chroma: their blobs are
-        measured already), within ``BED_REACH_DIAMETERS`` marker diameters of them (the bed
-        around the markers; the whole frame when fewer than ``MIN_SPOTS`` are known), on a
-        threshold midway
-        between the sand's chroma beside the known markers and the clay's (``CLAY_CHROMA``):
-        grey or pale sand lies nearer the clay than yellow-brown sand, and at dusk the
-        noise of a dim pixel's chroma reaches the fixed threshold from it. Empty where the
-        light is normal (no floor lowered)."""
-        s = self.config.downscale
-        h, w = image.shape[:2]
-        centres = (np.asarray(known, np.float64).reshape(-1, 2) + 0.5) / s - 0.5
-        radius = 0.5 * self.config.marker_diameter_px / s
-        x0, y0, x1, y1 = 0, 0, w, h
-        if len(centres) >= MIN_SPOTS and radius > 0:
-            reach = BED_REACH_DIAMETERS * 2 * radius
-            lo = np.floor((centres.min(axis=0) - reach) / BED_CELL).astype(int) * BED_CELL
-            hi = np.ceil((centres.max(axis=0) + reach) / BED_CELL).astype(int) * BED_CELL
-            x0, y0 = max(int(lo[0]), 0), max(int(lo[1]), 0)
-            x1, y1 = min(int(hi[0]), w), min(int(hi[1]), h)
-        if x1 - x0 < BED_CELL or y1 - y0 < BED_CELL:
-            return Detections.empty()
-        part = np.ascontiguousarray(image[y0:y1, x0:x1])
-        beds = bed_floor(part)
-        if beds is None:
-            return Detections.empty()
-        thr = self.config.threshold
-        sand = ring_sand_chroma(part, centres - (x0, y0), radius, axis) if radius > 0 else None
-        if sand is not None:
-            thr = max(thr, 0.5 * (sand + CLAY_CHROMA))
-        found = self._spots(part, beds, axis, centres - (x0, y0), thr)
-        if not len(found.uv):
-            return found
-        shift = np.array([x0, y0], np.float64) * s
-        return found._replace(uv=found.uv + shift,
-                              centre=None if found.centre is None else found.centre + shift)
-
-    def _spots(self, image: NDArray[np.uint8], floor: float | BedFloor,
-               axis: NDArray[np.float32], blot: FloatArray | None = None,
-               thr: float | None = None, frame_floor: float = MIN_SUM_DN,
-               dark_bar: float = 0.0) -> Detections:
+    def _spots(self, image: NDArray[np.uint8], floor: float,
+               axis: NDArray[np.float32], thr: float | None = None,
+               frame_floor: float = MIN_SUM_DN, dark_bar: float = 0.0) -> Detections:
         """The markers of ``image`` (at the detector's scale) on the chroma of ``axis`` (3,)
-        floored at ``floor`` [DN] (one, or one per ``BedFloor`` cell), without the faint
-        search; ``blot`` (n, 2) [detector px]: spots left out (the chroma there set to the
-        sand's); ``thr``: the threshold (None: ``threshold``); ``dark_bar`` [DN]: the least
+        floored at ``floor`` [DN], without the faint search; ``thr``: the threshold (None:
+        ``threshold``); ``dark_bar`` [DN]: the least
         5 x 5 mean ``B + G + R`` of a spot (:func:`~dempath_recon.tracking.colour_model.
         clay_bar`; 0: none); ``frame_floor``: the
         frame's own floor [DN] (``chroma_floor``), on which a dim frame's published centres
-        are measured (``shade_centres``; not in the bed search, whose floor is the bed's
-        light already)."""
+        are measured (``shade_centres``)."""
         s = self.config.downscale
         thr = self.config.threshold if thr is None else thr
         ox, oy, c = self._window(image, thr, floor, axis)
-        if blot is not None and len(blot) and c.size:
-            mask = np.zeros(c.shape, np.uint8)
-            r = max(round(0.5 * self.config.marker_diameter_px / s) + 1, 2)
-            for bx, by in blot - (ox, oy):
-                if np.isfinite([bx, by]).all():
-                    cv2.circle(mask, (round(bx), round(by)), r, 255, -1)
-            c[mask > 0] = np.float32(FILTER_FLOOR)
         rows, cols = self._peaks(c, thr)
-        lit = lit_peaks(image, rows + oy, cols + ox,  # not noise in near-black pixels
-                        floor.at_points(rows + oy, cols + ox) if isinstance(floor, BedFloor)
-                        else floor)
+        lit = lit_peaks(image, rows + oy, cols + ox, floor)  # not noise in near-black pixels
         lit &= bright_peaks(image, rows + oy, cols + ox, dark_bar)
         rows, cols = rows[lit], cols[lit]
         if len(rows) == 0:
@@ -501,7 +393,7 @@ class MarkerDetector:
             size = np.where(parted, radius / np.sqrt(2.0), size[source])
             strength, mass = strength[source], mass[source]
             seen_uv, dim_floor = uv, shade_floor(frame_floor, floor) \
-                if self.config.shade_centres and not isinstance(floor, BedFloor) else None
+                if self.config.shade_centres else None
             if dim_floor is not None:  # a dim frame: published centres on the own light
                 own = chroma(np.ascontiguousarray(image[oy:oy + c.shape[0], ox:ox + c.shape[1]]),
                              dim_floor, axis)
@@ -645,7 +537,7 @@ class MarkerDetector:
             return wanted
         return max(wanted, float(np.median(size_px)) / TYPICAL_SIZE)
 
-    def _window(self, image: NDArray[np.uint8], thr: float, floor: float | BedFloor = MIN_SUM_DN,
+    def _window(self, image: NDArray[np.uint8], thr: float, floor: float = MIN_SUM_DN,
                 axis: NDArray[np.float32] | None = None,
                 ) -> tuple[int, int, NDArray[np.float32]]:
         """The chroma of the part of ``image`` that can hold markers: ``(x0, y0, chroma)``.
@@ -664,18 +556,14 @@ class MarkerDetector:
         """
         h, w = image.shape[:2]
         above: NDArray[np.generic]
-        if isinstance(floor, BedFloor):  # a floor per pixel: where it adds markers
-            above = bed_candidates(image, floor, thr, np.array(BLUE_AXIS, np.float32)
-                                   if axis is None else axis)
+        level = max(int(np.floor(thr * floor)) - 1, 0)
+        if axis is None or is_blue(axis):
+            blue = cv2.subtract(cv2.extractChannel(image, 0), cv2.extractChannel(image, 2))
+            above = cv2.threshold(blue, level, 255, cv2.THRESH_TOZERO)[1]
         else:
-            level = max(int(np.floor(thr * floor)) - 1, 0)
-            if axis is None or is_blue(axis):
-                blue = cv2.subtract(cv2.extractChannel(image, 0), cv2.extractChannel(image, 2))
-                above = cv2.threshold(blue, level, 255, cv2.THRESH_TOZERO)[1]
-            else:
-                above = axis_bound(image, axis, level)
+            above = axis_bound(image, axis, level)
         x, y, bw, bh = cv2.boundingRect(above)
-        if bw * bh > SPARSE_BOX * h * w and not isinstance(floor, BedFloor):
+        if bw * bh > SPARSE_BOX * h * w:
             # stray pixels far apart spread the box
             x, y, bw, bh = self._exact_box(image, above, thr, floor, axis)
         if bw == 0 or bh == 0:
@@ -685,8 +573,7 @@ class MarkerDetector:
         x1, y1 = min(x + bw + pad, w), min(y + bh + pad, h)
         if (x1 - x0) * (y1 - y0) > 0.5 * h * w:
             x0, y0, x1, y1 = 0, 0, w, h
-        part = floor.at(y0, y1, x0, x1) if isinstance(floor, BedFloor) else floor
-        return x0, y0, chroma(np.ascontiguousarray(image[y0:y1, x0:x1]), part, axis)
+        return x0, y0, chroma(np.ascontiguousarray(image[y0:y1, x0:x1]), floor, axis)
 
     @staticmethod
     def _exact_box(image: NDArray[np.uint8], above: NDArray[Any], thr: float, floor: float,
