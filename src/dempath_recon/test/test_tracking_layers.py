@@ -14,7 +14,7 @@ ORDER = ('merge', 'cut_discs_kernel', 'cut_discs', 'split', 'covered', 'streak',
          'shaded', 'detect', 'shake',
          'linker', 'associate', 'speed_bound', 'grid_pairs', 'pair_anchor', 'records', 'release',
          'publish_gate', 'trajectories', 'number_record', 'state', 'held_line', 'link_guide',
-         'parted', 'one_camera', 'numbering', 'pair_checks', 'pair_numbering',
+         'crowded_pair', 'parted', 'one_camera', 'numbering', 'pair_checks', 'pair_numbering',
          'track_pairs',
          'grid_elimination', 'regain', 'coming_out', 'stereo')
 

@@ -12,6 +12,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dempath_recon.tracking.associate import project, triangulate_pairs
+from dempath_recon.tracking.crowded_pair import blame_crowded, tight_pair
 from dempath_recon.tracking.link_guide import DRIFT_PX, DRIFT_WINDOW, lines_in_doubt
 from dempath_recon.tracking.linker import UNNUMBERED
 from dempath_recon.tracking.one_camera import alone
@@ -46,13 +47,16 @@ def verify(state: StereoState, camera: str, track_ids: NDArray[np.int64],
            ) -> NDArray[np.int32]:
     """Check every numbered point against the other camera's point of the same number.
 
-    A pair farther than ``3 * epipolar_px`` from the epipolar line, or whose 3D point the
-    marker cannot have reached since its last accepted position, is withheld (-1) in this
-    frame. The track loses that number for good if it was numbered after the start
-    (epipolar line, late grid) or if one of its links since its last passed check landed
-    more than ``doubt_link_px`` from the prediction (the 2D linker likely took a neighbour
-    for the covered marker); otherwise the other camera is the likelier culprit and the
-    point is only withheld. Pairs that pass update the marker's 3D position. (Undoing just
+    A pair farther than ``3 * epipolar_px`` from the epipolar line (``epipolar_px`` when the
+    other camera's point is of this very instant, :mod:`~dempath_recon.tracking.crowded_pair`),
+    or whose 3D point the marker cannot have reached since its last accepted position, is
+    withheld (-1) in this frame. The track loses that number for good if it was numbered
+    after the start (epipolar line, late grid), if one of its links since its last passed
+    check landed more than ``doubt_link_px`` from the prediction (the 2D linker likely took a
+    neighbour for the covered marker), or if the pair is of one instant, off its line, and
+    the track's spot is crowded (the other camera's track of the number loses it too when
+    its spot is); otherwise the other camera is the likelier culprit and the point is only
+    withheld. Pairs that pass update the marker's 3D position. (Undoing just
     the bad link instead, the track lost again with its number, was tried: on the bundled
     render it let that number re-attach to a neighbour later, 6 switches.)
 
@@ -107,8 +111,11 @@ def verify(state: StereoState, camera: str, track_ids: NDArray[np.int64],
     for k, x, d in zip(idx, xyz, epi, strict=True):
         m = int(markers[k])
         dist, allowed = state.positions.distance(m, stamp_s, x)
-        # a doubtful re-attachment is confirmed only by the test that numbers a new track
-        epi_ok = state.config.epipolar_px if k in unsure else 3 * state.config.epipolar_px
+        # a doubtful re-attachment is confirmed only by the test that numbers a new track, and
+        # so is a pair seen at one instant (no motion along a track between its two points)
+        tight = k in unsure or (state.config.crowded_pairs
+                                and tight_pair(state, other, m, stamp_s))
+        epi_ok = state.config.epipolar_px if tight else 3 * state.config.epipolar_px
         track = tracks.get(int(track_ids[k]))
         back = track is not None and track.back_unchecked
         rival = likelier_marker(state, other, m, x, markers, stamp_s) if back else None
@@ -136,14 +143,19 @@ def verify(state: StereoState, camera: str, track_ids: NDArray[np.int64],
         markers[k] = UNNUMBERED
         tid = int(track_ids[k])
         jump = tracks[tid].link_px if tid in tracks else 0.0
+        blamed = (False, False)  # a same-instant pair off its line: the crowded track's fault
+        if k not in unsure and tight and d <= 3 * state.config.epipolar_px and dist <= allowed:
+            blamed = blame_crowded(state, camera, tid, m, stamp_s)
         if moved and d <= epi_ok and rival is None:
             why += ("; most of the frame's pairs moved together (the cameras moved, not "
                     'the markers): numbers kept')
         elif tid in state.late_numbered[camera] or rival is not None \
-                or (jump > state.config.doubt_link_px and not view_jumped):
+                or (jump > state.config.doubt_link_px and not view_jumped) or blamed[0]:
             state.late_numbered[camera].discard(tid)
             take_back(state, camera, tid, m)
             why += '; its number taken back'
+        if blamed[1]:
+            why += f' (and in {other}: its spot is crowded)'
         if rival is not None:  # the other camera's unchecked re-attachment is the same spot
             for t in state.trackers[other].tracks:
                 if t.marker == m and t.back_unchecked:

@@ -93,6 +93,11 @@ class StereoTrackConfig:
             re-attachment) back to the track and its partner once the other camera's track
             held on its epipolar line where the bed carried the marker
             (:mod:`~dempath_recon.tracking.regain`; with ``elimination``).
+        crowded_pairs: hold a pair whose partner was seen at the same instant to
+            ``epipolar_px``, and when it fails there take the number back from the track of
+            either camera whose spot is crowded by another track
+            (:mod:`~dempath_recon.tracking.crowded_pair`: a neighbour that slid over or came
+            out where the marker sank). False: such pairs get three times ``epipolar_px``.
     """
 
     detector: DetectorConfig = field(default_factory=DetectorConfig)
@@ -116,6 +121,7 @@ class StereoTrackConfig:
     coming_out: bool = False
     numbered_partner: bool = True
     regain: bool = True
+    crowded_pairs: bool = True
 
     def __post_init__(self) -> None:
         for name in ('fps', 'epipolar_px', 'grid_gate_px', 'position_gate_m',

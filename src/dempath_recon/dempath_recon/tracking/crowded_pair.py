@@ -1,0 +1,82 @@
+"""Which track loses its number when a pair seen at one instant lies off its epipolar line: the
+one on a crowded spot.
+
+After the tool passes, markers slide over each other, sink and come back. A track numbered
+right at the grid fit then follows its marker onto a spot a neighbour shares (the two images
+merge into one blob), and when its own marker sinks the blob is the neighbour's: the track's
+next links are a pixel or two long and no link test sees the take-over (tuning look
+``t113_asis``: the front's track of marker 4 ended on marker 3, 12 mm away, nearly along the
+epipolar direction). Its pair with the other camera's right track of the number then lies a
+few pixels off the epipolar line, well inside the three ``epipolar_px`` a numbered pair is
+allowed (that allowance covers a partner moved to this instant along its track; partners seen
+within a few ms lie within 3.3 px of their lines, 99.9 % of 2,836 right pairs of the ten
+long-pass tuning looks), so the pair passed, and once the other camera lost its marker the
+wrong number went out unchecked.
+
+So a pair whose partner was seen at this very instant (within ``SAME_INSTANT_SHARE`` of a
+frame period, not moved along its track) is held to ``epipolar_px``, the tolerance that
+numbers a new track (:func:`tight_pair`), and when it fails there (but passes the looser
+test) the number is taken back from whichever of the two tracks is crowded: another track of
+its camera, seen within ``CROWD_S``, lies within ``CROWD_DIAMETERS`` marker image diameters
+of it (:func:`crowded`, :func:`blame_crowded`). Both crowded: both lose it. Neither: the
+point is only withheld, as before (nothing says which camera is wrong). A number taken back
+is refused by that track (:func:`~dempath_recon.tracking.state.take_back`); the numbering rules
+can number its marker again by other evidence: unnumbered is better than wrong.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from dempath_recon.tracking.state import StereoState, take_back
+
+SAME_INSTANT_SHARE = 0.25  # a partner seen within this share of a frame period is of this
+# instant (the few ms two unsynchronised cameras expose apart: 3 ms in the twin's renders)
+CROWD_DIAMETERS = 1.5  # another track this many marker image diameters away crowds a track
+# (two markers whose blobs touch or merge; 1.25-1.75 gave the same on the tuning looks)
+CROWD_S = 0.5  # ... if seen within this long [s] (a neighbour lost into the blob; 0.1-1 s
+# gave the same on the tuning looks)
+
+
+def tight_pair(state: StereoState, other: str, marker: int, stamp_s: float) -> bool:
+    """Whether the other camera saw ``marker`` within ``SAME_INSTANT_SHARE`` of a frame
+    period of ``stamp_s`` [s], so the pair is held to ``epipolar_px`` rather than three
+    times it (no motion along a track stands between the two points)."""
+    hit = state.latest[other].get(marker)
+    return hit is not None and abs(hit[0] - stamp_s) <= SAME_INSTANT_SHARE / state.config.fps
+
+
+def crowded(state: StereoState, camera: str, track_id: int, stamp_s: float) -> bool:
+    """Whether another track of ``camera``, seen within ``CROWD_S`` of ``stamp_s`` [s], was
+    last seen within ``CROWD_DIAMETERS`` marker image diameters of the track's position
+    (the diameter is the tracker's ``hold_rival_px``, set per camera from the calibration;
+    unset or 0: never crowded)."""
+    tracker = state.trackers[camera]
+    diameter = tracker.config.hold_rival_px or 0.0
+    own = next((t for t in tracker.tracks if t.track_id == track_id), None)
+    if own is None or diameter <= 0:
+        return False
+    for track in tracker.tracks:
+        if track.track_id != track_id and stamp_s - track.last_stamp_s <= CROWD_S \
+                and float(np.linalg.norm(track.uv - own.uv)) <= CROWD_DIAMETERS * diameter:
+            return True
+    return False
+
+
+def blame_crowded(state: StereoState, camera: str, track_id: int, marker: int,
+                  stamp_s: float) -> tuple[bool, bool]:
+    """Take ``marker`` back from the crowded tracks of a same-instant pair that lies off its
+    epipolar line: ``camera``'s ``track_id`` and the other camera's track of the number.
+
+    Returns:
+        ``(this, other)``: whether ``camera``'s track is to lose the number (the caller takes
+        it back, with its own bookkeeping) and whether the other camera's track lost it here.
+    """
+    other = state.other(camera)
+    partner = next((t.track_id for t in state.trackers[other].tracks if t.marker == marker),
+                   None)
+    other_crowded = partner is not None and crowded(state, other, partner, stamp_s)
+    if other_crowded and partner is not None:
+        take_back(state, other, partner, marker)
+        state.pending[other].pop(marker, None)
+    return crowded(state, camera, track_id, stamp_s), other_crowded
