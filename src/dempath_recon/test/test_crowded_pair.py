@@ -13,7 +13,7 @@ import numpy as np
 
 from dempath_calib.camera import CameraModel
 from dempath_recon.tracking.associate import MarkerGrid
-from dempath_recon.tracking.crowded_pair import blame_crowded, crowded, tight_pair
+from dempath_recon.tracking.crowded_pair import blame_crowded, crowded, steady, tight_pair
 from dempath_recon.tracking.detect import Detections
 from dempath_recon.tracking.linker import TrackerConfig
 from dempath_recon.tracking.state import StereoState
@@ -102,6 +102,18 @@ def test_a_pair_is_tight_only_with_a_partner_of_the_same_instant() -> None:
     assert tight_pair(state, 'cam_side', 4, 10.0)
     assert not tight_pair(state, 'cam_side', 5, 10.0)
     assert not tight_pair(state, 'cam_side', 6, 10.0)
+
+
+def test_the_view_is_steady_only_with_its_pairs_near_their_lines() -> None:
+    """Steady once both cameras checked three frames whose pairs lay within 1.25 px of their
+    lines (median); not before, nor while one camera's lie 2.5 px off (shaken by 3 px)."""
+    state = hand_state()
+    assert not steady(state)
+    for seen in state.residuals.values():
+        seen.extend([0.5, 0.6, 0.4])
+    assert steady(state)
+    state.residuals['cam_front'].extend([2.5, 2.4, 2.6, 2.5])
+    assert not steady(state)
 
 
 def test_blame_falls_on_the_crowded_tracks_only() -> None:

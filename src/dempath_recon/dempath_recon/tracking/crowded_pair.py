@@ -14,13 +14,14 @@ long-pass tuning looks), so the pair passed, and once the other camera lost its 
 wrong number went out unchecked.
 
 So a pair whose partner was seen at this very instant (within ``SAME_INSTANT_SHARE`` of a
-frame period, not moved along its track) is held to ``epipolar_px``, the tolerance that
-numbers a new track (:func:`tight_pair`), and when it fails there (but passes the looser
-test) the number is taken back from whichever of the two tracks is crowded: another track of
-its camera, seen within ``CROWD_S``, lies within ``CROWD_DIAMETERS`` marker image diameters
-of it (:func:`crowded`, :func:`blame_crowded`). Both crowded: both lose it. Neither: the
-point is only withheld, as before (nothing says which camera is wrong). A number taken back
-is refused by that track (:func:`~dempath_recon.tracking.state.take_back`); the numbering rules
+frame period, not moved along its track) in a steady view (:func:`steady`) is held to
+``epipolar_px``, the tolerance that numbers a new track (:func:`tight_pair`), and when it
+fails there (but passes the looser test) the number is taken back from whichever of the two
+tracks is crowded: another track of its camera, seen within ``CROWD_S``, lies within
+``CROWD_DIAMETERS`` marker image diameters of it (:func:`crowded`, :func:`blame_crowded`).
+Both crowded: both lose it. Neither: the point is only withheld, as before (nothing says
+which camera is wrong). A number taken back is refused by that track
+(:func:`~dempath_recon.tracking.state.take_back`); the numbering rules
 can number its marker again by other evidence: unnumbered is better than wrong.
 """
 
@@ -28,10 +29,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from dempath_recon.tracking.link_guide import DOUBT_FRAMES, DRIFT_WINDOW
 from dempath_recon.tracking.state import StereoState, take_back
 
 SAME_INSTANT_SHARE = 0.25  # a partner seen within this share of a frame period is of this
 # instant (the few ms two unsynchronised cameras expose apart: 3 ms in the twin's renders)
+STEADY_PX = 1.25  # the view is steady while its pairs' recent median distance from their lines
+# is within this [px] (right pairs of the long-pass tuning looks: median 0.49 px)
 CROWD_DIAMETERS = 1.5  # another track this many marker image diameters away crowds a track
 # (two markers whose blobs touch or merge; 1.25-1.75 gave the same on the tuning looks)
 CROWD_S = 0.5  # ... if seen within this long [s] (a neighbour lost into the blob; 0.1-1 s
@@ -41,9 +45,24 @@ CROWD_S = 0.5  # ... if seen within this long [s] (a neighbour lost into the blo
 def tight_pair(state: StereoState, other: str, marker: int, stamp_s: float) -> bool:
     """Whether the other camera saw ``marker`` within ``SAME_INSTANT_SHARE`` of a frame
     period of ``stamp_s`` [s], so the pair is held to ``epipolar_px`` rather than three
-    times it (no motion along a track stands between the two points)."""
+    times it (no motion along a track stands between the two points). The caller also asks
+    that the view be steady (:func:`steady`, once a frame)."""
     hit = state.latest[other].get(marker)
     return hit is not None and abs(hit[0] - stamp_s) <= SAME_INSTANT_SHARE / state.config.fps
+
+
+def steady(state: StereoState) -> bool:
+    """Whether both cameras' checked pairs lie close to their lines: the median of each
+    camera's last ``DRIFT_WINDOW`` frame medians (at least ``DOUBT_FRAMES`` of them) within
+    ``STEADY_PX``. A shaken view puts right pairs several pixels off their lines (on the
+    bench's variation shaken by 3 px the tight test took 4 right marker-frames, 3 of them
+    still with only :func:`~dempath_recon.tracking.link_guide.lines_in_doubt`, whose 1.5 px
+    a 3 px shake does not always pass)."""
+    for seen in state.residuals.values():
+        recent = seen[-DRIFT_WINDOW:]
+        if len(recent) < DOUBT_FRAMES or float(np.median(recent)) > STEADY_PX:
+            return False
+    return True
 
 
 def crowded(state: StereoState, camera: str, track_id: int, stamp_s: float) -> bool:

@@ -12,7 +12,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dempath_recon.tracking.associate import project, triangulate_pairs
-from dempath_recon.tracking.crowded_pair import blame_crowded, tight_pair
+from dempath_recon.tracking.crowded_pair import blame_crowded, steady, tight_pair
 from dempath_recon.tracking.link_guide import DRIFT_PX, DRIFT_WINDOW, lines_in_doubt
 from dempath_recon.tracking.linker import UNNUMBERED
 from dempath_recon.tracking.one_camera import alone
@@ -108,13 +108,13 @@ def verify(state: StereoState, camera: str, track_ids: NDArray[np.int64],
     note_residuals(state, camera, epi[same_instant], stamp_s, events)
     moved = frame_moved(state, markers, idx, xyz, stamp_s)
     view_jumped = jumped_together(state, camera, track_ids, markers)
+    steady_view = state.config.crowded_pairs and steady(state)
     for k, x, d in zip(idx, xyz, epi, strict=True):
         m = int(markers[k])
         dist, allowed = state.positions.distance(m, stamp_s, x)
         # a doubtful re-attachment is confirmed only by the test that numbers a new track, and
         # so is a pair seen at one instant (no motion along a track between its two points)
-        tight = k in unsure or (state.config.crowded_pairs
-                                and tight_pair(state, other, m, stamp_s))
+        tight = k in unsure or (steady_view and tight_pair(state, other, m, stamp_s))
         epi_ok = state.config.epipolar_px if tight else 3 * state.config.epipolar_px
         track = tracks.get(int(track_ids[k]))
         back = track is not None and track.back_unchecked
