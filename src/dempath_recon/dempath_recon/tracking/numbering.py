@@ -22,6 +22,7 @@ from dempath_recon.tracking.associate import (
     triangulate_pairs,
 )
 from dempath_recon.tracking.grid_pairs import pairs_by_grid
+from dempath_recon.tracking.half_ghost import drop_half_ghosts
 from dempath_recon.tracking.linker import UNNUMBERED
 from dempath_recon.tracking.one_camera import grid_anchor, late_grid, lost_nearby
 from dempath_recon.tracking.pair_anchor import (
@@ -116,9 +117,13 @@ def number_both_by_grid(state: StereoState, camera: str, track_ids: NDArray[np.i
         own = {t.track_id: t.marker for t in state.trackers[other].tracks}
         mine, theirs = drop_contested(mine, theirs, np.array(
             [own.get(int(t), UNNUMBERED) for t in ids_o], np.int32), camera, other, events)
-    kept, kept_o = drop_unclaimed_nearer(mine, theirs, grid_rival(state, camera, uv, mine),
-                                         grid_rival(state, other, uv_o, theirs), camera,
-                                         events)
+    near, near_o = grid_rival(state, camera, uv, mine), grid_rival(state, other, uv_o, theirs)
+    kept, kept_o = drop_unclaimed_nearer(mine, theirs, near, near_o, camera, events)
+    if state.config.half_ghost:
+        kept, kept_o = drop_half_ghosts(
+            kept, kept_o, near, near_o,
+            epipolar_distance(state.cameras[camera], state.cameras[other], uv, uv_o),
+            state.config.epipolar_px, camera, other, events)
     for cam, ids, nums, left in ((camera, track_ids, mine, kept), (other, ids_o, theirs, kept_o)):
         state.refused[cam] |= {(int(ids[i]), int(nums[i]))  # a ghost's spots are not its number
                                for i in np.flatnonzero((nums >= 0) & (left < 0)).tolist()}

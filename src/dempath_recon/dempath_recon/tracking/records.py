@@ -98,6 +98,10 @@ class StereoTrackConfig:
             either camera whose spot is crowded by another track
             (:mod:`~dempath_recon.tracking.crowded_pair`: a neighbour that slid over or came
             out where the marker sank). False: such pairs get three times ``epipolar_px``.
+        half_ghost: at the grid fit, leave unnumbered a pair's spot that lies nearer the
+            image grid point of a marker no pair claims, in its camera alone (the front of two
+            markers on one line of sight, the other camera seeing only the one behind:
+            :mod:`~dempath_recon.tracking.half_ghost`); its partner keeps the number.
     """
 
     detector: DetectorConfig = field(default_factory=DetectorConfig)
@@ -122,6 +126,7 @@ class StereoTrackConfig:
     numbered_partner: bool = True
     regain: bool = True
     crowded_pairs: bool = True
+    half_ghost: bool = True
 
     def __post_init__(self) -> None:
         for name in ('fps', 'epipolar_px', 'grid_gate_px', 'position_gate_m',
