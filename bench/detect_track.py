@@ -264,11 +264,15 @@ def main(argv: list[str]) -> int:
     p.add_argument('--no-regain', action='store_true',
                    help='do not give back a number elimination took back for a jump '
                         '(StereoTrackConfig.regain; on by default)')
+    p.add_argument('--no-half-ghost', action='store_true',
+                   help="number both spots of a grid pair whose spot in one camera lies nearer "
+                        "an unclaimed marker's grid point (StereoTrackConfig.half_ghost; on)")
     args = p.parse_args(argv)
     from detect_track_variations import (
         CLAY_SET,
         EXPOSURE_KNOWN,
         FLOOR,
+        HALF_GHOST,
         ONE_CAMERA,
         PARTNER,
         REGAIN,
@@ -287,6 +291,7 @@ def main(argv: list[str]) -> int:
     ONE_CAMERA[0] = args.coming_out
     PARTNER[0] = not args.no_numbered_partner
     REGAIN[0] = not args.no_regain
+    HALF_GHOST[0] = not args.no_half_ghost
     CLAY_SET[0] = args.marker_colour == 'look'
     cv2.setNumThreads(1)
     truth = json.loads(args.bag.with_name(args.bag.name + '.truth.json').read_text())

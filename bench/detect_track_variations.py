@@ -61,6 +61,7 @@ ONE_CAMERA = [False]  # ``--coming-out``: StereoTrackConfig.coming_out (off by d
 PARTNER = [True]  # ``--no-numbered-partner``: StereoTrackConfig.numbered_partner (on since
 # session 20)
 REGAIN = [True]  # ``--no-regain``: StereoTrackConfig.regain (on by default, session 20)
+HALF_GHOST = [True]  # ``--no-half-ghost``: StereoTrackConfig.half_ghost (on, session 20)
 EXPOSURE_KNOWN = [True]  # the trackers are told each recording's exposure (``--exposure-unknown``:
 # not, as before session 16: no streak search)
 
@@ -88,10 +89,10 @@ def with_clay(config: StereoTrackConfig, truth: dict[str, Any]) -> StereoTrackCo
 
 def with_seek(config: StereoTrackConfig) -> StereoTrackConfig:
     """``config`` with the numbering of session 19 that is off by default (``coming_out``) as
-    ``--coming-out`` asks, and ``numbered_partner`` and ``regain`` (on by default) unless
-    ``--no-numbered-partner`` or ``--no-regain``."""
+    ``--coming-out`` asks, and ``numbered_partner``, ``regain`` and ``half_ghost`` (on by
+    default) unless ``--no-numbered-partner``, ``--no-regain`` or ``--no-half-ghost``."""
     return replace(config, coming_out=ONE_CAMERA[0], numbered_partner=PARTNER[0],
-                   regain=REGAIN[0])
+                   regain=REGAIN[0], half_ghost=HALF_GHOST[0])
 
 
 def with_floor(config: StereoTrackConfig) -> StereoTrackConfig:
