@@ -10,7 +10,7 @@ On a cohesive dusk render (hidden seed 131, light x0.3, 12 ms) the front's spot 
 (69 % visible; marker 2 behind it, 42 %) paired with the side's spot of marker 2 (marker 1 26 %
 visible there): the pair met 6.8 mm from grid point 2, 3.0 px off the epipolar line, and the
 front's spot took 2 for the whole pass; the side's track of 2 later followed marker 1 as well
-(40 wrong numbers, 23 3D points 5-60 mm off; the look's 3D error 8.6 mm).
+(40 wrong numbers, 23 3D points more than 5 mm off, up to 46 mm; the look's 3D error 8.6 mm).
 
 :func:`~dempath_recon.tracking.pair_anchor.drop_unclaimed_nearer` drops a ghost of two
 markers (each camera's spot nearest the grid point of a marker no pair claims). This is the
