@@ -28,9 +28,14 @@ can number its marker again by other evidence: unnumbered is better than wrong.
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import NDArray
 
+from dempath_recon.tracking.associate import triangulate_pairs
 from dempath_recon.tracking.link_guide import DOUBT_FRAMES, DRIFT_WINDOW
 from dempath_recon.tracking.state import StereoState, take_back
+from dempath_recon.tracking.track_pairs import give_late
+
+FloatArray = NDArray[np.float64]
 
 SAME_INSTANT_SHARE = 0.25  # a partner seen within this share of a frame period is of this
 # instant (the few ms two unsynchronised cameras expose apart: 3 ms in the twin's renders)
@@ -38,6 +43,8 @@ STEADY_PX = 1.25  # the view is steady while its pairs' recent median distance f
 # is within this [px] (right pairs of the long-pass tuning looks: median 0.49 px)
 CROWD_DIAMETERS = 1.5  # another track this many marker image diameters away crowds a track
 # (two markers whose blobs touch or merge; 1.25-1.75 gave the same on the tuning looks)
+GIVE_BACK_FRAMES = 3  # clear frames in a row that give a taken-back number back (see give_back)
+CROWDED_SHARE = 0.5  # ... where a crowded spot's pair must lie within this share of epipolar_px
 CROWD_S = 0.5  # ... if seen within this long [s] (a neighbour lost into the blob; 0.1-1 s
 # gave the same on the tuning looks)
 
@@ -98,4 +105,69 @@ def blame_crowded(state: StereoState, camera: str, track_id: int, marker: int,
     if other_crowded and partner is not None:
         take_back(state, other, partner, marker)
         state.pending[other].pop(marker, None)
-    return crowded(state, camera, track_id, stamp_s), other_crowded
+        state.crowd_taken[other][partner] = (marker, 0, stamp_s)
+    this = crowded(state, camera, track_id, stamp_s)
+    if this:
+        state.crowd_taken[camera][track_id] = (marker, 0, stamp_s)
+    return this, other_crowded
+
+
+def give_back(state: StereoState, camera: str, track_ids: NDArray[np.int64],
+              markers: NDArray[np.int32], uv: FloatArray, stamp_s: float, events: list[str],
+              ) -> NDArray[np.int32]:
+    """``markers`` (k,) of this frame's tracks ``track_ids`` (k,) at ``uv`` (k, 2) px, with
+    a number :func:`blame_crowded` took back given back to its track once the track is on its
+    own marker again: over ``GIVE_BACK_FRAMES`` of the camera's frames in a row, the view
+    steady, the track running and not crowded, no other track of either camera's frame
+    holding the number but the other camera's track of it, seen at this very instant, whose
+    pair with the track lies within ``epipolar_px`` of its line (the test that numbers a new
+    track) and at a 3D point the marker can have reached. Any frame that fails starts the
+    count again. The number goes back as a late number (a contradicting pair check takes it
+    back again), and the track's points held for the publication delay from before the
+    first clear frame stay unnumbered (on tuning look ``tune6_default`` they were on a sunk
+    neighbour's spot: 3 switches)."""
+    taken = state.crowd_taken[camera]
+    if not taken:
+        return markers
+    out, other = markers.copy(), state.other(camera)
+    tracks = {t.track_id: t for t in state.trackers[camera].tracks}
+    row = {int(t): k for k, t in enumerate(track_ids.tolist())}
+    view_ok = steady(state)
+    for tid, (number, clear, since) in sorted(taken.items()):
+        track = tracks.get(tid)
+        if track is None or track.marker >= 0:
+            del taken[tid]
+            continue
+        k = row.get(tid)
+        ok = k is not None and view_ok and not track.lost and int(out[k]) < 0 \
+            and number not in out.tolist() \
+            and _pair_clear(state, camera, uv[k], number, stamp_s,
+                            CROWDED_SHARE if crowded(state, camera, tid, stamp_s) else 1.0)
+        clear, since = (clear + 1, since if clear else stamp_s) if ok else (0, stamp_s)
+        if clear < GIVE_BACK_FRAMES or k is None:
+            taken[tid] = (number, clear, since)
+            continue
+        del taken[tid]
+        give_late(state, camera, track, number)
+        state.queue.keep_free(camera, tid, since)
+        out[k] = number
+        events.append(f'{camera}: track {tid} given marker {number} back at {stamp_s:.3f} s: '
+                      f'paired on its line with {other} at one instant for '
+                      f'{GIVE_BACK_FRAMES} frames, its spot no longer crowded')
+    return out
+
+
+def _pair_clear(state: StereoState, camera: str, uv: FloatArray, number: int,
+                stamp_s: float, share: float) -> bool:
+    """Whether the other camera gave ``number`` out at this very instant, from a running
+    track that holds it, and the pair with ``uv`` (2,) px lies within ``share`` times
+    ``epipolar_px`` of its line at a 3D point the marker can have reached."""
+    other = state.other(camera)
+    holder = [t for t in state.trackers[other].tracks if t.marker == number and not t.lost]
+    if len(holder) != 1 or not tight_pair(state, other, number, stamp_s):
+        return False
+    seen = state.latest[other][number][1]
+    xyz, epi = triangulate_pairs(state.cameras[camera], state.cameras[other], uv[None],
+                                 np.asarray(seen, np.float64)[None])
+    dist, allowed = state.positions.distance(number, stamp_s, xyz[0])
+    return float(epi[0]) <= share * state.config.epipolar_px and dist <= allowed

@@ -98,6 +98,8 @@ class StereoTrackConfig:
             either camera whose spot is crowded by another track
             (:mod:`~dempath_recon.tracking.crowded_pair`: a neighbour that slid over or came
             out where the marker sank). False: such pairs get three times ``epipolar_px``.
+        crowd_give_back: give such a number back once the track is on its own marker again
+            (:func:`~dempath_recon.tracking.crowded_pair.give_back`; with ``crowded_pairs``).
         half_ghost: at the grid fit, leave unnumbered a pair's spot that lies nearer the
             image grid point of a marker no pair claims, in its camera alone (the front of two
             markers on one line of sight, the other camera seeing only the one behind:
@@ -126,6 +128,7 @@ class StereoTrackConfig:
     numbered_partner: bool = True
     regain: bool = True
     crowded_pairs: bool = True
+    crowd_give_back: bool = True
     half_ghost: bool = True
 
     def __post_init__(self) -> None:

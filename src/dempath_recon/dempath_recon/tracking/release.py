@@ -77,6 +77,16 @@ class ReleaseQueue:
         self._held.clear()
         return out
 
+    def keep_free(self, camera: str, track_id: int, before_s: float) -> None:
+        """Leave the points of ``track_id`` in ``camera``'s frames held from before
+        ``before_s`` [s] unnumbered, whatever number the track takes now (its number was
+        given back on evidence from ``before_s`` on: before then the track may have been on
+        another marker's spot)."""
+        for held in self._held:
+            if held.camera == camera and held.frame.stamp_s < before_s:
+                held.free[held.track_ids == track_id] = False
+                held.waiting[held.track_ids == track_id] = -1
+
     def __len__(self) -> int:
         return len(self._held)
 

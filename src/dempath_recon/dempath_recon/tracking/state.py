@@ -81,6 +81,9 @@ class StereoState:
             jump without a re-attachment, the stamp it was numbered at [s])
             (``grid_elimination.revoke_jumped``; :mod:`~dempath_recon.tracking.regain` may
             give it back).
+        crowd_taken: per camera, track id -> (the number a crowded same-instant pair took
+            back from it, its clear frames in a row, the stamp the row began at [s])
+            (:func:`~dempath_recon.tracking.crowded_pair.give_back` may give it back).
         record: which rule numbered what (``config.record_numbers``; None: not kept).
     """
 
@@ -106,6 +109,7 @@ class StereoState:
     provisional: set[str]
     eliminated: dict[str, dict[int, tuple[float, float]]]
     jumped: dict[str, dict[int, tuple[int, float]]]
+    crowd_taken: dict[str, dict[int, tuple[int, int, float]]]
     record: NumberRecord | None = None
 
     @classmethod
@@ -133,7 +137,8 @@ class StereoState:
             queue=ReleaseQueue(cameras, config.number_delay_frames),
             residuals={n: [] for n in cameras}, last_tracks=dict.fromkeys(cameras),
             provisional=set(), eliminated={n: {} for n in cameras},
-            jumped={n: {} for n in cameras}, record=record)
+            jumped={n: {} for n in cameras}, crowd_taken={n: {} for n in cameras},
+            record=record)
 
     def other(self, camera: str) -> str:
         """The other camera's name."""

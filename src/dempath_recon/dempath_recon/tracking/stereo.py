@@ -39,6 +39,7 @@ from numpy.typing import NDArray
 from dempath_recon.methods.triangulate import Camera
 from dempath_recon.tracking.associate import marker_diameter_px, view_of_up
 from dempath_recon.tracking.coming_out import number_coming_out
+from dempath_recon.tracking.crowded_pair import give_back
 from dempath_recon.tracking.detect import (
     Detections,
     ImageDecodeError,
@@ -263,6 +264,9 @@ class StereoMarkerTracker:
             step('coming_out')
             markers = number_coming_out(state, camera, tf.track_ids, markers, tf.uv, stamp_s,
                                         events)
+        if state.config.crowded_pairs and state.config.crowd_give_back:
+            step('crowd_give_back')
+            markers = give_back(state, camera, tf.track_ids, markers, tf.uv, stamp_s, events)
         step('pair_checks')
         markers = verify(state, camera, tf.track_ids, markers, tf.uv, stamp_s, events)
         waiting = waiting_points(state, camera, markers, tf.uv, stamp_s)
