@@ -32,8 +32,7 @@ from numpy.typing import NDArray
 
 from dempath_recon.tracking.associate import triangulate_pairs
 from dempath_recon.tracking.link_guide import DOUBT_FRAMES, DRIFT_WINDOW
-from dempath_recon.tracking.state import StereoState, take_back
-from dempath_recon.tracking.track_pairs import give_late
+from dempath_recon.tracking.state import StereoState, give_late, take_back
 
 FloatArray = NDArray[np.float64]
 

@@ -39,8 +39,8 @@ from dempath_recon.tracking.associate import triangulate_pairs
 from dempath_recon.tracking.held_line import held_together
 from dempath_recon.tracking.linker import Track
 from dempath_recon.tracking.release import unbroken
-from dempath_recon.tracking.state import RECENT_S, StereoState, carried_point
-from dempath_recon.tracking.track_pairs import PAIR_FRAMES, give_late
+from dempath_recon.tracking.state import RECENT_S, StereoState, carried_point, give_late
+from dempath_recon.tracking.track_pairs import PAIR_FRAMES
 
 FloatArray = NDArray[np.float64]
 REGAIN_GATE_M = 0.03  # the pair lies this near where the bed carried the marker at most [m]

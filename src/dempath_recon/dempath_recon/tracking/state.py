@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 
 from dempath_recon.methods.triangulate import Camera
 from dempath_recon.tracking.associate import MarkerPositions, back_project, depth
-from dempath_recon.tracking.linker import UNNUMBERED, MarkerTracker
+from dempath_recon.tracking.linker import UNNUMBERED, MarkerTracker, Track
 from dempath_recon.tracking.number_record import NumberRecord
 from dempath_recon.tracking.records import CameraCounts, StereoTrackConfig
 from dempath_recon.tracking.release import ReleaseQueue
@@ -227,6 +227,16 @@ def take_back(state: StereoState, camera: str, track_id: int, number: int) -> No
     state.refused[camera].add((track_id, number))
     state.trackers[camera].number(track_id, UNNUMBERED)
     state.counts[camera].revoked += 1
+
+
+def give_late(state: StereoState, camera: str, track: Track, number: int) -> None:
+    """Number ``track`` of ``camera`` after the start (a later pair may take it back;
+    as :mod:`~dempath_recon.tracking.track_pairs`, :mod:`~dempath_recon.tracking.regain` and
+    :func:`~dempath_recon.tracking.crowded_pair.give_back` do)."""
+    retire(state, camera, number)
+    state.trackers[camera].number(track.track_id, number)
+    state.late_numbered[camera].add(track.track_id)
+    state.refused[camera].discard((track.track_id, number))
 
 
 def retire(state: StereoState, camera: str, number: int) -> None:

@@ -53,7 +53,7 @@ from dempath_recon.tracking.state import (
     RECENT_S,
     StereoState,
     carried_point,
-    retire,
+    give_late,
     sure_numbers,
 )
 
@@ -312,15 +312,6 @@ def _may_take(state: StereoState, camera: str, track_id: int, number: int) -> bo
     hidden at the fit)."""
     return (track_id, number) not in state.refused[camera] \
         or number in state.fit_merged[camera].get(track_id, set())
-
-
-def give_late(state: StereoState, camera: str, track: Track, number: int) -> None:
-    """Number ``track`` of ``camera`` after the start (a later pair may take it back;
-    :mod:`~dempath_recon.tracking.regain` gives numbers so too)."""
-    retire(state, camera, number)
-    state.trackers[camera].number(track.track_id, number)
-    state.late_numbered[camera].add(track.track_id)
-    state.refused[camera].discard((track.track_id, number))
 
 
 def _seen_by_partner(state: StereoState, camera: str, track: Track, partner: Track,
