@@ -22,7 +22,10 @@ tracks is crowded: another track of its camera, seen within ``CROWD_S``, lies wi
 Both crowded: both lose it. Neither: the point is only withheld, as before (nothing says
 which camera is wrong). A number taken back is refused by that track
 (:func:`~dempath_recon.tracking.state.take_back`); the numbering rules
-can number its marker again by other evidence: unnumbered is better than wrong.
+can number its marker again by other evidence: unnumbered is better than wrong. A track blamed
+while it was on the neighbour often comes back to its own marker: :func:`give_back` returns
+the number once its same-instant pairs with the other camera's track of it pass the strict
+test over ``GIVE_BACK_FRAMES`` frames in a row (``tune6_default``, ``r121_fast``).
 """
 
 from __future__ import annotations
