@@ -5,17 +5,13 @@ number there, and came back onto 10 while 9's lost track still lay beside it).""
 
 from __future__ import annotations
 
-import json
+import sys
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
-from dempath_calib.camera import CameraModel
-from dempath_recon.tracking.associate import MarkerGrid
-from dempath_recon.tracking.detect import Detections
-from dempath_recon.tracking.linker import TrackerConfig
-from dempath_recon.tracking.stereo import StereoMarkerTracker, StereoTrackConfig
+sys.path.insert(0, str(Path(__file__).parent))
+from test_crowded_pair import replay
 
 DATA = Path(__file__).parent / 'data' / 'crowd_give_back_frames.json'
 OWNER_PX = 8.0  # a point's marker is the true one nearest within this (the bench's rule)
@@ -27,21 +23,7 @@ def given_out(give_back: bool) -> tuple[list[tuple[str, float, int]], list[tuple
     """The look's frames through the tracker: (points given their own number (camera, stamp
     s, number), points given another marker's number (camera, stamp s, number, true marker)),
     with the give-back ``give_back`` or off."""
-    data: dict[str, Any] = json.loads(DATA.read_text())
-    cams = {c['name']: CameraModel.from_dict(c) for c in data['cameras']}
-    grid = MarkerGrid(layout_m=tuple(tuple(p) for p in data['marker_grid_m']))
-    config = StereoTrackConfig(grid=grid, tool_speed_m_s=data['tool_speed_m_s'],
-                               tracker=TrackerConfig(exposure_s=data['exposure_s']),
-                               crowd_give_back=give_back)
-    tracker = StereoMarkerTracker(cams, config)
-    frames = []
-    for f in data['frames']:
-        det = Detections(np.array(f['uv']), np.array(f['confidence']), np.array(f['size_px']),
-                         crowded=np.array(f['crowded']) if 'crowded' in f else None,
-                         parted=np.array(f['parted']) if 'parted' in f else None)
-        tracker.update_detections(f['camera'], f['stamp_s'], det)
-        frames += tracker.release()
-    frames += tracker.flush()
+    data, frames = replay(DATA, crowd_give_back=give_back)
     ids: list[int] = data['marker_ids']
     truth = {(f['camera'], round(f['stamp_s'] * 1e6)): np.array(f['true_uv'])
              for f in data['frames']}

@@ -16,6 +16,7 @@ from dempath_recon.tracking.associate import MarkerGrid
 from dempath_recon.tracking.crowded_pair import blame_crowded, crowded, steady, tight_pair
 from dempath_recon.tracking.detect import Detections
 from dempath_recon.tracking.linker import TrackerConfig
+from dempath_recon.tracking.records import PixelFrame
 from dempath_recon.tracking.state import StereoState
 from dempath_recon.tracking.stereo import StereoMarkerTracker, StereoTrackConfig
 
@@ -24,17 +25,15 @@ OWNER_PX = 8.0  # a point's marker is the true one nearest within this (the benc
 OWN_PX = 3.0  # ... unless its own marker lies this near
 
 
-def switched_points(on: bool) -> list[tuple[str, float, int, int]]:
-    """The look's 25 frames a camera through the tracker: each point given out on another
-    marker's spot (camera, stamp s, number, true marker), with the rule ``on`` or off."""
-    data: dict[str, Any] = json.loads(DATA.read_text())
+def replay(path: Path, **options: bool) -> tuple[dict[str, Any], list[PixelFrame]]:
+    """A stored look's detections (``path``, JSON) through the tracker with ``options`` of
+    ``StereoTrackConfig`` set: (the stored look, the frames given out)."""
+    data: dict[str, Any] = json.loads(path.read_text())
     cams = {c['name']: CameraModel.from_dict(c) for c in data['cameras']}
     grid = MarkerGrid(layout_m=tuple(tuple(p) for p in data['marker_grid_m']))
     config = StereoTrackConfig(grid=grid, tool_speed_m_s=data['tool_speed_m_s'],
-                               tracker=TrackerConfig(exposure_s=data['exposure_s']),
-                               crowded_pairs=on)
+                               tracker=TrackerConfig(exposure_s=data['exposure_s']), **options)
     tracker = StereoMarkerTracker(cams, config)
-    ids, out = data['marker_ids'], []
     frames = []
     for f in data['frames']:
         det = Detections(np.array(f['uv']), np.array(f['confidence']), np.array(f['size_px']),
@@ -42,7 +41,14 @@ def switched_points(on: bool) -> list[tuple[str, float, int, int]]:
                          parted=np.array(f['parted']) if 'parted' in f else None)
         tracker.update_detections(f['camera'], f['stamp_s'], det)
         frames += tracker.release()
-    frames += tracker.flush()
+    return data, frames + tracker.flush()
+
+
+def switched_points(on: bool) -> list[tuple[str, float, int, int]]:
+    """The look's 25 frames a camera through the tracker: each point given out on another
+    marker's spot (camera, stamp s, number, true marker), with the rule ``on`` or off."""
+    data, frames = replay(DATA, crowded_pairs=on)
+    ids, out = data['marker_ids'], []
     truth = {(f['camera'], round(f['stamp_s'] * 1e6)): np.array(f['true_uv'])
              for f in data['frames']}
     for frame in frames:
