@@ -227,6 +227,18 @@ def node_path(bag: Path, frames: list[tuple[str, int, bytes]], truth: dict) -> d
             'withheld': sum(r['withheld'] for r in core.report().values())}
 
 
+RULE_SWITCHES = (  # (flag, StereoTrackConfig field, help): the numbering rules a run may switch
+    ('--coming-out', 'coming_out', 'number a marker coming out of the sand in one camera by where '
+     'the bed carried it (StereoTrackConfig.coming_out; off by default)'),
+    ('--no-numbered-partner', 'numbered_partner', "do not name a pair by the other camera's "
+     'number when the carried point is far (StereoTrackConfig.numbered_partner; on by default)'),
+    ('--no-regain', 'regain', 'do not give back a number elimination took back for a jump '
+     '(StereoTrackConfig.regain; on by default)'),
+    ('--no-half-ghost', 'half_ghost', "number both spots of a grid pair whose spot in one camera "
+     "lies nearer an unclaimed marker's grid point (StereoTrackConfig.half_ghost; on)"),
+)
+
+
 def main(argv: list[str]) -> int:
     """Run the benchmark and print the JSON line."""
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -255,43 +267,29 @@ def main(argv: list[str]) -> int:
     p.add_argument('--exposure-floor', choices=('off', 'faint'), default='',
                    help="the detectors' chroma floor (DetectorConfig.exposure_floor; unset: the "
                         "default)")
-    p.add_argument('--coming-out', action='store_true',
-                   help='number a marker coming out of the sand in one camera by where the bed '
-                        'carried it (StereoTrackConfig.coming_out; off by default)')
-    p.add_argument('--no-numbered-partner', action='store_true',
-                   help="do not name a pair by the other camera's number when the carried point "
-                        'is far (StereoTrackConfig.numbered_partner; on by default)')
-    p.add_argument('--no-regain', action='store_true',
-                   help='do not give back a number elimination took back for a jump '
-                        '(StereoTrackConfig.regain; on by default)')
-    p.add_argument('--no-half-ghost', action='store_true',
-                   help="number both spots of a grid pair whose spot in one camera lies nearer "
-                        "an unclaimed marker's grid point (StereoTrackConfig.half_ghost; on)")
+    for flag, _, text in RULE_SWITCHES:
+        p.add_argument(flag, action='store_true', help=text)
     args = p.parse_args(argv)
     from detect_track_variations import (
         CLAY_SET,
         EXPOSURE_KNOWN,
         FLOOR,
-        HALF_GHOST,
-        ONE_CAMERA,
-        PARTNER,
-        REGAIN,
+        RULES,
         TOOL_SPEED,
         look_exposure,
         with_clay,
         with_exposure,
         with_floor,
-        with_seek,
+        with_rules,
         with_tool_speed,
     )
 
     EXPOSURE_KNOWN[0] = not args.exposure_unknown
     TOOL_SPEED[0] = args.tool_speed
     FLOOR[0] = args.exposure_floor
-    ONE_CAMERA[0] = args.coming_out
-    PARTNER[0] = not args.no_numbered_partner
-    REGAIN[0] = not args.no_regain
-    HALF_GHOST[0] = not args.no_half_ghost
+    for flag, field, _ in RULE_SWITCHES:  # '--no-x' switches rule x off, '--x' on
+        if getattr(args, flag[2:].replace('-', '_')):
+            RULES[field] = not flag.startswith('--no-')
     CLAY_SET[0] = args.marker_colour == 'look'
     cv2.setNumThreads(1)
     truth = json.loads(args.bag.with_name(args.bag.name + '.truth.json').read_text())
@@ -299,7 +297,7 @@ def main(argv: list[str]) -> int:
     frames = read_frames(args.bag, truth['calibration_segment']['field_start_ns'], list(cams))
     # the experiment's marker layout (the scene's grid points), as an experimenter knows it
     grid = MarkerGrid(layout_m=tuple(tuple(p) for p in truth['marker_grid_m']))
-    config = with_floor(with_seek(with_tool_speed(with_clay(with_exposure(
+    config = with_floor(with_rules(with_tool_speed(with_clay(with_exposure(
         StereoTrackConfig(grid=grid), look_exposure(truth)), truth), truth)))
     load = [round(x, 2) for x in os.getloadavg()]
     if (args.rendered or args.rendered_tuning) and not args.variations:  # re-rendered bags alone

@@ -57,11 +57,9 @@ CLAY_SET = [False]  # the detectors are told a recording's clay colour when it i
 TOOL_SPEED = [0.0]  # the tool's speed [m/s] for recordings whose truth does not give it
 # (``--tool-speed``); 0: not known (the linkers' speed bound is off)
 FLOOR = ['']  # ``--exposure-floor``: DetectorConfig.exposure_floor ('': the default)
-ONE_CAMERA = [False]  # ``--coming-out``: StereoTrackConfig.coming_out (off by default, session 19)
-PARTNER = [True]  # ``--no-numbered-partner``: StereoTrackConfig.numbered_partner (on since
-# session 20)
-REGAIN = [True]  # ``--no-regain``: StereoTrackConfig.regain (on by default, session 20)
-HALF_GHOST = [True]  # ``--no-half-ghost``: StereoTrackConfig.half_ghost (on, session 20)
+RULES: dict[str, bool] = {}  # StereoTrackConfig's numbering rules as the command line sets them
+# (``--coming-out``, ``--no-numbered-partner``, ``--no-regain``, ``--no-half-ghost``: the field and
+# its value); a rule not named keeps its default
 EXPOSURE_KNOWN = [True]  # the trackers are told each recording's exposure (``--exposure-unknown``:
 # not, as before session 16: no streak search)
 
@@ -87,12 +85,9 @@ def with_clay(config: StereoTrackConfig, truth: dict[str, Any]) -> StereoTrackCo
     return replace(config, detector=replace(config.detector, marker_bgr=bgr))
 
 
-def with_seek(config: StereoTrackConfig) -> StereoTrackConfig:
-    """``config`` with the numbering of session 19 that is off by default (``coming_out``) as
-    ``--coming-out`` asks, and ``numbered_partner``, ``regain`` and ``half_ghost`` (on by
-    default) unless ``--no-numbered-partner``, ``--no-regain`` or ``--no-half-ghost``."""
-    return replace(config, coming_out=ONE_CAMERA[0], numbered_partner=PARTNER[0],
-                   regain=REGAIN[0], half_ghost=HALF_GHOST[0])
+def with_rules(config: StereoTrackConfig) -> StereoTrackConfig:
+    """``config`` with the numbering rules the command line switched (``RULES``)."""
+    return replace(config, **RULES)
 
 
 def with_floor(config: StereoTrackConfig) -> StereoTrackConfig:
@@ -335,7 +330,7 @@ def run_rendered(bags: list[Path], read: Any, held_out: bool = True) -> dict[str
         row = {'variation': bag.name, 'held_out': held_out, 'rendered': True,
                'look': truth['config']['look'], 'jpeg_quality': truth['config']['jpeg_quality'],
                **figures(frames, truth, cams,
-                         with_floor(with_seek(with_tool_speed(with_clay(with_exposure(
+                         with_floor(with_rules(with_tool_speed(with_clay(with_exposure(
                              StereoTrackConfig(grid=grid), look_exposure(truth)),
                              truth), truth))))}
         rows.append(row)
