@@ -120,10 +120,11 @@ def give_back(state: StereoState, camera: str, track_ids: NDArray[np.int64],
     """``markers`` (k,) of this frame's tracks ``track_ids`` (k,) at ``uv`` (k, 2) px, with
     a number :func:`blame_crowded` took back given back to its track once the track is on its
     own marker again: over ``GIVE_BACK_FRAMES`` of the camera's frames in a row, the view
-    steady, the track running and not crowded, no other track of either camera's frame
-    holding the number but the other camera's track of it, seen at this very instant, whose
-    pair with the track lies within ``epipolar_px`` of its line (the test that numbers a new
-    track) and at a 3D point the marker can have reached. Any frame that fails starts the
+    steady, the track running, no other track of either camera's frame holding the number
+    but the other camera's track of it, seen at this very instant, whose pair with the track
+    lies within ``epipolar_px`` of its line (the test that numbers a new track; within
+    ``CROWDED_SHARE`` of it while the track's spot is still crowded) and at a 3D point the
+    marker can have reached. Any frame that fails starts the
     count again. The number goes back as a late number (a contradicting pair check takes it
     back again), and the track's points held for the publication delay from before the
     first clear frame stay unnumbered (on tuning look ``tune6_default`` they were on a sunk
@@ -155,7 +156,7 @@ def give_back(state: StereoState, camera: str, track_ids: NDArray[np.int64],
         out[k] = number
         events.append(f'{camera}: track {tid} given marker {number} back at {stamp_s:.3f} s: '
                       f'paired on its line with {other} at one instant for '
-                      f'{GIVE_BACK_FRAMES} frames, its spot no longer crowded')
+                      f'{GIVE_BACK_FRAMES} frames')
     return out
 
 
