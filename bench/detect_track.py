@@ -236,6 +236,8 @@ RULE_SWITCHES = (  # (flag, StereoTrackConfig field, help): the numbering rules 
      '(StereoTrackConfig.regain; on by default)'),
     ('--no-half-ghost', 'half_ghost', "number both spots of a grid pair whose spot in one camera "
      "lies nearer an unclaimed marker's grid point (StereoTrackConfig.half_ghost; on)"),
+    ('--bed-flow', 'bed_flow', 'carry an unseen marker by the measured field of the bed, not '
+     "the mean of its three nearest neighbours' displacements (StereoTrackConfig.bed_flow; off)"),
 )
 
 

@@ -12,7 +12,8 @@ ROOM = Path(dempath_recon.tracking.__file__).parent
 # Bottom to top: a module may import the modules before it, never one after it.
 ORDER = ('merge', 'cut_discs_kernel', 'cut_discs', 'split', 'covered', 'streak', 'colour_model',
          'shaded', 'detect', 'shake',
-         'linker', 'associate', 'speed_bound', 'grid_pairs', 'pair_anchor', 'half_ghost',
+         'linker', 'associate', 'bed_flow', 'speed_bound', 'grid_pairs', 'pair_anchor',
+         'half_ghost',
          'records', 'release',
          'publish_gate', 'trajectories', 'number_record', 'state', 'held_line', 'link_guide',
          'crowded_pair', 'parted', 'one_camera', 'numbering', 'pair_checks', 'pair_numbering',

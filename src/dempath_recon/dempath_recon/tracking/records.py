@@ -104,6 +104,14 @@ class StereoTrackConfig:
             image grid point of a marker no pair claims, in its camera alone (the front of two
             markers on one line of sight, the other camera seeing only the one behind:
             :mod:`~dempath_recon.tracking.half_ghost`); its partner keeps the number.
+        bed_flow: place a marker no camera places now where a Gaussian-weighted field of its
+            neighbours' measured displacements, with a still bed as prior, carried it
+            (:mod:`~dempath_recon.tracking.bed_flow`); False: by the mean displacement of its
+            three nearest neighbours (``MarkerPositions.carried``). Off by default (session
+            21, track34): the place is nearer the truth (long tuning looks: median 9.3 -> 7.1
+            mm, 90th percentile 39 -> 23 mm) but the rules that name a marker by it, tuned on
+            the old place, numbered 0.27 points more and switched 33 more times on 39 tuning
+            looks (``pair_numbering.only_marker``: a pushed marker's place lags the tine).
     """
 
     detector: DetectorConfig = field(default_factory=DetectorConfig)
@@ -130,6 +138,7 @@ class StereoTrackConfig:
     crowded_pairs: bool = True
     crowd_give_back: bool = True
     half_ghost: bool = True
+    bed_flow: bool = False
 
     def __post_init__(self) -> None:
         for name in ('fps', 'epipolar_px', 'grid_gate_px', 'position_gate_m',

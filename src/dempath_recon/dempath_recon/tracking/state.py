@@ -20,6 +20,7 @@ from numpy.typing import NDArray
 
 from dempath_recon.methods.triangulate import Camera
 from dempath_recon.tracking.associate import MarkerPositions, back_project, depth
+from dempath_recon.tracking.bed_flow import CarriedPlace, carried_place
 from dempath_recon.tracking.linker import UNNUMBERED, MarkerTracker, Track
 from dempath_recon.tracking.number_record import NumberRecord
 from dempath_recon.tracking.records import CameraCounts, StereoTrackConfig
@@ -179,15 +180,31 @@ def grid_point(state: StereoState, marker: int) -> tuple[float, FloatArray] | No
 def carried_point(state: StereoState, marker: int, stamp_s: float,
                   ) -> tuple[FloatArray, float] | None:
     """``((3,) m, since s)``: where the bed has carried a marker by ``stamp_s`` since its last
-    accepted 3D position (``MarkerPositions.carried``: moved as its nearest tracked
-    neighbours moved; a marker never triangulated starts from its fitted grid point), and
-    the stamp it was last placed at; None when it cannot be placed."""
+    accepted 3D position (with ``config.bed_flow``: :func:`~dempath_recon.tracking.bed_flow.
+    carried_place`, a measured displacement field with a still bed as prior; otherwise
+    ``MarkerPositions.carried``: moved as its three nearest tracked neighbours moved; a marker
+    never triangulated starts from its fitted grid point), and the stamp it was last placed
+    at; None when it cannot be placed."""
     anchor = grid_point(state, marker)
-    at = state.positions.carried(marker, stamp_s, 1.5 / state.config.fps, MAX_DEPTH_AGE_S,
-                                 anchor)
+    if state.config.bed_flow:
+        placed = carried_place_of(state, marker, stamp_s)
+        at = None if placed is None else placed.xyz
+    else:
+        at = state.positions.carried(marker, stamp_s, 1.5 / state.config.fps, MAX_DEPTH_AGE_S,
+                                     anchor)
     if at is None:
         return None
     return at, state.positions.known.get(marker, anchor or (stamp_s, at))[0]
+
+
+def carried_place_of(state: StereoState, marker: int, stamp_s: float) -> CarriedPlace | None:
+    """Where the measured field of the bed carried ``marker`` by ``stamp_s``, with its spread
+    (:func:`~dempath_recon.tracking.bed_flow.carried_place`; from its last accepted 3D
+    position, or its fitted grid point when never triangulated); None when it cannot be
+    placed."""
+    start = state.positions.known.get(marker, grid_point(state, marker))
+    return carried_place(state.positions.history, marker, stamp_s, start,
+                         1.5 / state.config.fps, MAX_DEPTH_AGE_S)
 
 
 def at_stamp(state: StereoState, camera: str, marker: int, sighting: Sighting,
