@@ -34,6 +34,9 @@ ALONE_RATIO = 3.0  # a re-found spot is kept on one camera's evidence when every
 MIN_SPEED_PX_S = 50.0  # speed floor of that comparison: a pixel a frame at 50 FPS [px/s]
 CARRY_FLOOR_M = 0.003  # nearest-marker comparison of ``only_marker``: distances below this
 # (a few times the triangulation noise, ~1 mm RMS) count as this [m]
+RIVAL_SIGMAS = 1.0  # with ``config.bed_flow``, a point within this many of a marker's carried
+# spreads may be that marker (``could_be_there``; 1 and 2 both stopped t113_asis' 26 switch-frames
+# on the long tuning looks; 2 also refused right pairs: 23 tiny tuning looks 79.11 -> 78.76 %)
 MAX_DEPTH_AGE_S = 0.06  # a 3D point older than this (three frames) no longer bounds the depth
 # along an epipolar line usefully (the gate has grown to 0.13 m, several marker pitches)
 
@@ -205,6 +208,20 @@ def carried_place_of(state: StereoState, marker: int, stamp_s: float) -> Carried
     start = state.positions.known.get(marker, grid_point(state, marker))
     return carried_place(state.positions.history, marker, stamp_s, start,
                          1.5 / state.config.fps, MAX_DEPTH_AGE_S)
+
+
+def could_be_there(state: StereoState, marker: int, stamp_s: float, xyz: FloatArray) -> bool:
+    """Whether a 3D point ``xyz`` (3,) m lies within ``RIVAL_SIGMAS`` spreads of where the bed
+    carried ``marker`` (with ``config.bed_flow`` only: the plain carried point has no spread;
+    False when off or when the marker cannot be placed). Markers pushed in front of the tine
+    bunch, and a pushed marker's place lags its true one by 15-30 mm: on ``t113_asis`` a pair
+    of marker 2 lay 6 mm from where the field carried 3 and 18 mm from 2's own place (its
+    spread 28 mm), and was named 3 for 26 frames."""
+    if not state.config.bed_flow:
+        return False
+    placed = carried_place_of(state, marker, stamp_s)
+    return placed is not None and \
+        float(np.linalg.norm(xyz - placed.xyz)) <= RIVAL_SIGMAS * placed.sigma_m
 
 
 def at_stamp(state: StereoState, camera: str, marker: int, sighting: Sighting,
