@@ -175,15 +175,25 @@ def lit_peaks(image: NDArray[np.uint8], rows: NDArray[np.intp], cols: NDArray[np
     return np.asarray(patch_brightness(image, rows, cols) >= LIT_SHARE * at, np.bool_)
 
 
+_PATCH_OFFSETS = (np.repeat(np.arange(-2, 3), 5)[None], np.tile(np.arange(-2, 3), 5)[None])
+# (1, 25) each: the row and column offsets of a 5 x 5 patch around a pixel
+
+
 def patch_brightness(image: NDArray[np.uint8], rows: NDArray[np.intp],
                      cols: NDArray[np.intp]) -> NDArray[np.float64]:
     """(n,) the mean ``B + G + R`` [DN] of the 5 x 5 pixels around each peak (``rows``,
     ``cols`` (n,) in ``image``; clipped at the image's edges)."""
-    out = np.zeros(len(rows), np.float64)
-    for k, (y, x) in enumerate(zip(rows, cols, strict=True)):
-        patch = image[max(int(y) - 2, 0):int(y) + 3, max(int(x) - 2, 0):int(x) + 3]
-        out[k] = float(patch.astype(np.float32).sum(axis=2).mean())
-    return out
+    # gathered for every peak at once (one peak at a time cost 5 us each, and the window's
+    # bright-pixel box asks it of a few hundred pixels a frame): the 5 x 5 offsets' sums, those
+    # off the image left out; integer sums, then the mean in float32 as a patch's own mean is
+    h, w = image.shape[:2]
+    y = np.asarray(rows, np.intp)[:, None] + _PATCH_OFFSETS[0]
+    x = np.asarray(cols, np.intp)[:, None] + _PATCH_OFFSETS[1]
+    inside = (y >= 0) & (y < h) & (x >= 0) & (x < w)
+    pixels = image[np.clip(y, 0, h - 1), np.clip(x, 0, w - 1)].astype(np.int64).sum(axis=2)
+    total = np.where(inside, pixels, 0).sum(axis=1).astype(np.float32)
+    count = inside.sum(axis=1).astype(np.float32)
+    return np.asarray(total / np.maximum(count, np.float32(1.0)), np.float64)
 
 
 def bright_peaks(image: NDArray[np.uint8], rows: NDArray[np.intp], cols: NDArray[np.intp],

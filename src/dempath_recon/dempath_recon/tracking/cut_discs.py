@@ -20,19 +20,20 @@ disc centre ``x_i`` is the marker's centre, whatever share of it the sand leaves
 it from the seen rim's arc, where a whole-disc fit put a covered marker's disc on its visible
 part, 3-3.5 px off (session 16, track7).
 
-Fitted by Levenberg-Marquardt (MINPACK's ``lmder`` through ``scipy.optimize.leastsq``) with
-the analytic Jacobian; residual and Jacobian come from one compiled pass over the pixels
-(:mod:`~dempath_recon.tracking.cut_discs_kernel`), which ``union_model`` and
-``union_jacobian`` here state readably and the tests hold it to.
+Fitted by Levenberg-Marquardt (MINPACK's ``lmder``, as ``scipy.optimize.leastsq`` calls it,
+without that wrapper's checks) with the analytic Jacobian; residual and Jacobian come from one
+compiled pass over the pixels (:mod:`~dempath_recon.tracking.cut_discs_kernel`), which
+``union_model`` and ``union_jacobian`` here state readably and the tests hold it to.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.optimize import leastsq
+from scipy.optimize._minpack import _lmder  # MINPACK itself (scipy pinned: constraints)
 from scipy.special import erfc
 
 from dempath_recon.tracking.cut_discs_kernel import residual_and_jacobian
@@ -75,8 +76,36 @@ class BlobFit:
 def pixel_grid(shape: tuple[int, ...], origin: tuple[int, int]) -> FloatArray:
     """(h * w, 2) the pixel centres of a patch of ``shape`` (h, w) at ``origin`` (x0, y0)."""
     h, w = shape[:2]
+    if origin == (0, 0):
+        return _patch_grid(h, w)
     yy, xx = np.mgrid[0:h, 0:w]
     return np.column_stack([xx.ravel() + origin[0], yy.ravel() + origin[1]]).astype(np.float64)
+
+
+@lru_cache(maxsize=256)
+def _patch_grid(h: int, w: int) -> FloatArray:
+    """(h * w, 2) the pixel centres of an (h, w) patch in its own coordinates, read-only (a
+    blob's fit asks for one of a few dozen shapes, several times a frame)."""
+    yy, xx = np.mgrid[0:h, 0:w]
+    grid = np.column_stack([xx.ravel(), yy.ravel()]).astype(np.float64)
+    grid.flags.writeable = False
+    return grid
+
+
+def low_decile(values: FloatArray) -> float:
+    """The 10th percentile of ``values`` (n,), n >= 1, exactly as ``np.percentile(values,
+    10)`` gives it (linear between the order statistics at ``(n - 1) / 10``), from a
+    partition of the two neighbours: ``np.percentile``'s general path cost a fit 20 % of its
+    time (session 21)."""
+    n = len(values)
+    at = (n - 1) * 0.1
+    i = int(np.floor(at))
+    if i + 1 >= n:
+        return float(np.max(values))
+    part = np.partition(values, (i, i + 1))
+    a, b = float(part[i]), float(part[i + 1])
+    gap, t = b - a, at - i
+    return b - gap * (1 - t) if t >= 0.5 else a + gap * t
 
 
 def _parts(p: FloatArray, xy: FloatArray, k: int, up: FloatArray | None,
@@ -160,20 +189,21 @@ def fit_cut_discs(patch: NDArray[np.float32], origin: tuple[int, int], start: Fl
     xy = pixel_grid(patch.shape, (0, 0))
     values = patch.ravel().astype(np.float64)
     k, per = len(start), (2 if up is None else 3)
-    low, high = float(np.percentile(values, 10)), float(values.max())
+    low, high = low_decile(values), float(values.max())
     level = max(high - low, 1e-3)
     spread = RADIUS_SPREAD * radius / level  # the prior's weight against a pixel's residual
 
     n, m = len(values), 3 + per * k
     res, jac = np.empty(n + 1), np.empty((n + 1, m))
-    at = np.full(m, np.nan)  # the parameters res and jac were last filled for
+    at = [b'']  # the parameters' bytes res and jac were last filled for
     direction = np.zeros(2) if up is None else np.asarray(up, np.float64)
 
     def fill(p: FloatArray) -> None:  # MINPACK asks the Jacobian where it asked the residual
-        if not np.array_equal(p, at):
+        key = p.tobytes()  # the same bytes: the same parameters (a few us under array_equal)
+        if key != at[0]:
             residual_and_jacobian(p, xy, k, direction, up is not None, EDGE_BLUR, values,
                                   radius, spread, res, jac)
-            at[:] = p
+            at[0] = key
 
     def residual(p: FloatArray) -> FloatArray:
         fill(p)
@@ -186,12 +216,13 @@ def fit_cut_discs(patch: NDArray[np.float32], origin: tuple[int, int], start: Fl
     local = np.asarray(start, np.float64) - shift
     first = local if up is None else np.column_stack([local, np.full(k, -radius)])
     p0 = np.concatenate([[level, low, radius], first.ravel()])
-    # MINPACK's lmder as least_squares(method='lm', x_scale='jac') calls it (scipy 1.16), without
-    # that wrapper's per-call bookkeeping (its own Jacobian call at the end, array checks)
-    with np.errstate(over='ignore'):  # leastsq's covariance estimate, not used
-        x, _, info, _, _ = leastsq(residual, p0, Dfun=jacobian, full_output=True, ftol=1e-4,
-                                   xtol=1e-4, gtol=1e-8, maxfev=20 * (k + 1) * (per - 1))
-    fvec = info['fvec']
+    # MINPACK's lmder as least_squares(method='lm', x_scale='jac') calls it (scipy 1.16), called
+    # directly: scipy's leastsq wrapper adds a residual and a Jacobian call to check shapes and
+    # a covariance nobody reads, half the time of a fit beside the compiled kernel (session 21)
+    x, _ = _lmder(residual, jacobian, p0, (), 0, 0, 1e-4, 1e-4, 1e-8,
+                  20 * (k + 1) * (per - 1), 100.0, None)
+    fill(x)  # the residual at the solution (MINPACK's own fvec: the same kernel, the same x)
+    fvec = res
     q = x[3:].reshape(k, per)
     r = float(x[2])
     cuts = np.full(k, -1.0) if up is None else np.maximum(q[:, 2] / max(r, 1e-6), -1.0)

@@ -36,6 +36,9 @@ and tuning renders of another run; the held-out recordings were not used to choo
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from functools import lru_cache, partial
+
 import cv2
 import numpy as np
 from numpy.typing import NDArray
@@ -128,13 +131,55 @@ def split_blob(patch: NDArray[np.float32], origin: tuple[int, int], base: float,
     return chosen
 
 
-def _tried(stats: NDArray[np.int32] | cv2.typing.MatLike, lab: int, members: int, gyration: float,
-           radius: float, wide: bool) -> bool:
+def _tried(stats: NDArray[np.int32] | cv2.typing.MatLike, lab: int, members: int,
+           gyration: Callable[[], float], radius: float, wide: bool) -> bool:
     """Whether blob ``lab`` may hold several markers: larger than ``AREA_RATIO`` markers, more
-    than one detector peak in it, or (``wide``) a radius of gyration above ``WIDE_SIZE``
-    diameters."""
+    than one detector peak in it, or (``wide``) a radius of gyration (``gyration()``, asked
+    only then) above ``WIDE_SIZE`` diameters."""
     return bool(stats[lab, cv2.CC_STAT_AREA] > AREA_RATIO * np.pi * radius ** 2 or members > 1
-                or (wide and gyration > WIDE_SIZE * 2 * radius))
+                or (wide and gyration() > WIDE_SIZE * 2 * radius))
+
+
+def blob_labels(chroma: NDArray[np.float32], base: float, rows: NDArray[np.intp],
+                cols: NDArray[np.intp], reach: float,
+                ) -> tuple[NDArray[np.int32], NDArray[np.int32]]:
+    """The 8-connected blobs of the pixels of ``chroma`` (h, w) above ``base``: ``(labels,
+    stats)`` as ``cv2.connectedComponentsWithStats`` gives them for the whole window, labelled
+    at least where a blob holds one of the detections (``rows``, ``cols`` (n,) [px]).
+
+    The window is the box of everything above the detector's threshold (on another clay's
+    axis a vignetted view's dark corners spread it over half the frame) and only the blobs of
+    the detections are read: they are labelled in the box of the detections grown by
+    ``reach`` [px], and again over the whole window when one of them meets that box's edge
+    (inside the window), where it may go on. Labels outside the box are 0; a blob's label
+    and its stats' box are in window coordinates, its area its whole area.
+    """
+    h, w = chroma.shape
+    if len(rows):
+        grow = int(np.ceil(reach)) + 1
+        x0, y0 = max(int(cols.min()) - grow, 0), max(int(rows.min()) - grow, 0)
+        x1, y1 = min(int(cols.max()) + grow + 1, w), min(int(rows.max()) + grow + 1, h)
+        if (x1 - x0) * (y1 - y0) < h * w:
+            mask = (chroma[y0:y1, x0:x1] > base).view(np.uint8)
+            _, part_cv, stats_cv, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
+            part = np.asarray(part_cv, np.int32)
+            stats = np.asarray(stats_cv, np.int32)
+            mine = np.unique(part[rows - y0, cols - x0])
+            mine = mine[mine > 0]
+            sx, sy = stats[mine, cv2.CC_STAT_LEFT], stats[mine, cv2.CC_STAT_TOP]
+            ex = sx + stats[mine, cv2.CC_STAT_WIDTH]
+            ey = sy + stats[mine, cv2.CC_STAT_HEIGHT]
+            cut = (((sx == 0) & (x0 > 0)) | ((sy == 0) & (y0 > 0))
+                   | ((ex == x1 - x0) & (x1 < w)) | ((ey == y1 - y0) & (y1 < h)))
+            if not cut.any():
+                labels = np.zeros((h, w), np.int32)
+                labels[y0:y1, x0:x1] = part
+                stats[:, cv2.CC_STAT_LEFT] += x0
+                stats[:, cv2.CC_STAT_TOP] += y0
+                return labels, stats
+    _, whole, whole_stats, _ = cv2.connectedComponentsWithStats(
+        (chroma > base).view(np.uint8), connectivity=8)
+    return np.asarray(whole, np.int32), np.asarray(whole_stats, np.int32)
 
 
 def split_touching(chroma: NDArray[np.float32], uv: FloatArray, base: float, radius: float,
@@ -158,12 +203,11 @@ def split_touching(chroma: NDArray[np.float32], uv: FloatArray, base: float, rad
         ``uv``, (m,) whether it is a fitted marker of a split blob, and (m, 2) the fitted
         markers' disc centres (``uv`` for the others).
     """
-    mask = (chroma > base).view(np.uint8)
-    _, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
     ok = np.isfinite(uv).all(axis=1)
     h, w = chroma.shape
     cols = np.clip(np.rint(np.where(ok, uv[:, 0], 0)), 0, w - 1).astype(int)
     rows = np.clip(np.rint(np.where(ok, uv[:, 1], 0)), 0, h - 1).astype(int)
+    labels, stats = blob_labels(chroma, base, rows[ok], cols[ok], 2.0 * radius + MARGIN)
     label = np.where(ok, labels[rows, cols], 0)
     out: list[FloatArray] = []
     centre: list[FloatArray] = []
@@ -182,8 +226,8 @@ def split_touching(chroma: NDArray[np.float32], uv: FloatArray, base: float, rad
             x1, y1 = min(x + bw + MARGIN, w), min(y + bh + MARGIN, h)
             inside = labels[y0:y1, x0:x1] == lab
             fit = None
-            if _tried(stats, lab, len(members), _gyration(chroma[y0:y1, x0:x1], inside, base),
-                      radius, wide):
+            if _tried(stats, lab, len(members),
+                      partial(_gyration, chroma[y0:y1, x0:x1], inside, base), radius, wide):
                 patch = np.where(inside, chroma[y0:y1, x0:x1],
                                  np.minimum(chroma[y0:y1, x0:x1], base))
                 fit = split_blob(patch, (x0, y0), base, radius, up)
@@ -207,6 +251,16 @@ def _gyration(patch: NDArray[np.float32], inside: NDArray[np.bool_], base: float
     total = wgt.sum()
     if total <= 0:
         return 0.0
-    yy, xx = np.mgrid[0:patch.shape[0], 0:patch.shape[1]]
+    yy, xx = _index_grid(*patch.shape)
     mx, my = (wgt * xx).sum() / total, (wgt * yy).sum() / total
     return float(np.sqrt((wgt * ((xx - mx) ** 2 + (yy - my) ** 2)).sum() / total))
+
+
+@lru_cache(maxsize=256)
+def _index_grid(h: int, w: int) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """``np.mgrid[0:h, 0:w]`` (rows, columns), read-only: a blob's patch is one of a few dozen
+    shapes, and its gyration is asked of nearly every spot of a frame."""
+    yy, xx = np.mgrid[0:h, 0:w]
+    yy.flags.writeable = False
+    xx.flags.writeable = False
+    return yy, xx

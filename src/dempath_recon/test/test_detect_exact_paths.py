@@ -1,0 +1,140 @@
+"""The detector's shortcuts give exactly what the plain computation gives: the cut-disc fit
+without scipy's ``leastsq`` wrapper, the low decile without ``np.percentile``, the blobs of a
+window labelled only around its detections, and the 5 x 5 brightness of many peaks at once."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+from scipy.optimize import leastsq
+
+from dempath_recon.tracking.colour_model import patch_brightness
+from dempath_recon.tracking.cut_discs import (
+    EDGE_BLUR,
+    RADIUS_SPREAD,
+    fit_cut_discs,
+    low_decile,
+    pixel_grid,
+)
+from dempath_recon.tracking.cut_discs_kernel import residual_and_jacobian
+from dempath_recon.tracking.split import blob_labels
+
+
+def drawn_pair(rng: np.random.Generator, shape: tuple[int, int], r: float,
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """A chroma patch (h, w) float32 of two touching discs of radius ``r`` (the second 30 %
+    buried, 8x supersampled, with noise) and their centres (2, 2) px."""
+    h, w = shape
+    a = np.array([w / 2 - 3.2, h / 2]) + rng.uniform(-0.5, 0.5, 2)
+    centres = np.array([a, a + np.array([rng.uniform(5.5, 7.5), rng.uniform(-1, 1)])])
+    xy = pixel_grid(shape, (0, 0))
+    sub = (np.arange(8) + 0.5) / 8 - 0.5
+    ox, oy = np.meshgrid(sub, sub)
+    pts = xy[:, None, :] + np.column_stack([ox.ravel(), oy.ravel()])[None]
+    seen = np.zeros(pts.shape[:2], bool)
+    for c, cut in zip(centres, (-1.0, -0.4), strict=True):
+        d = pts - c
+        seen |= (np.hypot(d[..., 0], d[..., 1]) <= r) & (-d[..., 1] >= cut * r)
+    patch = -0.2 + 0.7 * seen.mean(1) + rng.normal(0, 0.02, len(xy))
+    return patch.reshape(shape).astype(np.float32), centres
+
+
+def leastsq_fit(patch: np.ndarray, start: np.ndarray, r: float, up: np.ndarray | None,
+                ) -> tuple[np.ndarray, float]:
+    """The fit as session 20 made it: scipy's ``leastsq`` (full output) over the compiled
+    kernel from the same start: the parameters and the squared residual."""
+    xy = pixel_grid(patch.shape, (0, 0))
+    values = patch.ravel().astype(np.float64)
+    k, per = len(start), 2 if up is None else 3
+    low = float(np.percentile(values, 10))
+    level = max(float(values.max()) - low, 1e-3)
+    spread = RADIUS_SPREAD * r / level
+    res, jac = np.empty(len(values) + 1), np.empty((len(values) + 1, 3 + per * k))
+    direction = np.zeros(2) if up is None else up
+
+    def residual(p: np.ndarray) -> np.ndarray:
+        residual_and_jacobian(p, xy, k, direction, up is not None, EDGE_BLUR, values, r,
+                              spread, res, jac)
+        return res.copy()
+
+    def jacobian(p: np.ndarray) -> np.ndarray:
+        residual_and_jacobian(p, xy, k, direction, up is not None, EDGE_BLUR, values, r,
+                              spread, res, jac)
+        return jac.copy()
+
+    first = start if up is None else np.column_stack([start, np.full(k, -r)])
+    p0 = np.concatenate([[level, low, r], first.ravel()])
+    x, _, info, _, _ = leastsq(residual, p0, Dfun=jacobian, full_output=True, ftol=1e-4,
+                               xtol=1e-4, gtol=1e-8, maxfev=20 * (k + 1) * (per - 1))
+    return x, float(np.dot(info['fvec'], info['fvec']))
+
+
+@pytest.mark.parametrize('up', [None, (0.0, -1.0)])
+def test_the_fit_is_scipys_leastsq_to_the_last_bit(up: tuple[float, float] | None) -> None:
+    """Two touching markers (one 30 % buried) in ten noisy patches, fitted as one, two and
+    three discs: the centres, cuts, radius, level and cost equal those of ``leastsq`` over the
+    same kernel exactly (the same MINPACK, called without its wrapper)."""
+    rng = np.random.default_rng(21)
+    direction = None if up is None else np.asarray(up, np.float64)
+    for _ in range(10):
+        patch, centres = drawn_pair(rng, (22, 30), 4.0)
+        for k in (1, 2, 3):
+            start = centres.mean(0) + np.linspace(-2.5, 2.5, k)[:, None] * [1.0, 0.1]
+            fit = fit_cut_discs(patch, (0, 0), start, 4.0, direction)
+            x, cost = leastsq_fit(patch, start, 4.0, direction)
+            per = 2 if up is None else 3
+            q = x[3:].reshape(k, per)
+            assert np.array_equal(fit.centres, q[:, :2])
+            assert fit.radius == x[2] and fit.level == x[0] and fit.cost == cost
+            if up is not None:
+                assert np.array_equal(fit.cuts, np.maximum(q[:, 2] / max(x[2], 1e-6), -1.0))
+
+
+def test_the_low_decile_is_numpys_percentile() -> None:
+    """``low_decile`` equals ``np.percentile(values, 10)`` bit for bit, for 1 to 700 values,
+    with ties and without."""
+    rng = np.random.default_rng(3)
+    for n in range(1, 701):
+        for values in (rng.normal(size=n), rng.integers(-4, 4, n) * 0.05):
+            assert low_decile(values) == float(np.percentile(values, 10))
+
+
+def test_blobs_labelled_around_the_detections_are_the_whole_windows() -> None:
+    """A window whose far corners hold blobs, two markers mid-window and a streak from one of
+    them running far past the detections' box: each detection's blob has the same pixels and
+    stats as when the whole window is labelled (the streak's blob leaves the box, and the
+    whole window is labelled again); with the streak cut short, only the box is labelled
+    (the corner blobs are 0)."""
+    rng = np.random.default_rng(9)
+    chroma = rng.uniform(-0.25, -0.1, (300, 400)).astype(np.float32)
+    for x, y in ((5, 5), (390, 290), (395, 8)):
+        chroma[y - 2:y + 3, x - 2:x + 3] = 0.4
+    yy, xx = np.mgrid[0:300, 0:400]
+    for cx, cy in ((150.3, 140.6), (160.1, 142.2)):
+        chroma[np.hypot(xx - cx, yy - cy) <= 4.0] = 0.45
+    rows, cols = np.array([141, 142]), np.array([150, 160])
+    for streak, boxed in ((slice(160, 300), False), (slice(160, 166), True)):
+        c = chroma.copy()
+        c[141, streak] = 0.3  # a smear from the second marker to the right
+        _, whole, whole_stats, _ = cv2.connectedComponentsWithStats(
+            (c > 0.075).view(np.uint8), connectivity=8)
+        labels, stats = blob_labels(c, 0.075, rows, cols, 10.0)
+        for r, q in zip(rows, cols, strict=True):
+            mine, ref = labels[r, q], whole[r, q]
+            assert np.array_equal(labels == mine, whole == ref)
+            assert np.array_equal(stats[mine], whole_stats[ref])
+        assert (labels[5, 5] == 0) == boxed
+
+
+def test_the_brightness_of_many_peaks_is_each_patchs_mean() -> None:
+    """The 5 x 5 mean ``B + G + R`` of peaks anywhere in a frame, its edges and corners too,
+    equals each patch's own mean (clipped at the image's edges) bit for bit."""
+    rng = np.random.default_rng(2)
+    image = rng.integers(0, 256, (37, 53, 3)).astype(np.uint8)
+    rows = np.concatenate([rng.integers(0, 37, 200), [0, 0, 36, 36, 1]])
+    cols = np.concatenate([rng.integers(0, 53, 200), [0, 52, 0, 52, 1]])
+    each = [float(image[max(y - 2, 0):y + 3, max(x - 2, 0):x + 3].astype(np.float32)
+                  .sum(axis=2).mean()) for y, x in zip(rows, cols, strict=True)]
+    assert np.array_equal(patch_brightness(image, rows, cols), np.array(each))
+    assert patch_brightness(image, rows[:0], cols[:0]).shape == (0,)
