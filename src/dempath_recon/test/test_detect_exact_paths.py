@@ -138,3 +138,60 @@ def test_the_brightness_of_many_peaks_is_each_patchs_mean() -> None:
                   .sum(axis=2).mean()) for y, x in zip(rows, cols, strict=True)]
     assert np.array_equal(patch_brightness(image, rows, cols), np.array(each))
     assert patch_brightness(image, rows[:0], cols[:0]).shape == (0,)
+
+
+def numpy_centroids(c: np.ndarray, rows: np.ndarray, cols: np.ndarray, radius: float,
+                    base: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The detector's iterated centroids as session 20 computed them, step by step in NumPy:
+    uv (n, 2), size (n,), mass (n,)."""
+    r = int(np.ceil(radius)) + 1
+    yy, xx = np.mgrid[-r:r + 1, -r:r + 1].astype(np.float64)
+    h, w = c.shape
+    pad = np.pad(c, r + 2, mode='edge')
+    out, size, mass = np.full((len(rows), 2), np.nan), np.zeros(len(rows)), np.zeros(len(rows))
+    for k, (y0, x0) in enumerate(zip(rows, cols, strict=True)):
+        cx, cy = float(x0), float(y0)
+        for _ in range(6):
+            ix, iy = min(max(round(cx), 0), w - 1), min(max(round(cy), 0), h - 1)
+            patch = pad[iy + 2:iy + 2 * r + 3, ix + 2:ix + 2 * r + 3].astype(np.float64)
+            dx, dy = xx - (cx - ix), yy - (cy - iy)
+            wgt = np.where(dx * dx + dy * dy <= radius ** 2, np.maximum(patch - base, 0.0), 0.0)
+            total = wgt.sum()
+            if total <= 0:
+                break
+            nx, ny = ix + (wgt * xx).sum() / total, iy + (wgt * yy).sum() / total
+            moved = abs(nx - cx) + abs(ny - cy)
+            cx, cy = nx, ny
+            if moved < 0.01:
+                break
+        if 0 <= cx < w and 0 <= cy < h and total > 0:
+            out[k] = cx, cy
+            size[k] = np.sqrt((wgt * ((xx - (cx - ix)) ** 2 + (yy - (cy - iy)) ** 2)).sum()
+                              / total)
+            mass[k] = total
+    return out, size, mass
+
+
+def test_the_compiled_centroids_are_the_numpy_steps() -> None:
+    """Spots of several sizes on noisy sand, some cut by the image's edges and corners, peaks
+    on empty sand too: the compiled centroids, sizes and masses equal the NumPy steps' to
+    1e-9 (the sums run in another order) and are NaN where theirs are."""
+    from dempath_recon.tracking.centroid_kernel import refine_centroids
+
+    rng = np.random.default_rng(11)
+    c = rng.normal(-0.2, 0.05, (90, 130)).astype(np.float32)
+    yy, xx = np.mgrid[0:90, 0:130]
+    centres = [(1.9, 1.6), (129.2, 45.6), (64.3, 89.7), (40.6, 30.2), (80.1, 60.8), (100.5, 10.5)]
+    for (cx, cy), r in zip(centres, (3.0, 4.2, 5.1, 2.6, 4.0, 3.5), strict=True):
+        c[np.hypot(xx - cx, yy - cy) <= r] = rng.uniform(0.3, 0.6)
+    rows = np.array([1, 46, 89, 30, 61, 10, 70, 5], np.intp)
+    cols = np.array([1, 129, 64, 41, 80, 101, 20, 60], np.intp)  # the last two: bare sand
+    for radius in (4.0, 5.5):
+        half = int(np.ceil(radius)) + 1
+        out, size, mass = np.full((8, 2), np.nan), np.zeros(8), np.zeros(8)
+        refine_centroids(c, rows, cols, radius, half, 0.075, 6, 0.01, out, size, mass)
+        ref = numpy_centroids(c, rows, cols, radius, 0.075)
+        assert np.array_equal(np.isnan(out), np.isnan(ref[0]))
+        assert np.isnan(out[6:]).all() and np.isfinite(out[3:6]).all()
+        assert np.allclose(out, ref[0], atol=1e-9, equal_nan=True)
+        assert np.allclose(size, ref[1], atol=1e-9) and np.allclose(mass, ref[2], rtol=1e-12)

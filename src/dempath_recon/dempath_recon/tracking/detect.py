@@ -41,6 +41,7 @@ import simplejpeg
 from numpy.typing import NDArray
 
 from dempath_recon.errors import ReconstructionError
+from dempath_recon.tracking.centroid_kernel import refine_centroids
 from dempath_recon.tracking.colour_model import (
     DARK_SUM_DN,
     MIN_SUM_DN,
@@ -601,34 +602,14 @@ class MarkerDetector:
     def _refine(self, c: NDArray[np.float32], rows: NDArray[np.intp], cols: NDArray[np.intp],
                 thr: float) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
         """Iterated weighted centroids around each peak: uv (n, 2), size (n,), peak (n,) and
-        mass (n,): the chroma above the core level summed over the final window."""
-        xx, yy = self._offsets
-        r = xx.shape[0] // 2
-        h, w = c.shape
-        pad = np.pad(c, r + 2, mode='edge')
+        mass (n,): the chroma above the core level summed over the final window
+        (:func:`~dempath_recon.tracking.centroid_kernel.refine_centroids`, at most 6 steps,
+        until a step is under 0.01 px)."""
         base = 0.5 * self.config.threshold  # the spot's core, whatever found it
         out = np.full((len(rows), 2), np.nan)
-        size, peak = np.zeros(len(rows)), c[rows, cols].astype(np.float64)
-        mass = np.zeros(len(rows))
-        for k, (y0, x0) in enumerate(zip(rows, cols, strict=True)):
-            cx, cy = float(x0), float(y0)
-            for _ in range(6):
-                ix, iy = min(max(round(cx), 0), w - 1), min(max(round(cy), 0), h - 1)
-                patch = pad[iy + 2:iy + 2 * r + 3, ix + 2:ix + 2 * r + 3].astype(np.float64)
-                dx, dy = xx - (cx - ix), yy - (cy - iy)
-                mask = dx * dx + dy * dy <= self._radius ** 2
-                wgt = np.where(mask, np.maximum(patch - base, 0.0), 0.0)
-                total = wgt.sum()
-                if total <= 0:
-                    break
-                nx, ny = ix + (wgt * xx).sum() / total, iy + (wgt * yy).sum() / total
-                moved = abs(nx - cx) + abs(ny - cy)
-                cx, cy = nx, ny
-                if moved < 0.01:
-                    break
-            if 0 <= cx < w and 0 <= cy < h and total > 0:
-                out[k] = cx, cy
-                size[k] = np.sqrt((wgt * ((xx - (cx - ix)) ** 2 + (yy - (cy - iy)) ** 2)).sum()
-                                  / total)
-                mass[k] = total
+        size, mass = np.zeros(len(rows)), np.zeros(len(rows))
+        peak = c[rows, cols].astype(np.float64)
+        refine_centroids(np.ascontiguousarray(c, np.float32), np.asarray(rows, np.intp),
+                         np.asarray(cols, np.intp), float(self._radius),
+                         self._offsets[0].shape[0] // 2, base, 6, 0.01, out, size, mass)
         return out, size, peak, mass
