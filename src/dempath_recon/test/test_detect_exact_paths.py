@@ -195,3 +195,35 @@ def test_the_compiled_centroids_are_the_numpy_steps() -> None:
         assert np.isnan(out[6:]).all() and np.isfinite(out[3:6]).all()
         assert np.allclose(out, ref[0], atol=1e-9, equal_nan=True)
         assert np.allclose(size, ref[1], atol=1e-9) and np.allclose(mass, ref[2], rtol=1e-12)
+
+
+def test_peaks_filtered_in_far_apart_clusters_are_the_whole_images() -> None:
+    """Spots mid-frame and specks in three far corners of a 540x960 chroma (another clay's
+    dark corners): the candidates fall in four clusters filtered apart, and the peaks are the
+    local maxima of the matched filter over the whole image, in the same order."""
+    from dempath_recon.tracking.detect import (
+        FILTER_FLOOR,
+        PEAK_TILE,
+        DetectorConfig,
+        MarkerDetector,
+        candidate_groups,
+    )
+
+    rng = np.random.default_rng(6)
+    c = rng.normal(-0.25, 0.04, (540, 960)).astype(np.float32)
+    yy, xx = np.mgrid[0:540, 0:960]
+    for cx, cy in rng.uniform([400, 230], [560, 310], (12, 2)):
+        c[np.hypot(xx - cx, yy - cy) <= 4.0] = rng.uniform(0.3, 0.6)
+    for x, y in ((4, 3), (955, 6), (950, 535)):
+        c[y - 1:y + 2, x - 1:x + 2] = 0.2
+    detector = MarkerDetector(DetectorConfig(downscale=2))
+    rows, cols = detector._peaks(c, 0.15)
+    cand = np.argwhere(c > 0.15)
+    assert len(candidate_groups(cand[:, 0], cand[:, 1], PEAK_TILE)) == 4
+    smooth = cv2.GaussianBlur(np.maximum(c, np.float32(FILTER_FLOOR)), (0, 0),
+                              detector._sigma)
+    top = cv2.dilate(smooth, detector._kernel)
+    r, q = cand[:, 0], cand[:, 1]
+    keep = (smooth[r, q] >= top[r, q]) & (smooth[r, q] > 0.075)
+    assert len(rows) >= 12
+    assert np.array_equal(rows, r[keep]) and np.array_equal(cols, q[keep])
