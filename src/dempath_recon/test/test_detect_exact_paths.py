@@ -227,3 +227,23 @@ def test_peaks_filtered_in_far_apart_clusters_are_the_whole_images() -> None:
     keep = (smooth[r, q] >= top[r, q]) & (smooth[r, q] > 0.075)
     assert len(rows) >= 12
     assert np.array_equal(rows, r[keep]) and np.array_equal(cols, q[keep])
+
+
+def test_making_a_detector_loads_its_compiled_kernels() -> None:
+    """In a fresh process, making a ``MarkerDetector`` loads the centroid and cut-disc
+    kernels (numba's first call, 0.2-0.35 s of CPU, falls on the node's start, not on its
+    first frame)."""
+    import os
+    import subprocess
+    import sys
+
+    code = ('from dempath_recon.tracking.centroid_kernel import refine_centroids\n'
+            'from dempath_recon.tracking.cut_discs_kernel import residual_and_jacobian\n'
+            'from dempath_recon.tracking.detect import MarkerDetector\n'
+            'before = len(refine_centroids.signatures) + len(residual_and_jacobian.signatures)\n'
+            'MarkerDetector()\n'
+            'print(before, len(refine_centroids.signatures),'
+            ' len(residual_and_jacobian.signatures))\n')
+    done = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
+                          env=os.environ.copy(), timeout=120, check=True)
+    assert done.stdout.split() == ['0', '1', '1']

@@ -84,3 +84,11 @@ def residual_and_jacobian(p: NDArray[np.float64], xy: NDArray[np.float64], k: in
     for m in range(jac.shape[1]):
         jac[n, m] = 0.0
     jac[n, 2] = 1.0 / spread
+
+
+def warm() -> None:
+    """Load the compiled kernel now rather than at the first touching pair (its cached load
+    takes a few ms once numba is set up, :func:`~dempath_recon.tracking.centroid_kernel.warm`)."""
+    res, jac = np.empty(2), np.empty((2, 5))
+    residual_and_jacobian(np.zeros(5), np.zeros((1, 2)), 1, np.zeros(2), False, 0.6,
+                          np.zeros(1), 1.0, 0.1, res, jac)

@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import logging
 from dataclasses import dataclass
-from functools import partial
+from functools import cache, partial
 from typing import Any, NamedTuple, Protocol
 
 import cv2
@@ -42,6 +42,7 @@ from numpy.typing import NDArray
 
 from dempath_recon.errors import ReconstructionError
 from dempath_recon.tracking.centroid_kernel import refine_centroids
+from dempath_recon.tracking.centroid_kernel import warm as warm_centroids
 from dempath_recon.tracking.colour_model import (
     DARK_SUM_DN,
     MIN_SUM_DN,
@@ -57,6 +58,7 @@ from dempath_recon.tracking.colour_model import (
     lit_peaks,
 )
 from dempath_recon.tracking.covered import MAX_ELEVATION_DEG, seen_share, uncover
+from dempath_recon.tracking.cut_discs_kernel import warm as warm_cut_discs
 from dempath_recon.tracking.shaded import lit_centroids, shade_floor
 from dempath_recon.tracking.split import split_touching
 from dempath_recon.tracking.streak import STREAK_MIN_PX, find_streak
@@ -106,6 +108,15 @@ def candidate_groups(rows: NDArray[np.integer[Any]], cols: NDArray[np.integer[An
     cuts = np.flatnonzero(np.diff(of[order])) + 1
     return [np.asarray(g, np.intp) for g in np.split(order, cuts)]
 
+
+
+@cache
+def warm_kernels() -> None:
+    """Load the detector's compiled kernels (centroids, the cut-disc fit) once per process, when
+    the first detector is made: numba's first call sets up its typing (0.2-0.35 s of CPU), which
+    a live detector would otherwise spend on its first frame."""
+    warm_centroids()
+    warm_cut_discs()
 
 
 def dim(image: NDArray[np.uint8], below: float = MIN_SUM_DN) -> bool:
@@ -344,6 +355,7 @@ class MarkerDetector:
 
     def __init__(self, config: DetectorConfig | None = None) -> None:
         self.config = config or DetectorConfig()
+        warm_kernels()
         s = self.config.downscale
         self._sigma = self.config.sigma_px / s
         self._radius = self.config.window_px / s
