@@ -247,3 +247,57 @@ def test_making_a_detector_loads_its_compiled_kernels() -> None:
     done = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
                           env=os.environ.copy(), timeout=120, check=True)
     assert done.stdout.split() == ['0', '1', '1']
+
+
+def test_the_nearest_past_position_is_the_first_nearest() -> None:
+    """``MarkerPositions`` finds each marker's history entry nearest in time by bisection:
+    for histories in order (with repeated stamps, and stamps halfway between two) and one
+    that went back in time, the entry is the one ``min(past, key=|t - t_m|)`` gives, and
+    ``carried`` moves a marker as with that search."""
+    from dempath_recon.tracking.associate import MarkerPositions
+
+    rng = np.random.default_rng(17)
+    positions = MarkerPositions(0.005, 2.0)
+    for marker in range(6):
+        stamps = np.round(np.cumsum(rng.choice([0.0, 0.01, 0.02], 60)), 2)
+        if marker == 5:
+            stamps[30:] -= 0.25  # one history goes back in time
+        for t in stamps:
+            positions.accept(marker, float(t), rng.normal(0, 0.01, 3))
+    for marker in range(6):
+        past = positions.history[marker]
+        for t_m in np.round(rng.uniform(-0.1, 1.4, 200), 3).tolist() + [p[0] for p in past]:
+            want = min(range(len(past)), key=lambda i: abs(past[i][0] - t_m))
+            assert positions._nearest(marker, t_m) == want
+    assert not positions._ordered[5] and positions._ordered[0]
+    placed = 0
+    for marker in range(6):
+        for stamp in (0.3, 0.9, 1.5):
+            got = positions.carried(marker, stamp, 0.015, 1.0)
+            want = carried_by_min(positions, marker, stamp, 0.015, 1.0)
+            assert (got is None) == (want is None)
+            assert got is None or np.array_equal(got, want)
+            placed += got is not None
+    assert placed >= 5
+
+
+def carried_by_min(positions: object, marker: int, stamp_s: float, near_s: float,
+                   recent_s: float) -> np.ndarray | None:
+    """``MarkerPositions.carried`` as session 20 computed it (each neighbour's entry nearest in
+    time found by ``min`` over its whole history), without an anchor."""
+    known, history = positions.known, positions.history  # type: ignore[attr-defined]
+    if marker not in known:
+        return None
+    t_m, x_m = known[marker]
+    moves = []
+    for n, past in history.items():
+        now = known[n]
+        if n == marker or stamp_s - now[0] > recent_s or now[0] <= t_m:
+            continue
+        then = min(past, key=lambda p: abs(p[0] - t_m))
+        if abs(then[0] - t_m) <= near_s:
+            moves.append((float(np.linalg.norm(then[1] - x_m)), now[1] - then[1]))
+    if not moves:
+        return None
+    moves.sort(key=lambda mv: mv[0])
+    return np.asarray(x_m + np.mean([mv[1] for mv in moves[:3]], axis=0), np.float64)
