@@ -2,7 +2,8 @@
 two cameras, and numbered tracks to 3D trajectories.
 
 Bottom to top (a module imports only the ones before it): ``merge`` (two cameras' frames in
-stamp order), ``cut_discs`` (the image model of touching, partly covered markers),
+stamp order), ``centroid_kernel`` (a spot's iterated centroid, compiled), ``cut_discs`` (the
+image model of touching, partly covered markers),
 ``split`` (touching markers fitted apart), ``covered`` (partly covered markers' centres),
 ``streak`` (a smeared marker along its motion), ``colour_model`` (the clay's colour axis and
 the frame's chroma floor), ``detect`` (marker spots in one image), ``shake`` (each frame's image
