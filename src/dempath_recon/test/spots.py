@@ -81,3 +81,21 @@ def spot_image(shape: tuple[int, int], centres: np.ndarray, radius: float,
                            [cv2.IMWRITE_JPEG_QUALITY, quality])
     assert ok
     return buf.tobytes()
+
+
+def cut_disc_patch(shape: tuple[int, int], centres: np.ndarray, cuts: tuple[float, ...],
+                   radius: float) -> np.ndarray:
+    """(h, w) float32 chroma of discs of ``radius`` at ``centres`` (k, 2) px, each hidden below
+    a chord ``cuts`` (k,) radii from its centre (-1: whole), drawn 8x supersampled on sand at
+    -0.2, markers at +0.5 (the cut-disc model's image, ``tracking.cut_discs``)."""
+    h, w = shape
+    yy, xx = np.mgrid[0:h, 0:w]
+    xy = np.column_stack([xx.ravel(), yy.ravel()]).astype(np.float64)
+    sub = (np.arange(8) + 0.5) / 8 - 0.5
+    ox, oy = np.meshgrid(sub, sub)
+    pts = xy[:, None, :] + np.column_stack([ox.ravel(), oy.ravel()])[None]
+    seen = np.zeros(pts.shape[:2], bool)
+    for c, cut in zip(centres, cuts, strict=True):
+        d = pts - c
+        seen |= (np.hypot(d[..., 0], d[..., 1]) <= radius) & (-d[..., 1] >= cut * radius)
+    return (-0.2 + 0.7 * seen.mean(1)).reshape(h, w).astype(np.float32)

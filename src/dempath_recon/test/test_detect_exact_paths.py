@@ -4,10 +4,16 @@ window labelled only around its detections, and the 5 x 5 brightness of many pea
 
 from __future__ import annotations
 
+import sys
+from pathlib import Path
+
 import cv2
 import numpy as np
 import pytest
 from scipy.optimize import leastsq
+
+sys.path.insert(0, str(Path(__file__).parent))
+from spots import cut_disc_patch
 
 from dempath_recon.tracking.colour_model import patch_brightness
 from dempath_recon.tracking.cut_discs import (
@@ -28,16 +34,8 @@ def drawn_pair(rng: np.random.Generator, shape: tuple[int, int], r: float,
     h, w = shape
     a = np.array([w / 2 - 3.2, h / 2]) + rng.uniform(-0.5, 0.5, 2)
     centres = np.array([a, a + np.array([rng.uniform(5.5, 7.5), rng.uniform(-1, 1)])])
-    xy = pixel_grid(shape, (0, 0))
-    sub = (np.arange(8) + 0.5) / 8 - 0.5
-    ox, oy = np.meshgrid(sub, sub)
-    pts = xy[:, None, :] + np.column_stack([ox.ravel(), oy.ravel()])[None]
-    seen = np.zeros(pts.shape[:2], bool)
-    for c, cut in zip(centres, (-1.0, -0.4), strict=True):
-        d = pts - c
-        seen |= (np.hypot(d[..., 0], d[..., 1]) <= r) & (-d[..., 1] >= cut * r)
-    patch = -0.2 + 0.7 * seen.mean(1) + rng.normal(0, 0.02, len(xy))
-    return patch.reshape(shape).astype(np.float32), centres
+    patch = cut_disc_patch(shape, centres, (-1.0, -0.4), r) + rng.normal(0, 0.02, shape)
+    return patch.astype(np.float32), centres
 
 
 def leastsq_fit(patch: np.ndarray, start: np.ndarray, r: float, up: np.ndarray | None,

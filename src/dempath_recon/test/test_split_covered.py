@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 sys.path.insert(0, str(Path(__file__).parent))
-from spots import spot_image
+from spots import cut_disc_patch, spot_image
 
 from dempath_recon.tracking.cut_discs import (
     EDGE_BLUR,
@@ -182,15 +182,7 @@ def test_a_fit_does_not_depend_on_where_its_window_begins(up: tuple[float, float
     0.97 px on real renders."""
     r = 4.0
     centres = np.array([[12.4, 11.2], [19.1, 12.0]])
-    xy = pixel_grid((24, 32), (0, 0))
-    sub = (np.arange(8) + 0.5) / 8 - 0.5
-    ox, oy = np.meshgrid(sub, sub)
-    pts = xy[:, None, :] + np.column_stack([ox.ravel(), oy.ravel()])[None]
-    seen = np.zeros(pts.shape[:2], bool)
-    for c, cut in zip(centres, (-1.0, -0.4), strict=True):
-        d = pts - c
-        seen |= (np.hypot(d[..., 0], d[..., 1]) <= r) & (-d[..., 1] >= cut * r)
-    patch = (-0.2 + 0.7 * seen.mean(1)).reshape(24, 32).astype(np.float32)
+    patch = cut_disc_patch((24, 32), centres, (-1.0, -0.4), r)
     start = centres + np.array([[-0.8, 0.6], [0.7, -0.5]])
     direction = None if up is None else np.asarray(up)
     near = fit_cut_discs(patch, (0, 0), start, r, direction)
