@@ -112,6 +112,9 @@ class StereoTrackConfig:
             mm, 90th percentile 39 -> 23 mm) but the rules that name a marker by it, tuned on
             the old place, numbered 0.27 points more and switched 33 more times on 39 tuning
             looks (``pair_numbering.only_marker``: a pushed marker's place lags the tine).
+        merge_release: take a track's number back where a neighbour's blob merged into its
+            spot in this camera (a track left unlinked beside it, the spot grown:
+            :mod:`~dempath_recon.tracking.merge_release`).
     """
 
     detector: DetectorConfig = field(default_factory=DetectorConfig)
@@ -139,6 +142,7 @@ class StereoTrackConfig:
     crowd_give_back: bool = True
     half_ghost: bool = True
     bed_flow: bool = False
+    merge_release: bool = True
 
     def __post_init__(self) -> None:
         for name in ('fps', 'epipolar_px', 'grid_gate_px', 'position_gate_m',

@@ -88,6 +88,10 @@ class StereoState:
         crowd_taken: per camera, track id -> (the number a crowded same-instant pair took
             back from it, its clear frames in a row, the stamp the row began at [s])
             (:func:`~dempath_recon.tracking.crowded_pair.give_back` may give it back).
+        spot_sizes: per camera, track id -> the radii of gyration of its last spots [px]
+            (:mod:`~dempath_recon.tracking.merge_release`: a spot that grew may hold two).
+        merge_freed: per camera, the tracks whose number a merge took back, while unnumbered
+            (their held points stay unnumbered: ``merge_release.keep_released_free``).
         record: which rule numbered what (``config.record_numbers``; None: not kept).
     """
 
@@ -114,6 +118,8 @@ class StereoState:
     eliminated: dict[str, dict[int, tuple[float, float]]]
     jumped: dict[str, dict[int, tuple[int, float]]]
     crowd_taken: dict[str, dict[int, tuple[int, int, float]]]
+    spot_sizes: dict[str, dict[int, list[float]]]
+    merge_freed: dict[str, set[int]]
     record: NumberRecord | None = None
 
     @classmethod
@@ -142,6 +148,7 @@ class StereoState:
             residuals={n: [] for n in cameras}, last_tracks=dict.fromkeys(cameras),
             provisional=set(), eliminated={n: {} for n in cameras},
             jumped={n: {} for n in cameras}, crowd_taken={n: {} for n in cameras},
+            spot_sizes={n: {} for n in cameras}, merge_freed={n: set() for n in cameras},
             record=record)
 
     def other(self, camera: str) -> str:

@@ -54,6 +54,12 @@ from dempath_recon.tracking.grid_elimination import (
 from dempath_recon.tracking.link_guide import ambiguous_spots, barred_links
 from dempath_recon.tracking.linker import UNNUMBERED
 from dempath_recon.tracking.merge import StampMerge
+from dempath_recon.tracking.merge_release import (
+    keep_released_free,
+    merged_spots,
+    release_merged,
+    spot_sizes,
+)
 from dempath_recon.tracking.numbering import (
     number_all_by_grid,
     number_grid_unsure,
@@ -237,6 +243,14 @@ class StereoMarkerTracker:
                                     self._crowded[camera], stamp_s,
                                     self.detectors[camera].config.marker_diameter_px, events)
         self._crowded[camera] = {int(t) for t in tf.track_ids[flagged(det, det.crowded, tf.uv)]}
+        if state.config.merge_release:
+            step('merge_release')
+            keep_released_free(state, camera, stamp_s)
+            merged = merged_spots(state, camera, tf.track_ids, tf.uv,
+                                  spot_sizes(tf.uv, det.uv, det.size_px), stamp_s,
+                                  self.detectors[camera].config.marker_diameter_px)
+            markers = release_merged(state, camera, tf.track_ids, markers, merged, stamp_s,
+                                     events)
         step('grid_fit')
         if camera not in state.grid_uv:
             markers = number_all_by_grid(state, camera, tf.track_ids, tf.uv, stamp_s, events)
