@@ -238,6 +238,8 @@ RULE_SWITCHES = (  # (flag, StereoTrackConfig field, help): the numbering rules 
      "lies nearer an unclaimed marker's grid point (StereoTrackConfig.half_ghost; on)"),
     ('--bed-flow', 'bed_flow', 'carry an unseen marker by the measured field of the bed, not '
      "the mean of its three nearest neighbours' displacements (StereoTrackConfig.bed_flow; off)"),
+    ('--no-merge-release', 'merge_release', "keep a track's number where a neighbour's blob "
+     'merged into its spot in one camera (StereoTrackConfig.merge_release; on)'),
 )
 
 

@@ -21,8 +21,8 @@ Two signs of one camera say "merged" together (:func:`merged_spots`):
 
 On the merge events of the ten long-pass tuning looks (a running track left unlinked within
 8 px of another running track's spot: 30 events) the taking track went on with the other
-marker after 11 of the 13 whose spot grew by 1.2 or more, and after 5 of the 17 below (there a
-transient owner in the truth counts too).
+marker (in the truth, within six frames) after 11 of the 14 whose spot grew by 1.15 or more,
+and after 5 of the 16 below.
 
 The taking track's number is then taken back (:func:`~dempath_recon.tracking.state.take_back`:
 refused by that track; a re-attachment that jumps forgets it): the spot may be either marker,
@@ -45,8 +45,9 @@ FloatArray = NDArray[np.float64]
 
 MERGE_DIAMETERS = 1.0  # a track left unlinked whose prediction lies within this many marker
 # image diameters of another track's spot may have merged into it
-GROWTH = 1.2  # ... if that spot's radius of gyration grew to this share of the taking track's
-# recent median (merge events of the long tuning looks: 11 of 13 at 1.2 or more were switches)
+GROWTH = 1.15  # ... if that spot's radius of gyration grew to this share of the taking track's
+# recent median (1.15 and 1.2 gave the same numbered right on 39 tuning looks, 1.15 fewer switches
+# and wrong pairs; 1.1 and 1.05 cost 1-4 points on three looks for one switch less)
 SIZE_FRAMES = 5  # the taking track's last spots the median is taken over
 
 
