@@ -16,8 +16,8 @@ ORDER = ('merge', 'centroid_kernel', 'cut_discs_kernel', 'cut_discs', 'split', '
          'half_ghost',
          'records', 'release',
          'publish_gate', 'trajectories', 'number_record', 'state', 'held_line', 'link_guide',
-         'crowded_pair', 'merge_release', 'parted', 'one_camera', 'numbering', 'pair_checks', 'pair_numbering',
-         'track_pairs',
+         'crowded_pair', 'merge_release', 'parted', 'one_camera', 'numbering', 'pair_checks',
+         'pair_numbering', 'track_pairs',
          'grid_elimination', 'regain', 'coming_out', 'stereo')
 
 

@@ -121,5 +121,5 @@ def release_merged(state: StereoState, camera: str, track_ids: NDArray[np.int64]
         state.merge_freed[camera].add(tid)
         out[k] = -1
         events.append(f'{camera}: track {tid} gave back marker {number} at {stamp_s:.3f} s: '
-                      'a neighbour\'s blob merged into its spot')
+                      "a neighbour's blob merged into its spot")
     return out
