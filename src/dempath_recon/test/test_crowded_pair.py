@@ -44,10 +44,11 @@ def replay(path: Path, **options: bool) -> tuple[dict[str, Any], list[PixelFrame
     return data, frames + tracker.flush()
 
 
-def switched_points(on: bool) -> list[tuple[str, float, int, int]]:
-    """The look's 25 frames a camera through the tracker: each point given out on another
-    marker's spot (camera, stamp s, number, true marker), with the rule ``on`` or off."""
-    data, frames = replay(DATA, crowded_pairs=on)
+def wrong_points(path: Path, **options: bool) -> list[tuple[str, float, int, int]]:
+    """A stored look (``path``) through the tracker with ``options`` of ``StereoTrackConfig``
+    set: each point given out on another marker's spot (camera, stamp s, number, true
+    marker)."""
+    data, frames = replay(path, **options)
     ids, out = data['marker_ids'], []
     truth = {(f['camera'], round(f['stamp_s'] * 1e6)): np.array(f['true_uv'])
              for f in data['frames']}
@@ -60,6 +61,12 @@ def switched_points(on: bool) -> list[tuple[str, float, int, int]]:
                     and d[ids.index(m)] > OWN_PX:
                 out.append((frame.camera, round(frame.stamp_s, 3), m, owner))
     return out
+
+
+def switched_points(on: bool) -> list[tuple[str, float, int, int]]:
+    """The look's 25 frames a camera through the tracker: each point given out on another
+    marker's spot (camera, stamp s, number, true marker), with the rule ``on`` or off."""
+    return wrong_points(DATA, crowded_pairs=on)
 
 
 def test_a_take_over_by_a_sliding_neighbour_is_not_given_out() -> None:

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
-from test_crowded_pair import OWN_PX, OWNER_PX, hand_state, replay
+from test_crowded_pair import hand_state, wrong_points
 
 from dempath_recon.tracking.merge_release import (
     GROWTH,
@@ -29,19 +29,7 @@ DATA = Path(__file__).parent / 'data' / 'merge_release_frames.json'
 def switched_points(on: bool) -> list[tuple[str, float, int, int]]:
     """The look's 25 frames a camera through the tracker: each point given out on another
     marker's spot (camera, stamp s, number, true marker), with the rule ``on`` or off."""
-    data, frames = replay(DATA, merge_release=on)
-    ids, out = data['marker_ids'], []
-    truth = {(f['camera'], round(f['stamp_s'] * 1e6)): np.array(f['true_uv'])
-             for f in data['frames']}
-    for frame in frames:
-        true_uv = truth[(frame.camera, round(frame.stamp_s * 1e6))]
-        for m, p in zip(frame.markers.tolist(), frame.uv, strict=True):
-            d = np.linalg.norm(true_uv - p, axis=1)
-            owner = int(ids[int(np.argmin(d))])
-            if m >= 0 and owner != m and d.min() <= OWNER_PX \
-                    and d[ids.index(m)] > OWN_PX:
-                out.append((frame.camera, round(frame.stamp_s, 3), m, owner))
-    return out
+    return wrong_points(DATA, merge_release=on)
 
 
 def test_a_blob_that_swallowed_a_neighbour_is_not_given_out_as_the_sunk_marker() -> None:
