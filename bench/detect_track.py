@@ -240,6 +240,8 @@ RULE_SWITCHES = (  # (flag, StereoTrackConfig field, help): the numbering rules 
      "the mean of its three nearest neighbours' displacements (StereoTrackConfig.bed_flow; off)"),
     ('--no-merge-release', 'merge_release', "keep a track's number where a neighbour's blob "
      'merged into its spot in one camera (StereoTrackConfig.merge_release; on)'),
+    ('--no-line-rival', 'line_rival', 'let any unnumbered spot of the other camera on the '
+     "track's epipolar line hold back elimination (StereoTrackConfig.line_rival; on)"),
 )
 
 

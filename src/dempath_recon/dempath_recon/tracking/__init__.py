@@ -17,9 +17,10 @@ two tracks held on each other's epipolar line over their common frames), ``link_
 other camera inside the 2D link: links barred off the epipolar line, spots that may hold two
 markers), ``one_camera``,
 ``numbering``, ``pair_checks``, ``pair_numbering``, ``track_pairs`` (an unnumbered track
-decided again by a partner held on its line), ``grid_elimination`` (a marker one camera sees
-numbered by elimination at the grid fit), ``coming_out`` (a marker coming out of the sand
-mid-pass in one camera, numbered where the bed carried it), ``stereo``
+decided again by a partner held on its line), ``line_rival`` (whether a spot of the
+other camera on a track's epipolar line may be a marker nobody holds), ``grid_elimination``
+(a marker one camera sees numbered by elimination at the grid fit), ``coming_out`` (a marker
+coming out of the sand mid-pass in one camera, numbered where the bed carried it), ``stereo``
 (:class:`~dempath_recon.tracking.stereo.StereoMarkerTracker`, the pipeline, and
 ``track_bag``).
 """

@@ -23,9 +23,10 @@ out, an unnumbered track takes the one whose fitted grid point its first positio
 - no other unnumbered track of the camera started nearest the same point;
 - the track started within ``START_WINDOW_S`` of the camera's grid fit (later a marker has moved
   on from where the fit placed it) and kept its links (never re-attached);
-- no unnumbered spot of the other camera lies on its epipolar line (the pair rules decide), nor
-  a marker the other camera gives out and this one holds no track of (a marker coming out of
-  the sand, seen here only now);
+- no unnumbered spot of the other camera lies on its epipolar line (the pair rules decide;
+  with ``StereoTrackConfig.line_rival`` only a spot whose pair may be a marker nobody holds,
+  :mod:`~dempath_recon.tracking.line_rival`), nor a marker the other camera gives out and this
+  one holds no track of (a marker coming out of the sand, seen here only now);
 - neither camera's numbers are provisional (the fit of both in 3D replaces them).
 
 No pair check watches a marker only one camera sees, so a number given so is watched until one
@@ -42,6 +43,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dempath_recon.tracking.associate import epipolar_distance
+from dempath_recon.tracking.line_rival import may_be_free, may_be_given
 from dempath_recon.tracking.linker import UNNUMBERED
 from dempath_recon.tracking.state import StereoState, take_back
 
@@ -108,7 +110,7 @@ def number_by_elimination(state: StereoState, camera: str, track_ids: NDArray[np
         if len(rows) != 1:
             continue
         k = rows[0]
-        if other_decides(state, camera, uv[k], stamp_s):
+        if other_decides(state, camera, uv[k], stamp_s, state.config.line_rival):
             continue
         tid = int(track_ids[k])
         state.trackers[camera].number(tid, m)
@@ -121,21 +123,29 @@ def number_by_elimination(state: StereoState, camera: str, track_ids: NDArray[np
     return out
 
 
-def other_decides(state: StereoState, camera: str, point: FloatArray, stamp_s: float) -> bool:
+def other_decides(state: StereoState, camera: str, point: FloatArray, stamp_s: float,
+                  rivals_in_3d: bool = False) -> bool:
     """Whether the other camera's latest frame (within a frame period) has an unnumbered spot
     on ``point``'s epipolar line, or gives out a marker this camera holds no track of within
     ``LINE_FACTOR`` times ``epipolar_px`` of it: the pair rules decide such a spot, not one
-    camera's (elimination, :mod:`~dempath_recon.tracking.coming_out`)."""
+    camera's (elimination, :mod:`~dempath_recon.tracking.coming_out`). With ``rivals_in_3d``
+    an unnumbered spot on the line counts only when its pair may be a marker nobody holds
+    (:func:`~dempath_recon.tracking.line_rival.may_be_free`), and a marker the other camera
+    gives out only when their pair lies near where the bed carried it
+    (:func:`~dempath_recon.tracking.line_rival.may_be_given`)."""
     other = state.other(camera)
     period = 1.0 / state.config.fps
     free_o = state.free[other]
     mine = {t.marker for t in state.trackers[camera].tracks if t.marker >= 0}
-    theirs = [p for m, (t, p) in state.latest[other].items()
+    theirs = [(m, p) for m, (t, p) in state.latest[other].items()
               if m not in mine and abs(t - stamp_s) <= period]
-    return on_a_line(state, camera, point, free_o[2] if free_o is not None
-                     and abs(free_o[0] - stamp_s) <= period else None,
-                     state.config.epipolar_px) \
-        or on_a_line(state, camera, point, np.array(theirs) if theirs else None,
+    spots = free_o[2] if free_o is not None and abs(free_o[0] - stamp_s) <= period else None
+    if rivals_in_3d:
+        return (spots is not None and may_be_free(state, camera, point, spots, stamp_s)) \
+            or may_be_given(state, camera, point, dict(theirs),
+                            LINE_FACTOR * state.config.epipolar_px, stamp_s)
+    return on_a_line(state, camera, point, spots, state.config.epipolar_px) \
+        or on_a_line(state, camera, point, np.array([p for _, p in theirs]) if theirs else None,
                      LINE_FACTOR * state.config.epipolar_px)
 
 
