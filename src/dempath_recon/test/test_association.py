@@ -508,22 +508,27 @@ def test_tracks_that_jump_together_keep_their_numbers(rig) -> None:
     assert tracker.report()['cam_front']['revoked'] == 0
 
 
-def test_track_left_unsure_at_the_grid_fit_is_numbered_once_its_line_clears(rig) -> None:
+@pytest.mark.parametrize('line_rival', [False, True])
+def test_track_left_unsure_at_the_grid_fit_is_numbered_once_its_line_clears(
+        rig, line_rival: bool) -> None:
     """At the grid fit the front sees, instead of marker 3, a spot on the side's line of sight
     through 3 (30 mm nearer, off every grid point): the side's clean spot of 3 is left
-    unnumbered (the pair is unsure) and stays so while that spot stays unnumbered on its
-    line; once the front has no unnumbered spot on it, the side's track takes its grid number
-    3 (``number_grid_unsure``). Without the rule it was never numbered."""
+    unnumbered (the pair is unsure) and, without ``line_rival``, stays so while that spot stays
+    unnumbered on its line; once the front has no unnumbered spot on it, the side's track takes
+    its grid number 3 (``number_grid_unsure``). Without that rule it was never numbered. With
+    ``line_rival`` (the default) elimination numbers it 3 from the first pair frame: the stray
+    spot pairs with it 30 mm from where the bed carried 3, so it cannot be 3."""
     pts = [np.array(g) for g in GRID6]
     spot = intruder(rig, pts[2], 0.03)
     seen_front = [p for i, p in enumerate(pts) if i != 2]
     scene = [(pts, [*seen_front, spot])] * 3 + [(pts, seen_front)] * 3
-    out, _ = run(rig, scene, StereoTrackConfig(grid=MarkerGrid(layout_m=GRID6)))
+    out, _ = run(rig, scene, StereoTrackConfig(grid=MarkerGrid(layout_m=GRID6),
+                                               line_rival=line_rival))
     side = rig.cameras[0]
     sides = [f for f in out if f.camera == 'cam_side']
     # frame 0: the side's own grid, provisional until the front's first frame
-    assert [numbers_at(f, side, pts[2]) for f in sides[1:]] == [-1, -1, -1, 3, 3], \
-        [f.events for f in sides]
+    assert [numbers_at(f, side, pts[2]) for f in sides[1:]] == \
+        ([3] * 5 if line_rival else [-1, -1, -1, 3, 3]), [f.events for f in sides]
     assert all(numbers_at(f, side, p) == i + 1 for f in sides for i, p in enumerate(pts)
                if i != 2)
 
