@@ -26,7 +26,12 @@ from projected import DT, GRID15, feed_frame, numbers_given
 
 from dempath_recon.tracking.associate import MarkerGrid
 from dempath_recon.tracking.grid_elimination import LINE_FACTOR
-from dempath_recon.tracking.line_rival import RIVAL_GATE_M, may_be_free, may_be_given
+from dempath_recon.tracking.line_rival import (
+    RIVAL_GATE_M,
+    may_be_free,
+    may_be_given,
+    neighbours_settled,
+)
 from dempath_recon.tracking.stereo import StereoMarkerTracker, StereoTrackConfig
 
 FLOW = np.array([0.0, 0.0005, 0.001])  # the bed's slow heave [m/frame]
@@ -118,3 +123,23 @@ def test_a_spot_that_may_be_the_marker_still_defers(rig) -> None:
     gate = LINE_FACTOR * state.config.epipolar_px  # elimination's reach for a given marker
     assert may_be_given(state, 'cam_side', uv, {8: near[0]}, gate, DT)
     assert not may_be_given(state, 'cam_side', uv, {8: far[0]}, gate, DT)
+
+
+def test_a_neighbour_with_a_fresh_pair_number_is_not_settled(rig) -> None:
+    """A neighbour counts as settled on its own spot when the track giving it out took its
+    number at the grid fit, not when that number is a late one still on probation
+    (``state.late_numbered``): such a number may be the mistake that made the track look
+    free of it."""
+    cams = {c.name: c for c in rig.cameras}
+    tracker = StereoMarkerTracker(cams, StereoTrackConfig(grid=MarkerGrid(layout_m=GRID15)))
+    pts = np.array(GRID15)
+    for k in range(2):
+        feed_frame(tracker, cams, k, list(pts + k * FLOW), list(pts + k * FLOW))
+    state = tracker.state
+    tracks = [t for t in state.trackers['cam_front'].tracks if t.marker >= 0]
+    track_ids = np.array([t.track_id for t in tracks], np.int64)
+    markers = np.array([t.marker for t in tracks], np.int32)
+    assert neighbours_settled(state, 'cam_front', track_ids, markers, [7, 9])
+    assert not neighbours_settled(state, 'cam_front', track_ids, markers, [7, 16])  # not seen
+    state.late_numbered['cam_front'].add(int(track_ids[markers == 9][0]))
+    assert not neighbours_settled(state, 'cam_front', track_ids, markers, [7, 9])

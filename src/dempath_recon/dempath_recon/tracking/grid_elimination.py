@@ -43,7 +43,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dempath_recon.tracking.associate import epipolar_distance
-from dempath_recon.tracking.line_rival import may_be_free, may_be_given
+from dempath_recon.tracking.line_rival import may_be_free, may_be_given, neighbours_settled
 from dempath_recon.tracking.linker import UNNUMBERED
 from dempath_recon.tracking.state import StereoState, take_back
 
@@ -80,6 +80,7 @@ def number_by_elimination(state: StereoState, camera: str, track_ids: NDArray[np
     seen = set(markers[markers >= 0].tolist())  # markers on their own spots in this frame
     tracks = {t.track_id: t for t in state.trackers[camera].tracks}
     claims: dict[int, list[int]] = {}  # free marker -> the rows whose start lies nearest it
+    beside: dict[int, list[int]] = {}  # row -> the other markers whose grid point is as near
     for k in np.flatnonzero(markers < 0).tolist():
         track = tracks.get(int(track_ids[k]))
         if track is None or track.reattached is not None or not track.history:
@@ -99,8 +100,8 @@ def number_by_elimination(state: StereoState, camera: str, track_ids: NDArray[np
         # (a marker this camera lost, or holds no track of, may be this spot)
         d_all = np.linalg.norm(all_uv - np.array([u0, v0]), axis=1)
         radius = max(state.config.grid_gate_px, SECOND_RATIO * near)
-        if any(n != m and n not in seen for n, dn in zip(all_ids, d_all, strict=True)
-               if dn < radius):
+        beside[k] = [n for n, dn in zip(all_ids, d_all, strict=True) if dn < radius and n != m]
+        if any(n not in seen for n in beside[k]):
             continue
         claims.setdefault(m, []).append(k)
     if not claims:
@@ -112,6 +113,9 @@ def number_by_elimination(state: StereoState, camera: str, track_ids: NDArray[np
         k = rows[0]
         if other_decides(state, camera, uv[k], stamp_s, state.config.line_rival):
             continue
+        if state.config.line_rival and other_decides(state, camera, uv[k], stamp_s) \
+                and not neighbours_settled(state, camera, track_ids, markers, beside[k]):
+            continue  # let through by line_rival alone, the neighbours' numbers must be settled
         tid = int(track_ids[k])
         state.trackers[camera].number(tid, m)
         state.late_numbered[camera].add(tid)

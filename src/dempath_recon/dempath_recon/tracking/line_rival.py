@@ -18,15 +18,21 @@ where the bed carried it (:func:`~dempath_recon.tracking.state.carried_point`). 
 deferral is kept only when
 
 - the pair with an unnumbered spot on the line lies within ``RIVAL_GATE_M`` of the carried
-  place of some marker no track of either camera holds and neither camera has given out
-  (:func:`may_be_free`: the spot may be that marker, the track's own or another), or
+  place of some marker no track of either camera holds and neither camera has given out, or
+  within ``position_gate_m`` of any other marker's (:func:`may_be_free`: the spot may be that
+  marker, the track's own or another), or
 - the pair with a marker the other camera gives out lies within ``RIVAL_GATE_M`` of where the
   bed carried that marker (:func:`may_be_given`: the spot may be it, coming out of the sand);
 
 a marker that cannot be placed counts as near (unnumbered is better than wrong). Otherwise the
 spot is a marker this track is not, and elimination's own guards decide (one free grid point
 near the track's start, twice as near as the next, every other near one seen on its own spot,
-no rival claim, the number watched for jumps).
+no rival claim, the number watched for jumps), with one more: when only this module let the
+track through, each neighbour elimination counts as seen on its own spot must be given out by a
+track whose number is settled, not a late one on probation (:func:`neighbours_settled`). On
+``s87_roll_glare`` (hidden seed 87, camera roll, glare) the front's spot of 14 took 15 by the
+pair numbering a frame before, so 15 looked seen and elimination gave 14 to the spot of 15:
+switches 50 -> 85 and wrong-pair points 18 -> 25 without this guard, unchanged with it.
 """
 
 from __future__ import annotations
@@ -49,9 +55,9 @@ def may_be_free(state: StereoState, camera: str, point: FloatArray, uv_other: Fl
                 stamp_s: float) -> bool:
     """Whether any of the other camera's spots ``uv_other`` (k, 2) px on the epipolar line of
     ``camera``'s spot ``point`` (2,) px (within ``epipolar_px``) pairs with it to a 3D point
-    within ``RIVAL_GATE_M`` of the carried place of a marker nobody holds at ``stamp_s`` [s]
-    (module docstring); a free marker that cannot be placed counts as near (refuse when
-    unsure)."""
+    within ``RIVAL_GATE_M`` of the carried place of a marker nobody holds at ``stamp_s`` [s],
+    or within ``position_gate_m`` of any other marker's (module docstring); a free marker that
+    cannot be placed counts as near (refuse when unsure)."""
     other = state.other(camera)
     uv_other = np.asarray(uv_other, np.float64).reshape(-1, 2)
     if not len(uv_other):
@@ -60,15 +66,16 @@ def may_be_free(state: StereoState, camera: str, point: FloatArray, uv_other: Fl
     on = uv_other[d <= state.config.epipolar_px]
     if not len(on):
         return False
-    places = free_places(state, camera, stamp_s)
-    if places is None:
+    placed = marker_places(state, camera, stamp_s)
+    if placed is None:
         return True
+    places, gates = placed
     if not len(places):
         return False
     xyz, _ = triangulate_pairs(state.cameras[camera], state.cameras[other],
                                np.repeat(np.asarray(point, np.float64)[None], len(on), 0), on)
     gaps = np.linalg.norm(xyz[:, None] - places[None], axis=2)
-    return bool((gaps <= RIVAL_GATE_M).any())
+    return bool((gaps <= gates[None]).any())
 
 
 def may_be_given(state: StereoState, camera: str, point: FloatArray,
@@ -95,17 +102,41 @@ def may_be_given(state: StereoState, camera: str, point: FloatArray,
     return False
 
 
-def free_places(state: StereoState, camera: str, stamp_s: float) -> FloatArray | None:
-    """(n, 3) m: where the bed carried each marker of ``camera``'s grid that no track of either
-    camera holds and neither camera has given out; None when one of them cannot be placed."""
+def neighbours_settled(state: StereoState, camera: str, track_ids: NDArray[np.int64],
+                       markers: NDArray[np.int32], neighbours: list[int]) -> bool:
+    """Whether each marker of ``neighbours`` is given out in this frame of ``camera``
+    (``markers`` (k,) of the tracks ``track_ids`` (k,)) by tracks whose number is settled: not
+    a late number still on probation (``state.late_numbered``: a later contradicting pair takes
+    it back). Elimination counts a neighbour seen on its own spot as not this track's marker;
+    when only this module let the track through, a neighbour's fresh pair number may be the
+    mistake (on a seed-87 look the front's spot of 14 took 15 by the pair numbering one frame
+    before, so elimination gave 14 to the spot of 15)."""
+    late = state.late_numbered[camera]
+    for n in neighbours:
+        rows = np.flatnonzero(markers == n)
+        if not len(rows) or any(int(track_ids[r]) in late for r in rows.tolist()):
+            return False
+    return True
+
+
+def marker_places(state: StereoState, camera: str, stamp_s: float,
+                  ) -> tuple[FloatArray, FloatArray] | None:
+    """``((n, 3) m, (n,) m)``: where the bed carried each marker of ``camera``'s grid by
+    ``stamp_s`` [s], and the gate a pair must lie within to be that marker: ``RIVAL_GATE_M``
+    for a marker no track of either camera holds and neither camera has given out (placed
+    from its grid point, or from a 3D point long ago), ``position_gate_m`` for the others
+    (placed from their own recent 3D points; a held marker that cannot be placed is left out).
+    None when a free marker cannot be placed."""
     held = {t.marker for c in state.cameras for t in state.trackers[c].tracks if t.marker >= 0}
     given = {m for c in state.cameras for m in state.latest[c]}
-    places = []
+    places, gates = [], []
     for m in state.grid_uv.get(camera, {}):
-        if m in held or m in given:
-            continue
+        free = m not in held and m not in given
         at = carried_point(state, m, stamp_s)
         if at is None:
-            return None
+            if free:
+                return None
+            continue
         places.append(at[0])
-    return np.array(places, np.float64).reshape(-1, 3)
+        gates.append(RIVAL_GATE_M if free else state.config.position_gate_m)
+    return np.array(places, np.float64).reshape(-1, 3), np.array(gates, np.float64)
