@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dempath_recon.tracking.associate import MarkerGrid, MarkerPositions
+from dempath_recon.tracking.associate import MarkerGrid, MarkerPositions, triangulate_pairs
 from dempath_recon.tracking.detect import Detections
 from dempath_recon.tracking.linker import TrackerConfig
 from dempath_recon.tracking.stereo import StereoMarkerTracker, StereoTrackConfig
@@ -616,3 +616,46 @@ def test_marker_held_by_a_doubtful_reattachment_still_counts_as_missing(rig) -> 
     for cam in rig.cameras:
         frames = [f for f in out if f.camera == cam.name]
         assert [numbers_at(f, cam, back) for f in frames[8:]] == [-1, -1, -1], cam.name
+
+
+def test_front_only_marker_on_the_line_of_a_marker_the_front_has_merged_takes_its_grid_number(
+        rig) -> None:
+    """Markers 1 and 2 merged in one front spot (its centre halfway), apart in the side; marker
+    7 seen by the front only, 30 mm off 2 on the side's epipolar plane through 2, so its front
+    spot lies on the line of the side's spot of 2 (numbered 2), which the front has not placed.
+    Their pair lies far from 2's grid point: the line of sight crosses 2's at another depth, so
+    the side's 2 does not say the front's spot may be 2, and the fit numbers it 7 by the front's
+    grid (before, it stayed unnumbered for the whole pass: a tuning render's front
+    marker 14, on the line of the side's 9 while the front had 9 merged with 10)."""
+    side, front = rig.cameras
+    g1 = np.zeros(3)
+    ray = (g1 - centre(front)) / np.linalg.norm(g1 - centre(front))
+    p1 = g1 + np.array([0.010, 0.0, 0.0])
+    g2 = p1 + 0.05 * ray
+    p2 = g2 + np.array([0.0, 0.0, 0.008])
+    apart = (centre(side) - p2) / np.linalg.norm(centre(side) - p2) \
+        - (centre(front) - p2) / np.linalg.norm(centre(front) - p2)
+    p7 = p2 + 0.03 * apart / np.linalg.norm(apart)
+    rest = [np.array(d) for d in ((0.05, 0, 0), (-0.05, 0, 0), (0, 0, 0.05), (0, 0, -0.05))]
+    layout = tuple(tuple(float(v) for v in p) for p in (g1, g2, *rest, p7))
+    one, two = front.project(np.array([p1, p2]))
+    spot = 0.5 * (one + two)
+    seven = front.project(p7[None])[0]
+    crossing = triangulate_pairs(front, side, seven[None], side.project(p2[None]))[0][0]
+    assert np.linalg.norm(crossing - g2) > 0.02, 'precondition: the pair is far from 2'
+    cams = {c.name: c for c in rig.cameras}
+    tracker = StereoMarkerTracker(cams, StereoTrackConfig(grid=MarkerGrid(layout_m=layout),
+                                                          record_numbers=True))
+    given = []
+    for k in range(4):
+        s = tracker.update_detections('cam_side', k * DT, dets(side, np.array([p1, p2, *rest])))
+        uv = np.vstack([spot[None], front.project(np.array(rest)), seven[None]])
+        f = tracker.update_detections('cam_front', k * DT + OFFSET,
+                                      Detections(uv, np.ones(len(uv)), np.full(len(uv), 4.0)))
+        given.append(int(f.markers[-1]))
+    assert s.markers[:2].tolist() == [1, 2], 'precondition: the side numbers 1 and 2'
+    assert given == [7] * 4
+    record = tracker.state.record
+    assert record is not None
+    assert [c.rule for c in record.changes if c.camera == 'cam_front' and c.after == 7] == \
+        ['grid_fit'], 'numbered at the fit, not by a later rule'

@@ -68,6 +68,7 @@ class GridPairs(NamedTuple):
     b: NDArray[np.int32]  # (k,) camera b's
     merged_a: dict[int, set[int]]  # camera a's merged spots: detection -> the markers it holds
     merged_b: dict[int, set[int]]  # camera b's
+    shift: FloatArray = np.zeros(3)  # (3,) the grid's fitted 3D offset [m]
 
 
 def number_pairs_by_grid(cam_a: Camera, cam_b: Camera, uv_a: FloatArray, uv_b: FloatArray,
@@ -123,7 +124,7 @@ def pairs_by_grid(cam_a: Camera, cam_b: Camera, uv_a: FloatArray, uv_b: FloatArr
     _number_beside_merged(via, ib, merged_b, sure, numbers, out_a, out_b)
     _number_beside_merged(via, ia, merged_a, sure, numbers, out_b, out_a)
     return GridPairs(out_a, out_b, _holds(held_a, ia, merged_a, numbers),
-                     _holds(held_b, ib, merged_b, numbers))
+                     _holds(held_b, ib, merged_b, numbers), shift)
 
 
 def _one_on_line(sure: NDArray[np.bool_], det: NDArray[np.int64], n: int, epi: FloatArray,

@@ -21,7 +21,7 @@ from dempath_recon.tracking.associate import (
     on_epipolar_line,
     triangulate_pairs,
 )
-from dempath_recon.tracking.grid_pairs import pairs_by_grid
+from dempath_recon.tracking.grid_pairs import GATE_SHARE, grid_pitch, pairs_by_grid
 from dempath_recon.tracking.half_ghost import drop_half_ghosts
 from dempath_recon.tracking.linker import UNNUMBERED
 from dempath_recon.tracking.one_camera import grid_anchor, late_grid, lost_nearby
@@ -128,8 +128,8 @@ def number_both_by_grid(state: StereoState, camera: str, track_ids: NDArray[np.i
         state.refused[cam] |= {(int(ids[i]), int(nums[i]))  # a ghost's spots are not its number
                                for i in np.flatnonzero((nums >= 0) & (left < 0)).tolist()}
     mine, theirs = kept, kept_o
-    alone, unsure = one_camera_grid(state, camera, uv, mine, uv_o, theirs)
-    theirs, unsure_o = one_camera_grid(state, other, uv_o, theirs, uv, mine)
+    alone, unsure = one_camera_grid(state, camera, uv, mine, uv_o, theirs, fit.shift)
+    theirs, unsure_o = one_camera_grid(state, other, uv_o, theirs, uv, mine, fit.shift)
     mine = alone
     for cam, ids, waits in ((camera, track_ids, unsure), (other, ids_o, unsure_o)):
         state.grid_unsure[cam] = {int(t): int(m) for t, m in zip(ids, waits, strict=True)
@@ -183,27 +183,37 @@ def grid_rival(state: StereoState, camera: str, uv: FloatArray, numbers: NDArray
 
 
 def one_camera_grid(state: StereoState, camera: str, uv: FloatArray, numbers: NDArray[np.int32],
-                    uv_o: FloatArray, numbers_o: NDArray[np.int32],
+                    uv_o: FloatArray, numbers_o: NDArray[np.int32], shift: FloatArray,
                     ) -> tuple[NDArray[np.int32], NDArray[np.int32]]:
     """``numbers`` (the pairs' numbers of ``camera``'s detections ``uv``) with the markers only
     this camera sees numbered by its projected grid: a detection the pairs left unnumbered
     takes its grid number when no pair took that number and no unnumbered detection of the
     other camera (``uv_o``, ``numbers_o``) lies on its epipolar line (such a pair was left
     unnumbered as unsure) and the other camera's numbered ones do not say otherwise
-    (:func:`other_says_else`); and (k,) the grid number each such unsure detection would have
+    (:func:`other_says_else`, with the pairs' 3D points against the grid shifted by the fit's
+    ``shift`` (3,) m); and (k,) the grid number each such unsure detection would have
     taken (-1: none), which :func:`number_grid_unsure` may give it later."""
     single, _ = number_by_grid(state.cameras[camera], uv, state.config.grid,
                                state.config.grid_gate_px)
     if vote_contradicted(single, numbers):  # the pairs say the vote slipped: no grid numbers
         single = np.full(len(uv), UNNUMBERED, np.int32)
-    line = epipolar_distance(state.cameras[camera], state.cameras[state.other(camera)], uv,
-                             uv_o) <= state.config.epipolar_px if len(uv_o) and len(uv) \
-        else np.zeros((len(uv), len(uv_o)), bool)
+    cam, cam_o = state.cameras[camera], state.cameras[state.other(camera)]
+    line = epipolar_distance(cam, cam_o, uv, uv_o) <= state.config.epipolar_px \
+        if len(uv_o) and len(uv) else np.zeros((len(uv), len(uv_o)), bool)
     partnered = line[:, numbers_o < 0].any(axis=1)
     used = set(numbers[numbers >= 0].tolist())
     out = numbers.copy()
+    ids, grid_xyz = state.config.grid.points()
+    places = {int(m): x + shift for m, x in zip(ids.tolist(), grid_xyz, strict=True)}
+    gate = GATE_SHARE * grid_pitch(state.config.grid)
     for i in np.flatnonzero((numbers < 0) & (single >= 0) & ~partnered).tolist():
-        if int(single[i]) not in used and not other_says_else(line[i], numbers_o,
+        on = np.flatnonzero(line[i])
+        xyz = triangulate_pairs(cam, cam_o, np.repeat(uv[i][None], len(on), axis=0),
+                                uv_o[on])[0] if len(on) else np.zeros((0, 3))
+        could = np.zeros(len(uv_o), bool)
+        could[on] = [int(m) in places and float(np.linalg.norm(x - places[int(m)])) < gate
+                     for m, x in zip(numbers_o[on].tolist(), xyz, strict=True)]
+        if int(single[i]) not in used and not other_says_else(line[i], could, numbers_o,
                                                               int(single[i]), used):
             out[i] = single[i]
             used.add(int(single[i]))
@@ -212,18 +222,23 @@ def one_camera_grid(state: StereoState, camera: str, uv: FloatArray, numbers: ND
     return out, np.where(unsure, single, UNNUMBERED).astype(np.int32)
 
 
-def other_says_else(line: NDArray[np.bool_], numbers_o: NDArray[np.int32], marker: int,
-                    used: set[int]) -> bool:
+def other_says_else(line: NDArray[np.bool_], could: NDArray[np.bool_],
+                    numbers_o: NDArray[np.int32], marker: int, used: set[int]) -> bool:
     """Whether the other camera's numbered detections contradict giving one detection
     ``marker`` by this camera's grid alone: ``line`` (k,) says which of the other camera's
-    detections lie on the detection's epipolar line. The other camera's spot of ``marker``
-    off the line says it is elsewhere; a spot on the line numbered with a marker this
-    camera has not placed says the detection may be that one (a front spot of markers 9 and
-    10, one behind the other, sits on both of the side's lines and took 10 by the front's
-    grid while it was 9's)."""
+    detections lie on the detection's epipolar line, ``could`` (k,) which of those pair with
+    it at a 3D point within the grid fit's gate of their own number's grid point. The other
+    camera's spot of ``marker`` off the line says it is elsewhere; a spot on the line
+    numbered with a marker this camera has not placed, pairing at that marker's grid point,
+    says the detection may be that one (a front spot of markers 9 and 10, one behind the
+    other, sits on both of the side's lines and took 10 by the front's grid while it was
+    9's). A numbered spot on the line whose pair lies far from its marker's grid point says
+    nothing: the line of sight crosses that marker's at another depth (a front spot of
+    marker 14, which the side did not see, lay on the line of the side's 9 while the front
+    had 9 merged with 10, and stayed unnumbered all pass)."""
     if (numbers_o == marker).any() and not line[numbers_o == marker].any():
         return True
-    on = numbers_o[line]
+    on = numbers_o[line & could]
     return bool(((on >= 0) & (on != marker) & ~np.isin(on, list(used))).any())
 
 
