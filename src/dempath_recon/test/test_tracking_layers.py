@@ -15,9 +15,9 @@ ORDER = ('merge', 'centroid_kernel', 'cut_discs_kernel', 'cut_discs', 'split', '
          'linker', 'associate', 'bed_flow', 'speed_bound', 'grid_pairs', 'pair_anchor',
          'half_ghost',
          'records', 'release',
-         'publish_gate', 'trajectories', 'number_record', 'state', 'held_line', 'link_guide',
-         'crowded_pair', 'merge_release', 'parted', 'one_camera', 'numbering', 'pair_checks',
-         'pair_numbering', 'track_pairs', 'line_rival',
+         'publish_gate', 'trajectories', 'number_record', 'state', 'guided', 'held_line',
+         'link_guide', 'crowded_pair', 'merge_release', 'parted', 'one_camera', 'numbering',
+         'pair_checks', 'pair_numbering', 'track_pairs', 'line_rival',
          'grid_elimination', 'regain', 'coming_out', 'stereo')
 
 

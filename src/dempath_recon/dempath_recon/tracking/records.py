@@ -122,6 +122,10 @@ class StereoTrackConfig:
             epipolar line crosses the bed, and the spot on it is often another marker; long
             tuning looks 85.47 -> 86.25 % numbered right, no switch or wrong pair added);
             False: any such spot defers it.
+        guided_px: look for a marker the other camera gives out at this instant and this
+            camera does not hold in the frame as a faint spot on the other camera's epipolar
+            line within this radius of where this camera last had it, and keep it with its
+            number when the pair holds (:mod:`~dempath_recon.tracking.guided`) [px]; 0: off.
     """
 
     detector: DetectorConfig = field(default_factory=DetectorConfig)
@@ -151,6 +155,7 @@ class StereoTrackConfig:
     bed_flow: bool = False
     merge_release: bool = True
     line_rival: bool = True
+    guided_px: float = 12.0  # the grid gate: a covered marker stays within it of its grid point
 
     def __post_init__(self) -> None:
         for name in ('fps', 'epipolar_px', 'grid_gate_px', 'position_gate_m',
@@ -169,6 +174,9 @@ class StereoTrackConfig:
             raise ValueError(msg)
         if self.min_grid_markers < 1:
             msg = f'min_grid_markers: must be >= 1, got {self.min_grid_markers!r}'
+            raise ValueError(msg)
+        if not 0 <= self.guided_px < 100:
+            msg = f'guided_px: must be in [0, 100) px, got {self.guided_px!r}'
             raise ValueError(msg)
 
 
@@ -205,6 +213,7 @@ class CameraCounts:
     numbered_by_elimination: int = 0  # one camera's, by the free grid point it started at
     numbered_by_carried: int = 0  # one camera's new track, by where the bed carried a marker
     numbered_by_regain: int = 0  # a number elimination took back for a jump, given back (regain)
+    recovered: int = 0  # faint spots found for a marker the other camera gives out (guided)
     numbered_late: int = 0
     unnumbered: int = 0
     epipolar_conflicts: int = 0

@@ -1,0 +1,126 @@
+"""Guided recovery (``tracking.guided``): a marker under the detector's threshold in one camera
+is looked for only on the other camera's epipolar line of that marker, and keeps its number.
+
+The side camera's frames are rendered (``spots.spot_image``, full size, JPEG) with marker 8
+blended into the sand at ``FADED`` of its contrast (under the threshold, above the faint bar:
+a half-buried marker at dusk); the front camera sees all 15 markers (exact detections). The
+scene stands still, so one side frame serves every instant.
+"""
+
+from __future__ import annotations
+
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+sys.path.insert(0, str(Path(__file__).parent))
+from projected import DT, GRID15, OFFSET, exact_detections
+from spots import spot_image
+
+from dempath_recon.tracking.associate import (
+    MarkerGrid,
+    back_project,
+    depth,
+    marker_diameter_px,
+)
+from dempath_recon.tracking.detect import DetectorConfig, MarkerDetector
+from dempath_recon.tracking.guided import line_near, rival_lines
+from dempath_recon.tracking.state import StereoState
+from dempath_recon.tracking.stereo import StereoMarkerTracker, StereoTrackConfig
+
+FADED = 0.58  # marker 8's share of its contrast in the side: a faint spot, not a detection
+FRAMES = 8
+CONFIG = StereoTrackConfig(grid=MarkerGrid(layout_m=GRID15))
+
+
+def side_frame(rig, shift_px: np.ndarray) -> np.ndarray:
+    """The side camera's BGR frame: the 15 markers, marker 8 faded and ``shift_px`` (2,) off
+    its own place."""
+    side = rig.cameras[0]
+    uv = side.project(np.array(GRID15))
+    radius = 0.5 * marker_diameter_px(side, CONFIG.grid, CONFIG.marker_diameter_m)
+    moved = uv.copy()
+    moved[7] += shift_px
+
+    def render(centres: np.ndarray) -> np.ndarray:
+        jpeg = spot_image((side.height, side.width), centres, radius, np.random.default_rng(3),
+                          quality=95)
+        return cv2.imdecode(np.frombuffer(jpeg, np.uint8), cv2.IMREAD_COLOR).astype(float)
+
+    both, rest = render(moved), render(np.delete(uv, 7, axis=0))
+    return np.clip(rest * (1 - FADED) + both * FADED, 0, 255).astype(np.uint8)
+
+
+def side_numbers(rig, image: np.ndarray, guided_px: float, where: np.ndarray) -> list[int]:
+    """The number the side gave the point nearest ``where`` (2,) px in each released frame
+    (-2: no point within 2 px)."""
+    cams = {c.name: c for c in rig.cameras}
+    tracker = StereoMarkerTracker(cams, replace(CONFIG, guided_px=guided_px))
+    front = exact_detections(cams['cam_front'], np.array(GRID15))
+    out = []
+    for k in range(FRAMES):
+        tracker.update_image('cam_side', k * DT, image)
+        out += tracker.release()
+        tracker.update_detections('cam_front', k * DT + OFFSET, front)
+        out += tracker.release()
+    got = []
+    for f in sorted(out + tracker.flush(), key=lambda f: f.stamp_s):
+        if f.camera != 'cam_side':
+            continue
+        d = np.linalg.norm(f.uv - where, axis=1) if len(f.uv) else np.array([np.inf])
+        got.append(int(f.markers[int(np.argmin(d))]) if d.min() < 2.0 else -2)
+    return got
+
+
+@pytest.fixture(scope='module')
+def faded(rig) -> np.ndarray:
+    """The side frame with marker 8 faded at its own place."""
+    return side_frame(rig, np.zeros(2))
+
+
+def test_a_faint_marker_on_the_other_cameras_line_keeps_its_number(rig, faded) -> None:
+    """With the rule, the side gives out 8 at its faint spot once the front has numbered it
+    (from the second frame); without it the spot is never found, so never numbered."""
+    where = rig.cameras[0].project(np.array([GRID15[7]]))[0]
+    assert set(side_numbers(rig, faded, 0.0, where)) == {-2}
+    got = side_numbers(rig, faded, 12.0, where)
+    assert got[0] == -2 and set(got[1:]) == {8}, got
+
+
+def test_a_faint_spot_off_the_line_is_not_taken(rig) -> None:
+    """The same faint marker moved 4 px across the front's epipolar line of 8 (well within the
+    search radius of its grid point, and still a faint spot there) is not given 8: the search
+    runs along the line, not around where the marker was (a search around the grid point
+    numbered it 8 from the second frame)."""
+    side, front = rig.cameras
+    uv8 = side.project(np.array([GRID15[7]]))[0]
+    _, direction = line_near(side, front, front.project(np.array([GRID15[7]]))[0], uv8)
+    across = 4.0 * np.array([direction[1], -direction[0]])
+    image = side_frame(rig, across)
+    detector = MarkerDetector(DetectorConfig(marker_diameter_px=marker_diameter_px(
+        side, CONFIG.grid, CONFIG.marker_diameter_m)))
+    faint = detector.detect(image).faint
+    assert faint is not None
+    assert np.linalg.norm(faint((uv8 + across)[None], 3.0)[0] - (uv8 + across)) < 1.0
+    got = side_numbers(rig, image, 12.0, uv8 + across)
+    assert 8 not in got, got
+
+
+def test_a_spot_on_the_line_of_another_marker_the_other_camera_sees_is_refused(rig) -> None:
+    """A spot on the front's lines of both 8 and 3 (3 at another depth on the side's ray) could
+    be either: refused while the side holds 3 nowhere, taken once it holds 3 elsewhere."""
+    side, front = rig.cameras
+    cams = {c.name: c for c in rig.cameras}
+    state = StereoState.start(cams, CONFIG)
+    spot = side.project(np.array([GRID15[7]]))[0]
+    ray_point = back_project(side, spot, 0.9 * depth(side, np.array(GRID15[7])))
+    state.latest['cam_front'] = {8: (0.0, front.project(np.array([GRID15[7]]))[0]),
+                                 3: (0.0, front.project(ray_point[None])[0])}
+    assert rival_lines(state, 'cam_side', 8, spot, set(), 0.003)
+    assert not rival_lines(state, 'cam_side', 8, spot, {3}, 0.003)
+    del state.latest['cam_front'][3]
+    assert not rival_lines(state, 'cam_side', 8, spot, set(), 0.003)
