@@ -28,7 +28,7 @@ from dempath_recon.tracking.associate import (
     marker_diameter_px,
 )
 from dempath_recon.tracking.detect import DetectorConfig, MarkerDetector
-from dempath_recon.tracking.guided import line_near, rival_lines
+from dempath_recon.tracking.guided import claimed, line_near, rival_lines, stale
 from dempath_recon.tracking.state import StereoState
 from dempath_recon.tracking.stereo import StereoMarkerTracker, StereoTrackConfig
 
@@ -124,3 +124,22 @@ def test_a_spot_on_the_line_of_another_marker_the_other_camera_sees_is_refused(r
     assert not rival_lines(state, 'cam_side', 8, spot, {3}, 0.003)
     del state.latest['cam_front'][3]
     assert not rival_lines(state, 'cam_side', 8, spot, set(), 0.003)
+
+
+def test_a_spot_another_lost_track_predicts_or_an_old_position_is_refused(rig) -> None:
+    """``claimed``: a lost track of another number predicting the spot within a marker's width
+    claims it (its marker may be back), its own track does not; ``stale``: a marker whose last
+    3D position is older than three frames has nothing left to place it, one never
+    triangulated is placed by its grid point alone."""
+    cams = {c.name: c for c in rig.cameras}
+    state = StereoState.start(cams, CONFIG)
+    tracker = state.trackers['cam_side']
+    spot = np.array([950.0, 550.0])
+    tracker.seed(np.array([[953.0, 551.0]]), np.array([3], np.int32), 0.0)
+    tracker.tracks[0].lost = True
+    assert claimed(state, 'cam_side', 8, spot, 0.02)
+    assert not claimed(state, 'cam_side', 3, spot, 0.02)
+    assert not claimed(state, 'cam_side', 8, spot + np.array([20.0, 0.0]), 0.02)
+    state.positions.accept(8, 0.0, np.array(GRID15[7]))
+    assert not stale(state, 8, 0.06) and stale(state, 8, 0.08)
+    assert not stale(state, 9, 0.08)

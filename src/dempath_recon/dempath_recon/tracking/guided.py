@@ -11,8 +11,13 @@ camera's epipolar line around where this camera last had the marker (its lost tr
 prediction, its last sighting, or its fitted grid point), and is taken only when
 
 - exactly one faint spot lies within ``epipolar_px`` of that line in the window (two: say
-  nothing), clear of every spot this camera tracks in this frame, and
-- the pair's 3D point is one the marker can have reached from its last accepted position.
+  nothing), clear of every spot this camera tracks in this frame,
+- the spot lies on no line of another marker the other camera gives out and this camera does
+  not hold (:func:`rival_lines`), and no lost track of another number predicts it
+  (:func:`claimed`): either could be that marker, and
+- the pair's 3D point is one the marker can have reached from its last accepted position, and
+  that position is at most ``MAX_DEPTH_AGE_S`` old (:func:`stale`; a marker never
+  triangulated is placed by its grid point or last sighting alone).
 
 The spot keeps the marker's number: it re-attaches the marker's lost track, or starts a track
 with that number when this camera has none (numbered after the start, so a later pair that
@@ -31,7 +36,7 @@ from dempath_recon.methods.triangulate import Camera
 from dempath_recon.tracking.associate import epipolar_distance, triangulate_pairs
 from dempath_recon.tracking.detect import Detections
 from dempath_recon.tracking.linker import TrackFrame
-from dempath_recon.tracking.state import StereoState, at_stamp
+from dempath_recon.tracking.state import MAX_DEPTH_AGE_S, StereoState, at_stamp
 
 FloatArray = NDArray[np.float64]
 PROBE_PX = 3.0  # probes along the line this far apart, each searching this radius [px]
@@ -137,11 +142,12 @@ def recover_guided(state: StereoState, camera: str, det: Detections, tf: TrackFr
         spot = spots[0]
         if len(uvs) and np.linalg.norm(np.array(uvs) - spot, axis=1).min() <= clear:
             continue
-        if rival_lines(state, camera, m, spot, held, stamp_s):
+        if rival_lines(state, camera, m, spot, held, stamp_s) \
+                or claimed(state, camera, m, spot, stamp_s):
             continue
         xyz, _ = triangulate_pairs(state.cameras[camera], state.cameras[state.other(camera)],
                                    spot[None], partner[None])
-        if not state.positions.allows(m, stamp_s, xyz[0]):
+        if not state.positions.allows(m, stamp_s, xyz[0]) or stale(state, m, stamp_s):
             continue
         track = tracker.link_spot(m, spot, stamp_s, events)
         state.late_numbered[camera].add(track.track_id)
@@ -158,6 +164,29 @@ def recover_guided(state: StereoState, camera: str, det: Detections, tf: TrackFr
                        markers=np.asarray(markers, np.int32),
                        uv=np.asarray(uvs, np.float64).reshape(-1, 2),
                        confidence=np.concatenate([tf.confidence, np.zeros(k)]))
+
+
+def stale(state: StereoState, marker: int, stamp_s: float) -> bool:
+    """Whether ``marker``'s last accepted 3D position is older than ``MAX_DEPTH_AGE_S``: it
+    then no longer bounds where along the line the marker can be (the gate has grown to
+    several marker pitches), so nothing places the spot. A marker never triangulated is not
+    stale: its spot is placed by its grid point or last sighting alone."""
+    known = state.positions.known.get(marker)
+    return known is not None and stamp_s - known[0] > MAX_DEPTH_AGE_S + 1e-9
+
+
+def claimed(state: StereoState, camera: str, marker: int, spot: FloatArray, stamp_s: float,
+            ) -> bool:
+    """Whether a lost track of ``camera`` numbered other than ``marker`` predicts ``spot``
+    (2,) px within a marker's image diameter (``TrackerConfig.hold_rival_px`` as the
+    two-camera tracker sets it; the grid gate if unset): the spot may be that marker come
+    back."""
+    tracker = state.trackers[camera]
+    near = tracker.config.hold_rival_px or state.config.grid_gate_px
+    decay = tracker.config.velocity_decay
+    return any(t.lost and t.marker >= 0 and t.marker != marker
+               and float(np.linalg.norm(t.predict(stamp_s, decay) - spot)) <= near
+               for t in tracker.tracks)
 
 
 def rival_lines(state: StereoState, camera: str, marker: int, spot: FloatArray,
