@@ -242,8 +242,8 @@ RULE_SWITCHES = (  # (flag, StereoTrackConfig field, help): the numbering rules 
      'merged into its spot in one camera (StereoTrackConfig.merge_release; on)'),
     ('--no-line-rival', 'line_rival', 'let any unnumbered spot of the other camera on the '
      "track's epipolar line hold back elimination (StereoTrackConfig.line_rival; on)"),
-    ('--no-guided', 'guided_px', "do not look for a faint spot on the other camera's line of a "
-     'marker this camera lost (StereoTrackConfig.guided_px: 12 px by default, False = 0 here)'),
+    ('--guided', 'guided', "look for a faint spot on the other camera's line of a marker this "
+     'camera does not hold (StereoTrackConfig.guided; off by default)'),
 )
 
 

@@ -56,11 +56,11 @@ def side_frame(rig, shift_px: np.ndarray) -> np.ndarray:
     return np.clip(rest * (1 - FADED) + both * FADED, 0, 255).astype(np.uint8)
 
 
-def side_numbers(rig, image: np.ndarray, guided_px: float, where: np.ndarray) -> list[int]:
+def side_numbers(rig, image: np.ndarray, guided: bool, where: np.ndarray) -> list[int]:
     """The number the side gave the point nearest ``where`` (2,) px in each released frame
     (-2: no point within 2 px)."""
     cams = {c.name: c for c in rig.cameras}
-    tracker = StereoMarkerTracker(cams, replace(CONFIG, guided_px=guided_px))
+    tracker = StereoMarkerTracker(cams, replace(CONFIG, guided=guided))
     front = exact_detections(cams['cam_front'], np.array(GRID15))
     out = []
     for k in range(FRAMES):
@@ -87,8 +87,8 @@ def test_a_faint_marker_on_the_other_cameras_line_keeps_its_number(rig, faded) -
     """With the rule, the side gives out 8 at its faint spot once the front has numbered it
     (from the second frame); without it the spot is never found, so never numbered."""
     where = rig.cameras[0].project(np.array([GRID15[7]]))[0]
-    assert set(side_numbers(rig, faded, 0.0, where)) == {-2}
-    got = side_numbers(rig, faded, 12.0, where)
+    assert set(side_numbers(rig, faded, False, where)) == {-2}
+    got = side_numbers(rig, faded, True, where)
     assert got[0] == -2 and set(got[1:]) == {8}, got
 
 
@@ -145,3 +145,10 @@ def test_a_spot_another_lost_track_predicts_or_an_old_position_is_refused(rig) -
     state.positions.accept(8, 0.0, np.array(GRID15[7]))
     assert not stale(state, 8, 0.06) and stale(state, 8, 0.08)
     assert not stale(state, 9, 0.08)
+
+
+def test_a_bad_search_radius_is_refused() -> None:
+    """``guided_px`` must be a positive radius under 100 px: one error line naming it."""
+    for bad in (0.0, -3.0, 150.0):
+        with pytest.raises(ValueError, match='guided_px'):
+            StereoTrackConfig(guided_px=bad)

@@ -122,10 +122,17 @@ class StereoTrackConfig:
             epipolar line crosses the bed, and the spot on it is often another marker; long
             tuning looks 85.47 -> 86.25 % numbered right, no switch or wrong pair added);
             False: any such spot defers it.
-        guided_px: look for a marker the other camera gives out at this instant and this
-            camera does not hold in the frame as a faint spot on the other camera's epipolar
-            line within this radius of where this camera last had it, and keep it with its
-            number when the pair holds (:mod:`~dempath_recon.tracking.guided`) [px]; 0: off.
+        guided: look for a marker the other camera gives out at this instant and this camera
+            does not hold in the frame as a faint spot on the other camera's epipolar line
+            within ``guided_px`` of where this camera last had it, and keep it with its number
+            when the pair holds (:mod:`~dempath_recon.tracking.guided`). Off by default
+            (session 21, track31): on main 8e6c533 it numbered the ten dusk tuning looks
+            82.10 -> 84.02 % right and held-apart seed-147 looks 86.31 -> 87.29 %, with fewer
+            switches and wrong pairs pooled, but more on three tuning looks (``r21_faint``
+            0 -> 9 switches and 0 -> 4 wrong pairs, ``tune6_dusk`` 0 -> 2, ``t107_dusk``
+            0 -> 1) and about 10 % more CPU a frame (docs/reconstruction.md).
+        guided_px: the guided search's radius around where this camera last had the marker
+            [px] (the grid gate: a covered marker stays within it of its grid point).
     """
 
     detector: DetectorConfig = field(default_factory=DetectorConfig)
@@ -155,7 +162,8 @@ class StereoTrackConfig:
     bed_flow: bool = False
     merge_release: bool = True
     line_rival: bool = True
-    guided_px: float = 12.0  # the grid gate: a covered marker stays within it of its grid point
+    guided: bool = False
+    guided_px: float = 12.0
 
     def __post_init__(self) -> None:
         for name in ('fps', 'epipolar_px', 'grid_gate_px', 'position_gate_m',
@@ -175,8 +183,8 @@ class StereoTrackConfig:
         if self.min_grid_markers < 1:
             msg = f'min_grid_markers: must be >= 1, got {self.min_grid_markers!r}'
             raise ValueError(msg)
-        if not 0 <= self.guided_px < 100:
-            msg = f'guided_px: must be in [0, 100) px, got {self.guided_px!r}'
+        if not 0 < self.guided_px < 100:
+            msg = f'guided_px: must be in (0, 100) px, got {self.guided_px!r}'
             raise ValueError(msg)
 
 

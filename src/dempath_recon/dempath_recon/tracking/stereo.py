@@ -228,7 +228,7 @@ class StereoMarkerTracker:
         before = (tracker.counts.lost, tracker.counts.reattached)
         tf = tracker.update(stamp_s, det, barred)
         record = state.record
-        if state.config.guided_px > 0:
+        if state.config.guided:
             tf = recover_guided(state, camera, det, tf, stamp_s, state.config.guided_px,
                                 events)
         if record is not None:
