@@ -21,8 +21,9 @@ rest wait (a marker covered at the start is numbered later, by the epipolar line
 
 A spot of one camera that pairs surely with two markers through different partners may be
 both, merged along its line of sight (:func:`_two_markers`: left unnumbered). Before that test
-each spot keeps only the marker whose partner lies on its epipolar line clearly nearer than
-every other's (``LINE_MARGIN_SHARE``, :func:`_one_on_line`): two markers shown in one spot pull
+each spot keeps only the marker whose partner lies on its epipolar line within noise
+(``LINE_ON_SHARE``) and clearly nearer than every other's (``LINE_MARGIN_SHARE``,
+:func:`_one_on_line`): two markers shown in one spot pull
 its centre between their images, off both partners' lines alike, while a spot a marker hides
 another behind, or a buried one beside, lies on its own partner's line within noise. (On the
 longer pass with the tool twice as fast, the side's spots of markers 4 and 9 were called
@@ -49,7 +50,8 @@ LEAVE = 2.0  # cost of leaving a marker unmatched: a pair at the gate and on the
 MAX_SHIFT_SHARE = 0.5  # the grid's 3D shift is below this share of the pitch
 MARGIN_SHARE = 0.2  # the next grid point must be this share of the pitch farther than the nearest
 LINE_MARGIN_SHARE = 0.4  # a spot is one marker's alone when the partners of its other sure
-# markers lie this share of ``epipolar_px`` farther from its epipolar line than that marker's
+# markers lie this share of ``epipolar_px`` farther from its epipolar line than that marker's,
+LINE_ON_SHARE = 0.2  # and that marker's lies within this share of it (on the line within noise)
 
 
 def grid_pitch(grid: MarkerGrid) -> float:
@@ -107,9 +109,9 @@ def pairs_by_grid(cam_a: Camera, cam_b: Camera, uv_a: FloatArray, uv_b: FloatArr
     dist = np.linalg.norm(xyz[None] - (g + shift)[:, None], axis=2)  # (markers, pairs)
     second = np.sort(dist, axis=0)[1] if len(g) > 1 else np.full(len(ia), np.inf)
     sure = (dist < gate) & (second[None] >= dist + MARGIN_SHARE * pitch)
-    margin = LINE_MARGIN_SHARE * epipolar_px
-    held_a = _one_on_line(sure, ia, len(uv_a), epi[ia, ib], margin)
-    held_b = _one_on_line(sure, ib, len(uv_b), epi[ia, ib], margin)
+    on_px, margin = LINE_ON_SHARE * epipolar_px, LINE_MARGIN_SHARE * epipolar_px
+    held_a = _one_on_line(sure, ia, len(uv_a), epi[ia, ib], on_px, margin)
+    held_b = _one_on_line(sure, ib, len(uv_b), epi[ia, ib], on_px, margin)
     merged_a, merged_b = _two_markers(held_a, ia, len(uv_a)), _two_markers(held_b, ib, len(uv_b))
     via = sure & (merged_a[ia] | merged_b[ib])[None]  # pairs through a merged spot
     cost = np.where(sure & ~via, dist / gate + epi[ia, ib][None] / epipolar_px, np.inf)
@@ -128,12 +130,12 @@ def pairs_by_grid(cam_a: Camera, cam_b: Camera, uv_a: FloatArray, uv_b: FloatArr
 
 
 def _one_on_line(sure: NDArray[np.bool_], det: NDArray[np.int64], n: int, epi: FloatArray,
-                 margin_px: float) -> NDArray[np.bool_]:
+                 on_px: float, margin_px: float) -> NDArray[np.bool_]:
     """``sure`` (markers, pairs) with, for each of one camera's ``n`` detections (``det``:
-    each pair's detection) whose sure markers' nearest partners lie on its epipolar line at
-    clearly different distances (``epi``: each pair's [px]), only the nearest one's pairs
-    kept: the others' partners lie at least ``margin_px`` farther off, so the spot shows that
-    marker alone (the others hidden behind or beside it), not two markers merged."""
+    each pair's detection) whose nearest sure partner lies on its epipolar line (within
+    ``on_px``; ``epi``: each pair's distance [px]) and every other sure marker's partner at
+    least ``margin_px`` farther off, only that marker's pairs kept: the spot shows that marker
+    alone (the others hidden behind or beside it), not two markers merged."""
     out = sure.copy()
     for i in range(n):
         through = np.flatnonzero(det == i)
@@ -142,7 +144,7 @@ def _one_on_line(sure: NDArray[np.bool_], det: NDArray[np.int64], n: int, epi: F
             continue
         off = np.array([epi[through][sure[r, through]].min() for r in rows])
         order = np.argsort(off, kind='stable')
-        if off[order[0]] + margin_px <= off[order[1]]:
+        if off[order[0]] <= on_px and off[order[0]] + margin_px <= off[order[1]]:
             out[np.ix_(rows[order[1:]], through)] = False
     return out
 
