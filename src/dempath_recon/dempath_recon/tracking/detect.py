@@ -187,6 +187,14 @@ class Detections(NamedTuple):
         return cls(np.zeros((0, 2)), np.zeros(0), np.zeros(0))
 
 
+def own_detections(det_uv: FloatArray, uv: FloatArray) -> NDArray[np.intp]:
+    """(k,) the index into ``det_uv`` (n, 2) px of the detection each point ``uv`` (k, 2) px
+    is, matched exactly (the linker gives out a detection's own centre); -1 for a point on no
+    detection (a faint spot)."""
+    index = {tuple(p): i for i, p in enumerate(np.asarray(det_uv).tolist())}
+    return np.array([index.get(tuple(p), -1) for p in np.asarray(uv).tolist()], np.intp)
+
+
 @dataclass(frozen=True)
 class DetectorConfig:
     """Settings of the marker detector.

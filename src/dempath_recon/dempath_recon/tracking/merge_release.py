@@ -39,6 +39,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from dempath_recon.tracking.detect import own_detections
 from dempath_recon.tracking.state import StereoState, take_back
 
 FloatArray = NDArray[np.float64]
@@ -55,14 +56,9 @@ def spot_sizes(uv: FloatArray, det_uv: FloatArray, det_size: FloatArray) -> Floa
     """(k,) the radius of gyration [px] of the detection each linked point ``uv`` (k, 2) px
     took (the linker gives out the detection's own centre); NaN for a point on no detection
     (a faint spot)."""
-    out = np.full(len(uv), np.nan)
-    if not len(uv) or not len(det_uv):
-        return out
-    d = np.linalg.norm(uv[:, None] - det_uv[None], axis=2)
-    nearest = np.argmin(d, axis=1)
-    hit = d[np.arange(len(uv)), nearest] == 0.0
-    out[hit] = det_size[nearest[hit]]
-    return out
+    own = own_detections(det_uv, uv)
+    return np.where(own >= 0, np.asarray(det_size, np.float64)[np.maximum(own, 0)], np.nan) \
+        if len(det_uv) else np.full(len(uv), np.nan)
 
 
 def merged_spots(state: StereoState, camera: str, track_ids: NDArray[np.int64],

@@ -27,7 +27,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from dempath_recon.tracking.detect import Detections
+from dempath_recon.tracking.detect import Detections, own_detections
 from dempath_recon.tracking.linker import UNNUMBERED
 from dempath_recon.tracking.state import StereoState, take_back
 
@@ -42,8 +42,8 @@ def flagged(det: Detections, flags: NDArray[np.bool_] | None,
     is one of ``det``'s)."""
     if flags is None or not flags.any():
         return np.zeros(len(uv), np.bool_)
-    marked = {tuple(p) for p in det.uv[flags].tolist()}
-    return np.array([tuple(p) in marked for p in uv.tolist()], np.bool_)
+    own = own_detections(det.uv, uv)
+    return np.asarray((own >= 0) & flags[np.maximum(own, 0)], np.bool_)
 
 
 def revoke_at_parting(state: StereoState, camera: str, track_ids: NDArray[np.int64],
