@@ -4,12 +4,13 @@ detection's marker is known, and a test reads back the number a camera gave a po
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 
 import numpy as np
 
 from dempath_recon.tracking.detect import Detections
-from dempath_recon.tracking.records import PixelFrame
+from dempath_recon.tracking.records import PixelFrame, StereoTrackConfig
+from dempath_recon.tracking.stereo import StereoMarkerTracker
 
 DT = 0.02  # frame period [s]
 OFFSET = 0.003  # the front camera exposes this much after the side one [s]
@@ -45,3 +46,17 @@ def feed_frame(tracker, cams: dict, k: int, side: list, front: list) -> list[Pix
     tracker.update_detections('cam_front', k * DT + OFFSET,
                               exact_detections(cams['cam_front'], np.array(front)))
     return out + tracker.release()
+
+
+def run_scene(rig, config: StereoTrackConfig, scene: Iterable[tuple[list, list]],
+              ) -> tuple[list[PixelFrame], StereoMarkerTracker]:
+    """A scene given as (side points, front points) (n, 3) m per frame, fed through
+    ``feed_frame`` into a ``StereoMarkerTracker`` with ``config``: every frame it released
+    (``flush`` included) and the tracker. One loop for the numbering tests' scenes, which
+    differ only in what each camera sees."""
+    cams = {c.name: c for c in rig.cameras}
+    tracker = StereoMarkerTracker(cams, config)
+    out: list[PixelFrame] = []
+    for k, (side, front) in enumerate(scene):
+        out += feed_frame(tracker, cams, k, side, front)
+    return out + tracker.flush(), tracker

@@ -20,10 +20,10 @@ import numpy as np
 import pytest
 
 sys.path.insert(0, str(Path(__file__).parent))
-from projected import GRID15, feed_frame, numbers_given
+from projected import GRID15, numbers_given, run_scene
 
 from dempath_recon.tracking.associate import MarkerGrid
-from dempath_recon.tracking.stereo import StereoMarkerTracker, StereoTrackConfig
+from dempath_recon.tracking.stereo import StereoTrackConfig
 
 FLOW = np.array([0.0, 0.0, 0.004])  # the bed's flow along Z [m/frame]
 OUT_AT = 6  # the frame marker 8 comes out in the side camera
@@ -36,18 +36,17 @@ def _run(rig, coming_out: bool, shift: np.ndarray, back: int = 8,
     (and marker ``back`` too, from frame 1, when it is not 8); from ``OUT_AT`` the side sees
     marker ``back`` ``shift`` off where the bed carried marker 8; with ``debris`` (3,) m, a
     still spot there that only the side sees, from the start."""
-    cams = {c.name: c for c in rig.cameras}
     config = replace(StereoTrackConfig(grid=MarkerGrid(layout_m=GRID15)), coming_out=coming_out)
-    tracker = StereoMarkerTracker(cams, config)
-    out = []
-    for k in range(FRAMES):
+
+    def frame(k: int) -> tuple[list, list]:
         pts = np.array(GRID15) + k * FLOW
         gone = {8, 13, back} if k >= 1 else {8, 13}
         front = [p for m, p in enumerate(pts, 1) if m not in gone]
         side = front + ([pts[7] + shift] if k >= OUT_AT else []) \
             + ([debris] if debris is not None else [])
-        out += feed_frame(tracker, cams, k, side, front)
-    return out + tracker.flush()
+        return side, front
+
+    return run_scene(rig, config, map(frame, range(FRAMES)))[0]
 
 
 def _side_numbers_of_eight(rig, out: list, shift: np.ndarray) -> list[int]:

@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 sys.path.insert(0, str(Path(__file__).parent))
-from projected import DT, GRID15, OFFSET, feed_frame, numbers_given
+from projected import DT, GRID15, OFFSET, numbers_given, run_scene
 from projected import exact_detections as _dets
 
 from dempath_recon.tracking.associate import MarkerGrid
@@ -34,20 +34,18 @@ FRAMES = 10
 def _run(rig, moved: np.ndarray, side_hides: tuple[int, ...], elimination: bool) -> list:
     """Released frames of a pass: markers on GRID15 (marker 8 moved by ``moved``) flowing
     slowly; the front never sees 8 nor any of ``side_hides``; the side sees all but those."""
-    cams = {c.name: c for c in rig.cameras}
     start = np.array(GRID15)
     start[7] += moved
     config = replace(StereoTrackConfig(grid=MarkerGrid(layout_m=GRID15)),
                      elimination=elimination)
-    tracker = StereoMarkerTracker(cams, config)
     hidden_front = {8, *side_hides}
-    out = []
-    for k in range(FRAMES):
+
+    def frame(k: int) -> tuple[list, list]:
         pts = start + k * FLOW
-        side = [p for m, p in enumerate(pts, 1) if m not in side_hides]
-        front = [p for m, p in enumerate(pts, 1) if m not in hidden_front]
-        out += feed_frame(tracker, cams, k, side, front)
-    return out + tracker.flush()
+        return ([p for m, p in enumerate(pts, 1) if m not in side_hides],
+                [p for m, p in enumerate(pts, 1) if m not in hidden_front])
+
+    return run_scene(rig, config, map(frame, range(FRAMES)))[0]
 
 
 def _side_numbers_of_eight(rig, out: list, moved: np.ndarray) -> list[int]:

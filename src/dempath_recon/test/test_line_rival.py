@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 
 sys.path.insert(0, str(Path(__file__).parent))
-from projected import DT, GRID15, feed_frame, numbers_given
+from projected import DT, GRID15, feed_frame, numbers_given, run_scene
 
 from dempath_recon.tracking.associate import MarkerGrid
 from dempath_recon.tracking.grid_elimination import LINE_FACTOR
@@ -58,19 +58,18 @@ def _run(rig, line_rival: bool, hidden_from_side: int = 0) -> list:
     """Released frames of the pass, ``line_rival`` as given: 8 hidden from the front; with
     ``hidden_from_side`` 0 the front shows the stray spot (module docstring), else that marker
     is hidden from the side instead."""
-    cams = {c.name: c for c in rig.cameras}
     config = replace(StereoTrackConfig(grid=MarkerGrid(layout_m=GRID15)), line_rival=line_rival)
-    tracker = StereoMarkerTracker(cams, config)
-    out = []
-    for k in range(FRAMES):
+
+    def frame(k: int) -> tuple[list, list]:
         pts = np.array(GRID15) + k * FLOW
         pts[7] = _eight(k)
         side = [p for m, p in enumerate(pts, 1) if m != hidden_from_side]
         front = [p for m, p in enumerate(pts, 1) if m != 8]
         if not hidden_from_side:
             front.append(_on_side_ray(rig, pts[7], STRAY_M))
-        out += feed_frame(tracker, cams, k, side, front)
-    return out + tracker.flush()
+        return side, front
+
+    return run_scene(rig, config, map(frame, range(FRAMES)))[0]
 
 
 @pytest.mark.parametrize('line_rival', [False, True])

@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 
 sys.path.insert(0, str(Path(__file__).parent))
-from projected import DT, GRID15, feed_frame, numbers_given
+from projected import DT, GRID15, feed_frame, numbers_given, run_scene
 
 from dempath_recon.tracking.associate import MarkerGrid
 from dempath_recon.tracking.regain import REGAIN_GATE_M, _carried_there
@@ -43,17 +43,16 @@ def _eight(k: int) -> np.ndarray:
 
 def _run(rig, regain: bool) -> list:
     """Released frames of the pass (module docstring), ``StereoTrackConfig.regain`` as given."""
-    cams = {c.name: c for c in rig.cameras}
     config = replace(StereoTrackConfig(grid=MarkerGrid(layout_m=GRID15)), regain=regain)
-    tracker = StereoMarkerTracker(cams, config)
-    out = []
-    for k in range(FRAMES):
+
+    def frame(k: int) -> tuple[list, list]:
         pts = np.array(GRID15) + k * FLOW
         pts[7] = _eight(k)
-        front = [p for m, p in enumerate(pts, 1) if m != 8 or k >= FRONT_FROM]
-        out += feed_frame(tracker, cams, k, list(pts), front)
+        return list(pts), [p for m, p in enumerate(pts, 1) if m != 8 or k >= FRONT_FROM]
+
+    out, tracker = run_scene(rig, config, map(frame, range(FRAMES)))
     assert tracker.state.counts['cam_side'].numbered_by_elimination == 1  # the scene's premise
-    return out + tracker.flush()
+    return out
 
 
 @pytest.mark.parametrize('regain', [False, True])
