@@ -53,12 +53,14 @@ from detect_track_variations import (
     EXPOSURE_KNOWN,
     TOOL_SPEED,
     look_exposure,
+    seen,
     with_exposure,
     with_tool_speed,
 )
 
 from dempath_calib.camera import CameraModel
 from dempath_recon.tracking.associate import MarkerGrid
+from dempath_recon.tracking.detect import decode_jpeg
 from dempath_recon.tracking.number_record import NumberChange, NumberRecord
 from dempath_recon.tracking.records import PixelFrame, StereoTrackConfig
 from dempath_recon.tracking.stereo import StereoMarkerTracker
@@ -85,9 +87,15 @@ def track(frames: Frames, cams: dict[str, CameraModel], config: StereoTrackConfi
     raw: dict[Key, tuple[Any, Any]] = {}
     out: list[PixelFrame] = []
     for cam, stamp, data in frames:
-        det = tracker.detectors[cam].detect_jpeg(data)
+        detector = tracker.detectors[cam]
+        image = decode_jpeg(data, detector.config.downscale)
+        det = detector.detect(image, prescaled=True)
         raw[(cam, round(stamp * 1e-3))] = (det.uv, det.crowded)
-        tracker.update_detections(cam, stamp * 1e-9, det)
+        # the image's shake measured as ``StereoMarkerTracker.update`` does (the bench's path;
+        # the frames come in stamp order)
+        shaker = tracker.shakers.get(cam)
+        shake = shaker.update(image, detector.config.downscale) if shaker else None
+        tracker.update_detections(cam, stamp * 1e-9, det, shake)
         out += tracker.release()
     out += tracker.flush()
     assert tracker.state.record is not None
@@ -174,11 +182,12 @@ def classify(out: list[PixelFrame], raw: dict[Key, tuple[Any, Any]], truth: dict
         det_uv, crowded = raw.get(key, (np.zeros((0, 2)), None))
         if record is not None:
             trace_rules(fr, t, record, by_key, ids, tally)
+        at = seen(fr)  # its points where the image showed them, as the raw detections and truth
         for i, m in enumerate(ids.tolist()):
             if vis[i] < 0.5:
                 continue
             tally['want'] += 1
-            why = cause(fr, det_uv, crowded, true_uv, vis, i, m)
+            why = cause(at, det_uv, crowded, true_uv, vis, i, m)
             if why == 'never_numbered':
                 paired = any(abs(s - fr.stamp_s) <= period and m in g
                              for c, frs in given.items() if c != fr.camera for s, g in frs)
