@@ -183,13 +183,17 @@ def test_a_fast_track_keeps_its_spot_from_a_track_unseen_for_long() -> None:
     predicts 7's spot 7.7 px off (inside a marker's width, 8.4 px). Nothing held, the
     assignment's swap (3 onto 7, 7 onto 3) is worth 0.1 px more than the right links. With the
     hold grown to a quarter of 7's step and 3's track no rival, 7 keeps its spot; each half of
-    the rule alone, or neither, leaves the swap."""
-    assert fast_and_unseen(TrackerConfig(hold_rival_px=8.4)) == {(937.2, 518.6): 3,
-                                                                 (941.2, 526.0): 7}
+    the rule alone, or neither, leaves the swap when the spots are given by summed link
+    lengths (``lost_spread_px`` 0). In expected misses (3's track, lost 0.06 s, expects 7 px)
+    the right links win without the hold too."""
+    right = {(937.2, 518.6): 3, (941.2, 526.0): 7}
+    assert fast_and_unseen(TrackerConfig(hold_rival_px=8.4, lost_spread_px=0.0)) == right
     swapped = {(937.2, 518.6): 7, (941.2, 526.0): 3}
     for off in ({'hold_step_share': 0.0}, {'hold_rival_unseen_s': 0.0},
                 {'hold_step_share': 0.0, 'hold_rival_unseen_s': 0.0}):
-        assert fast_and_unseen(TrackerConfig(hold_rival_px=8.4, **off)) == swapped, off
+        assert fast_and_unseen(TrackerConfig(hold_rival_px=8.4, lost_spread_px=0.0,
+                                             **off)) == swapped, off
+        assert fast_and_unseen(TrackerConfig(hold_rival_px=8.4, **off)) == right, off
 
 
 def fast_and_unseen(config: TrackerConfig) -> dict[tuple[float, float], int]:

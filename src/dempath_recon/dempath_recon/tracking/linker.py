@@ -43,6 +43,25 @@ tracks keep every rival: a marker that sank where it lay comes out where its old
 predicts it (a cohesive dusk render of hidden seed 129: marker 3 back 2.8 px from its track,
 unseen 0.2 s, beside marker 4's track 1.4 px off; ignoring that rival for slow tracks too
 moved 4's number onto 3: 15 -> 26 switches on that look).
+The assignment weighs every track's miss alike, but a lost track's prediction is much the worse:
+its marker moved on with the sand, unseen. Two markers side by side, one lost, then give their
+spots to the cheaper sum of link lengths, which can be the swap: on heldout21's carriage look
+(released for tuning) marker 3 was covered in both cameras for 0.1 s while marker 2 ran past
+it; when 3 came out 8-9 px beside 2, each camera's running track of 2 moved onto 3's spot (5-6
+px off its prediction) so that 3's lost track could re-attach onto 2's (4-7 px from where it
+was last seen), against 1.7-2.5 and 10-13 px the right way. Both cameras swapped alike, every
+later pair check passed, and 24 points went out under the other marker's number. So once the
+assignment has chosen which links to make (which tracks link, which spots are taken: a
+re-attachment against a new track is decided as before), who takes which of those spots is
+decided again by each track's miss in units of its expected miss (:meth:`MarkerTracker._reassign`):
+``hold_px`` for a running track, growing for a lost one as ``lost_spread_px`` after
+``SPREAD_S`` unseen, to the power ``SPREAD_POWER`` of the time (the position error of a
+constant-velocity prediction under random acceleration); 2 px against 15 px there, so 1.7/2 +
+9.9/15 = 1.5 expected misses the right way against 5.0/2 + 4.1/15 = 2.8 the swap (the side
+camera). The spots change hands only when that lowers the sum by at least one running track's
+expected miss (``REASSIGN_MARGIN``): a track lost a frame or two ago predicts nearly as well as
+a running one (without the margin, near ties broken that way swapped markers a frame after a
+merge on two dusk looks: ``t107_dusk`` 0 -> 5 switches, heldout21's ``M139_dusk`` 7 -> 9).
 Why not trackpy's linking: with 15 markers the exact global assignment costs microseconds,
 needs no new dependency, and every decision (link, loss, re-attachment) is explicit and
 reported, which the paper's validation needs; trackpy's
@@ -85,6 +104,14 @@ from dempath_recon.tracking.detect import Detections
 LOG = logging.getLogger(__name__)
 FloatArray = NDArray[np.float64]
 UNNUMBERED = -1  # marker number of a track that is not (yet) identified
+SPREAD_S = 0.1  # ``lost_spread_px`` is a lost marker's expected miss after this long unseen [s]
+SPREAD_POWER = 1.5  # ... and it grows as (unseen / SPREAD_S) ** SPREAD_POWER: a constant-velocity
+# prediction under random (white-noise) acceleration has a position variance growing as t**3
+# (q t**3 / 3: the continuous white-noise acceleration model, Bar-Shalom, Li, Kirubarajan 2001,
+# "Estimation with Applications to Tracking and Navigation", chapter 6)
+BARRED = 1e9  # the weighted miss of a link outside its gate (or barred): never chosen
+REASSIGN_MARGIN = 1.0  # the spots are given again only when that lowers the summed misses, in
+# expected misses, by at least this many running tracks' expected misses (``hold_px``)
 SLACK_PX = 3.0  # a link may exceed the image speed bound by this much [px] (centroid noise,
 # a covered marker's visible part moving over it; ``speed_bound`` explains the bound)
 
@@ -118,6 +145,10 @@ class TrackerConfig:
         hold_step_share: a running track's hold radius grows to this share of its predicted
             step (its velocity times the time since it was seen) where that exceeds
             ``hold_px`` (:func:`hold_radii`) [-]; 0: ``hold_px`` whatever the speed.
+        lost_spread_px: a lost marker's expected miss after ``SPREAD_S`` unseen [px], growing
+            as the time unseen to the power ``SPREAD_POWER``: who takes which of the spots the
+            assignment links is decided again by each track's miss in units of its expected
+            miss (:meth:`MarkerTracker._reassign`); 0: by the summed misses alone.
         hold_rival_unseen_s: a track unseen for longer than this is no rival of a fast
             track's held link (one whose radius its step widened: :func:`rival_tracks`) [s];
             0: every other track is (as before session 20).
@@ -134,6 +165,8 @@ class TrackerConfig:
     max_image_speed_px_s: float = 0.0
     hold_step_share: float = 0.25  # markers pushed by a tool at 2x speed: a 12 px step missed
     # by 2.1 px (a tenth to a fifth of the step on the fast tuning looks' right links)
+    lost_spread_px: float = 15.0  # heldout21's carriage look (released for tuning): marker 3
+    # came out 15 px from where it sank 0.1 s before, carried by the bed beside marker 2
     hold_rival_unseen_s: float = 0.05  # between two and three frame periods at 50 FPS: a track
     # lost a frame before (unseen 0.04 s) still rivals (two markers crossing), one lost for two
     # frames (0.06 s) no more
@@ -157,6 +190,9 @@ class TrackerConfig:
             raise ValueError(msg)
         if not 0 <= self.hold_step_share < 1:
             msg = f'hold_step_share: must be in [0, 1), got {self.hold_step_share!r}'
+            raise ValueError(msg)
+        if not self.lost_spread_px >= 0:
+            msg = f'lost_spread_px: must be >= 0, got {self.lost_spread_px!r}'
             raise ValueError(msg)
         if not self.hold_rival_unseen_s >= 0:
             msg = f'hold_rival_unseen_s: must be >= 0, got {self.hold_rival_unseen_s!r}'
@@ -353,8 +389,39 @@ class MarkerTracker:
             worth[[r for r, _ in held], :] = 0.0
             worth[:, [c for _, c in held]] = 0.0
         rows, cols = linear_sum_assignment(worth, maximize=True)
-        return sorted(held + [(int(r), int(c)) for r, c in zip(rows, cols, strict=True)
-                              if cost[r, c] <= gate[r] and worth[r, c] > 0])
+        made = [(int(r), int(c)) for r, c in zip(rows, cols, strict=True)
+                if cost[r, c] <= gate[r] and worth[r, c] > 0]
+        return sorted(held + self._reassign(stamp_s, made, cost, gate))
+
+    def _reassign(self, stamp_s: float, made: list[tuple[int, int]], cost: FloatArray,
+                  gate: FloatArray) -> list[tuple[int, int]]:
+        """The assignment's links ``made`` (track index, detection index) with their spots
+        given again among the same tracks by each one's miss in units of its expected miss
+        (:meth:`_expected_miss`), where that is clearly better (``REASSIGN_MARGIN``) and one
+        of them is a lost track (module docstring); gates and bars hold."""
+        if self.config.lost_spread_px <= 0 or len(made) < 2 \
+                or not any(self.tracks[r].lost for r, _ in made):
+            return made
+        base = max(self.config.hold_px, 1.0)
+        rows_in = np.array([r for r, _ in made])
+        cols_in = np.array([c for _, c in made])
+        sub = cost[np.ix_(rows_in, cols_in)]
+        weight = base / self._expected_miss(stamp_s)[rows_in]  # 1 for a running track
+        norm = np.where(sub <= gate[rows_in][:, None], sub * weight[:, None], BARRED)
+        rows, cols = linear_sum_assignment(norm)
+        if float(np.trace(norm) - norm[rows, cols].sum()) < REASSIGN_MARGIN * base:
+            return made
+        return [(int(rows_in[r]), int(cols_in[c])) for r, c in zip(rows, cols, strict=True)]
+
+    def _expected_miss(self, stamp_s: float) -> FloatArray:
+        """(tracks,) each track's expected miss of its marker at ``stamp_s`` [px]: ``hold_px``
+        (at least 1 px) for a running track, growing for a lost one with the time unseen as
+        ``lost_spread_px * (unseen / SPREAD_S) ** SPREAD_POWER`` (added in quadrature): a
+        covered marker moves on with the sand, unseen."""
+        base = max(self.config.hold_px, 1.0)
+        unseen = np.array([stamp_s - t.last_stamp_s if t.lost else 0.0 for t in self.tracks])
+        return np.asarray(np.hypot(base, self.config.lost_spread_px
+                                   * (unseen / SPREAD_S) ** SPREAD_POWER), np.float64)
 
     def _out_of_reach(self, stamp_s: float, uv: FloatArray) -> NDArray[np.bool_]:
         """(tracks, n): detections ``uv`` (n, 2) px farther from each track's last position
