@@ -14,6 +14,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 from spots import spot_image
 
 from dempath_recon.tracking.associate import MarkerGrid, epipolar_distance, number_by_grid
+from dempath_recon.tracking.colour_model import ChromaParts
 from dempath_recon.tracking.detect import (
     Detections,
     DetectorConfig,
@@ -100,10 +101,11 @@ class WholeFrameDetector(MarkerDetector):
     """The detector with its chroma computed over the whole frame (the reference)."""
 
     def _window(self, image: np.ndarray, thr: float, floor: float = 60.0,
-                axis: np.ndarray | None = None) -> tuple[int, int, np.ndarray]:
-        from dempath_recon.tracking.detect import chroma
+                axis: np.ndarray | None = None) -> tuple[int, int, np.ndarray, ChromaParts]:
+        from dempath_recon.tracking.detect import chroma_parts
 
-        return 0, 0, chroma(image, floor, axis)
+        parts = chroma_parts(image, axis)
+        return 0, 0, parts.floored(floor), parts
 
 
 @pytest.mark.parametrize('corner', [(600, 400), (8, 6), (1890, 1070)])
@@ -146,7 +148,7 @@ def test_stray_bluish_pixels_across_the_view_do_not_widen_the_window() -> None:
         image[y - 1:y + 2, x - 1:x + 2] = (130, 110, 110)  # B - R = 20 DN, chroma 0.06
     config = DetectorConfig(downscale=1)
     detector = MarkerDetector(config)
-    _, _, window = detector._window(image, config.threshold)
+    _, _, window, _ = detector._window(image, config.threshold)
     assert 0 < window.size < 0.1 * 1080 * 1920
     found, ref = detector.detect(image), WholeFrameDetector(config).detect(image)
     assert len(found.uv) == 3 and np.allclose(found.uv, ref.uv, atol=1e-9)

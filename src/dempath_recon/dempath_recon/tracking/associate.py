@@ -18,6 +18,7 @@ undistorted pixels (Hartley & Zisserman, Multiple View Geometry, 2nd ed., sec. 9
 from __future__ import annotations
 
 import logging
+import math
 from bisect import bisect_left
 from dataclasses import dataclass
 
@@ -199,11 +200,44 @@ def essential(cam_a: Camera, cam_b: Camera) -> FloatArray:
     return np.asarray(tx @ r_ab, np.float64)
 
 
+MEMO_PIXELS = 4096  # undistorted pixels remembered per camera (a frame asks a few hundred)
+_MEMO: dict[int, tuple[Camera, bytes, dict[tuple[float, float], tuple[float, float]]]] = {}
+
+
+def normalised(cam: Camera, uv: FloatArray) -> FloatArray:
+    """(n, 2) normalised image coordinates of pixels ``uv`` (n, 2) px of ``cam``:
+    :func:`~dempath_recon.methods.projection.undistort_normalized`, each pixel undistorted once.
+
+    The tracking rules ask the epipolar distance and the 3D point of the same few dozen
+    detections many times a frame (45 OpenCV calls a frame on red clay at dusk, 0.5-1 ms,
+    session 22); OpenCV undistorts each point on its own, so a remembered point is the value
+    a new call gives. The memo holds ``MEMO_PIXELS`` pixels per camera (then starts again) and
+    is keyed by the camera object and its intrinsics (a changed K or distortion starts anew).
+    """
+    uv = np.asarray(uv, np.float64).reshape(-1, 2)
+    sign = np.asarray(cam.K, np.float64).tobytes() + np.asarray(cam.dist, np.float64).tobytes()
+    entry = _MEMO.get(id(cam))
+    if entry is None or entry[0] is not cam or entry[1] != sign:
+        if len(_MEMO) >= 16:  # cameras of finished trackers
+            _MEMO.clear()
+        entry = (cam, sign, {})
+        _MEMO[id(cam)] = entry
+    memo = entry[2]
+    keys = [(p[0], p[1]) for p in uv.tolist()]
+    missing = list(dict.fromkeys(k for k in keys if k not in memo))
+    if missing:
+        if len(memo) + len(missing) > MEMO_PIXELS:
+            memo.clear()
+        found = undistort_normalized(cam, np.array(missing, np.float64)).tolist()
+        memo.update((k, (v[0], v[1])) for k, v in zip(missing, found, strict=True))
+    return np.array([memo[k] for k in keys], np.float64).reshape(-1, 2)
+
+
 def epipolar_distance(cam_a: Camera, cam_b: Camera, uv_a: FloatArray,
                       uv_b: FloatArray) -> FloatArray:
     """(n, k) distance [px of camera b] of points (k, 2) in b from the lines of (n, 2) in a."""
-    xa = undistort_normalized(cam_a, np.asarray(uv_a, np.float64).reshape(-1, 2))
-    xb = undistort_normalized(cam_b, np.asarray(uv_b, np.float64).reshape(-1, 2))
+    xa = normalised(cam_a, uv_a)
+    xb = normalised(cam_b, uv_b)
     lines = np.column_stack([xa, np.ones(len(xa))]) @ essential(cam_a, cam_b).T  # (n, 3)
     hb = np.column_stack([xb, np.ones(len(xb))])
     num = np.abs(lines @ hb.T)
@@ -247,7 +281,7 @@ def triangulate_pairs(cam_a: Camera, cam_b: Camera, uv_a: FloatArray, uv_b: Floa
     uv_b = np.asarray(uv_b, np.float64).reshape(-1, 2)
     if len(uv_a) == 0:
         return np.zeros((0, 3)), np.zeros(0)
-    xa, xb = undistort_normalized(cam_a, uv_a), undistort_normalized(cam_b, uv_b)
+    xa, xb = normalised(cam_a, uv_a), normalised(cam_b, uv_b)
     xyz = _two_view_linear(cam_a, cam_b, xa, xb)
     lines = np.column_stack([xa, np.ones(len(xa))]) @ essential(cam_a, cam_b).T  # (k, 3)
     num = np.abs((lines * np.column_stack([xb, np.ones(len(xb))])).sum(axis=1))
@@ -288,7 +322,7 @@ def view_of_up(cam: Camera, grid: MarkerGrid) -> tuple[tuple[float, float], floa
 
 def back_project(cam: Camera, uv: FloatArray, at_depth: float) -> FloatArray:
     """The world point (3,) m on the line of sight through ``uv`` (2,) px at a depth [m]."""
-    xn = undistort_normalized(cam, np.asarray(uv, np.float64).reshape(1, 2))[0]
+    xn = normalised(cam, uv)[0]
     local = at_depth * np.array([xn[0], xn[1], 1.0])
     return np.asarray(np.asarray(cam.R).T @ (local - np.asarray(cam.t)), np.float64)
 
@@ -424,7 +458,8 @@ class MarkerPositions:
                 continue
             then = past[self._nearest(n, t_m)]
             if abs(then[0] - t_m) <= near_s:
-                moves.append((float(np.linalg.norm(then[1] - x_m)), now[1] - then[1]))
+                gap = then[1] - x_m  # its norm as np.linalg.norm takes it, without the checks
+                moves.append((math.sqrt(float(gap.dot(gap))), now[1] - then[1]))
         if not moves:
             return None
         moves.sort(key=lambda mv: mv[0])

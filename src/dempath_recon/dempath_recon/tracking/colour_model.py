@@ -30,6 +30,7 @@ Both are plain arrays; :mod:`~dempath_recon.tracking.detect` applies them.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any, NamedTuple
 
 import cv2
 import numpy as np
@@ -215,20 +216,64 @@ def clay_bar(image: NDArray[np.uint8], axis: NDArray[np.float32]) -> float:
     return CLAY_DARK_SHARE * median if np.isfinite(median) else 0.0
 
 
+class ChromaParts(NamedTuple):
+    """A window's chroma before its floor: ``num / max(total, floor)`` for any floor.
+
+    The detector reads one window's chroma at two floors (the frame-wide ``MIN_SUM_DN`` and, in
+    a dim frame, the frame's own light: :mod:`~dempath_recon.tracking.shaded`); the numerator
+    and ``B + G + R`` do not depend on the floor, so they are computed once (on red clay at
+    dusk the window is the whole frame and the second chroma cost 1-2 ms a frame, session 22).
+
+    Attributes:
+        num: (h, w) ``B - R`` (int16, blue clay) or ``axis . [B, G, R]`` (float32).
+        total: (h, w) ``B + G + R`` (int16, blue clay; float32 for another clay) [DN].
+    """
+
+    num: NDArray[Any]
+    total: NDArray[Any]
+
+    def floored(self, min_sum: float) -> NDArray[np.float32]:
+        """(h, w) float32 ``num / max(total, min_sum)`` (``min_sum`` [DN])."""
+        if self.num.dtype == np.int16:  # blue clay: the floor in whole DN, as ever
+            total = np.maximum(self.total, np.int16(min_sum))
+            return np.asarray(cv2.divide(self.num, total, scale=1.0, dtype=cv2.CV_32F),
+                              np.float32)
+        total = np.maximum(self.total, np.float32(min_sum))
+        return np.asarray(cv2.divide(self.num, total), np.float32)
+
+
+def blue_parts(image: NDArray[np.uint8]) -> ChromaParts:
+    """Blue clay's ``(B - R, B + G + R)`` of a BGR image (h, w, 3), int16 each."""
+    b, g, r = cv2.split(image)
+    diff = cv2.subtract(b, r, dtype=cv2.CV_16S)
+    total = cv2.add(cv2.add(b, g, dtype=cv2.CV_16S), r, dtype=cv2.CV_16S)
+    return ChromaParts(np.asarray(diff, np.int16), np.asarray(total, np.int16))
+
+
+def axis_numerator(pixels: NDArray[np.float32], axis: NDArray[np.float32],
+                   ) -> NDArray[np.float32]:
+    """(h, w) float32 ``axis . [B, G, R]`` of a float32 BGR image (h, w, 3)."""
+    return np.asarray(cv2.transform(pixels, axis.reshape(1, 3)), np.float32)
+
+
+def axis_parts(pixels: NDArray[np.float32], axis: NDArray[np.float32],
+               num: NDArray[np.float32] | None = None) -> ChromaParts:
+    """Another clay's ``(axis . [B, G, R], B + G + R)`` of a float32 BGR image (h, w, 3);
+    ``num``: its numerator when already computed (:func:`axis_numerator`, the same values)."""
+    if num is None:
+        num = axis_numerator(pixels, axis)
+    total = np.asarray(cv2.transform(pixels, np.ones((1, 3), np.float32)), np.float32)
+    return ChromaParts(num, total)
+
+
 def axis_chroma(image: NDArray[np.uint8], axis: NDArray[np.float32],
                 min_sum: float) -> NDArray[np.float32]:
     """(h, w) float32 ``(axis . [B, G, R]) / max(B + G + R, min_sum)`` of a BGR image
     (``min_sum`` [DN])."""
-    pixels = image.astype(np.float32)
-    num = cv2.transform(pixels, axis.reshape(1, 3))
-    total = cv2.transform(pixels, np.ones((1, 3), np.float32))
-    np.maximum(total, np.float32(min_sum), out=total)
-    return np.asarray(cv2.divide(num, total), np.float32)
+    return axis_parts(image.astype(np.float32), axis).floored(min_sum)
 
 
-def axis_bound(image: NDArray[np.uint8], axis: NDArray[np.float32],
-               level: float) -> NDArray[np.uint8]:
-    """(h, w) uint8: 255 where ``axis . [B, G, R]`` exceeds ``level`` [DN] (every pixel whose
-    chroma can exceed ``level / floor``), else 0."""
-    num = cv2.transform(image.astype(np.float32), axis.reshape(1, 3))
+def axis_bound(num: NDArray[np.float32], level: float) -> NDArray[np.uint8]:
+    """(h, w) uint8: 255 where the numerator ``num`` (:func:`axis_numerator`) exceeds ``level``
+    [DN] (every pixel whose chroma can exceed ``level / floor``), else 0."""
     return np.asarray((num > level).view(np.uint8) * np.uint8(255), np.uint8)
