@@ -91,16 +91,20 @@ def segment_offset(share: FloatArray, elevation_deg: float = 0.0) -> FloatArray:
     return np.asarray(np.interp(np.clip(share, 0.0, 1.0), shares, offsets), np.float64)
 
 
-def seen_share(mass: FloatArray, contrast: FloatArray) -> FloatArray | None:
+def seen_share(mass: FloatArray, contrast: FloatArray | None) -> FloatArray | None:
     """(n,) each spot's share of a whole marker's area seen: its chroma mass over its peak
     contrast, relative to the frame's whole markers (``WHOLE_QUANTILE`` of the same over the
     frame's spots); None with fewer than ``MIN_SPOTS`` spots (no reference).
 
     Args:
         mass: (n,) each spot's chroma above the core level summed over the centroid window.
-        contrast: (n,) each spot's peak chroma above the core level.
+        contrast: (n,) each spot's peak chroma above the core level; None: the frame's markers
+            share one contrast (their clay's chroma, which shading leaves alone), and the mass
+            alone, relative to the frame's whole markers', is the share (another clay's
+            peak pixel is too noisy to divide by: ``detect.MarkerDetector._spots``).
     """
-    area = np.asarray(mass, np.float64) / np.maximum(np.asarray(contrast, np.float64), 1e-6)
+    area = np.asarray(mass, np.float64) if contrast is None else \
+        np.asarray(mass, np.float64) / np.maximum(np.asarray(contrast, np.float64), 1e-6)
     ok = np.isfinite(area) & (area > 0)
     if ok.sum() < MIN_SPOTS:
         return None

@@ -87,6 +87,8 @@ FILTER_FLOOR = -0.2  # the matched filter sees sand no redder than the sand the 
 # then jumped onto them: more switches and wrong pairs on 5 of 13 tuning looks
 
 
+MASS_SHARE_OFF_BLUE = True  # another clay's seen share (covered.seen_share) from its chroma mass
+# alone, not over its peak pixel (False: over the peak, as blue clay's; session 22, below)
 SPARSE_BOX = 0.1  # a byte-bound box over this share of the frame is narrowed to the pixels
 # whose chroma passes (``MarkerDetector._exact_box``)
 PEAK_TILE = 32  # candidate pixels in touching tiles of this size [detector px] are filtered
@@ -467,13 +469,19 @@ class MarkerDetector:
             strength, mass = strength[source], mass[source]
             seen_uv, dim_floor = uv, shade_floor(frame_floor, floor) \
                 if self.config.shade_centres else None
+            # another clay's seen share from its mass alone: on its axis a spot's peak pixel
+            # is noise (white reads -0.55 on red clay's axis, 0 on blue's; the sand's chroma
+            # noise is 3-4 times blue's, track30), so dividing by it read whole red markers as
+            # covered and moved 36-43 % of them down (blue 20-27 %; session 22)
+            peaky = is_blue(axis) or not MASS_SHARE_OFF_BLUE
             if dim_floor is not None:  # a dim frame: published centres on the own light
                 own = parts.floored(dim_floor)  # the window's chroma at the frame's floor
                 seen_uv, lit_peak, lit_mass = lit_centroids(own, uv, self._refine, thr)
                 share = seen_share(np.where(np.isfinite(lit_mass), lit_mass, mass),
-                                   np.where(np.isfinite(lit_peak), lit_peak, strength) - base)
+                                   np.where(np.isfinite(lit_peak), lit_peak, strength) - base
+                                   if peaky else None)
             else:
-                share = seen_share(mass, strength - base)
+                share = seen_share(mass, strength - base if peaky else None)
             if tuple(self.config.up_px) != (0.0, 0.0):
                 centre = disc if share is None else uncover(
                     seen_uv, share, radius, self.config.up_px, ~parted,
