@@ -211,8 +211,9 @@ def normalised(cam: Camera, uv: FloatArray) -> FloatArray:
     The tracking rules ask the epipolar distance and the 3D point of the same few dozen
     detections many times a frame (45 OpenCV calls a frame on red clay at dusk, 0.5-1 ms,
     session 22); OpenCV undistorts each point on its own, so a remembered point is the value
-    a new call gives. The memo holds ``MEMO_PIXELS`` pixels per camera (then starts again) and
-    is keyed by the camera object and its intrinsics (a changed K or distortion starts anew).
+    a new call gives. The memo holds ``MEMO_PIXELS`` pixels per camera (then starts again), is
+    keyed by the camera object and its intrinsics (a changed K or distortion starts anew) and
+    is emptied at each frame (:func:`forget_pixels`).
     """
     uv = np.asarray(uv, np.float64).reshape(-1, 2)
     sign = np.asarray(cam.K, np.float64).tobytes() + np.asarray(cam.dist, np.float64).tobytes()
@@ -231,6 +232,13 @@ def normalised(cam: Camera, uv: FloatArray) -> FloatArray:
         found = undistort_normalized(cam, np.array(missing, np.float64)).tolist()
         memo.update((k, (v[0], v[1])) for k, v in zip(missing, found, strict=True))
     return np.array([memo[k] for k in keys], np.float64).reshape(-1, 2)
+
+
+def forget_pixels() -> None:
+    """Empty :func:`normalised`'s memo: the tracker does at each frame, so the memo saves the
+    frame's repeated questions only, and a second pass over a recording (the bench's warm
+    figure) pays as much as a running node does."""
+    _MEMO.clear()
 
 
 def epipolar_distance(cam_a: Camera, cam_b: Camera, uv_a: FloatArray,

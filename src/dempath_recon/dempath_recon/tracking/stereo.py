@@ -37,7 +37,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dempath_recon.methods.triangulate import Camera
-from dempath_recon.tracking.associate import marker_diameter_px, view_of_up
+from dempath_recon.tracking.associate import forget_pixels, marker_diameter_px, view_of_up
 from dempath_recon.tracking.coming_out import number_coming_out
 from dempath_recon.tracking.crowded_pair import give_back
 from dempath_recon.tracking.detect import (
@@ -195,6 +195,7 @@ class StereoMarkerTracker:
         marker cannot have reached): such a point is withheld, never given out as the marker.
         """
         state = self.state
+        forget_pixels()  # the undistortion memo serves one frame
         counts, tracker = state.counts[camera], state.trackers[camera]
         last = state.last_stamp[camera]
         if last is not None and stamp_s <= last:
