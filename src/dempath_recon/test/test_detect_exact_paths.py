@@ -230,7 +230,8 @@ def test_peaks_filtered_in_far_apart_clusters_are_the_whole_images() -> None:
 def test_making_a_detector_loads_its_compiled_kernels() -> None:
     """In a fresh process, making a ``MarkerDetector`` loads the centroid and cut-disc
     kernels (numba's first call, 0.2-0.35 s of CPU, falls on the node's start, not on its
-    first frame)."""
+    first frame), the cut-disc kernel in the fit's own specialisation too (a read-only pixel
+    grid): a fit after it loads nothing more."""
     import os
     import subprocess
     import sys
@@ -240,11 +241,16 @@ def test_making_a_detector_loads_its_compiled_kernels() -> None:
             'from dempath_recon.tracking.detect import MarkerDetector\n'
             'before = len(refine_centroids.signatures) + len(residual_and_jacobian.signatures)\n'
             'MarkerDetector()\n'
-            'print(before, len(refine_centroids.signatures),'
+            'made = len(residual_and_jacobian.signatures)\n'
+            'import numpy as np\n'
+            'from dempath_recon.tracking.cut_discs import fit_cut_discs\n'
+            'fit_cut_discs(np.ones((9, 11), np.float32), (4, 3), np.array([[9.0, 7.0]]), 3.0,'
+            ' np.array([0.0, -1.0]))\n'
+            'print(before, len(refine_centroids.signatures), made,'
             ' len(residual_and_jacobian.signatures))\n')
     done = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
                           env=os.environ.copy(), timeout=120, check=True)
-    assert done.stdout.split() == ['0', '1', '1']
+    assert done.stdout.split() == ['0', '1', '2', '2']
 
 
 def test_the_nearest_past_position_is_the_first_nearest() -> None:

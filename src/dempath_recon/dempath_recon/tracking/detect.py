@@ -61,6 +61,7 @@ from dempath_recon.tracking.colour_model import (
     lit_peaks,
 )
 from dempath_recon.tracking.covered import MAX_ELEVATION_DEG, seen_share, uncover
+from dempath_recon.tracking.cut_discs import fit_cut_discs
 from dempath_recon.tracking.cut_discs_kernel import warm as warm_cut_discs
 from dempath_recon.tracking.shaded import lit_centroids, shade_floor
 from dempath_recon.tracking.split import split_touching
@@ -139,9 +140,13 @@ def neighbourhood_max(image: NDArray[Any], rows: NDArray[np.intp], cols: NDArray
 def warm_kernels() -> None:
     """Load the detector's compiled kernels (centroids, the cut-disc fit) once per process, when
     the first detector is made: numba's first call sets up its typing (0.2-0.35 s of CPU), which
-    a live detector would otherwise spend on its first frame."""
+    a live detector would otherwise spend on its first frame. The fit's own call is made too:
+    it hands the kernel a read-only pixel grid, another specialisation than ``warm``'s, which
+    numba compiled (0.65 s on an empty cache) or loaded at the first touching pair (session 22).
+    """
     warm_centroids()
     warm_cut_discs()
+    fit_cut_discs(np.zeros((5, 5), np.float32), (0, 0), np.array([[2.0, 2.0]]), 1.5)
 
 
 def dim(image: NDArray[np.uint8], below: float = MIN_SUM_DN) -> bool:
