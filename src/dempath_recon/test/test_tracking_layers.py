@@ -16,7 +16,8 @@ ORDER = ('merge', 'centroid_kernel', 'cut_discs_kernel', 'cut_discs', 'split', '
          'half_ghost',
          'records', 'release',
          'publish_gate', 'trajectories', 'number_record', 'state', 'guided', 'held_line',
-         'link_guide', 'crowded_pair', 'merge_release', 'parted', 'one_camera', 'numbering',
+         'link_guide', 'crowded_pair', 'merge_release', 'track_split', 'parted', 'one_camera',
+         'numbering',
          'pair_checks', 'pair_numbering', 'track_pairs', 'line_rival',
          'grid_elimination', 'regain', 'coming_out', 'stereo')
 

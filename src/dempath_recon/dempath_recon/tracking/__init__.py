@@ -15,7 +15,8 @@ motion from the view's fixed parts), ``linker`` (one camera's tracks),
 (numbered tracks to 3D), ``state`` (the tracker's state, one record), ``held_line`` (whether
 two tracks held on each other's epipolar line over their common frames), ``link_guide`` (the
 other camera inside the 2D link: links barred off the epipolar line, spots that may hold two
-markers), ``one_camera``,
+markers), ``track_split`` (a spot two numbered tracks predict split where they and the other
+camera place them), ``one_camera``,
 ``numbering``, ``pair_checks``, ``pair_numbering``, ``track_pairs`` (an unnumbered track
 decided again by a partner held on its line), ``line_rival`` (whether a spot of the
 other camera on a track's epipolar line may be a marker nobody holds), ``grid_elimination``

@@ -164,6 +164,13 @@ class FaintSearch(Protocol):
                  steps: FloatArray | None = None, local: bool = True) -> FloatArray: ...
 
 
+class ChromaPatch(Protocol):
+    """``Detections.patch``: the detector's chroma around a point (see there)."""
+
+    def __call__(self, point: FloatArray, half_px: float,
+                 ) -> tuple[NDArray[np.float32], tuple[int, int]]: ...
+
+
 class ImageDecodeError(ReconstructionError):
     """An image (JPEG or raw) cannot be decoded; the frame is counted and skipped."""
 
@@ -198,6 +205,12 @@ class Detections(NamedTuple):
         parted: (n,) whether each spot is one marker of a blob the detector split into
             touching markers (:mod:`~dempath_recon.tracking.split`), or None (no splitting):
             its centre comes from a fit of the blob, not from a spot of its own.
+        patch: ``patch(point, half_px)``: the chroma the detector measured its spots on, in
+            the square of half-width ``half_px`` [full-size px] around ``point`` (2,)
+            [full-size px], at the detector's scale, and the square's corner ``(x0, y0)``
+            [detector px]; or None (not kept). The two-camera tracker refits a spot there
+            where its tracks say it holds two markers (:mod:`~dempath_recon.tracking.
+            track_split`); computed only when asked.
     """
 
     uv: FloatArray
@@ -207,6 +220,7 @@ class Detections(NamedTuple):
     faint: FaintSearch | None = None
     centre: FloatArray | None = None
     parted: NDArray[np.bool_] | None = None
+    patch: ChromaPatch | None = None
 
     @classmethod
     def empty(cls) -> Detections:
@@ -420,6 +434,12 @@ class MarkerDetector:
                         and tuple(cfg.up_px) != (0.0, 0.0)
                         and cfg.view_elevation_deg <= MAX_ELEVATION_DEG else None)
 
+    @property
+    def cut_up(self) -> FloatArray | None:
+        """(2,) the image direction of world up the split's discs are cut along, or None
+        (whole discs)."""
+        return self._cut_up
+
     def detect_jpeg(self, data: bytes | NDArray[np.uint8]) -> Detections:
         """Decode JPEG bytes (at the configured scale) and detect."""
         return self.detect(decode_jpeg(data, self.config.downscale), prescaled=True)
@@ -436,11 +456,28 @@ class MarkerDetector:
         thr = self.config.threshold
         found = self._spots(image, MIN_SUM_DN, axis, thr=thr, frame_floor=frame_floor,
                             dark_bar=clay_bar(image, axis))
+        found = found._replace(patch=partial(self._patch, image, axis))
         low = min(self.config.faint_threshold, thr)
         if low <= 0:
             return found
         return found._replace(faint=partial(self._faint, image, low, (frame_floor, axis),
                                             found.uv))
+
+    def _patch(self, image: NDArray[np.uint8], axis: NDArray[np.float32], point: FloatArray,
+               half_px: float) -> tuple[NDArray[np.float32], tuple[int, int]]:
+        """(h, w) the chroma of ``image`` (at the detector's scale) on ``axis`` (3,), floored
+        at ``MIN_SUM_DN`` as the spots were measured, around ``point`` (2,) [full-size px]
+        within ``half_px`` [full-size px], and its corner (x0, y0) [detector px] (``Detections.
+        patch``)."""
+        s = self.config.downscale
+        q = (np.asarray(point, np.float64) + 0.5) / s - 0.5
+        reach = int(np.ceil(half_px / s))
+        h, w = image.shape[:2]
+        x0, y0 = max(int(q[0]) - reach, 0), max(int(q[1]) - reach, 0)
+        x1, y1 = min(int(q[0]) + reach + 2, w), min(int(q[1]) + reach + 2, h)
+        if x1 <= x0 or y1 <= y0:
+            return np.zeros((0, 0), np.float32), (x0, y0)
+        return chroma(np.ascontiguousarray(image[y0:y1, x0:x1]), MIN_SUM_DN, axis), (x0, y0)
 
     def _spots(self, image: NDArray[np.uint8], floor: float,
                axis: NDArray[np.float32], thr: float | None = None,

@@ -115,6 +115,14 @@ class StereoTrackConfig:
         merge_release: take a track's number back where a neighbour's blob merged into its
             spot in this camera (a track left unlinked beside it, the spot grown:
             :mod:`~dempath_recon.tracking.merge_release`).
+        track_split: before linking, split a spot that two or three numbered tracks of the
+            camera predict, by a fit of that many discs started at their predictions, where
+            each fitted centre lies on its number's epipolar line in the other camera
+            (:mod:`~dempath_recon.tracking.track_split`). Off by default (session 22,
+            track37): the released tuning set heldout21 numbers 2.3 points more with a switch
+            fewer, but on the 23 tiny tuning looks switches rose 25 -> 35 and wrong pairs
+            1 -> 7 (``r21_dusk``: after a right split ``track_pairs`` paired two other
+            markers wrongly), and a long look lost 1.6 points with a switch more.
         line_rival: elimination leaves a track to the pair rules for a spot of the other
             camera on its epipolar line only when their pair lies near where the bed carried
             a marker that spot may be (an unnumbered spot: a marker nobody holds; a marker the
@@ -161,6 +169,7 @@ class StereoTrackConfig:
     half_ghost: bool = True
     bed_flow: bool = False
     merge_release: bool = True
+    track_split: bool = False
     line_rival: bool = True
     guided: bool = False
     guided_px: float = 12.0

@@ -82,6 +82,7 @@ from dempath_recon.tracking.state import (
     unnumbered_tracks,
 )
 from dempath_recon.tracking.track_pairs import number_by_track_pairs
+from dempath_recon.tracking.track_split import split_by_tracks
 from dempath_recon.tracking.trajectories import marker_histories, triangulate_tracks
 
 __all__ = ['CameraCounts', 'PixelFrame', 'StereoMarkerTracker', 'StereoTrackConfig',
@@ -225,7 +226,10 @@ class StereoMarkerTracker:
                    'does not see the grid give nothing')
             LOG.warning(msg)
             events.append(msg)
-        barred = barred_links(state, camera, det.uv, stamp_s)
+        own_bars: dict[int, NDArray[np.bool_]] = {}
+        if state.config.track_split:
+            det, own_bars = self._split_by_tracks(camera, stamp_s, det, shake_px, events)
+        barred = join_bars(barred_links(state, camera, det.uv, stamp_s), own_bars)
         before = (tracker.counts.lost, tracker.counts.reattached)
         tf = tracker.update(stamp_s, det, barred)
         record = state.record
@@ -314,6 +318,16 @@ class StereoMarkerTracker:
         state.queue.hold(frame, tf.track_ids, free_mask, waiting)
         return frame
 
+    def _split_by_tracks(self, camera: str, stamp_s: float, det: Detections,
+                         shake_px: FloatArray | None, events: list[str],
+                         ) -> tuple[Detections, dict[int, NDArray[np.bool_]]]:
+        """The frame's detections with spots its numbered tracks say hold two markers split
+        (:mod:`~dempath_recon.tracking.track_split`), and the parts each track may not take."""
+        detector = self.detectors[camera]
+        cfg = detector.config
+        return split_by_tracks(self.state, camera, det, stamp_s, detector.marker_size(det.size_px),
+                               cfg.downscale, cfg.threshold, detector.cut_up, shake_px, events)
+
     def release(self) -> list[PixelFrame]:
         """The frames now ``number_delay_frames`` frames old in their camera, in arrival
         order (with a delay of 0: the frame ``update`` just returned). Call it after every
@@ -362,6 +376,17 @@ class StereoMarkerTracker:
             return frame
         now = rel - self.shakers[frame.camera].anchor_px
         return frame._replace(uv=frame.uv + frame.shake_px - now, shake_px=now)
+
+
+def join_bars(a: dict[int, NDArray[np.bool_]], b: dict[int, NDArray[np.bool_]],
+              ) -> dict[int, NDArray[np.bool_]]:
+    """Track id -> (n,) the detections a track may not take by either of ``a`` and ``b``."""
+    if not b:
+        return a
+    out = dict(a)
+    for tid, bar in b.items():
+        out[tid] = bar | out[tid] if tid in out else bar
+    return out
 
 
 def note_shake(counts: CameraCounts, camera: str, stamp_s: float, shake: ShakeEstimate | None,
