@@ -119,7 +119,7 @@ class StereoTrackConfig:
             camera predict, by a fit of that many discs started at their predictions, where
             each fitted centre lies on its number's epipolar line in the other camera
             (:mod:`~dempath_recon.tracking.track_split`). Off by default (session 22,
-            track37): the released tuning set heldout21 numbers 2.3 points more with a switch
+            track37): the released tuning set heldout21 numbers 2.2 points more with a switch
             fewer, but on the 23 tiny tuning looks switches rose 25 -> 35 and wrong pairs
             1 -> 7 (``r21_dusk``: after a right split ``track_pairs`` paired two other
             markers wrongly), and a long look lost 1.6 points with a switch more.

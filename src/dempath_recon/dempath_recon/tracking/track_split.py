@@ -47,12 +47,16 @@ and their disc centres (published), and each track is barred from the other part
 link gives every track its own disc. Nothing here numbers a track: the numbers stay those the
 tracks had, and the pair checks still check every pair.
 
-Measured (session 22, track37; figures in docs/figures.md): the released tuning set heldout21
-79.29 -> 81.58 % numbered right, switches 45 -> 44, wrong pairs 6 -> 6, centres of the split
-markers 0.7-1.5 px (median) from the truth. Tried and not kept: the other camera's running
-track of a number it withheld as the line (a dusk look: that track sat on a neighbour's spot in
-both cameras, 7 switches added), a gain of 1.25 (+7 switches on that look), each disc's own
-uncovered share as the detector's split asks it (fewer good splits).
+Measured (session 22, track37; docs/figures.md): the released tuning set heldout21 79.29 ->
+81.46 % numbered right, switches 45 -> 44, wrong pairs 6 -> 6, the split markers' centres
+0.2-2.4 px (median per look) from the truth; but on the 23 tiny tuning looks switches 25 -> 35
+and wrong pairs 1 -> 7 (the numbering after right splits), so it is off by default
+(``StereoTrackConfig.track_split``). Tried and not kept: the other camera's running track of a
+number it withheld as the line (a dusk look: that track sat on a neighbour's spot in both
+cameras, 7 switches added), a gain of 1.25 (the same), each disc's own uncovered share as the
+detector's split asks it (fewer good splits), the fit over a square of three diameters rather
+than the blob's box (sand noise filled the residual: true pairs fitted only 1.1-1.5 times
+better than one disc).
 """
 
 from __future__ import annotations
