@@ -236,16 +236,12 @@ RULE_SWITCHES = (  # (flag, StereoTrackConfig field, help): the numbering rules 
      '(StereoTrackConfig.regain; on by default)'),
     ('--no-half-ghost', 'half_ghost', "number both spots of a grid pair whose spot in one camera "
      "lies nearer an unclaimed marker's grid point (StereoTrackConfig.half_ghost; on)"),
-    ('--bed-flow', 'bed_flow', 'carry an unseen marker by the measured field of the bed, not '
-     "the mean of its three nearest neighbours' displacements (StereoTrackConfig.bed_flow; off)"),
     ('--no-merge-release', 'merge_release', "keep a track's number where a neighbour's blob "
      'merged into its spot in one camera (StereoTrackConfig.merge_release; on)'),
     ('--track-split', 'track_split', 'split a spot two numbered tracks (or the other '
      "camera's lines) say holds two markers (StereoTrackConfig.track_split; off by default)"),
     ('--no-line-rival', 'line_rival', 'let any unnumbered spot of the other camera on the '
      "track's epipolar line hold back elimination (StereoTrackConfig.line_rival; on)"),
-    ('--guided', 'guided', "look for a faint spot on the other camera's line of a marker this "
-     'camera does not hold (StereoTrackConfig.guided; off by default)'),
 )
 
 

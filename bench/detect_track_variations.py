@@ -65,7 +65,7 @@ TOOL_SPEED = [0.0]  # the tool's speed [m/s] for recordings whose truth does not
 FLOOR = ['']  # ``--exposure-floor``: DetectorConfig.exposure_floor ('': the default)
 RULES: dict[str, bool] = {}  # StereoTrackConfig's numbering rules as the command line sets them
 # (``--coming-out``, ``--no-numbered-partner``, ``--no-regain``, ``--no-half-ghost``,
-# ``--bed-flow``, ``--no-merge-release``: the field and its value); a rule not named keeps
+# ``--no-merge-release``: the field and its value); a rule not named keeps
 # its default
 EXPOSURE_KNOWN = [True]  # the trackers are told each recording's exposure (``--exposure-unknown``:
 # not, as before session 16: no streak search)

@@ -73,8 +73,7 @@ def test_detections_are_moved_back_and_faint_spots_asked_where_seen() -> None:
     asked: list[NDArray[np.float64]] = []
 
     def faint(points: NDArray[np.float64], radius_px: float,
-              steps: NDArray[np.float64] | None = None, local: bool = True,
-              ) -> NDArray[np.float64]:
+              steps: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
         asked.append(points)
         return points + 0.5  # a spot half a pixel off what was asked
 

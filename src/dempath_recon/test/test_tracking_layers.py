@@ -12,10 +12,10 @@ ROOM = Path(dempath_recon.tracking.__file__).parent
 # Bottom to top: a module may import the modules before it, never one after it.
 ORDER = ('merge', 'centroid_kernel', 'cut_discs_kernel', 'cut_discs', 'split', 'covered',
          'streak', 'colour_model', 'shaded', 'detect', 'shake',
-         'linker', 'associate', 'bed_flow', 'speed_bound', 'grid_pairs', 'pair_anchor',
+         'linker', 'associate', 'speed_bound', 'grid_pairs', 'pair_anchor',
          'half_ghost',
          'records', 'release',
-         'publish_gate', 'trajectories', 'number_record', 'state', 'guided', 'held_line',
+         'publish_gate', 'trajectories', 'number_record', 'state', 'held_line',
          'link_guide', 'crowded_pair', 'merge_release', 'track_split', 'parted', 'one_camera',
          'numbering',
          'pair_checks', 'pair_numbering', 'track_pairs', 'line_rival',

@@ -161,7 +161,7 @@ class FaintSearch(Protocol):
     """``Detections.faint``: spots below the threshold near given points (see there)."""
 
     def __call__(self, points: FloatArray, radius_px: float,
-                 steps: FloatArray | None = None, local: bool = True) -> FloatArray: ...
+                 steps: FloatArray | None = None) -> FloatArray: ...
 
 
 class ChromaPatch(Protocol):
@@ -184,19 +184,16 @@ class Detections(NamedTuple):
         size_px: (n,) radius of gyration of the spot [px] (full size).
         crowded: (n,) whether the spot is larger than one marker (two touching markers the
             splitting did not part, its centre between them), or None (not known).
-        faint: ``faint(points, radius_px, steps=None, local=True)``: for each point (k, 2)
-            [px], the centre of the strongest spot within ``radius_px`` of it whose filtered
-            peak lies between ``faint_threshold`` and the threshold, NaN where none (None: not
-            searched); where ``steps`` (k, 2) [px] gives a point's motion during the exposure
-            of at least ``STREAK_MIN_PX``, the streak along it instead
-            (:mod:`~dempath_recon.tracking.streak`: a long shutter smears a fast marker under
-            any threshold); ``local`` False: without the window's own noise bar
-            (``DetectorConfig.local_bar``). Never markers on their own: the linker lets a
-            numbered track whose marker is missing take one beside its prediction (a
-            half-buried marker in a dark, noisy frame, ``MarkerTracker``), and the guided
-            search one on the other camera's line (:mod:`~dempath_recon.tracking.guided`).
-            Searched only there, on demand: the whole frame at the lower threshold cost 3.5 ms
-            a frame.
+        faint: ``faint(points, radius_px, steps=None)``: for each point (k, 2) [px], the centre
+            of the strongest spot within ``radius_px`` of it whose filtered peak lies between
+            ``faint_threshold`` and the threshold, NaN where none (None: not searched); where
+            ``steps`` (k, 2) [px] gives a point's motion during the exposure of at least
+            ``STREAK_MIN_PX``, the streak along it instead (:mod:`~dempath_recon.tracking.
+            streak`: a long shutter smears a fast marker under any threshold). Never
+            markers on their own: the linker lets a numbered track whose marker is missing
+            take one beside its prediction (a half-buried marker in a dark, noisy frame,
+            ``MarkerTracker``). Searched only there, on demand: the whole frame at the lower
+            threshold cost 3.5 ms a frame.
         centre: (n, 2) each spot's marker centre as published [px]: a partly covered
             marker's disc centre rather than the middle of its visible part
             (``DetectorConfig.up_px``, :mod:`~dempath_recon.tracking.covered`), or None: ``uv``.
@@ -581,17 +578,14 @@ class MarkerDetector:
     def _faint(self, image: NDArray[np.uint8], low: float,
                colour: tuple[float, NDArray[np.float32]], strong: FloatArray,
                points: FloatArray, radius_px: float,
-               steps: FloatArray | None = None, local: bool = True) -> FloatArray:
+               steps: FloatArray | None = None) -> FloatArray:
         """(k, 2) full-size centre of the strongest spot above ``low`` (the chroma of the
         frame's ``colour``: its floor [DN] and axis (3,)) (or of the streak along
         ``steps`` (k, 2) [full-size px] where one is at least ``STREAK_MIN_PX`` long) within
         ``radius_px`` of each point (k, 2) [full-size px], NaN where none or where it is the
         frame's own spot (within ``min_separation_px`` of one of ``strong`` (n, 2): a marker's
         rim). The window's own noise bar is tried where the window's median ``B + G + R`` is
-        under ``MIN_SUM_DN`` (``local_bar``) and ``local`` is set; the guided search
-        (:mod:`~dempath_recon.tracking.guided`) asks for faint spots alone (``local`` False):
-        it probes many windows along a line, where the noise bar's fallback cost more than the
-        detection and found noise."""
+        under ``MIN_SUM_DN`` (``local_bar``)."""
         s = self.config.downscale
         floor, axis = colour
         pts = np.asarray(points, np.float64).reshape(-1, 2)
@@ -614,7 +608,7 @@ class MarkerDetector:
             if not streak:
                 out[k] = self._faint_spot(chroma(window, floor, axis), (x0, y0), q,
                                           reach, low, strong)
-            if streak or (local and self.config.local_bar and not np.isfinite(out[k]).all()
+            if streak or (self.config.local_bar and not np.isfinite(out[k]).all()
                           and dim(window)):
                 c = chroma(window, DARK_SUM_DN, axis)
                 if self.config.floor_sand:

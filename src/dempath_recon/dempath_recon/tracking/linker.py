@@ -457,25 +457,6 @@ class MarkerTracker:
         return [(ti, p) for (ti, p), key in zip(found, keys, strict=True)
                 if keys.count(key) == 1]
 
-    def link_spot(self, marker: int, uv: FloatArray, stamp_s: float, events: list[str],
-                  ) -> Track:
-        """Link a faint spot ``uv`` (2,) px found for ``marker`` outside the assignment (a
-        guided search: :mod:`~dempath_recon.tracking.guided`) in the frame at ``stamp_s``
-        (after :meth:`update`): the marker's track takes it (re-attached if lost), or a new
-        track with that number starts there; counted and marked as a faint link. Returns the
-        track."""
-        track = next((t for t in self.tracks if t.marker == marker), None)
-        if track is None:
-            track = self._new(uv, marker, stamp_s)
-            self.counts.new_tracks += 1
-            events.append(f'new track {track.track_id} (marker {marker}) at ({uv[0]:.1f}, '
-                          f'{uv[1]:.1f}) px')
-        else:
-            self._advance(track, uv, stamp_s, events)
-        track.faint_stamp = stamp_s
-        self.counts.faint += 1
-        return track
-
     def _advance(self, track: Track, uv: FloatArray, stamp_s: float, events: list[str]) -> None:
         dt = stamp_s - track.last_stamp_s
         miss = float(np.linalg.norm(uv - track.predict(stamp_s, self.config.velocity_decay)))

@@ -15,7 +15,6 @@ from dempath_recon.tracking.state import (
     RECENT_S,
     StereoState,
     carried_point,
-    could_be_there,
     retire,
     sure_numbers,
     unnumbered_tracks,
@@ -147,17 +146,15 @@ def only_marker(state: StereoState, xyz: FloatArray, stamp_s: float, missing: li
     """The one marker of ``missing`` that a 3D point can be, else -1.
 
     Each missing marker is placed where the bed has carried it since its last accepted 3D
-    position (``MarkerPositions.carried``: moved as its nearest tracked neighbours moved;
-    a marker never triangulated starts from its fitted grid point when the grid was
-    fitted). The point is the nearest such marker's when it lies within what the marker
-    can have reached (``position_gate_m + max_speed_m_s x dt``) and every other missing
-    marker is at least ``PAIR_RATIO`` times as far (at least ``CARRY_FLOOR_M``) and, with
-    ``config.bed_flow``, farther than its carried place's spread allows
-    (``state.could_be_there``). A missing marker that cannot be placed (no position, or no
-    neighbour tracked across its gap) could be anywhere (-1). Its last position alone is not
-    enough: the bed carries a covered marker 50 mm in half a second, to where a neighbour was
-    lost shortly before (measured on the bundled render: marker 8 back 13 mm from 9's last
-    point, 50 mm from its own; carried, 4.5 mm from 8 and 25 mm from 9).
+    position (``MarkerPositions.carried``: moved as its nearest tracked neighbours moved; a
+    marker never triangulated starts from its fitted grid point when the grid was fitted). The
+    point is the nearest such marker's when it lies within what the marker can have reached
+    (``position_gate_m + max_speed_m_s x dt``) and every other missing marker is at least
+    ``PAIR_RATIO`` times as far (at least ``CARRY_FLOOR_M``). A missing marker that cannot be
+    placed (no position, or no neighbour tracked across its gap) could be anywhere (-1). Its
+    last position alone is not enough: the bed carries a covered marker 50 mm in half a second,
+    to where a neighbour was lost shortly before (measured on the bundled render: marker 8 back
+    13 mm from 9's last point, 50 mm from its own; carried, 4.5 mm from 8 and 25 mm from 9).
     """
     ages = []
     for m in missing:
@@ -173,8 +170,6 @@ def only_marker(state: StereoState, xyz: FloatArray, stamp_s: float, missing: li
         return UNNUMBERED
     bar = PAIR_RATIO * max(ages[0][0], CARRY_FLOOR_M)
     if len(ages) > 1 and ages[1][0] < bar:
-        return UNNUMBERED
-    if any(could_be_there(state, m, stamp_s, xyz) for _, _, m in ages[1:]):
         return UNNUMBERED
     return ages[0][2]
 

@@ -104,14 +104,6 @@ class StereoTrackConfig:
             image grid point of a marker no pair claims, in its camera alone (the front of two
             markers on one line of sight, the other camera seeing only the one behind:
             :mod:`~dempath_recon.tracking.half_ghost`); its partner keeps the number.
-        bed_flow: place a marker no camera places now where a Gaussian-weighted field of its
-            neighbours' measured displacements, with a still bed as prior, carried it
-            (:mod:`~dempath_recon.tracking.bed_flow`); False: by the mean displacement of its
-            three nearest neighbours (``MarkerPositions.carried``). Off by default (session
-            21, track34): the place is nearer the truth (long tuning looks: median 9.3 -> 7.1
-            mm, 90th percentile 39 -> 23 mm) but the rules that name a marker by it, tuned on
-            the old place, numbered 0.27 points more and switched 33 more times on 39 tuning
-            looks (``pair_numbering.only_marker``: a pushed marker's place lags the tine).
         merge_release: take a track's number back where a neighbour's blob merged into its
             spot in this camera (a track left unlinked beside it, the spot grown:
             :mod:`~dempath_recon.tracking.merge_release`).
@@ -130,17 +122,6 @@ class StereoTrackConfig:
             epipolar line crosses the bed, and the spot on it is often another marker; long
             tuning looks 85.47 -> 86.25 % numbered right, no switch or wrong pair added);
             False: any such spot defers it.
-        guided: look for a marker the other camera gives out at this instant and this camera
-            does not hold in the frame as a faint spot on the other camera's epipolar line
-            within ``guided_px`` of where this camera last had it, and keep it with its number
-            when the pair holds (:mod:`~dempath_recon.tracking.guided`). Off by default
-            (session 21, track31): on main 8e6c533 it numbered the ten dusk tuning looks
-            82.10 -> 84.02 % right and held-apart seed-147 looks 86.31 -> 87.29 %, with fewer
-            switches and wrong pairs pooled, but more on three tuning looks (``r21_faint``
-            0 -> 9 switches and 0 -> 4 wrong pairs, ``tune6_dusk`` 0 -> 2, ``t107_dusk``
-            0 -> 1) and about 10 % more CPU a frame (docs/reconstruction.md).
-        guided_px: the guided search's radius around where this camera last had the marker
-            [px] (the grid gate: a covered marker stays within it of its grid point).
     """
 
     detector: DetectorConfig = field(default_factory=DetectorConfig)
@@ -167,12 +148,9 @@ class StereoTrackConfig:
     crowded_pairs: bool = True
     crowd_give_back: bool = True
     half_ghost: bool = True
-    bed_flow: bool = False
     merge_release: bool = True
     track_split: bool = False
     line_rival: bool = True
-    guided: bool = False
-    guided_px: float = 12.0
 
     def __post_init__(self) -> None:
         for name in ('fps', 'epipolar_px', 'grid_gate_px', 'position_gate_m',
@@ -191,9 +169,6 @@ class StereoTrackConfig:
             raise ValueError(msg)
         if self.min_grid_markers < 1:
             msg = f'min_grid_markers: must be >= 1, got {self.min_grid_markers!r}'
-            raise ValueError(msg)
-        if not 0 < self.guided_px < 100:
-            msg = f'guided_px: must be in (0, 100) px, got {self.guided_px!r}'
             raise ValueError(msg)
 
 
@@ -230,7 +205,6 @@ class CameraCounts:
     numbered_by_elimination: int = 0  # one camera's, by the free grid point it started at
     numbered_by_carried: int = 0  # one camera's new track, by where the bed carried a marker
     numbered_by_regain: int = 0  # a number elimination took back for a jump, given back (regain)
-    recovered: int = 0  # faint spots found for a marker the other camera gives out (guided)
     numbered_late: int = 0
     unnumbered: int = 0
     epipolar_conflicts: int = 0

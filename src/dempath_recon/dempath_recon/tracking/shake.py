@@ -203,9 +203,9 @@ def remove_shake(det: Detections, shift_px: FloatArray) -> Detections:
         inner = faint
 
         def faint_moved(points: FloatArray, radius_px: float,
-                        steps: FloatArray | None = None, local: bool = True) -> FloatArray:
+                        steps: FloatArray | None = None) -> FloatArray:
             moved = np.asarray(points, np.float64) + shift
-            return inner(moved, radius_px, steps, local) - shift
+            return inner(moved, radius_px, steps) - shift
 
         faint = faint_moved
     centre = det.centre - shift if det.centre is not None else None

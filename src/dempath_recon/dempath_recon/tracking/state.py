@@ -20,7 +20,6 @@ from numpy.typing import NDArray
 
 from dempath_recon.methods.triangulate import Camera
 from dempath_recon.tracking.associate import MarkerPositions, back_project, depth
-from dempath_recon.tracking.bed_flow import CarriedPlace, carried_place
 from dempath_recon.tracking.linker import UNNUMBERED, MarkerTracker, Track
 from dempath_recon.tracking.number_record import NumberRecord
 from dempath_recon.tracking.records import CameraCounts, StereoTrackConfig
@@ -34,9 +33,6 @@ ALONE_RATIO = 3.0  # a re-found spot is kept on one camera's evidence when every
 MIN_SPEED_PX_S = 50.0  # speed floor of that comparison: a pixel a frame at 50 FPS [px/s]
 CARRY_FLOOR_M = 0.003  # nearest-marker comparison of ``only_marker``: distances below this
 # (a few times the triangulation noise, ~1 mm RMS) count as this [m]
-RIVAL_SIGMAS = 1.0  # with ``config.bed_flow``, a point within this many of a marker's carried
-# spreads may be that marker (``could_be_there``; 1 and 2 both stopped t113_asis' 26 switch-frames
-# on the long tuning looks; 2 also refused right pairs: 23 tiny tuning looks 79.11 -> 78.76 %)
 MAX_DEPTH_AGE_S = 0.06  # a 3D point older than this (three frames) no longer bounds the depth
 # along an epipolar line usefully (the gate has grown to 0.13 m, several marker pitches)
 
@@ -190,48 +186,18 @@ def grid_point(state: StereoState, marker: int) -> tuple[float, FloatArray] | No
 def carried_point(state: StereoState, marker: int, stamp_s: float,
                   ) -> tuple[FloatArray, float] | None:
     """``((3,) m, since s)``: where the bed has carried a marker by ``stamp_s`` since its last
-    accepted 3D position (with ``config.bed_flow``: :func:`~dempath_recon.tracking.bed_flow.
-    carried_place`, a measured displacement field with a still bed as prior; otherwise
-    ``MarkerPositions.carried``: moved as its three nearest tracked neighbours moved; a marker
-    never triangulated starts from its fitted grid point), and the stamp it was last placed
-    at; None when it cannot be placed."""
+    accepted 3D position (``MarkerPositions.carried``: moved as its three nearest tracked
+    neighbours moved; a marker never triangulated starts from its fitted grid point), and the
+    stamp it was last placed at; None when it cannot be placed."""
     # the grid point only for a marker never triangulated (asked of every marker by several
     # rules a frame, it undistorts a pixel each time: 0.1-0.3 ms a frame, session 22)
     known = state.positions.known.get(marker)
     anchor = grid_point(state, marker) if known is None else None
-    if state.config.bed_flow:
-        placed = carried_place_of(state, marker, stamp_s)
-        at = None if placed is None else placed.xyz
-    else:
-        at = state.positions.carried(marker, stamp_s, 1.5 / state.config.fps, MAX_DEPTH_AGE_S,
-                                     anchor)
+    at = state.positions.carried(marker, stamp_s, 1.5 / state.config.fps, MAX_DEPTH_AGE_S,
+                                 anchor)
     if at is None:
         return None
     return at, (known or anchor or (stamp_s, at))[0]
-
-
-def carried_place_of(state: StereoState, marker: int, stamp_s: float) -> CarriedPlace | None:
-    """Where the measured field of the bed carried ``marker`` by ``stamp_s``, with its spread
-    (:func:`~dempath_recon.tracking.bed_flow.carried_place`; from its last accepted 3D
-    position, or its fitted grid point when never triangulated); None when it cannot be
-    placed."""
-    start = state.positions.known.get(marker, grid_point(state, marker))
-    return carried_place(state.positions.history, marker, stamp_s, start,
-                         1.5 / state.config.fps, MAX_DEPTH_AGE_S)
-
-
-def could_be_there(state: StereoState, marker: int, stamp_s: float, xyz: FloatArray) -> bool:
-    """Whether a 3D point ``xyz`` (3,) m lies within ``RIVAL_SIGMAS`` spreads of where the bed
-    carried ``marker`` (with ``config.bed_flow`` only: the plain carried point has no spread;
-    False when off or when the marker cannot be placed). Markers pushed in front of the tine
-    bunch, and a pushed marker's place lags its true one by 15-30 mm: on ``t113_asis`` a pair
-    of marker 2 lay 6 mm from where the field carried 3 and 18 mm from 2's own place (its
-    spread 28 mm), and was named 3 for 26 frames."""
-    if not state.config.bed_flow:
-        return False
-    placed = carried_place_of(state, marker, stamp_s)
-    return placed is not None and \
-        float(np.linalg.norm(xyz - placed.xyz)) <= RIVAL_SIGMAS * placed.sigma_m
 
 
 def at_stamp(state: StereoState, camera: str, marker: int, sighting: Sighting,

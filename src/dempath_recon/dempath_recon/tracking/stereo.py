@@ -51,7 +51,6 @@ from dempath_recon.tracking.grid_elimination import (
     revoke_jumped,
     revoke_shared,
 )
-from dempath_recon.tracking.guided import recover_guided
 from dempath_recon.tracking.link_guide import ambiguous_spots, barred_links
 from dempath_recon.tracking.linker import UNNUMBERED
 from dempath_recon.tracking.merge import StampMerge
@@ -233,9 +232,6 @@ class StereoMarkerTracker:
         before = (tracker.counts.lost, tracker.counts.reattached)
         tf = tracker.update(stamp_s, det, barred)
         record = state.record
-        if state.config.guided:
-            tf = recover_guided(state, camera, det, tf, stamp_s, state.config.guided_px,
-                                events)
         if record is not None:
             record.reattached(camera, stamp_s, tracker.tracks)
 
