@@ -242,6 +242,8 @@ RULE_SWITCHES = (  # (flag, StereoTrackConfig field, help): the numbering rules 
      "camera's lines) say holds two markers (StereoTrackConfig.track_split; off by default)"),
     ('--no-line-rival', 'line_rival', 'let any unnumbered spot of the other camera on the '
      "track's epipolar line hold back elimination (StereoTrackConfig.line_rival; on)"),
+    ('--no-whole-pass', 'whole_pass', 'give frames out as they come, without numbering the '
+     'never-numbered tracks from the whole pass at its end (StereoTrackConfig.whole_pass; on)'),
 )
 
 

@@ -24,7 +24,7 @@ from dempath.bagio import RawMessage, write_bag
 from dempath_calib.camera import StereoCalibration
 from dempath_msgs.msg import PixelPoints
 from dempath_recon.nodes.detector import DetectorNode
-from dempath_recon.tracking.stereo import track_bag
+from dempath_recon.tracking.stereo import StereoTrackConfig, track_bag
 
 from .render_frames import field_images, stamp_ns
 
@@ -51,14 +51,16 @@ def images() -> list[tuple[str, CompressedImage, RawMessage]]:
 
 
 def run_nodes(ros_harness, calib: Path,
-              order: list[tuple[str, CompressedImage, RawMessage]]) -> Points:
-    """Both lossless detector nodes fed ``order``; their published points (the nodes are
-    destroyed afterwards)."""
+              order: list[tuple[str, CompressedImage, RawMessage]],
+              whole_pass: bool = False) -> Points:
+    """Both lossless detector nodes fed ``order`` (``whole_pass`` their parameter); their
+    published points (the nodes are destroyed afterwards)."""
     nodes, got = {}, {}
     for cam in topics.CAMERAS:
         params = [Parameter('camera', value=cam), Parameter('lossless', value=True),
                   Parameter('calibration_file', value=str(calib)),
-                  Parameter('merge_wait_s', value=5.0)]  # a stalled test process is no end
+                  Parameter('merge_wait_s', value=5.0),  # a stalled test process is no end
+                  Parameter('whole_pass', value=whole_pass)]
         nodes[cam] = ros_harness.add(DetectorNode(context=ros_harness.context, namespace=cam,
                                                   parameter_overrides=params))
         got[cam] = ros_harness.collect(PixelPoints,
@@ -87,23 +89,27 @@ def run_nodes(ros_harness, calib: Path,
     return out
 
 
+@pytest.mark.parametrize('whole_pass', [False, True])
 def test_lossless_detectors_equal_track_bag_whatever_the_arrival_order(
         ros_harness, images: list[tuple[str, CompressedImage, RawMessage]],
-        tmp_path: Path) -> None:
+        tmp_path: Path, whole_pass: bool) -> None:
     """Stamp order and front-before-side give the same numbered points, and those of
-    ``track_bag`` (the same tracker, the same publication delay) on a bag of the frames."""
+    ``track_bag`` (the same tracker, the same publication delay; with ``whole_pass`` every
+    frame held till the end and the never-numbered tracks numbered from the whole pass) on a
+    bag of the frames."""
     truth = json.loads(TRUTH.read_text())
     rig = StereoCalibration.from_dict(truth['calibration_segment']['rig'])
     calib = rig.save(tmp_path / 'calib.yaml')
     bag = tmp_path / 'frames'
     write_bag(bag, [(raw.topic, raw.msgtype, raw.log_time_ns, raw.data) for _, _, raw in images])
-    frames, _ = track_bag(bag, {c.name: c for c in rig.cameras})
+    frames, _ = track_bag(bag, {c.name: c for c in rig.cameras},
+                          StereoTrackConfig(whole_pass=whole_pass))
     offline: Points = {(f.camera, round(f.stamp_s * 1e6)): {
         int(m): (float(p[0]), float(p[1])) for m, p in zip(f.markers, f.uv, strict=True)
         if m >= 0} for f in frames}
-    in_order = run_nodes(ros_harness, calib, images)
+    in_order = run_nodes(ros_harness, calib, images, whole_pass)
     reordered = run_nodes(ros_harness, calib, [i for i in images if i[0] == 'cam_front']
-                          + [i for i in images if i[0] == 'cam_side'])
+                          + [i for i in images if i[0] == 'cam_side'], whole_pass)
     assert in_order.keys() == offline.keys()
     numbered = sum(len(p) for p in offline.values())
     assert numbered > 10 * FRAMES, numbered  # most markers numbered: the test is not empty

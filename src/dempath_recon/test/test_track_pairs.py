@@ -224,7 +224,8 @@ def _pushed_run(rig, numbered_partner: bool = True, intruder: bool = False) -> l
     hide 8 from the side). ``numbered_partner``: ``StereoTrackConfig.numbered_partner``."""
     cams = {c.name: c for c in rig.cameras}
     config = StereoTrackConfig(grid=MarkerGrid(layout_m=GRID15), number_delay_frames=5,
-                               numbered_partner=numbered_partner)
+                               numbered_partner=numbered_partner,
+                               whole_pass=False)  # the frame rule alone (the pass numbers 8 too)
     tracker = StereoMarkerTracker(cams, config)
     side_c = _centre(cams['cam_side'])
     out = []

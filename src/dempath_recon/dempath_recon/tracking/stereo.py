@@ -83,6 +83,7 @@ from dempath_recon.tracking.state import (
 from dempath_recon.tracking.track_pairs import number_by_track_pairs
 from dempath_recon.tracking.track_split import split_by_tracks
 from dempath_recon.tracking.trajectories import marker_histories, triangulate_tracks
+from dempath_recon.tracking.whole_pass import number_whole_pass
 
 __all__ = ['CameraCounts', 'PixelFrame', 'StereoMarkerTracker', 'StereoTrackConfig',
            'camera_detectors', 'marker_histories', 'track_bag', 'triangulate_tracks']
@@ -115,6 +116,8 @@ class StereoMarkerTracker:
         # each camera's latest frames' shifts against its first frame, by stamp (for release)
         self._relative: dict[str, deque[tuple[float, FloatArray]]] = {
             c: deque(maxlen=self.state.config.number_delay_frames + 2) for c in self.shakers}
+        # with config.whole_pass: the frames due so far, numbered as due, kept till flush
+        self._pass: list[tuple[HeldFrame, PixelFrame]] = []
 
     @property
     def cameras(self) -> dict[str, Camera]:
@@ -334,15 +337,39 @@ class StereoMarkerTracker:
         the number the track has now, if the track was given one since and kept its 2D links
         in the meantime (no re-attachment after that frame, which could be another marker)
         and no other point of the frame has that number. Held frames keep their stamps: the
-        delay only postpones them.
+        delay only postpones them. With ``config.whole_pass`` the frames are numbered so and
+        kept till ``flush`` (nothing is given out before the pass ends).
         """
-        return [self._amend(h) for h in self.state.queue.due()]
+        due = [(h, self._anchored(h)) for h in self.state.queue.due()]
+        if self.config.whole_pass:
+            self._pass += due
+            return []
+        return [self._gated(h, f) for h, f in due]
 
     def flush(self) -> list[PixelFrame]:
-        """All frames still held (end of a recording), with the numbers known now."""
-        return [self._amend(h) for h in self.state.queue.rest()]
+        """All frames still held (end of a recording), with the numbers known now; with
+        ``config.whole_pass``, every frame of the pass, the tracks still never numbered then
+        numbered from all of them at once (:mod:`~dempath_recon.tracking.whole_pass`)."""
+        held = self._pass + [(h, self._anchored(h)) for h in self.state.queue.rest()]
+        self._pass = []
+        frames = [f for _, f in held]
+        if self.config.whole_pass and held:
+            frames = self._whole_pass([h for h, _ in held], frames)
+        return [self._gated(h, f) for (h, _), f in zip(held, frames, strict=True)]
 
-    def _amend(self, held: HeldFrame) -> PixelFrame:
+    def _whole_pass(self, held: list[HeldFrame], frames: list[PixelFrame]) -> list[PixelFrame]:
+        """``frames`` numbered from the whole pass, the points it numbered counted."""
+        state = self.state
+        out, _ = number_whole_pass(frames, [h.track_ids for h in held], self.cameras,
+                                   state.grid_uv, state.config.epipolar_px, state.config.fps)
+        for before, after in zip(frames, out, strict=True):
+            state.counts[after.camera].numbered_whole_pass += int(
+                (after.markers != before.markers).sum())
+        return out
+
+    def _anchored(self, held: HeldFrame) -> PixelFrame:
+        """A held frame due to go out, with the numbers its tracks got since (``renumber``,
+        ``fill_confirmed``), re-anchored (:meth:`_reanchor`)."""
         state = self.state
         tracks = {t.track_id: t for t in state.trackers[held.camera].tracks}  # by id, for both
         frame, late = renumber(held, tracks, state.config.fps)
@@ -350,7 +377,11 @@ class StereoMarkerTracker:
                                        state.config.fps)
         state.counts[held.camera].numbered_late += late
         state.counts[held.camera].confirmed_late += filled
-        frame = self._reanchor(frame)
+        return self._reanchor(frame)
+
+    def _gated(self, held: HeldFrame, frame: PixelFrame) -> PixelFrame:
+        """A frame going out, through the publication gate."""
+        state = self.state
         if self.gate is None:
             return frame
         frame, gated = self.gate.check(frame)

@@ -31,7 +31,7 @@ def marker_histories(frames: list[PixelFrame], camera: str,
             for m, rows in out.items()}
 
 
-def _interpolate(hist: tuple[FloatArray, FloatArray], t: FloatArray, max_gap_s: float,
+def interpolate_history(hist: tuple[FloatArray, FloatArray], t: FloatArray, max_gap_s: float,
                  ) -> FloatArray:
     """(len(t), 2) px of a track at times t, NaN where no samples within ``max_gap_s`` bracket."""
     times, uv = hist
@@ -65,7 +65,7 @@ def triangulate_tracks(frames: list[PixelFrame], cameras: dict[str, Camera], sid
         us = np.full((len(times), 2), np.nan)
         idx = np.searchsorted(times, hs[int(m)][0])
         us[idx] = hs[int(m)][1]
-        uf = _interpolate(hf[int(m)], times, 1.5 / fps)
+        uf = interpolate_history(hf[int(m)], times, 1.5 / fps)
         ok = np.isfinite(us).all(1) & np.isfinite(uf).all(1)
         if ok.any():
             views = np.stack([us[ok], uf[ok]])
