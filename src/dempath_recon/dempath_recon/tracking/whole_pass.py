@@ -193,16 +193,17 @@ def clear_winner(cost: FloatArray, allowed: NDArray[np.bool_], row: int, col: in
 
 def assign(cost: FloatArray, ratio: float, margin: float,
            allowed: NDArray[np.bool_] | None = None) -> list[tuple[int, int]]:
-    """The (row, column) pairs of the optimal assignment on ``cost`` (inf: no score) that are
-    ``allowed`` (None: every finite pair) and clear winners (:func:`clear_winner`) against
-    every scored rival, allowed or not."""
+    """The (row, column) pairs of the optimal assignment of the ``allowed`` pairs (None: every
+    finite one) on ``cost`` (inf: no score) that are clear winners (:func:`clear_winner`)
+    against every scored rival, allowed or not (a rival only scored takes no column from the
+    assignment: it can only refuse)."""
     from scipy.optimize import linear_sum_assignment
 
-    if not cost.size or not np.isfinite(cost).any():
-        return []
     allowed = np.isfinite(cost) if allowed is None else allowed & np.isfinite(cost)
-    big = 1e6 + np.nanmax(np.where(np.isfinite(cost), cost, np.nan))
-    rows, cols = linear_sum_assignment(np.where(np.isfinite(cost), cost, big))
+    if not cost.size or not allowed.any():
+        return []
+    big = 1e6 + float(cost[allowed].max())
+    rows, cols = linear_sum_assignment(np.where(allowed, cost, big))
     return [(int(r), int(c)) for r, c in zip(rows, cols, strict=True)
             if allowed[r, c] and clear_winner(cost, allowed, int(r), int(c), ratio, margin)]
 
