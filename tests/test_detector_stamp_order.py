@@ -52,7 +52,7 @@ def images() -> list[tuple[str, CompressedImage, RawMessage]]:
 
 def run_nodes(ros_harness, calib: Path,
               order: list[tuple[str, CompressedImage, RawMessage]],
-              whole_pass: bool = False) -> Points:
+              whole_pass: bool = True) -> Points:
     """Both lossless detector nodes fed ``order`` (``whole_pass`` their parameter); their
     published points (the nodes are destroyed afterwards)."""
     nodes, got = {}, {}

@@ -32,6 +32,7 @@ WARN = 30  # rcutils log level WARN: the nodes stay quiet unless something is wr
 QUIET_NODES = ('dempath_reconstructor', 'dempath_comparer', 'dempath_recorder', 'dempath_player',
                'dempath_simulator', 'cam_side.dempath_detector', 'cam_front.dempath_detector')
 IMAGE_READERS = 3  # readers of an image topic here: both lossless detectors and the recorder
+WHOLE_PASS_QUEUE = 10_000  # frames a camera (200 s at 50 FPS) the reconstructor keeps waiting
 SETTLE_S = 5.0  # images all detected and no new 3D frame for this long: the playback is done [s]
 # (with 1.5 s a loaded CI run once ended with 25 of 31 frame pairs; cause not traced)
 SCORE_GRACE_SPINS = 200  # executor spins (0.05 s each when idle) to wait for scores after
@@ -205,8 +206,11 @@ def _play_images(harness: Any, recorder: Any, spec: GraphSpec, detectors: dict[s
         points = _received(recorder, topics.MARKER_POINTS)
         note(f'detecting in {spec.field_bag.name}: frames ' + ', '.join(
             f'{c} {detected(c)}' for c in images) + f'; {points} MarkerPoints3D')
-        if points != last[0]:
-            last[:] = [points, time.monotonic()]
+        # the settling time runs from the last new 3D frame or detected frame: a detector that
+        # holds the whole pass (whole_pass) gives every frame out at once when it ends
+        seen = points + sum(detected(c) for c in images)
+        if seen != last[0]:
+            last[:] = [seen, time.monotonic()]
         if not player.finished.is_set():
             return False
         published = player.published()
@@ -273,8 +277,12 @@ def run_graph(spec: GraphSpec, note: Callable[[str], None] = lambda text: None) 
         logger_class = type(harness.probe.get_logger())  # type: ignore[no-untyped-call]  # rcutils logger
         for name in QUIET_NODES:
             logger_class(name).set_level(WARN)
+        # detecting (lossless, whole_pass), each detector gives its camera's whole pass out at
+        # once when the images end: the reconstructor keeps every frame till its partner comes
         recon = harness.start(ReconstructorNode, method=spec.method,
-                              calibration_file=str(spec.calibration))
+                              calibration_file=str(spec.calibration),
+                              **({'queue_size': WHOLE_PASS_QUEUE,
+                                  'subscription_depth': WHOLE_PASS_QUEUE} if spec.detect else {}))
         comparer = harness.start(ComparerNode, experiment=spec.experiment,
                                  identity_from_names=True)  # as stages.named_identity
         frames = write_graph_frames(spec.output.with_name(f'{spec.output.name}.frames.yaml'),

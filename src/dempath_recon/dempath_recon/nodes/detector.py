@@ -97,9 +97,9 @@ PARAMETERS: tuple[tuple[str, Any, str], ...] = (
                             '0: not known, no bound'),
     ('publish_gate', True, "lossless: withhold a numbered point whose pair's 3D point jumps "
                            "unlike its neighbours' motion (tracking/publish_gate.py)"),
-    ('whole_pass', False, 'lossless: hold every frame till the recording ends, then number the '
-                          'tracks no rule numbered from the whole pass (tracking/whole_pass.py; '
-                          'the offline path does by default); false: publish as frames are due'),
+    ('whole_pass', True, 'lossless: hold every frame till the recording ends, then number the '
+                         'tracks no rule numbered from the whole pass (tracking/whole_pass.py, '
+                         'as the offline path); false: publish as frames are due'),
     ('scene', '', "scene file or shipped scene name whose markers: block gives the marker grid "
                   "(overrides the marker_* parameters); '': the marker_* parameters"),
     ('marker_rows', 3, 'rows of the marker grid (row 0 on the tool axis; the paper: 3)'),
