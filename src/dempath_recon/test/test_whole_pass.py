@@ -135,15 +135,31 @@ def test_a_marker_back_in_both_cameras_unnumbered_takes_the_number_whose_path_it
     assert _given(frames, track_ids, 'cam_front', 300) == expected
 
 
-def test_a_track_is_cut_where_a_link_jumps() -> None:
-    """A track moving 3 px a frame that jumps 20 px onto a neighbour is two pieces; a smooth
-    one stays whole (a marker cannot jump)."""
+def test_a_track_is_cut_where_a_link_jumps_or_comes_back() -> None:
+    """A track moving 3 px a frame that jumps 20 px onto a neighbour is two pieces, and so is
+    one that comes back after two frames unseen; a smooth one stays whole."""
     times = np.arange(8) * DT
     uv = np.column_stack([100 + 3.0 * np.arange(8), np.full(8, 50.0)])
     assert [len(p) for p in smooth_pieces(times, uv, FPS)] == [8]
+    assert [p.tolist() for p in smooth_pieces(np.r_[times[:5], times[5:] + 2 * DT], uv,
+                                              FPS)] == [[0, 1, 2, 3, 4], [5, 6, 7]]
     uv[5:, 1] += 20.0
     assert [p.tolist() for p in smooth_pieces(times, uv, FPS)] == [[0, 1, 2, 3, 4],
                                                                    [5, 6, 7]]
+
+
+def test_a_track_re_attached_after_a_gap_is_numbered_only_before_it(rig) -> None:
+    """The front's never-numbered track of 8 is unseen for three frames mid-pass (lost and
+    re-attached): the piece before the gap takes 8, the re-attached piece (which may be a
+    neighbour's or an off-centre spot) stays unnumbered."""
+    numbered = {'cam_side': lambda k, m: m, 'cam_front': lambda k, m: -1 if m == 8 else m}
+    ids = {'cam_side': lambda k, m: m,
+           'cam_front': lambda k, m: None if (m == 8 and 8 <= k < 11) else 100 + m}
+    frames, track_ids = _frames(rig, [_grid(k) for k in range(FRAMES)], numbered, ids)
+    frames, _ = number_whole_pass(frames, track_ids, _cameras(rig), {}, EPIPOLAR_PX, FPS)
+    got = [int(m) for f, t in zip(frames, track_ids, strict=True) if f.camera == 'cam_front'
+           for m in f.markers[t == 108]]
+    assert got == [8] * 8 + [-1] * (FRAMES - 11)
 
 
 def test_the_tracker_gives_the_whole_pass_out_at_the_end_with_the_same_numbers(rig) -> None:
