@@ -129,10 +129,11 @@ class StereoTrackConfig:
             whole_pass`: a track that stays on one marker's epipolar line over the pass while
             every rival strays is that marker). The lossless detector nodes then publish
             at the end of the recording; live nodes (``update``'s frames) are not affected.
-            On since session 22 (track35): numbered right 79.28 -> 81.87 % on heldout21's
-            eight looks, 87.98 -> 88.44 on the ten long tuning looks, 80.56 -> 81.46 on the
-            23 tiny ones, 86.47 -> 86.99 on six seed-169 looks, switches and wrong-pair
-            points unchanged on each (docs/reconstruction.md). False: frames go out when due.
+            On since session 22 (track35; main 8f5be33): numbered right 79.88 -> 81.56 % on
+            heldout21's eight looks, 88.13 -> 88.44 on the ten long tuning looks, 80.56 ->
+            81.09 on the 23 tiny ones, 86.47 -> 86.99 on six seed-169 looks, six held-apart
+            seed-171 looks unchanged; switches and wrong-pair points unchanged on each
+            (docs/reconstruction.md). False: frames go out when due.
     """
 
     detector: DetectorConfig = field(default_factory=DetectorConfig)
