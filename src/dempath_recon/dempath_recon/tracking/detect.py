@@ -88,8 +88,6 @@ FILTER_FLOOR = -0.2  # the matched filter sees sand no redder than the sand the 
 # then jumped onto them: more switches and wrong pairs on 5 of 13 tuning looks
 
 
-MASS_SHARE_OFF_BLUE = True  # another clay's seen share (covered.seen_share) from its chroma mass
-# alone, not over its peak pixel (False: over the peak, as blue clay's; session 22, below)
 SPARSE_BOX = 0.1  # a byte-bound box over this share of the frame is narrowed to the pixels
 # whose chroma passes (``MarkerDetector._exact_box``)
 PEAK_TILE = 32  # candidate pixels in touching tiles of this size [detector px] are filtered
@@ -512,7 +510,7 @@ class MarkerDetector:
             # is noise (white reads -0.55 on red clay's axis, 0 on blue's; the sand's chroma
             # noise is 3-4 times blue's, track30), so dividing by it read whole red markers as
             # covered and moved 36-43 % of them down (blue 20-27 %; session 22)
-            peaky = is_blue(axis) or not MASS_SHARE_OFF_BLUE
+            peaky = is_blue(axis)
             if dim_floor is not None:  # a dim frame: published centres on the own light
                 own = parts.floored(dim_floor)  # the window's chroma at the frame's floor
                 seen_uv, lit_peak, lit_mass = lit_centroids(own, uv, self._refine, thr)
