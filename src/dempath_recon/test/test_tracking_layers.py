@@ -15,7 +15,7 @@ ORDER = ('merge', 'centroid_kernel', 'cut_discs_kernel', 'cut_discs', 'split', '
          'linker', 'associate', 'speed_bound', 'grid_pairs', 'pair_anchor',
          'half_ghost',
          'records', 'release',
-         'publish_gate', 'trajectories', 'whole_pass', 'number_record', 'state', 'held_line',
+         'publish_gate', 'trajectories', 'whole_pass', 'joint_fill', 'number_record', 'state', 'held_line',
          'link_guide', 'crowded_pair', 'merge_release', 'track_split', 'parted', 'one_camera',
          'numbering',
          'pair_checks', 'pair_numbering', 'track_pairs', 'line_rival',

@@ -134,6 +134,10 @@ class StereoTrackConfig:
             81.09 on the 23 tiny ones, 86.47 -> 86.99 on six seed-169 looks, six held-apart
             seed-171 looks unchanged; switches and wrong-pair points unchanged on each
             (docs/reconstruction.md). False: frames go out when due.
+        joint_fill: with ``whole_pass``, after its numbering, number the spots still
+            unnumbered from each marker's 3D path over the pass (its numbered pairs), by one
+            assignment per instant over both cameras' spots with a refusal margin
+            (:mod:`~dempath_recon.tracking.joint_fill`).
     """
 
     detector: DetectorConfig = field(default_factory=DetectorConfig)
@@ -164,6 +168,7 @@ class StereoTrackConfig:
     track_split: bool = False
     line_rival: bool = True
     whole_pass: bool = True
+    joint_fill: bool = False
 
     def __post_init__(self) -> None:
         for name in ('fps', 'epipolar_px', 'grid_gate_px', 'position_gate_m',
@@ -219,6 +224,7 @@ class CameraCounts:
     numbered_by_carried: int = 0  # one camera's new track, by where the bed carried a marker
     numbered_by_regain: int = 0  # a number elimination took back for a jump, given back (regain)
     numbered_whole_pass: int = 0  # points numbered at the end from the whole pass (whole_pass)
+    numbered_joint_fill: int = 0  # points numbered at the end from the 3D paths (joint_fill)
     numbered_late: int = 0
     unnumbered: int = 0
     epipolar_conflicts: int = 0

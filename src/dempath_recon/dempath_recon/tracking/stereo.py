@@ -50,6 +50,7 @@ from dempath_recon.tracking.grid_elimination import (
     revoke_jumped,
     revoke_shared,
 )
+from dempath_recon.tracking.joint_fill import fill_jointly
 from dempath_recon.tracking.link_guide import ambiguous_spots, barred_links
 from dempath_recon.tracking.linker import UNNUMBERED
 from dempath_recon.tracking.merge import StampMerge
@@ -366,6 +367,13 @@ class StereoMarkerTracker:
         for before, after in zip(frames, out, strict=True):
             state.counts[after.camera].numbered_whole_pass += int(
                 (after.markers != before.markers).sum())
+        if state.config.joint_fill:
+            filled, _ = fill_jointly(out, [h.track_ids for h in held], self.cameras,
+                                     state.config.epipolar_px, state.config.fps)
+            for before, after in zip(out, filled, strict=True):
+                state.counts[after.camera].numbered_joint_fill += int(
+                    (after.markers != before.markers).sum())
+            out = filled
         return out
 
     def _anchored(self, held: HeldFrame) -> PixelFrame:
