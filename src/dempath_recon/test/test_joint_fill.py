@@ -146,3 +146,34 @@ def test_two_markers_predicted_at_one_spot_leave_it_unnumbered(rig) -> None:
                               EPIPOLAR_PX, FPS)
     assert given == 0
     assert _numbers(out, track_ids, 'cam_side', 8)[8:12] == [-1] * 4
+
+
+def test_a_path_is_carried_on_past_its_end_pass_by_pass(rig) -> None:
+    """Marker 8, numbered in both cameras for the first ten frames, then found and left
+    unnumbered in both till the pass ends: each pass carries its path a few frames on (the
+    filled pairs are the next pass's anchors), to the last frame."""
+    frames, track_ids = _frames(rig, [_grid(k) for k in range(FRAMES)],
+                                lambda cam, k, m: -1 if (m == 8 and k >= 10) else m,
+                                lambda cam, k, m: True)
+    out, given = fill_jointly(frames, track_ids, {c.name: c for c in rig.cameras},
+                              EPIPOLAR_PX, FPS)
+    assert given == 2 * (FRAMES - 10)
+    assert _numbers(out, track_ids, 'cam_front', 8) == [8] * FRAMES
+
+
+def test_a_track_that_ran_beside_the_marker_is_not_filled_with_it(rig) -> None:
+    """Marker 8 sinks out of the front's view at frame 10 while a marker nobody numbered (16)
+    runs 4 mm beside it: 16's spot lies within 8's gate once 8 is gone, but its 2D track was
+    seen beside 8's given point a frame before, so it is not 8."""
+    pts = []
+    for k in range(FRAMES):
+        at = _grid(k)
+        at[16] = at[8] + np.array([0.004, 0.0, 0.0])
+        pts.append(at)
+    frames, track_ids = _frames(
+        rig, pts, lambda cam, k, m: -1 if m == 16 else m,
+        lambda cam, k, m: not (m == 16 and cam == 'cam_side')
+        and not (m == 8 and cam == 'cam_front' and k >= 10))
+    out, _ = fill_jointly(frames, track_ids, {c.name: c for c in rig.cameras}, EPIPOLAR_PX,
+                          FPS)
+    assert set(_numbers(out, track_ids, 'cam_front', 16)) == {-1}

@@ -30,9 +30,10 @@ With the whole pass held (``StereoTrackConfig.whole_pass``), after
    costs) picks the explanation; an option is kept only when the best explanation without it
    is worse by ``MARGIN`` (:func:`clear_options`) and no other marker missing in that camera
    is predicted nearly as near its spot (``RIVAL_RATIO``, ``RIVAL_PX``).
-4. Never a number the frame gives out already, never a spot whose own 2D track carries another
-   number within ``TRACK_NEAR_FRAMES`` (a track that sat on a neighbour's spot: the session-22
-   back-fill's switches).
+4. Never a number the frame gives out already, never a spot whose own 2D track is another
+   marker within ``TRACK_NEAR_FRAMES``: it carries another number there (a track that sat on a
+   neighbour's spot: the session-22 back-fill's switches), or its frame gave the marker to
+   another spot (the track ran beside it).
 """
 
 from __future__ import annotations
@@ -59,12 +60,14 @@ ACCEL_M_S2 = 20.0  # the bed's largest acceleration [m/s^2]: sand before the tin
 # tool's speed (1-1.5 m/s) within about 0.1 s
 MAX_SPAN_FRAMES = 12  # anchors farther apart than this [frames]: no prediction between them
 END_FRAMES = 3  # the path is extrapolated this many frames at most past its ends [frames]
-TRACK_NEAR_FRAMES = 5  # a spot whose 2D track carries another number this near in time
-# [frames] is not filled (the track may sit on that marker's spot)
+TRACK_NEAR_FRAMES = 5  # a spot whose 2D track is another marker this near in time [frames]
+# (it carries another number, or ran beside the marker's given point) is not filled
 HIDDEN_COST = 0.3  # what a spot explained by one camera alone costs (the other camera's
 # point would have checked it), of a spot's worth of 1
 MARGIN = 0.5  # the best explanation without an option must be worse by this (a spot's worth
 # is 1): else two explanations fit and the spot stays unnumbered
+PASSES = 10  # passes, each on the paths with the pairs the pass before filled (a path's ends
+# move on by up to END_FRAMES a pass)
 RIVAL_RATIO = 2.0  # another marker missing in the camera predicted within this times the
 RIVAL_PX = 2.0  # chosen marker's distance plus this [px] of a spot makes it ambiguous
 
@@ -178,31 +181,36 @@ def instants(frames: Sequence[PixelFrame], names: Sequence[str], fps: float,
 
 
 class TrackNumbers(NamedTuple):
-    """One camera's numbered points by 2D track: track id -> (times (k,) s, markers (k,))."""
+    """One camera's 2D tracks and the numbers around them: track id -> (times (k,) s, its
+    number there (k,) (-1: none), the numbers its frame gives to other spots (k,) sets)."""
 
-    by_track: dict[int, tuple[FloatArray, NDArray[np.int64]]]
+    by_track: dict[int, tuple[FloatArray, NDArray[np.int64], list[frozenset[int]]]]
 
-    def others_near(self, track_id: int, t: float, marker: int, within_s: float) -> bool:
-        """Whether the track carries a number other than ``marker`` within ``within_s``."""
+    def not_marker(self, track_id: int, t: float, marker: int, within_s: float) -> bool:
+        """Whether the track is another marker than ``marker`` within ``within_s`` of ``t``:
+        it carries another number there, or its frame gives ``marker`` to another spot (the
+        track then was something beside it)."""
         got = self.by_track.get(track_id)
         if got is None:
             return False
-        near = np.abs(got[0] - t) <= within_s
-        return bool(np.any(got[1][near] != marker))
+        near = np.flatnonzero(np.abs(got[0] - t) <= within_s)
+        return any((got[1][i] >= 0 and got[1][i] != marker) or marker in got[2][i]
+                   for i in near.tolist())
 
 
 def track_numbers(frames: Sequence[PixelFrame], track_ids: Sequence[NDArray[np.int64]],
                   camera: str) -> TrackNumbers:
-    """``camera``'s numbered points by track."""
-    rows: dict[int, list[tuple[float, int]]] = {}
+    """``camera``'s tracks with the numbers on and around them."""
+    rows: dict[int, list[tuple[float, int, frozenset[int]]]] = {}
     for f, ids in zip(frames, track_ids, strict=True):
         if f.camera != camera:
             continue
-        for m, tid in zip(f.markers.tolist(), ids.tolist(), strict=True):
-            if m >= 0:
-                rows.setdefault(int(tid), []).append((f.stamp_s, int(m)))
-    return TrackNumbers({tid: (np.array([r[0] for r in rs]), np.array([r[1] for r in rs]))
-                         for tid, rs in rows.items()})
+        marks = f.markers.tolist()
+        given = frozenset(m for m in marks if m >= 0)
+        for m, tid in zip(marks, ids.tolist(), strict=True):
+            rows.setdefault(int(tid), []).append((f.stamp_s, int(m), given - {m}))
+    return TrackNumbers({tid: (np.array([r[0] for r in rs]), np.array([r[1] for r in rs]),
+                               [r[2] for r in rs]) for tid, rs in rows.items()})
 
 
 class View(NamedTuple):
@@ -245,7 +253,7 @@ class Instant(NamedTuple):
         d = np.linalg.norm(f.uv - view.uv, axis=1) if len(f.uv) else np.zeros(0)
         ids = self.track_ids[view.frame]
         return [(k, float(d[k])) for k in np.flatnonzero((f.markers < 0) & (d <= view.gate_px))
-                if not self.numbers[f.camera].others_near(
+                if not self.numbers[f.camera].not_marker(
                     int(ids[k]), f.stamp_s, marker, TRACK_NEAR_FRAMES / self.fps)]
 
     def crowd(self, view: View) -> int:
@@ -392,6 +400,19 @@ def fill_jointly(frames: Sequence[PixelFrame], track_ids: Sequence[NDArray[np.in
         epipolar_px: the pipeline's ``epipolar_px``: a pair's line distance gate [px].
         fps: the frame rate [1/s].
     """
+    out, given = list(frames), 0
+    for _ in range(PASSES):
+        out, n = fill_pass(out, track_ids, cameras, epipolar_px, fps)
+        given += n
+        if not n:
+            break
+    return out, given
+
+
+def fill_pass(frames: Sequence[PixelFrame], track_ids: Sequence[NDArray[np.int64]],
+              cameras: dict[str, Camera], epipolar_px: float, fps: float,
+              ) -> tuple[list[PixelFrame], int]:
+    """One pass of :func:`fill_jointly` on the paths of ``frames`` as they are numbered."""
     names = sorted(cameras)
     if not frames:
         return [], 0
