@@ -30,10 +30,14 @@ With the whole pass held (``StereoTrackConfig.whole_pass``), after
    costs) picks the explanation; an option is kept only when the best explanation without it
    is worse by ``MARGIN`` (:func:`clear_options`) and no other marker missing in that camera
    is predicted nearly as near its spot (``RIVAL_RATIO``, ``RIVAL_PX``).
-4. Never a number the frame gives out already, never a spot whose own 2D track is another
-   marker within ``TRACK_NEAR_FRAMES``: it carries another number there (a track that sat on a
-   neighbour's spot: the session-22 back-fill's switches), or its frame gave the marker to
-   another spot (the track ran beside it).
+4. Never a number the frame gives out already or withheld there (a rule's event says so:
+   :func:`withheld`), never a spot whose own 2D track is another marker within
+   ``TRACK_NEAR_FRAMES``: it carries another number there (a track that sat on a neighbour's
+   spot: the session-22 back-fill's switches), or its frame gave the marker to another spot
+   (the track ran beside it).
+5. ``PASSES`` passes, each on the paths with the pairs the pass before filled: a path whose
+   marker was numbered late or lost its number early is carried on ``END_FRAMES`` a pass,
+   each step checked in both cameras against the path so far.
 """
 
 from __future__ import annotations
@@ -297,7 +301,8 @@ def instant_options(inst: Instant, frames_here: tuple[int, ...]) -> list[Option]
                 views.append(view_of(f, i, inst.cameras[f.camera], pred, m))
         if not views or all(v.given is not None for v in views):
             continue
-        cands = [[] if v.given is not None else inst.free(v, m) for v in views]
+        cands = [[] if v.given is not None or withheld(inst.frames[v.frame], m)
+                 else inst.free(v, m) for v in views]
         if len(views) == 2:
             out += pair_options(inst, m, views, cands)
         for n, (v, c) in enumerate(zip(views, cands, strict=True)):
@@ -310,6 +315,15 @@ def instant_options(inst: Instant, frames_here: tuple[int, ...]) -> list[Option]
             if value > 0:
                 out.append(Option(m, ((views[n].frame, k),), value))
     return out
+
+
+def withheld(frame: PixelFrame, marker: int) -> bool:
+    """Whether a rule withheld ``marker`` in ``frame`` (its events say so): it had evidence
+    from the frame itself against the spot (it may hold a neighbour, it jumped, its pair is
+    off the line), which a path drawn from other frames does not overrule (on the tuning
+    looks filling them anyway numbered 0.4 points more and added a wrong-pair point)."""
+    head = f'{frame.camera}: marker {marker} withheld'
+    return any(e.startswith(head) for e in frame.events)
 
 
 def pair_options(inst: Instant, marker: int, views: list[View],
