@@ -244,8 +244,8 @@ RULE_SWITCHES = (  # (flag, StereoTrackConfig field, help): the numbering rules 
      "track's epipolar line hold back elimination (StereoTrackConfig.line_rival; on)"),
     ('--no-whole-pass', 'whole_pass', 'give frames out as they come, without numbering the '
      'never-numbered tracks from the whole pass at its end (StereoTrackConfig.whole_pass; on)'),
-    ('--joint-fill', 'joint_fill', "number the spots left unnumbered from each marker's 3D "
-     'path over the whole pass, jointly in both cameras (StereoTrackConfig.joint_fill; off)'),
+    ('--no-joint-fill', 'joint_fill', "leave the spots the rules left unnumbered, not filled "
+     "from each marker's 3D path over the whole pass (StereoTrackConfig.joint_fill; on)"),
 )
 
 

@@ -70,6 +70,8 @@ HIDDEN_COST = 0.3  # what a spot explained by one camera alone costs (the other 
 # point would have checked it), of a spot's worth of 1
 MARGIN = 0.5  # the best explanation without an option must be worse by this (a spot's worth
 # is 1): else two explanations fit and the spot stays unnumbered
+UNCONFIRMED = 'not yet confirmed by the other camera'  # pair_checks' event of a point that
+# waits for the other camera (withheld for lack of evidence, not on evidence against it)
 PASSES = 10  # passes, each on the paths with the pairs the pass before filled (a path's ends
 # move on by up to END_FRAMES a pass)
 RIVAL_RATIO = 2.0  # another marker missing in the camera predicted within this times the
@@ -318,12 +320,14 @@ def instant_options(inst: Instant, frames_here: tuple[int, ...]) -> list[Option]
 
 
 def withheld(frame: PixelFrame, marker: int) -> bool:
-    """Whether a rule withheld ``marker`` in ``frame`` (its events say so): it had evidence
-    from the frame itself against the spot (it may hold a neighbour, it jumped, its pair is
-    off the line), which a path drawn from other frames does not overrule (on the tuning
-    looks filling them anyway numbered 0.4 points more and added a wrong-pair point)."""
+    """Whether a rule withheld ``marker`` in ``frame`` on evidence from the frame itself
+    against the spot (it may hold a neighbour, its pair is off the line or jumped; its events
+    say so), which a path drawn from other frames does not overrule (on the tuning looks
+    filling them anyway added a wrong-pair point). A point withheld only while it waits for
+    the other camera's confirmation (``UNCONFIRMED``) lacked evidence, which the path and
+    the pair give: it may be filled."""
     head = f'{frame.camera}: marker {marker} withheld'
-    return any(e.startswith(head) for e in frame.events)
+    return any(e.startswith(head) and UNCONFIRMED not in e for e in frame.events)
 
 
 def pair_options(inst: Instant, marker: int, views: list[View],
