@@ -381,7 +381,7 @@ def clear_options(options: Sequence[Option]) -> list[Option]:
     return [options[i] for i in chosen if worth - best_choice(options, i)[0] >= MARGIN]
 
 
-def rivalled(inst: Instant, option: Option, frames_here: tuple[int, ...]) -> bool:
+def rivalled(inst: Instant, option: Option) -> bool:
     """Whether another marker missing in a spot's frame is predicted within ``RIVAL_RATIO``
     times the option's marker's distance plus ``RIVAL_PX`` of it (the spot may be that one)."""
     for i, k in option.spots:
@@ -443,7 +443,7 @@ def fill_pass(frames: Sequence[PixelFrame], track_ids: Sequence[NDArray[np.int64
         if not options:
             continue
         for opt in clear_options(options):
-            if rivalled(inst, opt, here):
+            if rivalled(inst, opt):
                 continue
             for i, k in opt.spots:
                 if opt.marker not in markers[i] and markers[i][k] < 0:
