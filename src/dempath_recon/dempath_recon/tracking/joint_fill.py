@@ -106,30 +106,47 @@ class Option(NamedTuple):
 
 
 def marker_paths(frames: Sequence[PixelFrame], cameras: dict[str, Camera], epipolar_px: float,
-                 fps: float) -> dict[int, Path3D]:
+                 fps: float, memo: dict[int, tuple[bytes, Path3D | None]] | None = None,
+                 ) -> dict[int, Path3D]:
     """``{marker: Path3D}``: each camera's numbered points with the other camera's points of
     the same number interpolated to their stamps (over gaps of at most 1.5 frame periods),
     triangulated, kept where the pair lies within ``epipolar_px`` of its line; both cameras'
-    stamps, in time order."""
+    stamps, in time order. ``memo`` (marker -> (its points' bytes, path)) keeps the paths of
+    markers whose points did not change between calls."""
     names = sorted(cameras)
     hist = {c: marker_histories(list(frames), c) for c in names}
-    rows: dict[int, list[tuple[float, FloatArray]]] = {}
-    for a, b in (names, names[::-1]):
-        for m, (times, uv) in hist[a].items():
-            if m not in hist[b]:
-                continue
-            uv_b = interpolate_history(hist[b][m], times, 1.5 / fps)
-            ok = np.isfinite(uv_b).all(axis=1)
-            if not ok.any():
-                continue
-            xyz, epi = triangulate_pairs(cameras[a], cameras[b], uv[ok], uv_b[ok])
-            good = epi <= epipolar_px
-            rows.setdefault(m, []).extend(zip(times[ok][good].tolist(), xyz[good], strict=True))
+    memo = {} if memo is None else memo
     out = {}
-    for m, rs in rows.items():
-        rs.sort(key=lambda r: r[0])
-        out[m] = Path3D(np.array([r[0] for r in rs]), np.array([r[1] for r in rs]))
+    for m in sorted(set(hist[names[0]]) & set(hist[names[1]])):
+        key = b''.join(x.tobytes() for c in names for x in hist[c][m])
+        if m not in memo or memo[m][0] != key:
+            memo[m] = (key, one_path(hist, m, names, cameras, epipolar_px, fps))
+        path = memo[m][1]
+        if path is not None:
+            out[m] = path
     return out
+
+
+def one_path(hist: dict[str, dict[int, tuple[FloatArray, FloatArray]]], marker: int,
+             names: Sequence[str], cameras: dict[str, Camera], epipolar_px: float, fps: float,
+             ) -> Path3D | None:
+    """:func:`marker_paths` of one marker (None: no pair on its line)."""
+    times_all, xyz_all = [], []
+    for a, b in (names, names[::-1]):
+        times, uv = hist[a][marker]
+        uv_b = interpolate_history(hist[b][marker], times, 1.5 / fps)
+        ok = np.isfinite(uv_b).all(axis=1)
+        if not ok.any():
+            continue
+        xyz, epi = triangulate_pairs(cameras[a], cameras[b], uv[ok], uv_b[ok])
+        good = epi <= epipolar_px
+        times_all.append(times[ok][good])
+        xyz_all.append(xyz[good])
+    if not times_all or not sum(len(t) for t in times_all):
+        return None
+    t = np.concatenate(times_all)
+    order = np.argsort(t, kind='stable')
+    return Path3D(t[order], np.concatenate(xyz_all)[order])
 
 
 def predict(path: Path3D, t: float, fps: float) -> Prediction | None:
@@ -295,6 +312,8 @@ def instant_options(inst: Instant, frames_here: tuple[int, ...]) -> list[Option]
     spot the other camera does not check)."""
     out: list[Option] = []
     for m, path in inst.paths.items():
+        if all((inst.frames[i].markers == m).any() for i in frames_here):
+            continue  # given out in every frame of the instant
         views = []
         for i in frames_here:
             f = inst.frames[i]
@@ -376,7 +395,11 @@ def best_choice(options: Sequence[Option], banned: int | None = None,
 
 
 def clear_options(options: Sequence[Option]) -> list[Option]:
-    """The options of the best choice whose removal costs the choice at least ``MARGIN``."""
+    """The options of the best choice whose removal costs the choice at least ``MARGIN``
+    (options that share no marker and no spot: each worth ``MARGIN`` or more, no solver)."""
+    keys = [k for o in options for k in (('marker', o.marker), *(('spot', s) for s in o.spots))]
+    if len(set(keys)) == len(keys):
+        return [o for o in options if o.value >= MARGIN]
     worth, chosen = best_choice(options)
     return [options[i] for i in chosen if worth - best_choice(options, i)[0] >= MARGIN]
 
@@ -419,26 +442,39 @@ def fill_jointly(frames: Sequence[PixelFrame], track_ids: Sequence[NDArray[np.in
         fps: the frame rate [1/s].
     """
     out, given = list(frames), 0
+    changed: FloatArray | None = None
+    memo: dict[int, tuple[bytes, Path3D | None]] = {}
     for _ in range(PASSES):
-        out, n = fill_pass(out, track_ids, cameras, epipolar_px, fps)
-        given += n
-        if not n:
+        out, filled = fill_pass(out, track_ids, cameras, epipolar_px, fps, changed, memo)
+        given += len(filled)
+        if not filled:
             break
+        changed = np.array(filled)
     return out, given
 
 
 def fill_pass(frames: Sequence[PixelFrame], track_ids: Sequence[NDArray[np.int64]],
               cameras: dict[str, Camera], epipolar_px: float, fps: float,
-              ) -> tuple[list[PixelFrame], int]:
-    """One pass of :func:`fill_jointly` on the paths of ``frames`` as they are numbered."""
+              changed: FloatArray | None, memo: dict[int, tuple[bytes, Path3D | None]],
+              ) -> tuple[list[PixelFrame], list[float]]:
+    """One pass of :func:`fill_jointly` on the paths of ``frames`` as they are numbered, and
+    the stamps of the points it numbered. With ``changed`` (the stamps the pass before
+    numbered [s]) only the instants within ``MAX_SPAN_FRAMES + 1`` frames of one of them:
+    a pass's decisions at an instant read the anchors no farther, so elsewhere they are the
+    pass before's. ``memo``: :func:`marker_paths`' between passes."""
     names = sorted(cameras)
     if not frames:
-        return [], 0
+        return [], []
     inst = Instant(frames, track_ids, {c: track_numbers(frames, track_ids, c) for c in names},
-                   cameras, marker_paths(frames, cameras, epipolar_px, fps), epipolar_px, fps)
+                   cameras, marker_paths(frames, cameras, epipolar_px, fps, memo), epipolar_px,
+                   fps)
     markers = [f.markers.copy() for f in frames]
-    given = 0
+    filled: list[float] = []
+    reach = (MAX_SPAN_FRAMES + 1) / fps
     for here in instants(frames, names, fps):
+        if changed is not None and not any(
+                np.abs(changed - frames[i].stamp_s).min() <= reach for i in here):
+            continue
         options = instant_options(inst, here)
         if not options:
             continue
@@ -448,7 +484,7 @@ def fill_pass(frames: Sequence[PixelFrame], track_ids: Sequence[NDArray[np.int64
             for i, k in opt.spots:
                 if opt.marker not in markers[i] and markers[i][k] < 0:
                     markers[i][k] = opt.marker
-                    given += 1
+                    filled.append(frames[i].stamp_s)
                     LOG.info('joint fill: %s at %.3f s numbered %d', frames[i].camera,
                              frames[i].stamp_s, opt.marker)
-    return [f._replace(markers=m) for f, m in zip(frames, markers, strict=True)], given
+    return [f._replace(markers=m) for f, m in zip(frames, markers, strict=True)], filled
