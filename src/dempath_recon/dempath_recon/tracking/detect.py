@@ -19,7 +19,10 @@ the light) is high:
    at least ``min_separation_px`` apart above ``threshold``;
 4. the centre by an intensity-weighted centroid of the chroma above ``threshold / 2`` in a
    circular window, re-centred until it moves less than 0.01 px (Crocker & Grier's iteration),
-   which reaches well below 0.1 px on clean spots.
+   which reaches well below 0.1 px on clean spots;
+5. in a dim frame (dusk, a short shutter: the frame's own chroma floor under ``MIN_SUM_DN``),
+   the markers' neighbourhood searched again on the chroma floored at the frame's own light
+   (``DetectorConfig.dim_spots``, :meth:`MarkerDetector._dim_spots`).
 
 Pixel convention (dempath and OpenCV): integer coordinates at pixel centres; a half-size pixel
 ``i`` covers full-size pixels ``2i`` and ``2i + 1``, so its centre is at ``2i + 0.5``.
@@ -75,6 +78,11 @@ CROWDED_SIZE = 0.38  # a spot whose radius of gyration exceeds this share of a m
 TYPICAL_SIZE = 0.29  # a lone marker's radius of gyration as a share of its diameter (median on
 # the tuning renders 0.29, the bundled render 0.27)
 MIN_SPOTS = 5  # spots a frame needs for its median size to count
+DIM_REACH = 6.0  # the dim pass searches the box of the frame's spots grown by this many marker
+# diameters [-]: two grid pitches (25 mm pitch, 8 mm markers), where a marker the fixed floor
+# missed lies among or beside the found ones; the whole frame cost 2-3 times the detection
+# (the chroma, the filter and blob fits over a frame whose sand passes the lowered byte bound)
+# and its spots off every marker lay 100-270 px from the markers (dusk on a darker sand, tuning)
 # MIN_SUM_DN (colour_model): below this B + G + R (mean 20 grey levels) the chroma of a frame in
 # normal light is mostly noise. DARK_SUM_DN (colour_model): the chroma's floor in the local search
 # beside a track's prediction, whose bar is set by the window's measured noise: at dusk a marker
@@ -303,6 +311,16 @@ class DetectorConfig:
             published centres (``Detections.centre``) are centroids on the chroma floored at
             the frame's light, so a marker's shaded side keeps its weight
             (:mod:`~dempath_recon.tracking.shaded`); False: the detection's centroids.
+        dim_spots: in a dim frame, markers the fixed floor divided under the threshold are
+            looked for again on the chroma floored at the frame's own light (its exposure,
+            ``chroma_floor``), in the box of the frame's spots grown by ``DIM_REACH``
+            diameters, at the same threshold; spots farther than a marker's diameter from every
+            spot of the fixed floor are added, each as one marker (not split: a dim spot beside
+            a found one is that one's rim or an unsure neighbour). The spots of the fixed floor
+            are kept as they are (their centres, sizes and splits: the trackers' margins were
+            tuned on them; the whole frame on the lowered floor, ``exposure_floor='all'`` of
+            session 17, found sand in vignetted corners and moved those margins). Frames in
+            normal light are not touched. False: the fixed floor's spots only.
     """
 
     downscale: int = 2
@@ -323,6 +341,7 @@ class DetectorConfig:
     sand_bgr: tuple[float, float, float] | None = None
     exposure_floor: str = 'faint'
     shade_centres: bool = True
+    dim_spots: bool = True
 
     def __post_init__(self) -> None:
         checks = {'downscale': self.downscale in (1, 2), 'threshold': 0 < self.threshold < 1,
@@ -451,12 +470,53 @@ class MarkerDetector:
         thr = self.config.threshold
         found = self._spots(image, MIN_SUM_DN, axis, thr=thr, frame_floor=frame_floor,
                             dark_bar=clay_bar(image, axis))
+        if self.config.dim_spots and frame_floor < MIN_SUM_DN and len(found.uv):
+            found = self._dim_spots(image, found, frame_floor, axis)
         found = found._replace(patch=partial(self._patch, image, axis))
         low = min(self.config.faint_threshold, thr)
         if low <= 0:
             return found
         return found._replace(faint=partial(self._faint, image, low, (frame_floor, axis),
                                             found.uv))
+
+    def _dim_spots(self, image: NDArray[np.uint8], found: Detections, floor: float,
+                   axis: NDArray[np.float32]) -> Detections:
+        """``found`` (the fixed floor's spots of ``image``, at the detector's scale) with the
+        spots on the chroma of ``axis`` (3,) floored at the frame's ``floor`` [DN] in the box of
+        ``found`` grown by ``DIM_REACH`` diameters, farther than a diameter from all of
+        ``found`` (``DetectorConfig.dim_spots``)."""
+        s = self.config.downscale
+        diameter = max(self.config.marker_diameter_px, self.config.min_separation_px)
+        h, w = image.shape[:2]
+        lo = np.floor((found.uv.min(axis=0) - DIM_REACH * diameter + 0.5) / s - 0.5)
+        hi = np.ceil((found.uv.max(axis=0) + DIM_REACH * diameter + 0.5) / s - 0.5)
+        x0, y0 = max(int(lo[0]), 0), max(int(lo[1]), 0)
+        x1, y1 = min(int(hi[0]) + 1, w), min(int(hi[1]) + 1, h)
+        if x1 - x0 < 3 or y1 - y0 < 3:
+            return found
+        shift = np.array([x0 * s, y0 * s], np.float64)  # the box's corner [full-size px]
+        dim = self._spots(np.ascontiguousarray(image[y0:y1, x0:x1]), floor, axis,
+                          frame_floor=floor, dark_bar=clay_bar(image, axis),
+                          away=(found.uv - shift, diameter))
+        if not len(dim.uv):
+            return found
+
+        def joined(mine: NDArray[Any] | None, added: NDArray[Any] | None,
+                   default: NDArray[Any], extra: NDArray[Any]) -> NDArray[Any]:
+            return np.concatenate([default if mine is None else mine,
+                                   extra if added is None else added])
+
+        centre = None if found.centre is None and dim.centre is None else joined(
+            found.centre, None if dim.centre is None else dim.centre + shift, found.uv,
+            dim.uv + shift)
+        return found._replace(
+            uv=np.concatenate([found.uv, dim.uv + shift]),
+            confidence=np.concatenate([found.confidence, dim.confidence]),
+            size_px=np.concatenate([found.size_px, dim.size_px]), centre=centre,
+            crowded=None if found.crowded is None else joined(
+                found.crowded, dim.crowded, found.crowded, np.zeros(len(dim.uv), np.bool_)),
+            parted=None if found.parted is None else joined(
+                found.parted, dim.parted, found.parted, np.zeros(len(dim.uv), np.bool_)))
 
     def _patch(self, image: NDArray[np.uint8], axis: NDArray[np.float32], point: FloatArray,
                half_px: float) -> tuple[NDArray[np.float32], tuple[int, int]]:
@@ -476,14 +536,17 @@ class MarkerDetector:
 
     def _spots(self, image: NDArray[np.uint8], floor: float,
                axis: NDArray[np.float32], thr: float | None = None,
-               frame_floor: float = MIN_SUM_DN, dark_bar: float = 0.0) -> Detections:
+               frame_floor: float = MIN_SUM_DN, dark_bar: float = 0.0,
+               away: tuple[FloatArray, float] | None = None) -> Detections:
         """The markers of ``image`` (at the detector's scale) on the chroma of ``axis`` (3,)
         floored at ``floor`` [DN], without the faint search; ``thr``: the threshold (None:
         ``threshold``); ``dark_bar`` [DN]: the least
         5 x 5 mean ``B + G + R`` of a spot (:func:`~dempath_recon.tracking.colour_model.
         clay_bar`; 0: none); ``frame_floor``: the
         frame's own floor [DN] (``chroma_floor``), on which a dim frame's published centres
-        are measured (``shade_centres``)."""
+        are measured (``shade_centres``); ``away``: spots (n, 2) [full-size px, in ``image``]
+        and a distance [full-size px]: only peaks farther than that from all of them are
+        kept, each as one marker (no splitting: the dim pass, ``_dim_spots``)."""
         s = self.config.downscale
         thr = self.config.threshold if thr is None else thr
         ox, oy, c, parts = self._window(image, thr, floor, axis)
@@ -491,6 +554,10 @@ class MarkerDetector:
         lit = lit_peaks(image, rows + oy, cols + ox, floor)  # not noise in near-black pixels
         lit &= bright_peaks(image, rows + oy, cols + ox, dark_bar)
         rows, cols = rows[lit], cols[lit]
+        if away is not None and len(away[0]) and len(rows):
+            at = (np.stack([cols + ox, rows + oy], axis=1) + 0.5) * s - 0.5
+            far = np.linalg.norm(at[:, None] - away[0][None], axis=2).min(axis=1) > away[1]
+            rows, cols = rows[far], cols[far]
         if len(rows) == 0:
             return Detections.empty()
         uv, size, strength, mass = self._refine(c, rows, cols, thr)
@@ -499,8 +566,11 @@ class MarkerDetector:
         if diameter > 0:
             radius = 0.5 * diameter / s
             base = 0.5 * self.config.threshold
-            uv, source, parted, disc = split_touching(c, uv, base, radius, self._cut_up,
-                                                      self.config.split_wide)
+            if away is None:
+                uv, source, parted, disc = split_touching(c, uv, base, radius, self._cut_up,
+                                                          self.config.split_wide)
+            else:  # the dim pass: each spot one marker
+                source, parted, disc = np.arange(len(uv)), np.zeros(len(uv), np.bool_), uv.copy()
             # a fitted marker's size is one disc's radius of gyration, not its blob's
             size = np.where(parted, radius / np.sqrt(2.0), size[source])
             strength, mass = strength[source], mass[source]

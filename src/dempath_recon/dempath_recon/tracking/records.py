@@ -142,6 +142,10 @@ class StereoTrackConfig:
             held-apart seed-207 looks 85.71 -> 86.13 %, the variation set's held-out pool
             a little more; no switch or wrong-pair point added on any (docs/figures.md).
             False: the whole pass's numbering alone.
+        dim_spots: each camera's detector searches a dim frame's markers again on the chroma
+            floored at the frame's own light (``DetectorConfig.dim_spots``; it must also be on
+            there): at dusk the fixed floor divides a shaded or half-buried marker's chroma
+            under the threshold. False: the detectors' fixed floor only.
     """
 
     detector: DetectorConfig = field(default_factory=DetectorConfig)
@@ -173,6 +177,7 @@ class StereoTrackConfig:
     line_rival: bool = True
     whole_pass: bool = True
     joint_fill: bool = True
+    dim_spots: bool = True
 
     def __post_init__(self) -> None:
         for name in ('fps', 'epipolar_px', 'grid_gate_px', 'position_gate_m',

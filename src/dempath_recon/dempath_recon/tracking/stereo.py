@@ -499,10 +499,12 @@ def camera_detectors(cameras: dict[str, Camera], config: StereoTrackConfig,
     ``config.marker_diameter_m``, unless the detector's settings give one) and the image
     direction of world up there and the line of sight's elevation (``view_of_up``, for partly
     covered markers' centres, unless ``config.uncover`` is off or the detector's settings give
-    an up direction)."""
+    an up direction), and without the dim pass where ``config.dim_spots`` is off."""
     out = {}
     for name, cam in cameras.items():
         det = config.detector
+        if not config.dim_spots:
+            det = replace(det, dim_spots=False)
         if det.marker_diameter_px == 0 and config.marker_diameter_m > 0:
             det = replace(det, marker_diameter_px=marker_diameter_px(
                 cam, config.grid, config.marker_diameter_m))
