@@ -246,8 +246,8 @@ RULE_SWITCHES = (  # (flag, StereoTrackConfig field, help): the numbering rules 
      'never-numbered tracks from the whole pass at its end (StereoTrackConfig.whole_pass; on)'),
     ('--no-joint-fill', 'joint_fill', "leave the spots the rules left unnumbered, not filled "
      "from each marker's 3D path over the whole pass (StereoTrackConfig.joint_fill; on)"),
-    ('--no-dim-spots', 'dim_spots', "do not search a dim frame's markers again on the chroma "
-     "floored at the frame's own light (StereoTrackConfig.dim_spots; on)"),
+    ('--dim-spots', 'dim_spots', "search a dim frame's markers again on the chroma floored at "
+     "the frame's own light (StereoTrackConfig.dim_spots; off by default)"),
 )
 
 

@@ -5,6 +5,7 @@ detector; each rule is checked against the detector without it."""
 from __future__ import annotations
 
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -180,6 +181,30 @@ def test_the_faint_search_uses_the_frames_floor_by_default() -> None:
     assert near.mean() >= 0.8, f'{near.mean():.0%} found beside predictions'
     assert (np.linalg.norm(fixed.faint(pred, 4.0) - seen, axis=1) < 2.5).mean() <= 0.5
     assert not np.isfinite(own.faint(seen + np.array([20.0, 0.0]), 4.0)).all(axis=1).any()
+
+
+def test_a_dim_frames_markers_are_found_on_its_own_light() -> None:
+    """At dusk the fixed floor divides half-buried markers under the threshold; the dim pass
+    (``dim_spots``) finds them on the frame's own floor beside the whole markers
+    it found, keeps the fixed floor's spots as they were, and adds none off the markers."""
+    rng = np.random.default_rng(11)
+    truth = grid_centres(rng)
+    buried = np.where(np.arange(len(truth)) % 3 == 0, 0.0, 0.3)  # a third whole
+    jpeg = spot_image(SHAPE, truth, RADIUS, rng, gain=0.3, noise_dn=2.0, quality=85,
+                      shadow_cols=SHAPE[1], buried=buried)
+    seen = truth - np.column_stack([np.zeros(len(truth)), buried * RADIUS])
+    config = DetectorConfig(marker_diameter_px=2 * RADIUS, dim_spots=True)
+    dim = MarkerDetector(config).detect_jpeg(jpeg)
+    fixed = MarkerDetector(replace(config, dim_spots=False)).detect_jpeg(jpeg)
+    half = buried > 0
+    found_fixed = matched(fixed.uv, seen[half], 2.5)[0]
+    found_dim = matched(dim.uv, seen[half], 2.5)[0]
+    assert found_fixed <= 0.25 * half.sum(), f'{found_fixed} of {half.sum()} at the fixed floor'
+    assert found_dim >= 0.75 * half.sum(), f'{found_dim} of {half.sum()} with the dim pass'
+    assert matched(dim.uv, seen, 3.0)[1] == 0
+    np.testing.assert_array_equal(dim.uv[:len(fixed.uv)], fixed.uv)
+    assert dim.crowded is not None and dim.parted is not None and dim.centre is not None
+    assert len(dim.crowded) == len(dim.parted) == len(dim.centre) == len(dim.uv)
 
 
 RED_ON_SLATE = (0.30, 0.42, 0.78)  # red clay the twin renders on slate sand

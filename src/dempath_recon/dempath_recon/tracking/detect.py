@@ -320,7 +320,9 @@ class DetectorConfig:
             are kept as they are (their centres, sizes and splits: the trackers' margins were
             tuned on them; the whole frame on the lowered floor, ``exposure_floor='all'`` of
             session 17, found sand in vignetted corners and moved those margins). Frames in
-            normal light are not touched. False: the fixed floor's spots only.
+            normal light are not touched. Off by default (session 23, track41: numbered right
+            at dusk up, identity switches up too: docs/figures.md). False: the fixed floor's
+            spots only.
     """
 
     downscale: int = 2
@@ -341,7 +343,7 @@ class DetectorConfig:
     sand_bgr: tuple[float, float, float] | None = None
     exposure_floor: str = 'faint'
     shade_centres: bool = True
-    dim_spots: bool = True
+    dim_spots: bool = False
 
     def __post_init__(self) -> None:
         checks = {'downscale': self.downscale in (1, 2), 'threshold': 0 < self.threshold < 1,

@@ -145,7 +145,10 @@ class StereoTrackConfig:
         dim_spots: each camera's detector searches a dim frame's markers again on the chroma
             floored at the frame's own light (``DetectorConfig.dim_spots``; it must also be on
             there): at dusk the fixed floor divides a shaded or half-buried marker's chroma
-            under the threshold. False: the detectors' fixed floor only.
+            under the threshold. Off by default (session 23, track41): on 12 tuning looks
+            numbered right 77.8 -> 80.9 % but identity switches 101 -> 121; the held-apart
+            seed 88.5 -> 90.0 %, switches 3 -> 11 (docs/figures.md). False: the detectors'
+            fixed floor only.
     """
 
     detector: DetectorConfig = field(default_factory=DetectorConfig)
@@ -177,7 +180,7 @@ class StereoTrackConfig:
     line_rival: bool = True
     whole_pass: bool = True
     joint_fill: bool = True
-    dim_spots: bool = True
+    dim_spots: bool = False
 
     def __post_init__(self) -> None:
         for name in ('fps', 'epipolar_px', 'grid_gate_px', 'position_gate_m',
