@@ -24,11 +24,14 @@ from dempath_diagnose.separation import GAP, REACH, candidate_runs, separate_pai
 
 from .conftest import SCENE, SPEC
 
-# Tool friction x2 on the bed of seed 13 (the tool-speed case's, so poured once per session):
-# tool friction 0.80 and "nothing missing" 0.18 on the test library (2026-11-28).
+# Tool friction x2 on the bed of seed 17: tool friction 0.63 and "nothing missing" 0.36 on the
+# test library (2026-11-29, AMD EPYC), both plausible. A bed under a tool is chaotic and the
+# engine's kernels use fastmath, so a case's answer moves with the processor's floating point:
+# seed 13 gave 0.80 / 0.18 on 2026-11-28 and 0.34 / 0.65 ("nothing missing" first) on this
+# machine; seed 17 sits between the two verdicts this test cannot use.
 RIVALS = HiddenCase('tool_friction_rivals', {'tool_friction.static_friction': 0.8,
                                              'tool_friction.dynamic_friction': 0.6},
-                    'tool_friction', ('parameter_off', 'inconclusive'), seed=13)
+                    'tool_friction', ('parameter_off', 'inconclusive'), seed=17)
 
 
 @pytest.mark.timeout(900)  # a guard, not a timing
