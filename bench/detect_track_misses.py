@@ -15,7 +15,8 @@ apart, as ``detect_track.py --variations``). Each miss falls in the first cause 
 - ``withheld_<rule>``: found, numbered, then withheld in this frame by a rule that says so in
   the frame's events: ``ambiguous`` (``link_guide.ambiguous_spots``), ``unconfirmed`` (a jump,
   a re-attachment or a faint spot waiting for the other camera), ``epipolar``, ``position``,
-  ``rival`` (the bed carried another marker nearer), ``frame_moved``;
+  ``rival`` (the bed carried another marker nearer), ``frame_moved``, ``audit`` (the whole
+  pass's audit: ``tracking.pass_audit``);
 - ``number_elsewhere``: found and unnumbered while its number went to another spot;
 - ``never_numbered_paired`` / ``never_numbered_alone``: found, unnumbered, no rule named
   (numbering not reached), while the other camera gives that marker out within a frame period
@@ -73,7 +74,8 @@ RULES = (('its spot may hold a neighbour', 'withheld_ambiguous'),
          ('moved together', 'withheld_frame_moved'),
          ('off the epipolar line', 'withheld_epipolar'),
          ('nearer where the bed carried', 'withheld_rival'),
-         ('from its last position', 'withheld_position'))
+         ('from its last position', 'withheld_position'),
+         ('by the pass audit', 'withheld_audit'))
 Frames = list[tuple[str, int, bytes]]
 Key = tuple[str, int]  # (camera, stamp us)
 TRACE = [False]  # --trace: print each switch

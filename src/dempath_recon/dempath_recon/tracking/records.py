@@ -149,6 +149,12 @@ class StereoTrackConfig:
             numbered right 77.8 -> 80.9 % but identity switches 101 -> 121; the held-apart
             seed 88.5 -> 90.0 %, switches 3 -> 11 (docs/figures.md). False: the detectors'
             fixed floor only.
+        pass_audit: with ``whole_pass``, after its numbering, audit every number given
+            (:mod:`~dempath_recon.tracking.pass_audit`): a piece of 2D track that carries two
+            numbers keeps the one it carried longest, and a stretch of track its marker's
+            lines in the other camera do not explain while another marker's 3D path (fitted
+            robustly to both cameras' points) does is renumbered to that marker, or taken
+            out where the camera gives that marker out. The frames' events say why.
     """
 
     detector: DetectorConfig = field(default_factory=DetectorConfig)
@@ -181,6 +187,7 @@ class StereoTrackConfig:
     whole_pass: bool = True
     joint_fill: bool = True
     dim_spots: bool = False
+    pass_audit: bool = True
 
     def __post_init__(self) -> None:
         for name in ('fps', 'epipolar_px', 'grid_gate_px', 'position_gate_m',
@@ -237,6 +244,8 @@ class CameraCounts:
     numbered_by_regain: int = 0  # a number elimination took back for a jump, given back (regain)
     numbered_whole_pass: int = 0  # points numbered at the end from the whole pass (whole_pass)
     numbered_joint_fill: int = 0  # points numbered at the end from the 3D paths (joint_fill)
+    audit_renumbered: int = 0  # points the pass audit gave another marker's number (pass_audit)
+    audit_withheld: int = 0  # numbered points the pass audit took out: off their 3D path
     numbered_late: int = 0
     unnumbered: int = 0
     epipolar_conflicts: int = 0

@@ -68,6 +68,7 @@ from dempath_recon.tracking.numbering import (
 from dempath_recon.tracking.pair_checks import verify
 from dempath_recon.tracking.pair_numbering import number_pairs
 from dempath_recon.tracking.parted import flagged, revoke_at_parting
+from dempath_recon.tracking.pass_audit import audit_pass
 from dempath_recon.tracking.publish_gate import PublicationGate
 from dempath_recon.tracking.records import CameraCounts, PixelFrame, StereoTrackConfig
 from dempath_recon.tracking.regain import number_regained
@@ -374,6 +375,14 @@ class StereoMarkerTracker:
                 state.counts[after.camera].numbered_joint_fill += int(
                     (after.markers != before.markers).sum())
             out = filled
+        if state.config.pass_audit:
+            audit = audit_pass(out, [h.track_ids for h in held], self.cameras,
+                               {c: d.config.marker_diameter_px
+                                for c, d in self.detectors.items()}, state.config.fps)
+            out = audit.frames
+            for cam, n in audit.renumbered.items():
+                state.counts[cam].audit_renumbered += n
+                state.counts[cam].audit_withheld += audit.withheld[cam]
         return out
 
     def _anchored(self, held: HeldFrame) -> PixelFrame:
