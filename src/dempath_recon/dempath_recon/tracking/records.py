@@ -154,7 +154,11 @@ class StereoTrackConfig:
             numbers keeps the one it carried longest, and a stretch of track its marker's
             lines in the other camera do not explain while another marker's 3D path (fitted
             robustly to both cameras' points) does is renumbered to that marker, or taken
-            out where the camera gives that marker out. The frames' events say why.
+            out where the camera gives that marker out. The frames' events say why. On since
+            session 23 (audit3d): nine tuning looks (seeds 209/211/213) 67 -> 56 switches and
+            26 -> 21 wrong-pair points, four held-apart seed-215 looks 20 -> 13 and 3 -> 2, no
+            right number withheld, the variation set's held-out pool 0/0 unchanged
+            (docs/figures.md). False: the numbers given out as numbered.
     """
 
     detector: DetectorConfig = field(default_factory=DetectorConfig)
