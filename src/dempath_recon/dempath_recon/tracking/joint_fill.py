@@ -52,7 +52,10 @@ from numpy.typing import NDArray
 from dempath_recon.methods.triangulate import Camera
 from dempath_recon.tracking.associate import project, triangulate_pairs
 from dempath_recon.tracking.records import PixelFrame
-from dempath_recon.tracking.trajectories import interpolate_history, marker_histories
+from dempath_recon.tracking.trajectories import (
+    marker_histories,
+    paired_points,
+)
 
 LOG = logging.getLogger(__name__)
 FloatArray = NDArray[np.float64]
@@ -133,14 +136,12 @@ def one_path(hist: dict[str, dict[int, tuple[FloatArray, FloatArray]]], marker: 
     """:func:`marker_paths` of one marker (None: no pair on its line)."""
     times_all, xyz_all = [], []
     for a, b in (names, names[::-1]):
-        times, uv = hist[a][marker]
-        uv_b = interpolate_history(hist[b][marker], times, 1.5 / fps)
-        ok = np.isfinite(uv_b).all(axis=1)
-        if not ok.any():
+        times, xyz, epi = paired_points(hist[a][marker], hist[b][marker], cameras[a],
+                                        cameras[b], fps)
+        if not len(times):
             continue
-        xyz, epi = triangulate_pairs(cameras[a], cameras[b], uv[ok], uv_b[ok])
         good = epi <= epipolar_px
-        times_all.append(times[ok][good])
+        times_all.append(times[good])
         xyz_all.append(xyz[good])
     if not times_all or not sum(len(t) for t in times_all):
         return None

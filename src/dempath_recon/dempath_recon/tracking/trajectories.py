@@ -12,6 +12,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dempath_recon.methods.triangulate import Camera, triangulate_points
+from dempath_recon.tracking.associate import triangulate_pairs
 from dempath_recon.tracking.records import PixelFrame
 
 FloatArray = NDArray[np.float64]
@@ -45,6 +46,22 @@ def interpolate_history(hist: tuple[FloatArray, FloatArray], t: FloatArray, max_
     for i in range(2):
         out[ok, i] = np.interp(t[ok], times, uv[:, i])
     return out
+
+
+def paired_points(hist_a: tuple[FloatArray, FloatArray], hist_b: tuple[FloatArray, FloatArray],
+                  cam_a: Camera, cam_b: Camera, fps: float,
+                  ) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """One marker's numbered points of camera a (``marker_histories``) with camera b's points of
+    that number interpolated to their stamps (over gaps of at most 1.5 frame periods),
+    triangulated: ``(times (k,) s, xyz (k, 3) m, epipolar distance (k,) px)`` of the points
+    that have a partner (the whole-pass steps' 3D points of a marker)."""
+    times, uv = hist_a
+    uv_b = interpolate_history(hist_b, times, 1.5 / fps)
+    ok = np.isfinite(uv_b).all(axis=1)
+    if not ok.any():
+        return times[:0], np.empty((0, 3)), np.empty(0)
+    xyz, epi = triangulate_pairs(cam_a, cam_b, uv[ok], uv_b[ok])
+    return times[ok], xyz, epi
 
 
 def triangulate_tracks(frames: list[PixelFrame], cameras: dict[str, Camera], side: str,

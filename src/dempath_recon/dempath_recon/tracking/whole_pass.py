@@ -42,7 +42,11 @@ from numpy.typing import NDArray
 from dempath_recon.methods.triangulate import Camera
 from dempath_recon.tracking.associate import triangulate_pairs
 from dempath_recon.tracking.records import PixelFrame
-from dempath_recon.tracking.trajectories import interpolate_history, marker_histories
+from dempath_recon.tracking.trajectories import (
+    interpolate_history,
+    marker_histories,
+    paired_points,
+)
 
 LOG = logging.getLogger(__name__)
 FloatArray = NDArray[np.float64]
@@ -224,12 +228,10 @@ def marker_points_3d(frames: Sequence[PixelFrame], cameras: dict[str, Camera], f
     hist = {c: marker_histories(list(frames), c) for c in names}
     out: dict[int, tuple[FloatArray, FloatArray]] = {}
     for m in sorted(set(hist[names[0]]) & set(hist[names[1]])):
-        times, uv = hist[names[0]][m]
-        uv_b = interpolate_history(hist[names[1]][m], times, 1.5 / fps)
-        ok = np.isfinite(uv_b).all(axis=1)
-        if ok.any():
-            xyz, _ = triangulate_pairs(cameras[names[0]], cameras[names[1]], uv[ok], uv_b[ok])
-            out[m] = (times[ok], xyz)
+        times, xyz, _ = paired_points(hist[names[0]][m], hist[names[1]][m], cameras[names[0]],
+                                      cameras[names[1]], fps)
+        if len(times):
+            out[m] = (times, xyz)
     return out
 
 
