@@ -660,3 +660,38 @@ def test_front_only_marker_on_the_line_of_a_marker_the_front_has_merged_takes_it
     assert record is not None
     assert [c.rule for c in record.changes if c.camera == 'cam_front' and c.after == 7] == \
         ['grid_fit'], 'numbered at the fit, not by a later rule'
+
+
+def test_pair_triangulation_equals_the_general_linear_form(rig) -> None:
+    """The compiled two-view triangulation (``two_view_kernel``) gives the points of
+    ``triangulate_points(refine=False)`` for noisy pairs, and the true points for exact ones."""
+    from dempath_recon.methods.triangulate import triangulate_points
+
+    side, front = rig.cameras
+    rng = np.random.default_rng(3)
+    xyz = rng.uniform([-0.1, -0.02, -0.1], [0.1, 0.05, 0.1], (25, 3))
+    uv_s, uv_f = side.project(xyz), front.project(xyz)
+    exact, epi = triangulate_pairs(side, front, uv_s, uv_f)
+    assert np.abs(exact - xyz).max() < 1e-9 and epi.max() < 1e-6
+    noisy_s, noisy_f = uv_s + rng.normal(0, 1.5, uv_s.shape), uv_f + rng.normal(0, 1.5, uv_f.shape)
+    general = triangulate_points([side, front], np.stack([noisy_s, noisy_f]), refine=False)
+    mine, _ = triangulate_pairs(side, front, noisy_s, noisy_f)
+    assert np.abs(mine - general.xyz).max() < 1e-12
+    assert triangulate_pairs(side, front, np.zeros((0, 2)), np.zeros((0, 2)))[0].shape == (0, 3)
+
+
+def test_grid_placements_score_as_one_placement_at_a_time() -> None:
+    """``grid_scores`` of many placements at once: each grid point scores
+    ``1 - (d / gate)^2`` for its nearest detection within the gate, summed per placement."""
+    from dempath_recon.tracking.associate import grid_scores
+
+    rng = np.random.default_rng(5)
+    grid = rng.uniform(0, 200, (15, 2))
+    uv = grid[:11] + rng.normal(0, 2.0, (11, 2))
+    shifts = rng.normal(0, 6.0, (40, 2))
+    placed = grid[None] + shifts[:, None]
+    scores = grid_scores(placed, uv, 12.0)
+    for k, one in enumerate(placed):
+        d = np.array([min(np.hypot(*(g - p)) for p in uv) for g in one])
+        assert scores[k] == pytest.approx(np.clip(1 - (d / 12.0) ** 2, 0, None).sum(), abs=1e-12)
+    assert grid_scores(grid[None], grid, 12.0)[0] == pytest.approx(15.0)

@@ -28,6 +28,7 @@ from numpy.typing import NDArray
 from scipy.optimize import linear_sum_assignment
 
 from dempath_recon.methods.triangulate import Camera, undistort_normalized
+from dempath_recon.tracking.two_view_kernel import two_view_linear
 
 LOG = logging.getLogger(__name__)
 FloatArray = NDArray[np.float64]
@@ -148,13 +149,13 @@ def _voted_shift(proj: FloatArray, xyz: FloatArray, uv: FloatArray, gate_px: flo
     whether a ``wary`` fit must wait (the grid one pitch over scores within ``SHIFT_MARGIN``;
     the shift is then the unrefined best one)."""
     offsets = (uv[:, None, :] - proj[None, :, :]).reshape(-1, 2)
-    best, shift = -1.0, np.zeros(2, np.float64)
-    for off in offsets:
-        score = grid_score(proj + off, uv, gate_px)
-        if score > best:
-            best, shift = score, np.asarray(off, np.float64).reshape(2)
-    if wary and max((grid_score(proj + shift + v, uv, gate_px)
-                     for v in pitch_steps(proj, xyz)), default=-1.0) > best - SHIFT_MARGIN:
+    scores = grid_scores(proj[None, :, :] + offsets[:, None, :], uv, gate_px)
+    first_best = int(np.argmax(scores))  # the first of equal scores, as a loop would keep
+    best, shift = float(scores[first_best]), np.asarray(offsets[first_best], np.float64)
+    steps = pitch_steps(proj, xyz)
+    if wary and steps and float(grid_scores(
+            proj[None, :, :] + shift + np.array(steps)[:, None, :], uv, gate_px).max()) \
+            > best - SHIFT_MARGIN:
         return shift, True
     near = np.linalg.norm(proj[:, None, :] + shift - uv[None, :, :], axis=2)
     inside = near[near.min(axis=1) < gate_px]
@@ -168,11 +169,14 @@ SHIFT_MARGIN = 1.0  # a grid fit is refused when one shifted by a pitch scores w
 # (one marker's worth) of it
 
 
-def grid_score(grid_uv: FloatArray, uv: FloatArray, gate_px: float) -> float:
-    """How well the grid points (m, 2) px fit the detections (n, 2) px: each grid point scores
-    ``1 - (d / gate_px)^2`` for its nearest detection within the gate."""
-    d = np.linalg.norm(grid_uv[:, None, :] - uv[None, :, :], axis=2).min(axis=1)
-    return float(np.clip(1.0 - (d / gate_px) ** 2, 0.0, None).sum())
+def grid_scores(grid_uv: FloatArray, uv: FloatArray, gate_px: float) -> FloatArray:
+    """(k,) how well each of k placements of the grid points (k, m, 2) px fits the detections
+    (n, 2) px: each grid point scores ``1 - (d / gate_px)^2`` for its nearest detection within
+    the gate. All placements in one array operation: the vote tries one per pair of a detection
+    and a grid point (a few hundred a frame), one call each cost a tenth of the tracking's
+    time."""
+    d = np.sqrt(np.square(grid_uv[:, :, None, :] - uv[None, None, :, :]).sum(axis=3)).min(axis=2)
+    return np.asarray(np.clip(1.0 - (d / gate_px) ** 2, 0.0, None).sum(axis=1), np.float64)
 
 
 def pitch_steps(proj: FloatArray, xyz: FloatArray) -> list[FloatArray]:
@@ -347,33 +351,14 @@ def project(cam: Camera, xyz: FloatArray) -> FloatArray:
 def _two_view_linear(cam_a: Camera, cam_b: Camera, xa: FloatArray, xb: FloatArray,
                      reweight: int = 1) -> FloatArray:
     """(k, 3) m: the depth-reweighted linear triangulation of ``triangulate_points`` (no
-    refinement) for normalised pairs (k, 2) of two cameras, in a few small array operations
-    (the general n-camera form costs about a millisecond per call for a handful of pairs,
-    which is most of the tracking stage's time)."""
-    rows, rhs = [], []
-    for cam, x in ((cam_a, xa), (cam_b, xb)):
-        rot, t = np.asarray(cam.R, np.float64), np.asarray(cam.t, np.float64)
-        u, v = x[:, :1], x[:, 1:2]
-        rows += [u * rot[2] - rot[0], v * rot[2] - rot[1]]
-        rhs += [t[0] - u[:, 0] * t[2], t[1] - v[:, 0] * t[2]]
-    m, b = np.stack(rows, axis=1), np.stack(rhs, axis=1)  # (k, 4, 3), (k, 4)
-    depth_rows = np.array([np.asarray(cam_a.R)[2], np.asarray(cam_b.R)[2]])
-    depth_t = np.array([np.asarray(cam_a.t)[2], np.asarray(cam_b.t)[2]], np.float64)
-    weights = np.ones(b.shape)
-    sol = np.full((len(xa), 3), np.nan)
-    for _ in range(reweight + 1):
-        mw, bw = m * weights[:, :, None], b * weights
-        a = mw.transpose(0, 2, 1) @ mw
-        rhs_n = (mw.transpose(0, 2, 1) @ bw[:, :, None])[:, :, 0]
-        with np.errstate(all='ignore'):
-            det = np.linalg.det(a)
-            ok = np.abs(det) > 1e-300
-            sol[:] = np.nan
-            if ok.any():
-                sol[ok] = np.linalg.solve(a[ok], rhs_n[ok][:, :, None])[:, :, 0]
-        depth_ab = sol @ depth_rows.T + depth_t
-        weights = np.repeat(1.0 / np.maximum(np.abs(depth_ab), 1e-9), 2, axis=1)
-    return sol
+    refinement) for normalised pairs (k, 2) of two cameras, compiled
+    (:func:`~dempath_recon.tracking.two_view_kernel.two_view_linear`: the general n-camera form
+    costs about a millisecond per call for a handful of pairs)."""
+    return np.asarray(two_view_linear(
+        np.ascontiguousarray(cam_a.R, np.float64), np.ascontiguousarray(cam_a.t, np.float64),
+        np.ascontiguousarray(cam_b.R, np.float64), np.ascontiguousarray(cam_b.t, np.float64),
+        np.ascontiguousarray(xa, np.float64).reshape(-1, 2),
+        np.ascontiguousarray(xb, np.float64).reshape(-1, 2), reweight), np.float64)
 
 
 class MarkerPositions:

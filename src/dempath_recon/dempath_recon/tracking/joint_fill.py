@@ -231,8 +231,11 @@ def track_numbers(frames: Sequence[PixelFrame], track_ids: Sequence[NDArray[np.i
             continue
         marks = f.markers.tolist()
         given = frozenset(m for m in marks if m >= 0)
+        # the numbers around each spot: the frame's others (one set per number given, not
+        # per spot: a pass has tens of thousands of spots)
+        around = {m: given - {m} for m in given}
         for m, tid in zip(marks, ids.tolist(), strict=True):
-            rows.setdefault(int(tid), []).append((f.stamp_s, int(m), given - {m}))
+            rows.setdefault(int(tid), []).append((f.stamp_s, int(m), around.get(m, given)))
     return TrackNumbers({tid: (np.array([r[0] for r in rs]), np.array([r[1] for r in rs]),
                                [r[2] for r in rs]) for tid, rs in rows.items()})
 

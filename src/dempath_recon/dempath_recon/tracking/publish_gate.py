@@ -31,6 +31,7 @@ passes everything.
 
 from __future__ import annotations
 
+import math
 from bisect import bisect_left
 from collections.abc import Mapping
 from typing import NamedTuple
@@ -38,11 +39,18 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from dempath_recon.methods.triangulate import Camera, triangulate_points
+from dempath_recon.methods.triangulate import Camera, reprojection_errors
+from dempath_recon.tracking.associate import triangulate_pairs
 from dempath_recon.tracking.records import PixelFrame
 
 FloatArray = NDArray[np.float64]
 UNNUMBERED = -1
+
+
+def _length(v: FloatArray) -> float:
+    """Euclidean length of a vector (3,), as ``np.linalg.norm`` computes it, without its
+    checks (called for every neighbour of every checked point)."""
+    return math.sqrt(float(v.dot(v)))
 
 
 class GateConfig(NamedTuple):
@@ -72,14 +80,18 @@ class GateConfig(NamedTuple):
 class _History:
     """A marker's accepted 3D points, oldest first (stamps ascending)."""
 
-    __slots__ = ('times', 'xyz')
+    __slots__ = ('_asked', 'times', 'xyz')
 
     def __init__(self) -> None:
         self.times: list[float] = []
         self.xyz: list[FloatArray] = []
+        # answers of ``near`` since the last change: every check of a frame asks each
+        # neighbour's point at the same two stamps (two thirds of the gate's time, session 24)
+        self._asked: dict[tuple[float, float], FloatArray | None] = {}
 
     def add(self, stamp_s: float, xyz: FloatArray, keep_s: float) -> None:
         """Append a point and drop those older than ``keep_s`` before it."""
+        self._asked.clear()
         self.times.append(stamp_s)
         self.xyz.append(xyz)
         cut = bisect_left(self.times, stamp_s - keep_s)
@@ -88,11 +100,15 @@ class _History:
 
     def near(self, stamp_s: float, within_s: float) -> FloatArray | None:
         """The accepted point nearest ``stamp_s`` within ``within_s``, or None."""
+        key = (stamp_s, within_s)
+        if key in self._asked:
+            return self._asked[key]
         k = bisect_left(self.times, stamp_s)
         best, gap = None, within_s
         for j in (k - 1, k):
             if 0 <= j < len(self.times) and abs(self.times[j] - stamp_s) <= gap:
                 best, gap = self.xyz[j], abs(self.times[j] - stamp_s)
+        self._asked[key] = best
         return best
 
 
@@ -138,9 +154,10 @@ class PublicationGate:
         markers = frame.markers
         if ks:
             views = np.stack([np.array(own, np.float64), np.array(partner, np.float64)])
-            tri = triangulate_points([self.cameras[frame.camera], self.cameras[other]], views,
-                                     refine=False)
-            for k, x, res in zip(ks, tri.xyz, tri.reprojection_error, strict=True):
+            pair = [self.cameras[frame.camera], self.cameras[other]]
+            # the linear triangulation of ``triangulate_points(refine=False)``, two views
+            xyz, _ = triangulate_pairs(pair[0], pair[1], views[0], views[1])
+            for k, x, res in zip(ks, xyz, reprojection_errors(pair, views, xyz), strict=True):
                 m = int(frame.markers[k])
                 if not np.isfinite(x).all():
                     continue
@@ -185,7 +202,7 @@ class PublicationGate:
                 then = h.near(t1, self.period_s)
                 now = h.near(stamp_s, self.period_s)
                 if then is not None and now is not None \
-                        and np.linalg.norm(then - x1) < cfg.neighbour_m:
+                        and _length(then - x1) < cfg.neighbour_m:
                     moves.append(now - then)
             # no neighbour to say how it should have moved: it goes out
             if moves and np.linalg.norm(xyz - x1 - np.median(np.array(moves), axis=0)) \
