@@ -12,7 +12,7 @@ ROOM = Path(dempath_recon.tracking.__file__).parent
 # Bottom to top: a module may import the modules before it, never one after it.
 ORDER = ('merge', 'centroid_kernel', 'cut_discs_kernel', 'cut_discs', 'split', 'covered',
          'streak', 'colour_model', 'shaded', 'detect', 'shake',
-         'linker', 'associate', 'speed_bound', 'grid_pairs', 'pair_anchor',
+         'linker', 'two_view_kernel', 'associate', 'speed_bound', 'grid_pairs', 'pair_anchor',
          'half_ghost',
          'records', 'release',
          'publish_gate', 'trajectories', 'whole_pass', 'joint_fill', 'pass_audit',
