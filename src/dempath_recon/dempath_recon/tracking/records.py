@@ -149,6 +149,10 @@ class StereoTrackConfig:
             numbered right 77.8 -> 80.9 % but identity switches 101 -> 121; the held-apart
             seed 88.5 -> 90.0 %, switches 3 -> 11 (docs/figures.md). False: the detectors'
             fixed floor only.
+        band_pass: each camera's detector finds spots on the matched filter less the local
+            background (``DetectorConfig.band_pass``, which this sets): markers on tinted or
+            reddish sand and under a JPEG's blocky chroma pass where the fixed rule lost them
+            (session 24, detect24: docs/figures.md). False: the fixed rule.
         pass_audit: with ``whole_pass``, after its numbering, audit every number given
             (:mod:`~dempath_recon.tracking.pass_audit`): a piece of 2D track that carries two
             numbers keeps the one it carried longest, and a stretch of track its marker's
@@ -191,6 +195,7 @@ class StereoTrackConfig:
     whole_pass: bool = True
     joint_fill: bool = True
     dim_spots: bool = False
+    band_pass: bool = False
     pass_audit: bool = True
 
     def __post_init__(self) -> None:

@@ -508,12 +508,15 @@ def camera_detectors(cameras: dict[str, Camera], config: StereoTrackConfig,
     ``config.marker_diameter_m``, unless the detector's settings give one) and the image
     direction of world up there and the line of sight's elevation (``view_of_up``, for partly
     covered markers' centres, unless ``config.uncover`` is off or the detector's settings give
-    an up direction), and without the dim pass where ``config.dim_spots`` is off."""
+    an up direction), without the dim pass where ``config.dim_spots`` is off, and with the
+    band-pass as ``config.band_pass`` says."""
     out = {}
     for name, cam in cameras.items():
         det = config.detector
         if not config.dim_spots:
             det = replace(det, dim_spots=False)
+        if det.band_pass != config.band_pass:
+            det = replace(det, band_pass=config.band_pass)
         if det.marker_diameter_px == 0 and config.marker_diameter_m > 0:
             det = replace(det, marker_diameter_px=marker_diameter_px(
                 cam, config.grid, config.marker_diameter_m))
