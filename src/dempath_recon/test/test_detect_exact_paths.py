@@ -215,7 +215,8 @@ def test_peaks_filtered_in_far_apart_clusters_are_the_whole_images() -> None:
     for x, y in ((4, 3), (955, 6), (950, 535)):
         c[y - 1:y + 2, x - 1:x + 2] = 0.2
     detector = MarkerDetector(DetectorConfig(downscale=2))
-    rows, cols = detector._peaks(c, 0.15)
+    rows, cols, fixed = detector._peaks(c, 0.15)
+    assert fixed.all()  # no band-pass: every peak is the fixed rule's
     cand = np.argwhere(c > 0.15)
     assert len(candidate_groups(cand[:, 0], cand[:, 1], PEAK_TILE)) == 4
     smooth = cv2.GaussianBlur(np.maximum(c, np.float32(FILTER_FLOOR)), (0, 0),

@@ -112,8 +112,8 @@ class WholeFrameDetector(MarkerDetector):
 def test_window_around_candidates_gives_the_whole_frame_result(corner: tuple[int, int]) -> None:
     """Markers in a small part of a 1920x1080 frame (mid-frame, and against two corners, where
     the window is clipped), blue or red clay (its axis), in daylight or at dusk (the frame's
-    lowered chroma floor, the window only near lit pixels): the detections equal those of the
-    chroma of the whole frame."""
+    lowered chroma floor, the window only near lit pixels), with the band-pass or without: the
+    detections equal those of the chroma of the whole frame."""
     rng = np.random.default_rng(4)
     offsets = np.array([[0, 0], [25, 3], [-30, 12], [12, -28], [60, 40], [-55, -40]], float)
     centres = np.clip(np.asarray(corner, float) + offsets + rng.uniform(-0.5, 0.5, (6, 2)),
@@ -122,10 +122,12 @@ def test_window_around_candidates_gives_the_whole_frame_result(corner: tuple[int
               'red': spot_image((1080, 1920), centres, 4.5, rng, quality=90, clay_bgr=RED_CLAY),
               'dusk': spot_image((1080, 1920), centres, 4.5, rng, gain=0.3, noise_dn=2.0,
                                  quality=85, shadow_cols=1920)}
-    for downscale, look in ((1, 'blue'), (2, 'blue'), (2, 'red'), (1, 'red'), (2, 'dusk'),
-                            (1, 'dusk')):
+    for downscale, look, band in ((1, 'blue', False), (2, 'blue', False), (2, 'red', False),
+                                  (1, 'red', False), (2, 'dusk', False), (1, 'dusk', False),
+                                  (2, 'blue', True), (2, 'dusk', True)):
         config = DetectorConfig(downscale=downscale,
-                                marker_bgr=tuple(RED_CLAY) if look == 'red' else None)
+                                marker_bgr=tuple(RED_CLAY) if look == 'red' else None,
+                                band_pass=band, marker_diameter_px=9.0 if band else 0.0)
         jpeg = frames[look]
         found = MarkerDetector(config).detect_jpeg(jpeg)
         ref = WholeFrameDetector(config).detect_jpeg(jpeg)

@@ -44,6 +44,14 @@ import simplejpeg
 from numpy.typing import NDArray
 
 from dempath_recon.errors import ReconstructionError
+from dempath_recon.tracking.band_pass import (
+    BAND_THRESHOLD,
+    MASS_REACH,
+    band_square,
+    excess_mass,
+    kept_spots,
+    local_background,
+)
 from dempath_recon.tracking.centroid_kernel import refine_centroids
 from dempath_recon.tracking.centroid_kernel import warm as warm_centroids
 from dempath_recon.tracking.colour_model import (
@@ -96,19 +104,6 @@ FILTER_FLOOR = -0.2  # the matched filter sees sand no redder than the sand the 
 # then jumped onto them: more switches and wrong pairs on 5 of 13 tuning looks
 
 
-BAND_WIDTH = 2.5  # the band-pass's local background is the mean floored chroma over a square
-# of side 2 round(BAND_WIDTH d) + 1 around each pixel (d: a marker's diameter) [-]: wide enough
-# that a marker hardly raises it (a 3.2 px disc at half size in 17 x 17 pixels: +0.02), narrow
-# enough to follow the sand's colour from patch to patch (tinted, shaded or reddish sand). 1.5,
-# 2.5 and 4 found the same markers within 0.4 % at no spot off the markers (session 24, seven
-# variations and five burnt looks, census in the markers' box)
-BAND_THRESHOLD = 0.16  # a band-passed peak (Gaussian less local background) a marker must
-# exceed [-]: the sand's strongest band-passed local maxima in the markers' box over 84 frames
-# of 12 tuning looks reached 0.15-0.16 (bundled variations and burnt heldout24/25 looks, far
-# from every marker), blue clay on sand stands 0.5-0.7 above its background
-BAND_CANDIDATE = 0.05  # chroma a pixel must exceed to be a band-pass candidate [-]: the
-# filter runs only around such pixels (as the fixed threshold's do); a marker JPEG at quality
-# 50-60 has smeared (4:2:0 chroma, blocks of 16 x 16 full-size px) peaks at 0.1-0.3 raw
 SPARSE_BOX = 0.1  # a byte-bound box over this share of the frame is narrowed to the pixels
 # whose chroma passes (``MarkerDetector._exact_box``)
 PEAK_TILE = 32  # candidate pixels in touching tiles of this size [detector px] are filtered
@@ -337,13 +332,14 @@ class DetectorConfig:
             at dusk up, identity switches up too: docs/figures.md). False: the fixed floor's
             spots only.
         band_pass: a spot is a local maximum of the matched filter less the local background
-            (Crocker and Grier's band-pass: the floored chroma's mean over ``BAND_WIDTH``
-            diameters subtracted) above ``BAND_THRESHOLD``, among pixels whose chroma passes
-            ``BAND_CANDIDATE``; False: the filter alone, its peak over half the threshold at a
-            pixel over the threshold. The sand's own colour (tinted, reddish, shaded, a JPEG's
-            blocky chroma) moves the background, not the marker's contrast above it: at no
-            spot off the markers it found 97-98 % of the markers at least half visible where
-            the fixed rule found 94 % (session 24, tuning looks).
+            above ``band_pass.BAND_THRESHOLD`` among the pixels over the threshold (Crocker and
+            Grier's band-pass, :mod:`~dempath_recon.tracking.band_pass`), and one the filter
+            alone would not pass (its peak under half the threshold) is kept only where its
+            excess chroma says at least ``band_pass.MIN_SHARE`` of a marker is seen: a colour
+            cast or a JPEG's blocky chroma lowers a marker's chroma, not its contrast above the
+            sand around it. Needs ``marker_diameter_px`` for the share (without it, only
+            the fixed rule's spots). False: the filter alone, its peak over half the
+            threshold at a pixel over the threshold.
     """
 
     downscale: int = 2
@@ -465,8 +461,8 @@ class MarkerDetector:
         # how far the window of a frame's candidates reaches past them [detector px]: the
         # local-maximum filter, the Gaussian, the centroid window and its re-centring
         # the band-pass's background square [detector px] (0: no band-pass)
-        self._band = 2 * round(BAND_WIDTH * max(self.config.marker_diameter_px,
-                                                self.config.min_separation_px) / s) + 1 \
+        self._band = band_square(max(self.config.marker_diameter_px,
+                                     self.config.min_separation_px) / s) \
             if self.config.band_pass else 0
         self._pad = (int(np.ceil(4 * self._sigma)) + self._kernel.shape[0] // 2
                      + 2 * r + 4 + self._band // 2)
@@ -578,11 +574,13 @@ class MarkerDetector:
         s = self.config.downscale
         thr = self.config.threshold if thr is None else thr
         band = self._band if away is None else 0  # the dim pass keeps its tuned rule
-        ox, oy, c, parts = self._window(image, BAND_CANDIDATE if band else thr, floor, axis)
-        rows, cols = self._peaks(c, thr, band)
+        ox, oy, c, parts = self._window(image, thr, floor, axis)
+        rows, cols, fixed = self._peaks(c, thr, band)
         lit = lit_peaks(image, rows + oy, cols + ox, floor)  # not noise in near-black pixels
         lit &= bright_peaks(image, rows + oy, cols + ox, dark_bar)
-        rows, cols = rows[lit], cols[lit]
+        rows, cols, fixed = rows[lit], cols[lit], fixed[lit]
+        if not fixed.all():  # the band-pass's own spots: whole enough markers only
+            rows, cols = self._seen_enough(c, rows, cols, fixed, band)
         if away is not None and len(away[0]) and len(rows):
             at = (np.stack([cols + ox, rows + oy], axis=1) + 0.5) * s - 0.5
             far = np.linalg.norm(at[:, None] - away[0][None], axis=2).min(axis=1) > away[1]
@@ -636,18 +634,32 @@ class MarkerDetector:
         return Detections(full, conf[ok], size, crowded, None, centre,
                           None if parted is None else parted[ok])
 
+    def _seen_enough(self, c: NDArray[np.float32], rows: NDArray[np.intp],
+                     cols: NDArray[np.intp], fixed: NDArray[np.bool_], band: int,
+                     ) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+        """The peaks (``rows``, ``cols`` (n,) in the chroma window ``c``) the fixed rule
+        passes (``fixed`` (n,)) and those of the band-pass (background square ``band``
+        [detector px]) whose excess chroma says enough of a marker is seen
+        (:func:`~dempath_recon.tracking.band_pass.kept_spots`); without a marker size, the
+        fixed rule's only."""
+        diameter = self.config.marker_diameter_px / self.config.downscale
+        if diameter <= 0:
+            return rows[fixed], cols[fixed]
+        part = np.maximum(c, np.float32(FILTER_FLOOR)) if self.config.floor_sand else c
+        keep = kept_spots(fixed, excess_mass(part, rows, cols, band, MASS_REACH * diameter))
+        return rows[keep], cols[keep]
+
     def _peaks(self, c: NDArray[np.float32], thr: float, band: int = 0,
-               ) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+               ) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.bool_]]:
         """(rows, cols) of the matched filter's local maxima among the pixels above ``thr``,
-        over half ``thr`` (at most ``max_markers``, the strongest); with ``band`` (the side of
-        the background square [detector px], ``DetectorConfig.band_pass``): of the filter
-        less the local background among the pixels above ``BAND_CANDIDATE``, over
-        ``BAND_THRESHOLD``."""
+        over half ``thr`` (at most ``max_markers``, the strongest), and (n,) all True; with
+        ``band`` (the side of the background square [detector px], ``DetectorConfig.
+        band_pass``): the local maxima of the filter less the local background over
+        ``band_pass.BAND_THRESHOLD`` and whether the filter alone passes half ``thr`` there."""
         empty = np.zeros(0, np.intp)
-        cand = cv2.findNonZero((c > (BAND_CANDIDATE if band else thr)).view(np.uint8)) \
-            if c.size else None
+        cand = cv2.findNonZero((c > thr).view(np.uint8)) if c.size else None
         if cand is None:
-            return empty, empty
+            return empty, empty, np.zeros(0, np.bool_)
         # filter only around the candidate pixels (the markers cover a small part of the view),
         # each cluster of them apart (another clay's dark corners lie far from the markers);
         # the margin makes the result identical to filtering the whole image
@@ -655,6 +667,7 @@ class MarkerDetector:
         cols, rows = np.asarray(cand[:, 0, 0], np.intp), np.asarray(cand[:, 0, 1], np.intp)
         peak = np.zeros(len(cand), np.bool_)
         local = np.zeros(len(cand), np.float32)
+        alone = np.zeros(len(cand), np.float32)  # the filter alone (no background taken)
         groups = candidate_groups(rows, cols, PEAK_TILE)
         if len(groups) > MAX_PEAK_GROUPS:  # noise spread over the view: one box is cheaper
             groups = [np.arange(len(rows))]
@@ -668,15 +681,21 @@ class MarkerDetector:
                 part = np.maximum(part, np.float32(FILTER_FLOOR))
             smooth = cv2.GaussianBlur(part, (0, 0), self._sigma)
             if band:  # less the local background (Crocker and Grier's band-pass)
-                smooth = cv2.subtract(smooth, cv2.blur(part, (band, band)))
+                alone[group] = smooth[r - y0, q - x0]
+                smooth = cv2.subtract(smooth, local_background(part, band))
             local[group] = smooth[r - y0, q - x0]
             peak[group] = local[group] >= neighbourhood_max(smooth, r - y0, q - x0, self._reach)
-        peak &= local > (BAND_THRESHOLD if band else 0.5 * thr)
-        rows, cols, strength = rows[peak], cols[peak], local[peak]
+        if band:
+            fixed = alone > 0.5 * thr
+            peak &= local > BAND_THRESHOLD
+        else:
+            fixed = np.ones(len(cand), np.bool_)
+            peak &= local > 0.5 * thr
+        rows, cols, strength, fixed = rows[peak], cols[peak], local[peak], fixed[peak]
         if len(rows) > self.config.max_markers:
             keep = np.argsort(-strength)[:self.config.max_markers]
-            rows, cols = rows[keep], cols[keep]
-        return rows.astype(np.intp), cols.astype(np.intp)
+            rows, cols, fixed = rows[keep], cols[keep], fixed[keep]
+        return rows.astype(np.intp), cols.astype(np.intp), fixed
 
     def _faint(self, image: NDArray[np.uint8], low: float,
                colour: tuple[float, NDArray[np.float32]], strong: FloatArray,
@@ -728,7 +747,7 @@ class MarkerDetector:
         NaN where none or where it is one of the frame's spots ``strong`` (n, 2) [px]."""
         s = self.config.downscale
         x0, y0 = corner
-        rows, cols = self._peaks(c, low)
+        rows, cols, _ = self._peaks(c, low)
         near = np.hypot(cols + x0 - q[0], rows + y0 - q[1]) <= reach
         rows, cols = rows[near], cols[near]
         if not len(rows):
