@@ -98,3 +98,18 @@ def test_half_buried_markers_are_found_and_slivers_are_not() -> None:
         assert found[True][found[False]].all(), f'seed {seed}: a spot of the fixed rule lost'
         missed_before += int((~found[False][buried < 0.5]).sum())
     assert missed_before > 0
+
+
+def test_a_dim_frame_keeps_the_fixed_rule() -> None:
+    """At dusk (the frame's own chroma floor under the fixed one) the band-pass is
+    not used: half-buried markers on the same sand give the fixed rule's spots exactly."""
+    rng = np.random.default_rng(5)
+    truth = grid_centres(rng)
+    buried = np.array([0.0, 0.45])[np.arange(len(truth)) % 2]
+    jpeg = spot_image(SHAPE, truth, RADIUS, rng, gain=0.5, noise_dn=2.0, quality=85,
+                      shadow_cols=SHAPE[1], buried=buried)
+    fixed = MarkerDetector(DetectorConfig(marker_diameter_px=2 * RADIUS)).detect_jpeg(jpeg)
+    band = MarkerDetector(DetectorConfig(marker_diameter_px=2 * RADIUS,
+                                         band_pass=True)).detect_jpeg(jpeg)
+    assert len(fixed.uv) >= len(truth) // 3
+    assert np.array_equal(fixed.uv, band.uv)

@@ -22,12 +22,12 @@ high, not noise.
 What the band-pass adds that the fixed rule did not find is of two kinds: whole markers of
 low contrast (cast, JPEG) and markers under half visible (coming out of the sand, half buried
 in front of the tine), which the linker jumps onto (the dim pass's lesson, session 23). They
-are told apart by the spot's excess chroma summed over a disc of one diameter around it (over
-the local background, only what lies above it): blur, JPEG's block smear and a cast's lower
-contrast spread or scale a marker's excess but keep its sum nearly whole, burial takes it
-away. Relative to the frame's whole markers (``covered.WHOLE_QUANTILE`` of its spots) it
-tracked the truth's visible share within about 0.1 (it reads 0.05-0.1 under it) on the tuning
-looks; a spot the fixed rule would not have kept is kept only at ``MIN_SHARE`` or more.
+are told apart by the spot's excess chroma (over the local background, only what lies above
+it) summed over a disc of ``MASS_REACH`` diameters' radius around it: blur, JPEG's block smear
+and a cast's lower contrast spread or scale a marker's excess but keep its sum nearly whole,
+burial takes it away. Relative to the frame's whole markers (``covered.WHOLE_QUANTILE`` of its
+spots) it tracked the truth's visible share within about 0.1 on the tuning looks; a spot the
+fixed rule would not have kept is kept only at ``MIN_SHARE`` or more.
 
 The candidates are the fixed rule's pixels (chroma over the threshold), so the detector's
 window and cost stay; lower candidate levels (0.10, 0.05) found 1-2 % more markers on JPEG 60
@@ -58,13 +58,15 @@ BAND_THRESHOLD = 0.16  # a band-passed peak (the matched filter less the local b
 # marker must exceed [-]: the sand's strongest band-passed local maxima in the markers' box,
 # over 84 frames of 12 tuning looks, reached 0.15-0.16; blue clay stands 0.5-0.7 above its
 # background
-MIN_SHARE = 0.4  # a spot the fixed rule would not keep (its filtered peak under half of it)
+MIN_SHARE = 0.5  # a spot the fixed rule would not keep (its filtered peak under half of it)
 # is kept when its excess mass says at least this share of a whole marker is seen [-]: the
-# issue's markers are those at least half visible, and the share reads 0.05-0.1 under the
-# truth's; on the burnt heldout24 looks in daylight every such spot of a marker under half
-# visible read 0.23-0.44, on the variations' whole markers of low contrast 0.41-0.88
-MASS_REACH = 1.0  # the excess mass is summed over a disc of this many diameters' radius [-]:
-# a JPEG block's smear (8 px at half size) and the matched filter's reach
+# issue's markers are those at least half visible. Chosen on the tuning looks: at 0.4 the
+# spots of markers 30-47 % visible beside others (the tiny_long looks' bunched markers) passed
+# and the linker jumped onto them (burnt Q195_clay 0 -> 3 switches, Q197_asis 84.8 -> 81.1 %
+# numbered right); at 0.5 neither, and the variations kept most of 0.4's gain
+MASS_REACH = 0.75  # the excess mass is summed over a disc of this many diameters' radius [-]:
+# a JPEG block's smear and the matched filter's reach; 1.0 took in a bunched neighbour's
+# chroma (markers 12-15 px apart at 8-9 px across)
 
 
 def band_square(diameter_px: float) -> int:

@@ -338,7 +338,10 @@ class DetectorConfig:
             excess chroma says at least ``band_pass.MIN_SHARE`` of a marker is seen: a colour
             cast or a JPEG's blocky chroma lowers a marker's chroma, not its contrast above the
             sand around it. Needs ``marker_diameter_px`` for the share (without it, only
-            the fixed rule's spots). False: the filter alone, its peak over half the
+            the fixed rule's spots). Frames in normal light only (the frame's own chroma floor
+            at ``MIN_SUM_DN``): in a dim frame the fixed floor divides the chroma of sand and
+            markers by a constant rather than their own light (on two burnt dusk looks it
+            added 2-7 identity switches). False: the filter alone, its peak over half the
             threshold at a pixel over the threshold.
     """
 
@@ -573,7 +576,10 @@ class MarkerDetector:
         kept, each as one marker (no splitting: the dim pass, ``_dim_spots``)."""
         s = self.config.downscale
         thr = self.config.threshold if thr is None else thr
-        band = self._band if away is None else 0  # the dim pass keeps its tuned rule
+        # the band-pass in frames in normal light only: in a dim one the fixed floor divides
+        # sand and markers alike by a constant, not their own light, and its contrast bar does
+        # not hold (there the dim pass is the rule); the dim pass keeps its own tuned rule
+        band = self._band if away is None and frame_floor >= MIN_SUM_DN else 0
         ox, oy, c, parts = self._window(image, thr, floor, axis)
         rows, cols, fixed = self._peaks(c, thr, band)
         lit = lit_peaks(image, rows + oy, cols + ox, floor)  # not noise in near-black pixels
