@@ -250,6 +250,8 @@ RULE_SWITCHES = (  # (flag, StereoTrackConfig field, help): the numbering rules 
      "the frame's own light (StereoTrackConfig.dim_spots; off by default)"),
     ('--band-pass', 'band_pass', 'find spots on the matched filter less the local background '
      '(StereoTrackConfig.band_pass; off by default)'),
+    ('--smooth-centres', 'smooth_centres', 'publish centres measured on the lightly smoothed '
+     'chroma (StereoTrackConfig.smooth_centres; off by default)'),
     ('--no-pass-audit', 'pass_audit', 'give the whole pass out without auditing its numbers '
      "against the markers' 3D paths (StereoTrackConfig.pass_audit; on)"),
 )

@@ -104,6 +104,11 @@ FILTER_FLOOR = -0.2  # the matched filter sees sand no redder than the sand the 
 # then jumped onto them: more switches and wrong pairs on 5 of 13 tuning looks
 
 
+CENTRE_SMOOTH = 0.7  # the published centres' Gaussian as a share of the matched filter's
+# (``DetectorConfig.smooth_centres``; 1 px at half size): on the tuned variations' whole, lone
+# markers the centres' error fell 0.351 -> 0.329 px as rendered, 0.711 -> 0.625 px under JPEG
+# 60 with noise 6, 0.392 -> 0.369 px on reddish sand; 0.5 took half of that off, 1.0 more
+# under noise (0.598 px) but less as rendered (0.338) and on reddish sand (0.390) (session 24)
 SPARSE_BOX = 0.1  # a byte-bound box over this share of the frame is narrowed to the pixels
 # whose chroma passes (``MarkerDetector._exact_box``)
 PEAK_TILE = 32  # candidate pixels in touching tiles of this size [detector px] are filtered
@@ -343,6 +348,12 @@ class DetectorConfig:
             markers by a constant rather than their own light (on two burnt dusk looks it
             added 2-7 identity switches). False: the filter alone, its peak over half the
             threshold at a pixel over the threshold.
+        smooth_centres: the published centres (``Detections.centre``) of a frame in normal
+            light are iterated centroids of the chroma smoothed by a light Gaussian
+            (``CENTRE_SMOOTH``, :meth:`MarkerDetector._smooth_centroids`): less of the
+            chroma's noise (JPEG, read noise) in them. The spots, their ``uv`` and so the
+            trackers are unchanged. Needs ``marker_diameter_px``. False: the centroids of
+            the chroma as measured.
     """
 
     downscale: int = 2
@@ -365,6 +376,7 @@ class DetectorConfig:
     shade_centres: bool = True
     dim_spots: bool = False
     band_pass: bool = False
+    smooth_centres: bool = False
 
     def __post_init__(self) -> None:
         checks = {'downscale': self.downscale in (1, 2), 'threshold': 0 < self.threshold < 1,
@@ -622,12 +634,14 @@ class MarkerDetector:
                                    if peaky else None)
             else:
                 share = seen_share(mass, strength - base if peaky else None)
+                if self.config.smooth_centres:
+                    seen_uv = self._smooth_centroids(c, uv, parted, thr)
             if tuple(self.config.up_px) != (0.0, 0.0):
                 centre = disc if share is None else uncover(
                     seen_uv, share, radius, self.config.up_px, ~parted,
                     self.config.view_elevation_deg)[0]
                 centre = np.where(parted[:, None], disc, centre) + np.array([ox, oy], np.float64)
-            elif dim_floor is not None:
+            elif dim_floor is not None or self.config.smooth_centres:
                 centre = np.where(parted[:, None], uv, seen_uv) + np.array([ox, oy], np.float64)
         uv += (ox, oy)
         ok = np.isfinite(uv).all(axis=1)
@@ -639,6 +653,29 @@ class MarkerDetector:
             centre = (centre[ok] + 0.5) * s - 0.5
         return Detections(full, conf[ok], size, crowded, None, centre,
                           None if parted is None else parted[ok])
+
+    def _smooth_centroids(self, c: NDArray[np.float32], uv: FloatArray,
+                          parted: NDArray[np.bool_], thr: float) -> FloatArray:
+        """(n, 2) each spot's centre [detector px, window ``c``] as the iterated centroid of
+        the chroma ``c`` smoothed by a Gaussian of ``CENTRE_SMOOTH`` times the matched filter's
+        (from the spot's centre ``uv`` (n, 2)); ``uv`` for a fitted marker of a split blob
+        (``parted`` (n,)) and where the centroid is not found.
+
+        Why: the weighted centroid sums each pixel's chroma noise with its offset as weight; a
+        light Gaussian first (part of the matched filter) averages that noise over neighbours
+        and leaves a symmetric spot's centre where it was. Only the published centres take it
+        (the trackers' margins were tuned on ``uv``)."""
+        out = np.asarray(uv, np.float64).copy()
+        ok = np.isfinite(out).all(axis=1) & ~np.asarray(parted, np.bool_)
+        if not ok.any():
+            return out
+        smooth = np.asarray(cv2.GaussianBlur(c, (0, 0), CENTRE_SMOOTH * self._sigma), np.float32)
+        h, w = c.shape
+        rows = np.clip(np.rint(out[ok, 1]), 0, h - 1).astype(np.intp)
+        cols = np.clip(np.rint(out[ok, 0]), 0, w - 1).astype(np.intp)
+        centred = self._refine(smooth, rows, cols, thr)[0]
+        out[ok] = np.where(np.isfinite(centred), centred, out[ok])
+        return out
 
     def _seen_enough(self, c: NDArray[np.float32], rows: NDArray[np.intp],
                      cols: NDArray[np.intp], fixed: NDArray[np.bool_], band: int,

@@ -153,6 +153,10 @@ class StereoTrackConfig:
             background (``DetectorConfig.band_pass``, which this sets): markers on tinted or
             reddish sand and under a JPEG's blocky chroma pass where the fixed rule lost them
             (session 24, detect24: docs/figures.md). False: the fixed rule.
+        smooth_centres: each camera's detector publishes centres measured on the chroma
+            smoothed by a light Gaussian (``DetectorConfig.smooth_centres``, which this sets):
+            less of JPEG's and the sensor's noise in the 3D points; detections and numbers
+            unchanged (session 24, detect24: docs/figures.md). False: the raw chroma's.
         pass_audit: with ``whole_pass``, after its numbering, audit every number given
             (:mod:`~dempath_recon.tracking.pass_audit`): a piece of 2D track that carries two
             numbers keeps the one it carried longest, and a stretch of track its marker's
@@ -196,6 +200,7 @@ class StereoTrackConfig:
     joint_fill: bool = True
     dim_spots: bool = False
     band_pass: bool = False
+    smooth_centres: bool = False
     pass_audit: bool = True
 
     def __post_init__(self) -> None:

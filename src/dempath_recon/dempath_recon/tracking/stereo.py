@@ -509,14 +509,15 @@ def camera_detectors(cameras: dict[str, Camera], config: StereoTrackConfig,
     direction of world up there and the line of sight's elevation (``view_of_up``, for partly
     covered markers' centres, unless ``config.uncover`` is off or the detector's settings give
     an up direction), without the dim pass where ``config.dim_spots`` is off, and with the
-    band-pass as ``config.band_pass`` says."""
+    band-pass and the smoothed centres as ``config.band_pass`` and ``config.smooth_centres``
+    say."""
     out = {}
     for name, cam in cameras.items():
         det = config.detector
         if not config.dim_spots:
             det = replace(det, dim_spots=False)
-        if det.band_pass != config.band_pass:
-            det = replace(det, band_pass=config.band_pass)
+        if (det.band_pass, det.smooth_centres) != (config.band_pass, config.smooth_centres):
+            det = replace(det, band_pass=config.band_pass, smooth_centres=config.smooth_centres)
         if det.marker_diameter_px == 0 and config.marker_diameter_m > 0:
             det = replace(det, marker_diameter_px=marker_diameter_px(
                 cam, config.grid, config.marker_diameter_m))
