@@ -65,6 +65,23 @@ def test_the_excess_mass_reads_the_seen_area_through_a_blur() -> None:
     assert mass(disc_chroma(RADIUS, cut=0.0, blur=1.0)) / whole == pytest.approx(0.5, abs=0.1)
 
 
+def test_the_mass_at_the_edges_is_the_box_filters() -> None:
+    """Spots in the corners and along the edges of a noisy chroma: the excess mass (its
+    background gathered at the spots only) equals the sum over the disc above OpenCV's box
+    filter (reflected border) read there."""
+    rng = np.random.default_rng(3)
+    c = rng.normal(SAND, 0.1, (40, 50)).astype(np.float32)
+    rows, cols = np.array([0, 5, 39, 20, 1]), np.array([0, 49, 10, 25, 48])
+    band, radius = 17, 4.0
+    mass = excess_mass(c, rows, cols, band, radius)
+    background = local_background(c, band)
+    yy, xx = np.mgrid[0:40, 0:50]
+    for k, (r, q) in enumerate(zip(rows, cols, strict=True)):
+        disc = np.hypot(yy - r, xx - q) <= radius
+        want = np.maximum(c[disc] - background[r, q], 0).sum()
+        assert mass[k] == pytest.approx(float(want), rel=1e-5)
+
+
 def test_only_the_fixed_rules_spots_and_markers_seen_enough_are_kept() -> None:
     """The fixed rule's spots are always kept; another is kept at ``MIN_SHARE`` of the
     frame's whole marker's mass or more; under ``MIN_SPOTS`` spots there is no reference."""

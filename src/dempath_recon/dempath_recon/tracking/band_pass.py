@@ -99,14 +99,35 @@ def excess_mass(part: NDArray[np.float32], rows: NDArray[np.intp], cols: NDArray
     (those off ``part`` left out)."""
     if not len(rows):
         return np.zeros(0)
-    h, w = part.shape
     rows, cols = np.asarray(rows, np.intp), np.asarray(cols, np.intp)
-    background = local_background(part, band)[rows, cols]
+    # the background read at the spots only (the square's pixels gathered; OpenCV's reflected
+    # border where the square leaves ``part``): a whole-window box filter cost 0.1-0.3 ms
+    half = band // 2
+    square = np.arange(-half, half + 1)
+    background = _gather(part, rows[:, None, None] + square[None, :, None],
+                         cols[:, None, None] + square[None, None, :]).mean(axis=(1, 2))
     dy, dx = _disc(radius)
+    h, w = part.shape
     y, x = rows[:, None] + dy[None], cols[:, None] + dx[None]
     inside = (y >= 0) & (y < h) & (x >= 0) & (x < w)
     values = part[np.clip(y, 0, h - 1), np.clip(x, 0, w - 1)] - background[:, None]
     return np.asarray(np.where(inside, np.maximum(values, 0.0), 0.0).sum(axis=1), np.float64)
+
+
+def _gather(image: NDArray[np.float32], y: NDArray[np.intp], x: NDArray[np.intp],
+            ) -> NDArray[np.float64]:
+    """``image`` (h, w) at pixels (``y``, ``x``, any shape), those off it reflected as
+    OpenCV's default border (``BORDER_REFLECT_101``: -1 reads 1, h reads h - 2)."""
+    h, w = image.shape
+
+    def reflect(i: NDArray[np.intp], n: int) -> NDArray[np.intp]:
+        if n == 1:
+            return np.zeros_like(i)
+        period = 2 * (n - 1)
+        i = np.abs(i) % period
+        return np.where(i >= n, period - i, i)
+
+    return np.asarray(image[reflect(y, h), reflect(x, w)], np.float64)
 
 
 def kept_spots(strong: NDArray[np.bool_], mass: FloatArray) -> NDArray[np.bool_]:
