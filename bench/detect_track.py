@@ -248,8 +248,8 @@ RULE_SWITCHES = (  # (flag, StereoTrackConfig field, help): the numbering rules 
      "from each marker's 3D path over the whole pass (StereoTrackConfig.joint_fill; on)"),
     ('--dim-spots', 'dim_spots', "search a dim frame's markers again on the chroma floored at "
      "the frame's own light (StereoTrackConfig.dim_spots; off by default)"),
-    ('--band-pass', 'band_pass', 'find spots on the matched filter less the local background '
-     '(StereoTrackConfig.band_pass; off by default)'),
+    ('--no-band-pass', 'band_pass', 'find spots on the matched filter alone, not less the local '
+     'background (StereoTrackConfig.band_pass; on by default)'),
     ('--smooth-centres', 'smooth_centres', 'publish centres measured on the lightly smoothed '
      'chroma (StereoTrackConfig.smooth_centres; off by default)'),
     ('--no-pass-audit', 'pass_audit', 'give the whole pass out without auditing its numbers '

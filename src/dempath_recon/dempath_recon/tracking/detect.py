@@ -375,7 +375,7 @@ class DetectorConfig:
     exposure_floor: str = 'faint'
     shade_centres: bool = True
     dim_spots: bool = False
-    band_pass: bool = False
+    band_pass: bool = True
     smooth_centres: bool = False
 
     def __post_init__(self) -> None:
