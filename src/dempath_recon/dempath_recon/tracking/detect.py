@@ -16,7 +16,10 @@ the light) is high:
 3. a Gaussian matched to the marker's image (Crocker & Grier 1996, sec. 2: band-pass then local
    maxima), applied to the chroma floored at the sand the threshold assumes (``FILTER_FLOOR``:
    sand redder than that must not pull a small spot's peak further down), and local maxima
-   at least ``min_separation_px`` apart above ``threshold``;
+   at least ``min_separation_px`` apart above ``threshold``; in a frame in normal light (the
+   default ``DetectorConfig.band_pass``) the filter less the chroma's local background, and a
+   spot the filter alone would not pass kept only where its excess chroma says at least half
+   a marker is seen (:mod:`~dempath_recon.tracking.band_pass`);
 4. the centre by an intensity-weighted centroid of the chroma above ``threshold / 2`` in a
    circular window, re-centred until it moves less than 0.01 px (Crocker & Grier's iteration),
    which reaches well below 0.1 px on clean spots;
