@@ -254,6 +254,8 @@ RULE_SWITCHES = (  # (flag, StereoTrackConfig field, help): the numbering rules 
      'chroma (StereoTrackConfig.smooth_centres; off by default)'),
     ('--no-pass-audit', 'pass_audit', 'give the whole pass out without auditing its numbers '
      "against the markers' 3D paths (StereoTrackConfig.pass_audit; on)"),
+    ('--no-smooth-paths', 'smooth_paths', "give the numbered centres out as detected, not "
+     "smoothed along each marker's image path (StereoTrackConfig.smooth_paths; on)"),
 )
 
 

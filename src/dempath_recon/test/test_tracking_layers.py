@@ -16,6 +16,7 @@ ORDER = ('merge', 'centroid_kernel', 'cut_discs_kernel', 'cut_discs', 'split', '
          'half_ghost',
          'records', 'release',
          'publish_gate', 'trajectories', 'whole_pass', 'joint_fill', 'pass_audit',
+         'path_smoother',
          'number_record', 'state',
          'held_line',
          'link_guide', 'crowded_pair', 'merge_release', 'track_split', 'parted', 'one_camera',

@@ -169,6 +169,11 @@ class StereoTrackConfig:
             26 -> 21 wrong-pair points, four held-apart seed-215 looks 20 -> 13 and 3 -> 2, no
             right number withheld, the variation set's held-out pool 0/0 unchanged
             (docs/figures.md). False: the numbers given out as numbered.
+        smooth_paths: with ``whole_pass``, last, every numbered marker's image path in each
+            camera smoothed by a Kalman (RTS) smoother whose amount the pass's own
+            leave-one-out residuals choose, never across a gap or a jump
+            (:mod:`~dempath_recon.tracking.path_smoother`); only centres move. FIGURES.
+            False: the centres as detected.
     """
 
     detector: DetectorConfig = field(default_factory=DetectorConfig)
@@ -204,6 +209,7 @@ class StereoTrackConfig:
     band_pass: bool = True
     smooth_centres: bool = False
     pass_audit: bool = True
+    smooth_paths: bool = True
 
     def __post_init__(self) -> None:
         for name in ('fps', 'epipolar_px', 'grid_gate_px', 'position_gate_m',

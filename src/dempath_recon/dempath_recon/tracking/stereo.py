@@ -69,6 +69,7 @@ from dempath_recon.tracking.pair_checks import verify
 from dempath_recon.tracking.pair_numbering import number_pairs
 from dempath_recon.tracking.parted import flagged, revoke_at_parting
 from dempath_recon.tracking.pass_audit import audit_pass
+from dempath_recon.tracking.path_smoother import smooth_paths
 from dempath_recon.tracking.publish_gate import PublicationGate
 from dempath_recon.tracking.records import CameraCounts, PixelFrame, StereoTrackConfig
 from dempath_recon.tracking.regain import number_regained
@@ -383,6 +384,8 @@ class StereoMarkerTracker:
             for cam, n in audit.renumbered.items():
                 state.counts[cam].audit_renumbered += n
                 state.counts[cam].audit_withheld += audit.withheld[cam]
+        if state.config.smooth_paths:
+            out = smooth_paths(out, state.config.fps)
         return out
 
     def _anchored(self, held: HeldFrame) -> PixelFrame:
