@@ -39,7 +39,7 @@ def _frames(path: Path, noise_px: float, seed: int, markers: int = 6,
             ms = [m for m in range(1, markers + 1) if not skip(k, m)]
             true = np.array([path(t, m) for m in ms] + [[50.0, 50.0]])
             uv = true + rng.normal(0.0, noise_px, true.shape)
-            frames.append(PixelFrame(cam, t, np.array(ms + [-1], np.int32), uv,
+            frames.append(PixelFrame(cam, t, np.array([*ms, -1], np.int32), uv,
                                      np.ones(len(uv)), ()))
             truth.append(true)
     return frames, truth
