@@ -256,6 +256,11 @@ RULE_SWITCHES = (  # (flag, StereoTrackConfig field, help): the numbering rules 
      "against the markers' 3D paths (StereoTrackConfig.pass_audit; on)"),
     ('--no-smooth-paths', 'smooth_paths', "give the numbered centres out as detected, not "
      "smoothed along each marker's image path (StereoTrackConfig.smooth_paths; on)"),
+    ('--carried-confirm', 'carried_confirm', 'withhold numbers a 2D track carried over a break '
+     'that the other camera never confirms after it (StereoTrackConfig.carried_confirm; off)'),
+    ('--no-touch-confirm', 'touch_confirm', 'give out the numbers of two markers that touched '
+     'in one camera where the other does not tell them apart (StereoTrackConfig.touch_confirm; '
+     'on)'),
 )
 
 

@@ -169,6 +169,22 @@ class StereoTrackConfig:
             26 -> 21 wrong-pair points, four held-apart seed-215 looks 20 -> 13 and 3 -> 2, no
             right number withheld, the variation set's held-out pool 0/0 unchanged
             (docs/figures.md). False: the numbers given out as numbered.
+        carried_confirm: with ``whole_pass``, after the audit, withhold every number a 2D
+            track carried over a break (a gap or a jump) onto a spot another marker was near
+            that the other camera never confirms on the piece after the break
+            (:mod:`~dempath_recon.tracking.carried_numbers`). Off by default (session 24,
+            switch24): on the 16 burnt looks it was tuned on 29 -> 20 switches and 9 -> 6
+            wrong-pair points for 86.97 -> 86.59 % numbered right, but on four renders made
+            after it (seeds 271-277) and the held-apart seed 279 it took out no switch and
+            cost 0.7 and 0.1 points (docs/figures.md). False: carried numbers given out.
+        touch_confirm: with ``whole_pass``, then withhold both numbers of two markers that
+            touched in one camera, on their tracks after the contact, unless the other camera
+            tells the tracks apart there (:mod:`~dempath_recon.tracking.touching_exchange`).
+            On since session 24 (switch24): four own renders (seeds 271-277) 25 -> 8 switches,
+            9 -> 2 wrong-pair points, 3D RMS 2.45 -> 1.62 mm, 88.33 -> 88.21 % numbered right;
+            16 burnt looks unchanged; held-apart seed 279 (five looks) 7 -> 7 switches, 2 -> 2
+            wrong pairs, 95.27 -> 94.87 %; the variation set unchanged (docs/figures.md).
+            False: the numbers given out as numbered.
         smooth_paths: with ``whole_pass``, last, every numbered marker's image path in each
             camera smoothed by a Kalman (RTS) smoother whose amount the pass's own
             leave-one-out residuals choose, never across a gap or a jump
@@ -213,6 +229,8 @@ class StereoTrackConfig:
     band_pass: bool = True
     smooth_centres: bool = False
     pass_audit: bool = True
+    carried_confirm: bool = False
+    touch_confirm: bool = True
     smooth_paths: bool = True
 
     def __post_init__(self) -> None:
@@ -272,6 +290,10 @@ class CameraCounts:
     numbered_joint_fill: int = 0  # points numbered at the end from the 3D paths (joint_fill)
     audit_renumbered: int = 0  # points the pass audit gave another marker's number (pass_audit)
     audit_withheld: int = 0  # numbered points the pass audit took out: off their 3D path
+    carried_withheld: int = 0  # numbers carried over a break of a track, never confirmed by
+    # the other camera after it, withheld at the pass's end (carried_numbers)
+    touch_withheld: int = 0  # numbers of two markers that touched, not told apart by the other
+    # camera after it, withheld at the pass's end (touching_exchange)
     numbered_late: int = 0
     unnumbered: int = 0
     epipolar_conflicts: int = 0

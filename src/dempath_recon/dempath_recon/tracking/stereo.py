@@ -37,6 +37,7 @@ from numpy.typing import NDArray
 
 from dempath_recon.methods.triangulate import Camera
 from dempath_recon.tracking.associate import forget_pixels, marker_diameter_px, view_of_up
+from dempath_recon.tracking.carried_numbers import withhold_carried
 from dempath_recon.tracking.coming_out import number_coming_out
 from dempath_recon.tracking.crowded_pair import give_back
 from dempath_recon.tracking.detect import (
@@ -82,6 +83,7 @@ from dempath_recon.tracking.state import (
     report,
     unnumbered_tracks,
 )
+from dempath_recon.tracking.touching_exchange import withhold_exchanged
 from dempath_recon.tracking.track_pairs import number_by_track_pairs
 from dempath_recon.tracking.track_split import split_by_tracks
 from dempath_recon.tracking.trajectories import marker_histories, triangulate_tracks
@@ -384,6 +386,17 @@ class StereoMarkerTracker:
             for cam, n in audit.renumbered.items():
                 state.counts[cam].audit_renumbered += n
                 state.counts[cam].audit_withheld += audit.withheld[cam]
+        sizes = {c: d.config.marker_diameter_px for c, d in self.detectors.items()}
+        for on, step, counted in ((state.config.carried_confirm, withhold_carried, 'carried'),
+                                  (state.config.touch_confirm, withhold_exchanged, 'touch')):
+            if on:  # numbers carried over a break, then those of touching markers, checked
+                checked = step(out, [h.track_ids for h in held], self.cameras, sizes,
+                               state.config.fps)
+                out = checked.frames
+                for cam, n in checked.withheld.items():
+                    counts = state.counts[cam]
+                    setattr(counts, f'{counted}_withheld',
+                            getattr(counts, f'{counted}_withheld') + n)
         if state.config.smooth_paths:
             out = smooth_paths(out, state.config.fps)
         return out
