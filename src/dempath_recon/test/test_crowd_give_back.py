@@ -22,8 +22,9 @@ def given_out(give_back: bool) -> tuple[list[tuple[str, float, int]], list[tuple
                                                                                    int, int]]]:
     """The look's frames through the tracker: (points given their own number (camera, stamp
     s, number), points given another marker's number (camera, stamp s, number, true marker)),
-    with the give-back ``give_back`` or off."""
-    data, frames = replay(DATA, crowd_give_back=give_back)
+    with the give-back ``give_back`` or off (the whole pass's piece numbering off)."""
+    data, frames = replay(DATA, crowd_give_back=give_back, piece_numbering=False)  # this rule
+    # alone: the whole pass's piece numbering numbers more of the side's 10 with it on
     ids: list[int] = data['marker_ids']
     truth = {(f['camera'], round(f['stamp_s'] * 1e6)): np.array(f['true_uv'])
              for f in data['frames']}

@@ -42,8 +42,11 @@ def _eight(k: int) -> np.ndarray:
 
 
 def _run(rig, regain: bool) -> list:
-    """Released frames of the pass (module docstring), ``StereoTrackConfig.regain`` as given."""
-    config = replace(StereoTrackConfig(grid=MarkerGrid(layout_m=GRID15)), regain=regain)
+    """Released frames of the pass (module docstring), ``StereoTrackConfig.regain`` as given
+    (the whole pass's piece numbering off: with regain off it numbers the pushed 8 from its
+    path, which is not this rule's doing)."""
+    config = replace(StereoTrackConfig(grid=MarkerGrid(layout_m=GRID15)), regain=regain,
+                     piece_numbering=False)
 
     def frame(k: int) -> tuple[list, list]:
         pts = np.array(GRID15) + k * FLOW

@@ -16,13 +16,15 @@ camera's tracks), ``two_view_kernel`` (two views' linear triangulation, compiled
 (numbered points whose pair's 3D point jumps withheld as they go out), ``trajectories``
 (numbered tracks to 3D), ``whole_pass`` and ``joint_fill`` (at the pass's end:
 never-numbered tracks numbered by one assignment, then unnumbered spots filled from each
-marker's 3D path), ``pass_audit`` (then every number against each marker's smooth 3D path:
-swaps taken out or renumbered), ``carried_numbers`` (then numbers a track carried over a
-break withheld unless the other camera confirms them), ``touching_exchange`` (and the numbers
-of two markers that touched in one camera, unless the other tells them apart),
-``path_smoother`` (last, each numbered image path smoothed as much as the pass's residuals
-say), ``state`` (the tracker's state, one record), ``held_line`` (whether two tracks held on
-each other's epipolar line over their common frames), ``link_guide`` (the
+marker's 3D path), ``piece_numbering`` (every unnumbered stretch of a 2D track numbered by one
+assignment on how well it continues each marker's path), ``pass_audit`` (then every number
+against each marker's smooth 3D path: swaps taken out or renumbered), ``carried_numbers``
+(then numbers a track carried over a break withheld unless the other camera confirms them),
+``touching_exchange`` (and the numbers of two markers that touched in one camera, unless the
+other tells them apart), ``path_smoother`` (last, each numbered image path smoothed as much
+as the pass's residuals say), ``state`` (the tracker's state, one record), ``held_line``
+(whether two tracks held on each other's epipolar line over their common frames),
+``link_guide`` (the
 other camera inside the 2D link: links barred off the epipolar line, spots that may hold two
 markers), ``track_split`` (a spot two numbered tracks predict split where they and the other
 camera place them), ``one_camera``,

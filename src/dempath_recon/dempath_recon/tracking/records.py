@@ -142,6 +142,17 @@ class StereoTrackConfig:
             held-apart seed-207 looks 85.71 -> 86.13 %, the variation set's held-out pool
             a little more; no switch or wrong-pair point added on any (docs/figures.md).
             False: the whole pass's numbering alone.
+        piece_numbering: with ``whole_pass``, after its numbering and before ``joint_fill``,
+            number every unnumbered stretch of a 2D track (in either camera; paired in 3D
+            where both cameras have one) by one assignment on how well it continues each
+            marker's numbered path, with a refusal margin
+            (:mod:`~dempath_recon.tracking.piece_numbering`). On since session 24 (track42):
+            16 burnt tuning looks 86.91 -> 87.64 % numbered right (switches 29 -> 30,
+            wrong-pair points 9 -> 9), six own tuning looks (seeds 241/243/245) 85.00 ->
+            85.48 % (switches 43 -> 30, wrong pairs 21 -> 12); four held-apart seed-247 looks
+            unchanged; the variation set's held-out pool 94.73 -> 95.19 %, 0 switches and 0
+            wrong pairs kept (docs/figures.md). False: only tracks no frame numbered are
+            numbered from the whole pass.
         dim_spots: each camera's detector searches a dim frame's markers again on the chroma
             floored at the frame's own light (``DetectorConfig.dim_spots``; it must also be on
             there): at dusk the fixed floor divides a shaded or half-buried marker's chroma
@@ -225,6 +236,7 @@ class StereoTrackConfig:
     line_rival: bool = True
     whole_pass: bool = True
     joint_fill: bool = True
+    piece_numbering: bool = True
     dim_spots: bool = False
     band_pass: bool = True
     smooth_centres: bool = False
@@ -288,6 +300,7 @@ class CameraCounts:
     numbered_by_regain: int = 0  # a number elimination took back for a jump, given back (regain)
     numbered_whole_pass: int = 0  # points numbered at the end from the whole pass (whole_pass)
     numbered_joint_fill: int = 0  # points numbered at the end from the 3D paths (joint_fill)
+    numbered_pieces: int = 0  # points numbered at the end by their piece of track (pieces)
     audit_renumbered: int = 0  # points the pass audit gave another marker's number (pass_audit)
     audit_withheld: int = 0  # numbered points the pass audit took out: off their 3D path
     carried_withheld: int = 0  # numbers carried over a break of a track, never confirmed by

@@ -71,6 +71,7 @@ from dempath_recon.tracking.pair_numbering import number_pairs
 from dempath_recon.tracking.parted import flagged, revoke_at_parting
 from dempath_recon.tracking.pass_audit import audit_pass
 from dempath_recon.tracking.path_smoother import smooth_paths
+from dempath_recon.tracking.piece_numbering import number_pieces
 from dempath_recon.tracking.publish_gate import PublicationGate
 from dempath_recon.tracking.records import CameraCounts, PixelFrame, StereoTrackConfig
 from dempath_recon.tracking.regain import number_regained
@@ -371,6 +372,14 @@ class StereoMarkerTracker:
         for before, after in zip(frames, out, strict=True):
             state.counts[after.camera].numbered_whole_pass += int(
                 (after.markers != before.markers).sum())
+        if state.config.piece_numbering:
+            pieces, _ = number_pieces(out, [h.track_ids for h in held], self.cameras,
+                                      state.grid_uv, self._diameters(),
+                                      state.config.epipolar_px, state.config.fps)
+            for before, after in zip(out, pieces, strict=True):
+                state.counts[after.camera].numbered_pieces += int(
+                    (after.markers != before.markers).sum())
+            out = pieces
         if state.config.joint_fill:
             filled, _ = fill_jointly(out, [h.track_ids for h in held], self.cameras,
                                      state.config.epipolar_px, state.config.fps)
@@ -380,8 +389,7 @@ class StereoMarkerTracker:
             out = filled
         if state.config.pass_audit:
             audit = audit_pass(out, [h.track_ids for h in held], self.cameras,
-                               {c: d.config.marker_diameter_px
-                                for c, d in self.detectors.items()}, state.config.fps)
+                               self._diameters(), state.config.fps)
             out = audit.frames
             for cam, n in audit.renumbered.items():
                 state.counts[cam].audit_renumbered += n
@@ -400,6 +408,10 @@ class StereoMarkerTracker:
         if state.config.smooth_paths:
             out = smooth_paths(out, state.config.fps)
         return out
+
+    def _diameters(self) -> dict[str, float]:
+        """Camera -> a marker's diameter in its images [px] (its detector's)."""
+        return {c: d.config.marker_diameter_px for c, d in self.detectors.items()}
 
     def _anchored(self, held: HeldFrame) -> PixelFrame:
         """A held frame due to go out, with the numbers its tracks got since (``renumber``,

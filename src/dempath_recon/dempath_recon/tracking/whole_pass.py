@@ -387,6 +387,34 @@ def contradicts(ps: Pass, camera: str, track: Track, marker: int) -> bool:
                for s in spans)
 
 
+Tracklet = tuple[tuple[Track, Track], tuple[NDArray[np.bool_], NDArray[np.bool_]], PairFit]
+
+
+def pair_tracklets(ps: Pass, tracks: dict[str, list[Track]]) -> list[Tracklet]:
+    """The two cameras' ``tracks`` paired into 3D tracklets by one assignment on the median
+    epipolar distance (:func:`pair_cost`, the other track interpolated to each stamp), with
+    its margin, kept when the pair fits both ways: ``((track a, track b), (the points of each
+    that may take a number), a's fit against b)``, the cameras in name order."""
+    a, b = sorted(ps.cameras)
+    cost = np.full((len(tracks[a]), len(tracks[b])), np.inf)
+    allowed = np.zeros(cost.shape, bool)
+    fits: dict[tuple[int, int], PairFit] = {}
+    for i, t in enumerate(tracks[a]):
+        for j, u in enumerate(tracks[b]):
+            if t.times[-1] < u.times[0] or u.times[-1] < t.times[0]:
+                continue  # no common stretch (pair_cost: no score)
+            fit = ps.fit(t, along(u, t.times, ps.fps))
+            if fit is not None:
+                cost[i, j], fits[i, j], allowed[i, j] = fit.median_px, fit, fit.fits
+    out = []
+    for i, j in assign(cost, MARGIN_RATIO, MARGIN_PX, allowed):
+        t, u = tracks[a][i], tracks[b][j]
+        back = ps.fit(u, along(t, u.times, ps.fps))
+        if back is not None and back.fits:
+            out.append(((t, u), (fits[i, j].checked, back.checked), fits[i, j]))
+    return out
+
+
 def by_continuity(ps: Pass, tracks: dict[str, list[Track]],
                   rivals: dict[str, list[Track]]) -> list[Assignment]:
     """Step 2: the two cameras' never-numbered tracks paired into 3D tracklets (one
@@ -394,20 +422,7 @@ def by_continuity(ps: Pass, tracks: dict[str, list[Track]],
     camera gives out at its frames whose own path it continues (:func:`continuity`), by one
     assignment on that share with ``MARGIN_SHARE``."""
     a, b = sorted(ps.cameras)
-    cost = np.full((len(tracks[a]), len(tracks[b])), np.inf)
-    allowed = np.zeros(cost.shape, bool)
-    fits: dict[tuple[int, int], PairFit] = {}
-    for i, t in enumerate(tracks[a]):
-        for j, u in enumerate(tracks[b]):
-            fit = ps.fit(t, along(u, t.times, ps.fps))
-            if fit is not None:
-                cost[i, j], fits[i, j], allowed[i, j] = fit.median_px, fit, fit.fits
-    tracklets = []
-    for i, j in assign(cost, MARGIN_RATIO, MARGIN_PX, allowed):
-        t, u = tracks[a][i], tracks[b][j]
-        back = ps.fit(u, along(t, u.times, ps.fps))
-        if back is not None and back.fits:
-            tracklets.append(((t, u), (fits[i, j].checked, back.checked), fits[i, j]))
+    tracklets = pair_tracklets(ps, tracks)
     markers = sorted(set(range(1, 1 + max((len(g) for g in ps.grid_uv.values()), default=0)))
                      | set(ps.own_3d) | {m for h in ps.own_2d.values() for m in h})
     cost = np.full((len(tracklets), len(markers)), np.inf)
