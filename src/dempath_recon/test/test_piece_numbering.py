@@ -33,6 +33,19 @@ def _run(rig, frames, track_ids) -> tuple[list[PixelFrame], int]:
                          dict.fromkeys(cams, DIAMETER_PX), EPIPOLAR_PX, FPS)
 
 
+def _assert_front_eight_left_unnumbered(rig, pts: list[dict[int, np.ndarray]]) -> None:
+    """Marker 8 unnumbered in the front over ``GAP`` while the side hides it: the step gives
+    no number, and the front's 8 stays unnumbered there."""
+    frames, track_ids = _frames(rig, pts,
+                                lambda cam, k, m: -1 if (m == 8 and k in GAP) else m,
+                                lambda cam, k, m: not (cam == 'cam_side' and m == 8
+                                                       and k in GAP))
+    out, given = _run(rig, frames, track_ids)
+    assert given == 0
+    assert _numbers(out, track_ids, 'cam_front', 8) == [
+        -1 if k in GAP else 8 for k in range(FRAMES)]
+
+
 def test_pieces_are_the_unnumbered_stretches_between_a_tracks_numbers(rig) -> None:
     """A track numbered but for three frames mid-pass gives one piece of three points, on the
     right frames; numbered tracks give none."""
@@ -75,14 +88,7 @@ def test_a_stretch_far_from_where_its_marker_was_carried_is_refused(rig) -> None
     pts = [_grid(k) for k in range(FRAMES)]
     for k in GAP:
         pts[k][8] = pts[k][8] + np.array([0.010, 0.0, 0.0])  # about 10 px aside
-    frames, track_ids = _frames(rig, pts,
-                                lambda cam, k, m: -1 if (m == 8 and k in GAP) else m,
-                                lambda cam, k, m: not (cam == 'cam_side' and m == 8
-                                                       and k in GAP))
-    out, given = _run(rig, frames, track_ids)
-    assert given == 0
-    assert _numbers(out, track_ids, 'cam_front', 8) == [
-        -1 if k in GAP else 8 for k in range(FRAMES)]
+    _assert_front_eight_left_unnumbered(rig, pts)
 
 
 def test_a_stretch_two_markers_continue_alike_is_refused(rig) -> None:
@@ -112,11 +118,4 @@ def test_a_stretch_touching_another_marker_is_refused(rig) -> None:
     pts = [_grid(k) for k in range(FRAMES)]
     for k in GAP:
         pts[k][9] = pts[k][8] + np.array([0.004, 0.0, 0.0])
-    frames, track_ids = _frames(rig, pts,
-                                lambda cam, k, m: -1 if (m == 8 and k in GAP) else m,
-                                lambda cam, k, m: not (cam == 'cam_side' and m == 8
-                                                       and k in GAP))
-    out, given = _run(rig, frames, track_ids)
-    assert given == 0
-    assert _numbers(out, track_ids, 'cam_front', 8) == [
-        -1 if k in GAP else 8 for k in range(FRAMES)]
+    _assert_front_eight_left_unnumbered(rig, pts)
