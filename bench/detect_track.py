@@ -246,9 +246,9 @@ RULE_SWITCHES = (  # (flag, StereoTrackConfig field, help): the numbering rules 
      'never-numbered tracks from the whole pass at its end (StereoTrackConfig.whole_pass; on)'),
     ('--no-joint-fill', 'joint_fill', "leave the spots the rules left unnumbered, not filled "
      "from each marker's 3D path over the whole pass (StereoTrackConfig.joint_fill; on)"),
-    ('--no-piece-numbering', 'piece_numbering', 'leave the unnumbered stretches of 2D tracks, '
-     "not numbered at the pass's end by how well they continue each marker's path "
-     '(StereoTrackConfig.piece_numbering; on)'),
+    ('--piece-numbering', 'piece_numbering', 'number the unnumbered stretches of 2D tracks '
+     "at the pass's end by how well they continue each marker's path "
+     '(StereoTrackConfig.piece_numbering; off by default)'),
     ('--dim-spots', 'dim_spots', "search a dim frame's markers again on the chroma floored at "
      "the frame's own light (StereoTrackConfig.dim_spots; off by default)"),
     ('--no-band-pass', 'band_pass', 'find spots on the matched filter alone, not less the local '

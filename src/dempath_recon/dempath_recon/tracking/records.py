@@ -146,8 +146,11 @@ class StereoTrackConfig:
             number every unnumbered stretch of a 2D track (in either camera; paired in 3D
             where both cameras have one) by one assignment on how well it continues each
             marker's numbered path, with a refusal margin
-            (:mod:`~dempath_recon.tracking.piece_numbering`). On since session 24 (track42):
-            16 burnt tuning looks 86.91 -> 87.64 % numbered right (switches 29 -> 30,
+            (:mod:`~dempath_recon.tracking.piece_numbering`). Off by default: on the lead's
+            held-out set heldout26 (10 looks never seen by its author) it numbered 0.9 points
+            more right but added 14 switches and 7 wrong-pair points (67 -> 81, 15 -> 22;
+            docs/figures.md, session 24, the lead), and a wrong number is worse than none.
+            Its author's figures (track42): 16 burnt tuning looks 86.91 -> 87.64 % numbered right (switches 29 -> 30,
             wrong-pair points 9 -> 9), six own tuning looks (seeds 241/243/245) 85.00 ->
             85.48 % (switches 43 -> 30, wrong pairs 21 -> 12); four held-apart seed-247 looks
             unchanged; the variation set's held-out pool 94.73 -> 95.19 %, 0 switches and 0
@@ -236,7 +239,7 @@ class StereoTrackConfig:
     line_rival: bool = True
     whole_pass: bool = True
     joint_fill: bool = True
-    piece_numbering: bool = True
+    piece_numbering: bool = False
     dim_spots: bool = False
     band_pass: bool = True
     smooth_centres: bool = False
