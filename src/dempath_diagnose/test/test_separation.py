@@ -24,14 +24,20 @@ from dempath_diagnose.separation import GAP, REACH, candidate_runs, separate_pai
 
 from .conftest import SCENE, SPEC
 
-# Tool friction x2 on the bed of seed 17: tool friction 0.63 and "nothing missing" 0.36 on the
-# test library (2026-11-29, AMD EPYC), both plausible. A bed under a tool is chaotic and the
-# engine's kernels use fastmath, so a case's answer moves with the processor's floating point:
-# seed 13 gave 0.80 / 0.18 on 2026-11-28 and 0.34 / 0.65 ("nothing missing" first) on this
-# machine; seed 17 sits between the two verdicts this test cannot use.
-RIVALS = HiddenCase('tool_friction_rivals', {'tool_friction.static_friction': 0.8,
-                                             'tool_friction.dynamic_friction': 0.6},
-                    'tool_friction', ('parameter_off', 'inconclusive'), seed=17)
+# Tool friction raised on a fresh bed: the scenario needs a case where tool friction and
+# "nothing missing" are both left open. A bed under a tool is chaotic and the engine's kernels
+# use fastmath, so which seed gives such a case moves with the processor's floating point and
+# from day to day: x2 seed 13 gave 0.80 / 0.18 (tool friction / nothing) on 2026-11-28 and
+# 0.34 / 0.65 a day later; x2 seed 17 0.63 / 0.36 on 2026-11-29 16:00 and 0.29 / 0.65 at 21:10
+# (AMD EPYC), when x2 seed 23 gave 0.73 / 0.27, x2.25 seed 13 0.38 / 0.59, x2 seed 19 0.05 /
+# 0.85, x2.25 seed 17 1.00 / 0.00. The test takes the first of these cases that the test
+# library leaves inconclusive (each is one tiny run, cached) and fails if none does.
+RIVAL_CASES = tuple(
+    HiddenCase(f'tool_friction_rivals_x{scale}_seed{seed}',
+               {'tool_friction.static_friction': 0.4 * scale,
+                'tool_friction.dynamic_friction': 0.3 * scale},
+               'tool_friction', ('parameter_off', 'inconclusive'), seed=seed)
+    for scale, seed in ((2.0, 23), (2.0, 17), (2.25, 13), (2.0, 29)))
 
 
 @pytest.mark.timeout(900)  # a guard, not a timing
@@ -41,15 +47,20 @@ def test_rivals_are_separated_where_they_differ_most(cache: Path, tiny_library: 
     """The separating run lies where tool friction is plausible and interpolated, scores best,
     is simulated on the library's seeds and refitted; nothing wrong is named confidently."""
     scene = load_scene(SCENE)
-    markers, force = make_case(scene, RIVALS, cache / 'cases' / RIVALS.name,
-                               until_s=SPEC.duration_s, cache_dir=cache / 'packings')
-    t, f = load_force(force)
-    meas = replace(load_tracks(markers), force_times=t, force=f)
     shutil.copytree(tiny_library.folder, tmp_path / 'library')
     library = Library.load(tmp_path / 'library')
-    first = diagnose(meas, library, geometry)
-    dec = first.decision
-    assert dec.verdict == 'inconclusive', dec.verdict
+    seen = []
+    for case in RIVAL_CASES:
+        markers, force = make_case(scene, case, cache / 'cases' / case.name,
+                                   until_s=SPEC.duration_s, cache_dir=cache / 'packings')
+        t, f = load_force(force)
+        meas = replace(load_tracks(markers), force_times=t, force=f)
+        first = diagnose(meas, library, geometry)
+        dec = first.decision
+        seen.append((case.name, dec.verdict))
+        if dec.verdict == 'inconclusive':
+            break
+    assert dec.verdict == 'inconclusive', f'no rival case left open: {seen}'
     fits = {f.name: f for f in [dec.baseline, *dec.ranking]}
     tf, base = fits['tool_friction'], dec.baseline
     assert not tf.ruled_out and not base.ruled_out
