@@ -150,12 +150,12 @@ class StereoTrackConfig:
             held-out set heldout26 (10 looks never seen by its author) it numbered 0.9 points
             more right but added 14 switches and 7 wrong-pair points (67 -> 81, 15 -> 22;
             docs/figures.md, session 24, the lead), and a wrong number is worse than none.
-            Its author's figures (track42): 16 burnt tuning looks 86.91 -> 87.64 % numbered right (switches 29 -> 30,
-            wrong-pair points 9 -> 9), six own tuning looks (seeds 241/243/245) 85.00 ->
-            85.48 % (switches 43 -> 30, wrong pairs 21 -> 12); four held-apart seed-247 looks
-            unchanged; the variation set's held-out pool 94.73 -> 95.19 %, 0 switches and 0
-            wrong pairs kept (docs/figures.md). False: only tracks no frame numbered are
-            numbered from the whole pass.
+            Its author's figures (track42): 16 burnt tuning looks 86.91 -> 87.64 % numbered
+            right (switches 29 -> 30, wrong-pair points 9 -> 9), six own tuning looks (seeds
+            241/243/245) 85.00 -> 85.48 % (switches 43 -> 30, wrong pairs 21 -> 12); four held-
+            apart seed-247 looks unchanged; the variation set's held-out pool 94.73 -> 95.19 %,
+            0 switches and 0 wrong pairs kept (docs/figures.md). False: only tracks no frame
+            numbered are numbered from the whole pass.
         dim_spots: each camera's detector searches a dim frame's markers again on the chroma
             floored at the frame's own light (``DetectorConfig.dim_spots``; it must also be on
             there): at dusk the fixed floor divides a shaded or half-buried marker's chroma
