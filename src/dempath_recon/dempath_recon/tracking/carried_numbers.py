@@ -37,9 +37,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dempath_recon.methods.projection import Camera
-from dempath_recon.tracking.associate import triangulate_pairs
 from dempath_recon.tracking.records import PixelFrame
-from dempath_recon.tracking.trajectories import interpolate_history, marker_histories
+from dempath_recon.tracking.trajectories import epipolar_to_history, marker_histories
 from dempath_recon.tracking.whole_pass import smooth_pieces
 
 FloatArray = NDArray[np.float64]
@@ -52,8 +51,6 @@ CROWD_SHARE = 2.0  # another marker this near the spot a piece starts at may be 
 # 16 burnt looks: 1.5 removed 2 of 29 switches, 2.0 9, 3.0 9 at more cost)
 CROWD_FRAMES = 2  # frames either side whose points of other numbers count as near [frames]
 # (a buried neighbour is not seen in the frame itself but was, or will be, a frame or two away)
-PAIR_GAP_FRAMES = 1.5  # the other camera's points interpolated over gaps of at most this
-# [frame periods] (as trajectories.triangulate_tracks)
 
 
 class Withheld(NamedTuple):
@@ -121,12 +118,7 @@ def confirmed(cam: Camera, other_cam: Camera, times: FloatArray, uv: FloatArray,
     px at ``times`` (k,) s: a partner within ``within_px`` of its epipolar line."""
     if other is None:
         return False
-    ouv = interpolate_history(other, times, PAIR_GAP_FRAMES / fps)
-    ok = np.isfinite(ouv).all(axis=1)
-    if not ok.any():
-        return False
-    _, epi = triangulate_pairs(cam, other_cam, uv[ok], ouv[ok])
-    return bool((epi <= within_px).any())
+    return bool((epipolar_to_history(cam, other_cam, uv, other, times, fps) <= within_px).any())
 
 
 def withhold_carried(frames: Sequence[PixelFrame], track_ids: Sequence[NDArray[np.int64]],

@@ -387,14 +387,14 @@ class StereoMarkerTracker:
                 state.counts[after.camera].numbered_joint_fill += int(
                     (after.markers != before.markers).sum())
             out = filled
+        sizes = self._diameters()
         if state.config.pass_audit:
-            audit = audit_pass(out, [h.track_ids for h in held], self.cameras,
-                               self._diameters(), state.config.fps)
+            audit = audit_pass(out, [h.track_ids for h in held], self.cameras, sizes,
+                               state.config.fps)
             out = audit.frames
             for cam, n in audit.renumbered.items():
                 state.counts[cam].audit_renumbered += n
                 state.counts[cam].audit_withheld += audit.withheld[cam]
-        sizes = {c: d.config.marker_diameter_px for c, d in self.detectors.items()}
         for on, step, counted in ((state.config.carried_confirm, withhold_carried, 'carried'),
                                   (state.config.touch_confirm, withhold_exchanged, 'touch')):
             if on:  # numbers carried over a break, then those of touching markers, checked

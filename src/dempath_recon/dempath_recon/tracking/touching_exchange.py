@@ -32,10 +32,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dempath_recon.methods.projection import Camera
-from dempath_recon.tracking.associate import triangulate_pairs
 from dempath_recon.tracking.carried_numbers import Withheld, withhold_points
 from dempath_recon.tracking.records import PixelFrame
-from dempath_recon.tracking.trajectories import interpolate_history, marker_histories
+from dempath_recon.tracking.trajectories import epipolar_to_history, marker_histories
 
 FloatArray = NDArray[np.float64]
 TOUCH_SHARE = 1.0  # two markers' centres this near touch: their tracks may exchange
@@ -47,8 +46,6 @@ AFTER_FRAMES = 4  # frames after the contact compared [frames] (both given out a
 MARGIN = 2.0  # the exchanged pairing must lie this many times further off the epipolar
 # lines than the numbered one ... [1] (1.5-3 decided the same on 18 tuning looks)
 FLOOR_SHARE = 0.06  # ... plus this [diameters] (0.5 px at 8 px markers: centroid noise alone)
-PAIR_GAP_FRAMES = 1.5  # the other camera's points interpolated over gaps of at most this
-# [frame periods] (as trajectories.triangulate_tracks)
 
 
 def positions(frames: Sequence[PixelFrame], order: list[int],
@@ -70,19 +67,6 @@ def positions(frames: Sequence[PixelFrame], order: list[int],
                 share = (np.arange(a + 1, b) - a) / (b - a)
                 uv[a + 1:b] = uv[a] + share[:, None] * (uv[b] - uv[a])
     return pos, given
-
-
-def pairing_px(cam: Camera, other_cam: Camera, uv: FloatArray,
-               other: tuple[FloatArray, FloatArray], times: FloatArray, fps: float,
-               ) -> FloatArray:
-    """(k,) px: each point ``uv`` (k, 2) off the epipolar line of the other camera's point
-    of a marker (``other``: its history) at its stamp (``times`` (k,) s); NaN: none there."""
-    ouv = interpolate_history(other, times, PAIR_GAP_FRAMES / fps)
-    ok = np.isfinite(ouv).all(axis=1)
-    out = np.full(len(times), np.nan)
-    if ok.any():
-        out[ok] = triangulate_pairs(cam, other_cam, uv[ok], ouv[ok])[1]
-    return out
 
 
 def told_apart(own: FloatArray, exchanged: FloatArray, diameter_px: float) -> bool:
@@ -128,8 +112,9 @@ def withhold_exchanged(frames: Sequence[PixelFrame], track_ids: Sequence[NDArray
                                       and dist[q] >= TOUCH_SHARE * size][:AFTER_FRAMES], int)
                     if not len(after):
                         continue
-                    px = {(x, y): pairing_px(cameras[cam], cameras[other], pos[x][after],
-                                             hist[other][y], times[after], fps)
+                    px = {(x, y): epipolar_to_history(cameras[cam], cameras[other],
+                                                      pos[x][after], hist[other][y],
+                                                      times[after], fps)
                           for x in (m, n) for y in (m, n)}
                     if told_apart(np.concatenate([px[m, m], px[n, n]]),
                                   np.concatenate([px[m, n], px[n, m]]), size):

@@ -48,6 +48,24 @@ def interpolate_history(hist: tuple[FloatArray, FloatArray], t: FloatArray, max_
     return out
 
 
+PAIR_GAP_FRAMES = 1.5  # the other camera's points are interpolated over gaps of at most this
+# many frame periods (a frame dropped between two of its exposures) [frames]
+
+
+def epipolar_to_history(cam: Camera, other_cam: Camera, uv: FloatArray,
+                        other: tuple[FloatArray, FloatArray], times: FloatArray, fps: float,
+                        ) -> FloatArray:
+    """(k,) px: each point ``uv`` (k, 2) of ``cam`` off the epipolar line of the other
+    camera's point of a marker (``other``: its history, ``marker_histories``) interpolated to
+    its stamp (``times`` (k,) s, over gaps of at most ``PAIR_GAP_FRAMES``); NaN: none there."""
+    ouv = interpolate_history(other, times, PAIR_GAP_FRAMES / fps)
+    ok = np.isfinite(ouv).all(axis=1)
+    out = np.full(len(times), np.nan)
+    if ok.any():
+        out[ok] = triangulate_pairs(cam, other_cam, uv[ok], ouv[ok])[1]
+    return out
+
+
 def paired_points(hist_a: tuple[FloatArray, FloatArray], hist_b: tuple[FloatArray, FloatArray],
                   cam_a: Camera, cam_b: Camera, fps: float,
                   ) -> tuple[FloatArray, FloatArray, FloatArray]:
