@@ -278,6 +278,9 @@ def main(argv: list[str]) -> int:
                    help="only the demo's code path (no timed passes)")
     p.add_argument('--variations', action='store_true',
                    help='score the field-condition variation set instead (held-out apart)')
+    p.add_argument('--tuned-only', action='store_true',
+                   help='with --variations: the tuned variations alone (what a change is tuned '
+                        'on; the held-out ones are scored only to decide and report)')
     p.add_argument('--rendered', type=Path, nargs='*', default=[],
                    help='score these re-rendered bags (held out; with --variations: as well)')
     p.add_argument('--rendered-tuning', type=Path, nargs='*', default=[],
@@ -344,13 +347,13 @@ def main(argv: list[str]) -> int:
     if args.variations:
         from detect_track_variations import run_all, run_rendered
 
-        found = run_all(frames, truth, cams, config, args.cache)
+        found = run_all(frames, truth, cams, config, args.cache, args.tuned_only)
         if args.rendered:
             found['rendered_held_out'] = run_rendered(args.rendered, read_frames)
         if args.rendered_tuning:
             found['rendered_tuned'] = run_rendered(args.rendered_tuning, read_frames,
                                                    held_out=False)
-        held = found['held_out']
+        held = found['tuned' if args.tuned_only else 'held_out']
         print(json.dumps({**{k: held[k] for k in (
             'recall', 'numbered_right', 'id_switches', 'wrong_pair_points', 'traj_rms_mm',
             'fps', 'deterministic')}, **found, 'load_average': load,

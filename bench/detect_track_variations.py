@@ -47,6 +47,7 @@ from dempath_recon.tracking.merge import StampMerge
 from dempath_recon.tracking.records import PixelFrame, StereoTrackConfig
 from dempath_recon.tracking.stereo import StereoMarkerTracker, triangulate_tracks
 from dempath_twin.render.conditions import (
+    FRESH_PREFIX,
     VARIATIONS,
     Condition,
     moved_truth,
@@ -372,18 +373,24 @@ def summary(scores: list[dict[str, Any]]) -> dict[str, Any]:
 
 
 def run_all(frames: Frames, truth: dict[str, Any], cams: dict[str, CameraModel],
-            config: StereoTrackConfig, cache: Path) -> dict[str, Any]:
+            config: StereoTrackConfig, cache: Path, tuned_only: bool = False,
+            ) -> dict[str, Any]:
     """Every variation (one JSON line each, the held-out ones first), then the held-out and
-    tuned summaries."""
+    tuned summaries; the held-out variations no decision has seen yet (``FRESH_PREFIX``) are
+    also pooled apart. ``tuned_only``: the tuned variations alone (what a change is tuned on)."""
     rows = []
-    for cond in sorted(VARIATIONS, key=lambda c: not c.held_out):  # the held-out set first
+    pool = [c for c in VARIATIONS if not (tuned_only and c.held_out)]
+    for cond in sorted(pool, key=lambda c: not c.held_out):  # the held-out set first
         row = run_variation(frames, truth, cams, config, cond, cache)
         rows.append(row)
         print(json.dumps({k: v for k, v in row.items() if k not in ('raw', 'condition')}),
               flush=True)
     out: dict[str, Any] = {}
-    for name, pick in (('held_out', True), ('tuned', False)):
-        part = [r for r in rows if r['held_out'] == pick]
+    for name, pick in (('held_out', 'held'), ('held_out_fresh', 'fresh'), ('tuned', 'tuned')):
+        part = [r for r in rows if (not r['held_out'] if pick == 'tuned' else r['held_out'] and (
+            pick == 'held' or r['variation'].startswith(FRESH_PREFIX)))]
+        if not part:
+            continue
         out[name] = {**summary([r['raw'] for r in part]),
                      'fps': min(r['fps'] for r in part),
                      'fps_two_free_cores': min(r['fps_two_free_cores'] for r in part),

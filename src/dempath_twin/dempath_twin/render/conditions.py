@@ -95,7 +95,18 @@ VARIATIONS: tuple[Condition, ...] = (
               tint=(1.1, 1.0, 0.9), seed=103),
     Condition('held_noise_jpeg50_shake', held_out=True, noise_dn=8.0, jpeg_quality=50,
               shake_px=1.5, seed=104),
+    # Fixed in session 25 before any change of that session (the four above had decided
+    # on/off switches in session 24): reported apart as the fresh held-out pool.
+    Condition('held25_dusk_flicker_jpeg70', held_out=True, light=0.35, shutter_ms=8.0,
+              flicker=0.15, noise_dn=4.0, jpeg_quality=70, seed=201),
+    Condition('held25_shake_dust_cloud', held_out=True, shake_px=2.5, dust=5, cloud=0.6,
+              seed=202),
+    Condition('held25_bright_tint_noise_jpeg65', held_out=True, light=2.0, shutter_ms=2.0,
+              tint=(0.9, 1.0, 1.12), noise_dn=5.0, jpeg_quality=65, seed=203),
+    Condition('held25_low_sun_shutter_8ms', held_out=True, low_sun=0.5, light=0.7,
+              shutter_ms=8.0, seed=204),
 )
+FRESH_PREFIX = 'held25_'  # the held-out variations no decision has seen yet (session 25)
 
 
 def _shift(frame_rng: np.random.Generator, cond: Condition) -> NDArray[np.float64]:
