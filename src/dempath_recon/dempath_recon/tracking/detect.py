@@ -240,6 +240,7 @@ class Detections(NamedTuple):
     centre: FloatArray | None = None
     parted: NDArray[np.bool_] | None = None
     patch: ChromaPatch | None = None
+    mass: FloatArray | None = None
 
     @classmethod
     def empty(cls) -> Detections:
@@ -555,6 +556,8 @@ class MarkerDetector:
             uv=np.concatenate([found.uv, dim.uv + shift]),
             confidence=np.concatenate([found.confidence, dim.confidence]),
             size_px=np.concatenate([found.size_px, dim.size_px]), centre=centre,
+            mass=None if found.mass is None or dim.mass is None else np.concatenate(
+                [found.mass, dim.mass]),
             crowded=None if found.crowded is None else joined(
                 found.crowded, dim.crowded, found.crowded, np.zeros(len(dim.uv), np.bool_)),
             parted=None if found.parted is None else joined(
@@ -609,6 +612,7 @@ class MarkerDetector:
         if len(rows) == 0:
             return Detections.empty()
         uv, size, strength, mass = self._refine(c, rows, cols, thr)
+        own_mass = mass
         centre, parted = None, None
         diameter = self.marker_size(size * s)
         if diameter > 0:
@@ -622,6 +626,8 @@ class MarkerDetector:
             # a fitted marker's size is one disc's radius of gyration, not its blob's
             size = np.where(parted, radius / np.sqrt(2.0), size[source])
             strength, mass = strength[source], mass[source]
+            own_mass = mass / np.bincount(source, minlength=int(source.max()) + 1)[source] \
+                if len(source) else mass  # a split blob's markers share its mass
             seen_uv, dim_floor = uv, shade_floor(frame_floor, floor) \
                 if self.config.shade_centres else None
             # another clay's seen share from its mass alone: on its axis a spot's peak pixel
@@ -655,7 +661,7 @@ class MarkerDetector:
         if centre is not None:
             centre = (centre[ok] + 0.5) * s - 0.5
         return Detections(full, conf[ok], size, crowded, None, centre,
-                          None if parted is None else parted[ok])
+                          None if parted is None else parted[ok], mass=own_mass[ok] * s * s)
 
     def _smooth_centroids(self, c: NDArray[np.float32], uv: FloatArray,
                           parted: NDArray[np.bool_], thr: float) -> FloatArray:

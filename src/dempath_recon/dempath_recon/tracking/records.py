@@ -279,6 +279,12 @@ class PixelFrame(NamedTuple):
     events: tuple[str, ...]
     shake_px: FloatArray | None = None  # (2,) px: the image's estimated shift, taken off ``uv``
     # (None: not estimated; ``uv + shake_px`` is where the points were seen in the image)
+    size_px: FloatArray | None = None  # (k,) px: the radius of gyration of the detected spot
+    # each point took (``Detections.size_px``; a marker of a split blob: one disc's), NaN for a
+    # point on no detection (a faint spot); None: not known. Two markers merged into one spot,
+    # or a marker sinking, show in it before they show in the numbers
+    mass: FloatArray | None = None  # (k,) chroma x px^2: the detected spot's integrated
+    # likelihood (``Detections.mass``), NaN for a point on no detection; None: not known
 
 
 @dataclass

@@ -45,6 +45,7 @@ from dempath_recon.tracking.detect import (
     ImageDecodeError,
     MarkerDetector,
     decode_jpeg,
+    own_detections,
 )
 from dempath_recon.tracking.grid_elimination import (
     number_by_elimination,
@@ -173,7 +174,7 @@ class StereoMarkerTracker:
                    f'frames so far: {counts.undecodable})')
             LOG.warning(msg)
             return PixelFrame(camera, stamp_s, np.zeros(0, np.int32), np.zeros((0, 2)),
-                              np.zeros(0), (msg,))
+                              np.zeros(0), (msg,), None, np.zeros(0), np.zeros(0))
         return self.update_detections(camera, stamp_s, detector.detect(image, prescaled=True),
                                       self._shake(camera, stamp_s, image,
                                                   detector.config.downscale))
@@ -211,7 +212,7 @@ class StereoMarkerTracker:
             msg = f'{camera} frame at {stamp_s:.6f} s is not after {last:.6f} s; skipped'
             LOG.warning(msg)
             return PixelFrame(camera, stamp_s, np.zeros(0, np.int32), np.zeros((0, 2)),
-                              np.zeros(0), (msg,))
+                              np.zeros(0), (msg,), None, np.zeros(0), np.zeros(0))
         events: list[str] = []
         if last is not None and stamp_s - last > 1.5 / state.config.fps:
             missed = round((stamp_s - last) * state.config.fps) - 1
@@ -317,8 +318,9 @@ class StereoMarkerTracker:
                 state.latest[camera][int(m)] = (stamp_s, p)
         if record is not None:
             record.frame_done(camera, stamp_s, tf.track_ids, markers)
+        size_px, mass = spot_measures(det, tf.uv)
         frame = PixelFrame(camera, stamp_s, markers, published_centres(det, tf.uv),
-                           tf.confidence, tuple(events) + tf.events, shake_px)
+                           tf.confidence, tuple(events) + tf.events, shake_px, size_px, mass)
         state.queue.hold(frame, tf.track_ids, free_mask, waiting)
         return frame
 
@@ -498,6 +500,20 @@ def waiting_points(state: StereoState, camera: str, markers: NDArray[np.int32], 
         if len(hit):
             out[hit[0]] = m
     return out
+
+
+def spot_measures(det: Detections, uv: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """(k,) the size (radius of gyration [px]) and (k,) the mass (integrated likelihood,
+    ``Detections.mass``; NaN where the detector did not measure it) of the detection each
+    tracked point ``uv`` (k, 2) px took; NaN for a point on no detection (a faint spot)."""
+    own = own_detections(det.uv, uv) if len(det.uv) else np.full(len(uv), -1, np.intp)
+    hit = own >= 0
+    at = np.maximum(own, 0)
+    size = np.where(hit, np.asarray(det.size_px, np.float64)[at], np.nan) if len(det.uv) \
+        else np.full(len(uv), np.nan)
+    mass = np.where(hit, np.asarray(det.mass, np.float64)[at], np.nan) \
+        if len(det.uv) and det.mass is not None else np.full(len(uv), np.nan)
+    return size, mass
 
 
 def published_centres(det: Detections, uv: FloatArray) -> FloatArray:

@@ -350,12 +350,15 @@ def replace_spots(det: Detections, found: dict[int, tuple[list[int], FloatArray,
     keep = np.array([i not in found for i in range(len(det.uv))])
     uv, centre = [det.uv[keep]], [(det.uv if det.centre is None else det.centre)[keep]]
     conf, size = [det.confidence[keep]], [det.size_px[keep]]
+    mass = None if det.mass is None else [det.mass[keep]]
     owners: list[int] = []
     for spot, (tids, seen_uv, disc) in found.items():
         uv.append(seen_uv)
         centre.append(disc)
         conf.append(np.full(len(tids), det.confidence[spot]))
         size.append(np.full(len(tids), diameter_px / (2.0 * np.sqrt(2.0))))  # one disc's
+        if mass is not None and det.mass is not None:  # the spot's markers share its mass
+            mass.append(np.full(len(tids), det.mass[spot] / len(tids)))
         owners += tids
     n_kept = int(keep.sum())
     out_uv = np.concatenate(uv)
@@ -376,5 +379,6 @@ def replace_spots(det: Detections, found: dict[int, tuple[list[int], FloatArray,
         at += len(tids)
     out = det._replace(uv=out_uv, confidence=np.concatenate(conf), size_px=np.concatenate(size),
                        crowded=crowded, parted=None if det.parted is None else parts,
-                       centre=None if det.centre is None else np.concatenate(centre))
+                       centre=None if det.centre is None else np.concatenate(centre),
+                       mass=None if mass is None else np.concatenate(mass))
     return out, barred
