@@ -264,6 +264,9 @@ RULE_SWITCHES = (  # (flag, StereoTrackConfig field, help): the numbering rules 
     ('--no-touch-confirm', 'touch_confirm', 'give out the numbers of two markers that touched '
      'in one camera where the other does not tell them apart (StereoTrackConfig.touch_confirm; '
      'on)'),
+    ('--touch-wait', 'touch_wait', 'judge a contact of two touching markers on every run of '
+     "frames where the other camera gives a point, up to the pair's next contact "
+     '(StereoTrackConfig.touch_wait; off)'),
 )
 
 

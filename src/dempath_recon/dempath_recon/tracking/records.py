@@ -199,6 +199,12 @@ class StereoTrackConfig:
             16 burnt looks unchanged; held-apart seed 279 (five looks) 7 -> 7 switches, 2 -> 2
             wrong pairs, 95.27 -> 94.87 %; the variation set unchanged (docs/figures.md).
             False: the numbers given out as numbered.
+        touch_wait: with ``touch_confirm``, judge a contact on every run of frames after it
+            where the other camera gives a point of either marker, up to the pair's next
+            contact, not only on the first frames after it: the numbers stay when any run tells
+            the tracks apart (two markers that part along the other camera's epipolar line
+            are told apart only once they are far enough apart, and the other camera may
+            give neither for a while; session 25). False: the first frames after it alone.
         smooth_paths: with ``whole_pass``, last, every numbered marker's image path in each
             camera smoothed by a Kalman (RTS) smoother whose amount the pass's own
             leave-one-out residuals choose, never across a gap or a jump
@@ -246,6 +252,7 @@ class StereoTrackConfig:
     pass_audit: bool = True
     carried_confirm: bool = False
     touch_confirm: bool = True
+    touch_wait: bool = False
     smooth_paths: bool = True
 
     def __post_init__(self) -> None:

@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import logging
 from dataclasses import replace
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -397,8 +398,9 @@ class StereoMarkerTracker:
             for cam, n in audit.renumbered.items():
                 state.counts[cam].audit_renumbered += n
                 state.counts[cam].audit_withheld += audit.withheld[cam]
+        touch = partial(withhold_exchanged, wait=state.config.touch_wait)
         for on, step, counted in ((state.config.carried_confirm, withhold_carried, 'carried'),
-                                  (state.config.touch_confirm, withhold_exchanged, 'touch')):
+                                  (state.config.touch_confirm, touch, 'touch')):
             if on:  # numbers carried over a break, then those of touching markers, checked
                 checked = step(out, [h.track_ids for h in held], self.cameras, sizes,
                                state.config.fps)

@@ -78,13 +78,35 @@ def told_apart(own: FloatArray, exchanged: FloatArray, diameter_px: float) -> bo
                 + FLOOR_SHARE * diameter_px)
 
 
+def track_of(frame: PixelFrame, track_ids: NDArray[np.int64], marker: int) -> int:
+    """The 2D track giving ``marker`` out in ``frame`` (-1: not given out)."""
+    k = np.flatnonzero(frame.markers == marker)
+    return int(track_ids[int(k[0])]) if len(k) else -1
+
+
+def windows(after: NDArray[np.int64], returned: NDArray[np.bool_], wait: bool,
+            ) -> list[NDArray[np.int64]]:
+    """The runs of after-frames a contact is judged on, in order: without ``wait`` the first
+    ``AFTER_FRAMES`` of ``after`` (the frames after the contact where both are given out apart);
+    with it, ``after``'s frames where the other camera gives a point of either marker
+    (``returned``), cut into consecutive runs of ``AFTER_FRAMES`` (the last may be shorter).
+    ``after`` and ``returned``: (n,) frame indices and flags."""
+    if not wait:
+        return [after[:AFTER_FRAMES]]
+    back = after[returned]
+    return [back[s:s + AFTER_FRAMES] for s in range(0, len(back), AFTER_FRAMES)]
+
+
 def withhold_exchanged(frames: Sequence[PixelFrame], track_ids: Sequence[NDArray[np.int64]],
                        cameras: dict[str, Camera], diameter_px: dict[str, float], fps: float,
-                       ) -> Withheld:
+                       wait: bool = False) -> Withheld:
     """The pass's frames with both numbers of every contact the other camera does not tell
     apart withheld after it (the module's rule); nothing changes without two cameras and a
     marker size in each (``diameter_px`` [px] by camera; ``track_ids``: each frame's (k,)
-    tracks; ``fps`` [1/s]).
+    tracks; ``fps`` [1/s]). ``wait``: judge each contact on every run of ``AFTER_FRAMES``
+    frames where the other camera gives a point, while both numbers stay on the two tracks
+    that left the contact, and keep the numbers when any run tells the tracks apart
+    (:func:`windows`).
     """
     names = sorted(cameras)
     if len(names) != 2 or not all(diameter_px.get(c, 0.0) > 0 for c in names):
@@ -109,22 +131,28 @@ def withhold_exchanged(frames: Sequence[PixelFrame], track_ids: Sequence[NDArray
                     nearest = int(contact[int(np.argmin(dist[contact]))])
                     after = np.array([q for q in range(nearest + 1, len(order))
                                       if given[m][q] and given[n][q]
-                                      and dist[q] >= TOUCH_SHARE * size][:AFTER_FRAMES], int)
+                                      and dist[q] >= TOUCH_SHARE * size], int)
                     if not len(after):
                         continue
+                    first = order[int(after[0])]
+                    tracks = {x: track_of(frames[first], track_ids[first], x) for x in (m, n)}
+                    if wait:  # the two tracks of the first frame after the contact, on
+                        after = after[[all(track_of(frames[order[q]], track_ids[order[q]], x)
+                                           == t for x, t in tracks.items())
+                                       for q in after.tolist()]]
                     px = {(x, y): epipolar_to_history(cameras[cam], cameras[other],
                                                       pos[x][after], hist[other][y],
                                                       times[after], fps)
                           for x in (m, n) for y in (m, n)}
-                    if told_apart(np.concatenate([px[m, m], px[n, n]]),
-                                  np.concatenate([px[m, n], px[n, m]]), size):
+                    returned = np.asarray(np.isfinite(np.stack(list(px.values()))).any(axis=0),
+                                          bool)
+                    runs = windows(np.arange(len(after)), returned, wait)
+                    if any(told_apart(np.concatenate([px[m, m][r], px[n, n][r]]),
+                                      np.concatenate([px[m, n][r], px[n, m][r]]), size)
+                           for r in runs):
                         continue
-                    first = order[int(after[0])]
-                    f = frames[first]
-                    tracks = {int(track_ids[first][int(np.flatnonzero(f.markers == x)[0])])
-                              for x in (m, n)}
                     for i in order[nearest + 1:]:
-                        for k in np.flatnonzero(np.isin(track_ids[i], list(tracks))
+                        for k in np.flatnonzero(np.isin(track_ids[i], list(tracks.values()))
                                                 & np.isin(frames[i].markers, (m, n))).tolist():
                             drop.add((i, k))
     return withhold_points(frames, drop, "its track touched another marker's, and the other "
