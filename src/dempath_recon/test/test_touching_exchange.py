@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from dempath_recon.tracking.records import PixelFrame
-from dempath_recon.tracking.touching_exchange import told_apart, withhold_exchanged
+from dempath_recon.tracking.touching_exchange import told_apart, withhold_exchanged, windows
 
 FRAMES = 16
 CONTACT = 6  # the frame the two overlap in the side camera
@@ -24,18 +24,20 @@ DRIFT = np.array([0.0015, 0.0, 0.0005])  # marker 2's motion per frame [m]
 DIAMETER_PX = {'cam_side': 8.0, 'cam_front': 8.0}  # a marker's size in each image [px]
 
 
-def _scene(rig, front_loses: bool) -> tuple[list[PixelFrame], list[np.ndarray]]:
-    """Both cameras' frames (``front_loses``: the front gives neither marker out after the
-    contact)."""
+def _scene(rig, front_loses: bool, returns_at: int = FRAMES, frames_n: int = FRAMES,
+           ) -> tuple[list[PixelFrame], list[np.ndarray]]:
+    """Both cameras' ``frames_n`` frames (``front_loses``: the front gives neither marker out
+    after the contact, till frame ``returns_at``)."""
     side = next(c for c in rig.cameras if c.name == 'cam_side')
     centre = -np.asarray(side.R).T @ np.asarray(side.t).ravel()
     ray = (STILL - centre) / np.linalg.norm(STILL - centre)
     frames, track_ids = [], []
-    for k in range(FRAMES):
+    for k in range(frames_n):
         at = {1: STILL, 2: STILL + 0.03 * ray + (k - CONTACT) * DRIFT}
         for cam, dt in (('cam_side', 0.0), ('cam_front', OFFSET)):
             model = next(c for c in rig.cameras if c.name == cam)
-            seen = [] if cam == 'cam_front' and front_loses and k > CONTACT else [1, 2]
+            gone = cam == 'cam_front' and front_loses and CONTACT < k < returns_at
+            seen = [] if gone else [1, 2]
             uv = model.project(np.array([at[m] for m in seen])) if seen else np.zeros((0, 2))
             frames.append(PixelFrame(cam, k * DT + dt, np.array(seen, np.int32), uv,
                                      np.ones(len(seen)), ()))
@@ -78,6 +80,47 @@ def test_tracks_nobody_tells_apart_are_withheld_after_the_contact(rig) -> None:
     assert all(list(f.markers) == [-1, -1] for k, f in side if k // 2 > CONTACT)
     assert result.withheld == {'cam_side': 2 * (FRAMES - CONTACT - 1), 'cam_front': 0}
     assert any('touched' in e for f in result.frames for e in f.events)
+
+
+LONG = 24  # frames of the longer scene: the side's two points apart (> a diameter) from 15 on
+BACK = 19  # the front gives both out again from this frame (none from CONTACT + 1 till then)
+
+
+def test_waiting_for_the_front_to_return_keeps_the_numbers(rig) -> None:
+    """The front gives neither marker out for 12 frames after the contact, then both again:
+    judged on the first frames after it where the side's two are apart (15-18) the two tracks
+    are withheld to their end; waiting for the front's return (``wait``) it tells them apart,
+    and nothing is withheld."""
+    frames, track_ids = _scene(rig, front_loses=True, returns_at=BACK, frames_n=LONG)
+    first = withhold_exchanged(frames, track_ids, _cameras(rig), DIAMETER_PX, FPS)
+    assert first.withheld['cam_side'] == 2 * (LONG - CONTACT - 1)
+    waited = withhold_exchanged(frames, track_ids, _cameras(rig), DIAMETER_PX, FPS, wait=True)
+    assert sum(waited.withheld.values()) == 0
+    assert all(np.array_equal(a.markers, b.markers)
+               for a, b in zip(frames, waited.frames, strict=True))
+
+
+def test_waiting_judges_only_the_tracks_that_left_the_contact(rig) -> None:
+    """When the front returns only after marker 2's number moved to another side track, the
+    return says nothing about the tracks that left the contact: both stay withheld."""
+    frames, track_ids = _scene(rig, front_loses=True, returns_at=BACK, frames_n=LONG)
+    for k, f in enumerate(frames):
+        if f.camera == 'cam_side' and k // 2 >= BACK - 2:
+            track_ids[k] = np.where(f.markers == 2, 7, track_ids[k])
+    waited = withhold_exchanged(frames, track_ids, _cameras(rig), DIAMETER_PX, FPS, wait=True)
+    # marker 1's track from the contact on, and marker 2's first track till it ends
+    assert waited.withheld['cam_side'] == (LONG - CONTACT - 1) + (BACK - 2 - CONTACT - 1)
+    assert waited.withheld['cam_front'] == 0
+
+
+def test_the_runs_judged_skip_frames_without_the_other_camera() -> None:
+    """Without waiting the first four after-frames are judged whatever the other camera
+    gives; waiting, only those it gives a point in, four by four."""
+    after = np.arange(10)
+    returned = np.array([False] * 3 + [True] * 7)
+    assert [r.tolist() for r in windows(after, returned, wait=False)] == [[0, 1, 2, 3]]
+    assert [r.tolist() for r in windows(after, returned, wait=True)] == [[3, 4, 5, 6],
+                                                                        [7, 8, 9]]
 
 
 def test_an_exchange_that_fits_as_well_is_not_told_apart() -> None:
