@@ -267,6 +267,8 @@ RULE_SWITCHES = (  # (flag, StereoTrackConfig field, help): the numbering rules 
     ('--touch-wait', 'touch_wait', 'judge a contact of two touching markers on every run of '
      "frames where the other camera gives a point, up to the pair's next contact "
      '(StereoTrackConfig.touch_wait; off)'),
+    ('--touch-swap', 'touch_swap', 'exchange the numbers of two touching markers the other '
+     'camera tells apart exchanged after the contact (StereoTrackConfig.touch_swap; off)'),
 )
 
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from dempath_recon.tracking.records import PixelFrame
-from dempath_recon.tracking.touching_exchange import told_apart, withhold_exchanged, windows
+from dempath_recon.tracking.touching_exchange import told_apart, windows, withhold_exchanged
 
 FRAMES = 16
 CONTACT = 6  # the frame the two overlap in the side camera

@@ -205,6 +205,10 @@ class StereoTrackConfig:
             the tracks apart (two markers that part along the other camera's epipolar line
             are told apart only once they are far enough apart, and the other camera may
             give neither for a while; session 25). False: the first frames after it alone.
+        touch_swap: with ``touch_confirm``, where the other camera tells the two tracks apart
+            exchanged (the pairing as numbered off the epipolar lines by the same margin
+            beyond the exchanged one), give each track the other's number from the contact
+            on instead of withholding both (session 25). False: withheld.
         smooth_paths: with ``whole_pass``, last, every numbered marker's image path in each
             camera smoothed by a Kalman (RTS) smoother whose amount the pass's own
             leave-one-out residuals choose, never across a gap or a jump
@@ -253,6 +257,7 @@ class StereoTrackConfig:
     carried_confirm: bool = False
     touch_confirm: bool = True
     touch_wait: bool = False
+    touch_swap: bool = False
     smooth_paths: bool = True
 
     def __post_init__(self) -> None:
@@ -323,6 +328,8 @@ class CameraCounts:
     # the other camera after it, withheld at the pass's end (carried_numbers)
     touch_withheld: int = 0  # numbers of two markers that touched, not told apart by the other
     # camera after it, withheld at the pass's end (touching_exchange)
+    touch_swapped: int = 0  # numbers of two markers that touched, which the other camera tells
+    # apart exchanged after it, exchanged at the pass's end (touching_exchange, touch_swap)
     numbered_late: int = 0
     unnumbered: int = 0
     epipolar_conflicts: int = 0

@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import logging
 from dataclasses import replace
-from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -398,17 +397,20 @@ class StereoMarkerTracker:
             for cam, n in audit.renumbered.items():
                 state.counts[cam].audit_renumbered += n
                 state.counts[cam].audit_withheld += audit.withheld[cam]
-        touch = partial(withhold_exchanged, wait=state.config.touch_wait)
-        for on, step, counted in ((state.config.carried_confirm, withhold_carried, 'carried'),
-                                  (state.config.touch_confirm, touch, 'touch')):
-            if on:  # numbers carried over a break, then those of touching markers, checked
-                checked = step(out, [h.track_ids for h in held], self.cameras, sizes,
-                               state.config.fps)
-                out = checked.frames
-                for cam, n in checked.withheld.items():
-                    counts = state.counts[cam]
-                    setattr(counts, f'{counted}_withheld',
-                            getattr(counts, f'{counted}_withheld') + n)
+        if state.config.carried_confirm:  # numbers carried over a break checked
+            carried = withhold_carried(out, [h.track_ids for h in held], self.cameras, sizes,
+                                       state.config.fps)
+            out = carried.frames
+            for cam, n in carried.withheld.items():
+                state.counts[cam].carried_withheld += n
+        if state.config.touch_confirm:  # then those of touching markers
+            touched = withhold_exchanged(out, [h.track_ids for h in held], self.cameras, sizes,
+                                         state.config.fps, wait=state.config.touch_wait,
+                                         swap=state.config.touch_swap)
+            out = touched.frames
+            for cam, n in touched.withheld.items():
+                state.counts[cam].touch_withheld += n
+                state.counts[cam].touch_swapped += touched.swapped[cam]
         if state.config.smooth_paths:
             out = smooth_paths(out, state.config.fps)
         return out

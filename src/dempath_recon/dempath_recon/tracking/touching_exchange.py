@@ -27,12 +27,13 @@ as it is (nothing to compare with).
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
 from dempath_recon.methods.projection import Camera
-from dempath_recon.tracking.carried_numbers import Withheld, withhold_points
+from dempath_recon.tracking.carried_numbers import withhold_points
 from dempath_recon.tracking.records import PixelFrame
 from dempath_recon.tracking.trajectories import epipolar_to_history, marker_histories
 
@@ -46,6 +47,15 @@ AFTER_FRAMES = 4  # frames after the contact compared [frames] (both given out a
 MARGIN = 2.0  # the exchanged pairing must lie this many times further off the epipolar
 # lines than the numbered one ... [1] (1.5-3 decided the same on 18 tuning looks)
 FLOOR_SHARE = 0.06  # ... plus this [diameters] (0.5 px at 8 px markers: centroid noise alone)
+
+
+class Exchanged(NamedTuple):
+    """The pass's frames after the check, and per camera how many numbered points were
+    withheld and how many were given the other marker's number (``swap``)."""
+
+    frames: list[PixelFrame]
+    withheld: dict[str, int]
+    swapped: dict[str, int]
 
 
 def positions(frames: Sequence[PixelFrame], order: list[int],
@@ -99,20 +109,23 @@ def windows(after: NDArray[np.int64], returned: NDArray[np.bool_], wait: bool,
 
 def withhold_exchanged(frames: Sequence[PixelFrame], track_ids: Sequence[NDArray[np.int64]],
                        cameras: dict[str, Camera], diameter_px: dict[str, float], fps: float,
-                       wait: bool = False) -> Withheld:
+                       wait: bool = False, swap: bool = False) -> Exchanged:
     """The pass's frames with both numbers of every contact the other camera does not tell
     apart withheld after it (the module's rule); nothing changes without two cameras and a
     marker size in each (``diameter_px`` [px] by camera; ``track_ids``: each frame's (k,)
     tracks; ``fps`` [1/s]). ``wait``: judge each contact on every run of ``AFTER_FRAMES``
     frames where the other camera gives a point, while both numbers stay on the two tracks
     that left the contact, and keep the numbers when any run tells the tracks apart
-    (:func:`windows`).
+    (:func:`windows`). ``swap``: where the other camera tells them apart exchanged, the two
+    numbers are exchanged on the two tracks from the contact on instead of withheld
+    (:func:`decide`).
     """
     names = sorted(cameras)
     if len(names) != 2 or not all(diameter_px.get(c, 0.0) > 0 for c in names):
-        return withhold_points(frames, [], '')
+        return apply(frames, set(), {})
     hist = {c: marker_histories(list(frames), c) for c in names}
     drop: set[tuple[int, int]] = set()
+    moved: dict[tuple[int, int], int] = {}
     for cam in names:
         other = names[1 - names.index(cam)]
         size = diameter_px[cam]
@@ -146,14 +159,66 @@ def withhold_exchanged(frames: Sequence[PixelFrame], track_ids: Sequence[NDArray
                           for x in (m, n) for y in (m, n)}
                     returned = np.asarray(np.isfinite(np.stack(list(px.values()))).any(axis=0),
                                           bool)
-                    runs = windows(np.arange(len(after)), returned, wait)
-                    if any(told_apart(np.concatenate([px[m, m][r], px[n, n][r]]),
-                                      np.concatenate([px[m, n][r], px[n, m][r]]), size)
-                           for r in runs):
+                    verdict = decide(px, m, n, windows(np.arange(len(after)), returned, wait),
+                                     size, swap)
+                    if verdict == 'kept':
                         continue
                     for i in order[nearest + 1:]:
                         for k in np.flatnonzero(np.isin(track_ids[i], list(tracks.values()))
                                                 & np.isin(frames[i].markers, (m, n))).tolist():
-                            drop.add((i, k))
-    return withhold_points(frames, drop, "its track touched another marker's, and the other "
+                            if verdict == 'swapped':
+                                moved[i, k] = n if int(frames[i].markers[k]) == m else m
+                            else:
+                                drop.add((i, k))
+    return apply(frames, drop, moved)
+
+
+def decide(px: dict[tuple[int, int], FloatArray], m: int, n: int,
+           runs: list[NDArray[np.int64]], size: float, swap: bool) -> str:
+    """``'kept'`` when a run of ``runs`` (in order) tells the tracks apart as numbered,
+    ``'swapped'`` (with ``swap``) when one tells them apart exchanged first (the same margin
+    the other way: one comparison of the two hypotheses), else ``'withheld'``. ``px``: the
+    epipolar distances [px] of each number's points (first key) to each number's points in
+    the other camera (second key), at the after-frames."""
+    for r in runs:
+        own = np.concatenate([px[m, m][r], px[n, n][r]])
+        exchanged = np.concatenate([px[m, n][r], px[n, m][r]])
+        if told_apart(own, exchanged, size):
+            return 'kept'
+        if swap and told_apart(exchanged, own, size):
+            return 'swapped'
+    return 'withheld'
+
+
+def apply(frames: Sequence[PixelFrame], drop: set[tuple[int, int]],
+          moved: dict[tuple[int, int], int]) -> Exchanged:
+    """``frames`` with the points ``drop`` withheld and the points ``moved`` given their new
+    numbers (withheld instead where another point of the frame keeps that number), each with
+    an event, counted per camera."""
+    out = list(frames)
+    drop = set(drop)
+    swapped = {f.camera: 0 for f in frames}
+    by_frame: dict[int, dict[int, int]] = {}
+    for (i, k), new in moved.items():
+        if (i, k) not in drop:
+            by_frame.setdefault(i, {})[k] = new
+    for i, change in by_frame.items():
+        f = out[i]
+        markers = f.markers.copy()
+        markers[list(change)] = list(change.values())
+        events = list(f.events)
+        for k, new in change.items():
+            if int((markers == new).sum()) > 1:  # another point keeps it: neither is sure
+                drop.add((i, k))
+                continue
+            events.append(f'{f.camera}: marker {int(f.markers[k])} renumbered {new} at '
+                          f"{f.stamp_s:.3f} s: its track touched marker {new}'s, and the "
+                          'other camera tells them apart exchanged after it')
+            swapped[f.camera] += 1
+        for k in change:
+            if (i, k) in drop:
+                markers[k] = f.markers[k]  # withheld below under its old number
+        out[i] = f._replace(markers=markers, events=tuple(events))
+    held = withhold_points(out, drop, "its track touched another marker's, and the other "
                            'camera does not tell them apart after it')
+    return Exchanged(held.frames, held.withheld, swapped)
