@@ -113,6 +113,45 @@ def test_waiting_judges_only_the_tracks_that_left_the_contact(rig) -> None:
     assert waited.withheld['cam_front'] == 0
 
 
+def test_tracks_the_other_camera_tells_apart_exchanged_take_each_others_number(rig) -> None:
+    """The side's two tracks leave the contact exchanged (each carries the other's number
+    from then on) and the front sees the two apart: withheld by default; with ``swap`` each
+    point gets its own marker's number back, and nothing is withheld."""
+    frames, track_ids = _scene(rig, front_loses=False, frames_n=LONG)
+    for k, f in enumerate(frames):
+        if f.camera == 'cam_side' and k // 2 > CONTACT:
+            frames[k] = f._replace(markers=f.markers[::-1].copy())
+            track_ids[k] = track_ids[k][::-1].copy()
+    withheld = withhold_exchanged(frames, track_ids, _cameras(rig), DIAMETER_PX, FPS, wait=True)
+    assert withheld.withheld['cam_side'] == 2 * (LONG - CONTACT - 1)
+    swapped = withhold_exchanged(frames, track_ids, _cameras(rig), DIAMETER_PX, FPS, wait=True,
+                                 swap=True)
+    assert swapped.swapped == {'cam_side': 2 * (LONG - CONTACT - 1), 'cam_front': 0}
+    assert sum(swapped.withheld.values()) == 0
+    assert all(list(f.markers) == [1, 2] for f in swapped.frames)
+    assert any('renumbered' in e for f in swapped.frames for e in f.events)
+
+
+def test_a_swap_onto_a_number_another_point_keeps_is_withheld(rig) -> None:
+    """Where a frame after the contact gives one of the two numbers on a third point too,
+    the swapped point there would repeat it: that point is withheld instead."""
+    frames, track_ids = _scene(rig, front_loses=False, frames_n=LONG)
+    for k, f in enumerate(frames):
+        if f.camera == 'cam_side' and k // 2 > CONTACT:
+            frames[k] = f._replace(markers=f.markers[::-1].copy())
+            track_ids[k] = track_ids[k][::-1].copy()
+    last = len(frames) - 2  # the side's last frame: marker 2's track loses its number there,
+    f = frames[last]  # and a third point elsewhere carries 1
+    frames[last] = f._replace(markers=np.array([2, -1, 1], np.int32),
+                              uv=np.vstack([f.uv, [[100.0, 100.0]]]),
+                              confidence=np.ones(3))
+    track_ids[last] = np.array([2, 1, 9], np.int64)
+    swapped = withhold_exchanged(frames, track_ids, _cameras(rig), DIAMETER_PX, FPS, wait=True,
+                                 swap=True)
+    assert list(swapped.frames[last].markers) == [-1, -1, 1]
+    assert swapped.withheld['cam_side'] == 1
+
+
 def test_the_runs_judged_skip_frames_without_the_other_camera() -> None:
     """Without waiting the first four after-frames are judged whatever the other camera
     gives; waiting, only those it gives a point in, four by four."""
