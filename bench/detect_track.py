@@ -264,11 +264,11 @@ RULE_SWITCHES = (  # (flag, StereoTrackConfig field, help): the numbering rules 
     ('--no-touch-confirm', 'touch_confirm', 'give out the numbers of two markers that touched '
      'in one camera where the other does not tell them apart (StereoTrackConfig.touch_confirm; '
      'on)'),
-    ('--touch-wait', 'touch_wait', 'judge a contact of two touching markers on every run of '
-     "frames where the other camera gives a point, up to the pair's next contact "
-     '(StereoTrackConfig.touch_wait; off)'),
-    ('--touch-swap', 'touch_swap', 'exchange the numbers of two touching markers the other '
-     'camera tells apart exchanged after the contact (StereoTrackConfig.touch_swap; off)'),
+    ('--no-touch-wait', 'touch_wait', 'judge a contact of two touching markers on the first '
+     'frames after it alone, not on every run where the other camera gives a point '
+     '(StereoTrackConfig.touch_wait; on)'),
+    ('--no-touch-swap', 'touch_swap', 'withhold, not exchange, the numbers of two touching '
+     'markers the other camera tells apart exchanged (StereoTrackConfig.touch_swap; on)'),
 )
 
 

@@ -20,8 +20,8 @@ marker's 3D path), ``piece_numbering`` (every unnumbered stretch of a 2D track n
 assignment on how well it continues each marker's path), ``pass_audit`` (then every number
 against each marker's smooth 3D path: swaps taken out or renumbered), ``carried_numbers``
 (then numbers a track carried over a break withheld unless the other camera confirms them),
-``touching_exchange`` (and the numbers of two markers that touched in one camera, unless the
-other tells them apart), ``path_smoother`` (last, each numbered image path smoothed as much
+``touching_exchange`` (and the numbers of two markers that touched in one camera: kept or
+exchanged where the other tells them apart, else withheld), ``path_smoother`` (last, each numbered image path smoothed as much
 as the pass's residuals say), ``state`` (the tracker's state, one record), ``held_line``
 (whether two tracks held on each other's epipolar line over their common frames),
 ``link_guide`` (the
