@@ -22,7 +22,8 @@ against each marker's smooth 3D path: swaps taken out or renumbered), ``carried_
 (then numbers a track carried over a break withheld unless the other camera confirms them),
 ``touching_exchange`` (and the numbers of two markers that touched in one camera: kept or
 exchanged where the other tells them apart, else withheld), ``path_smoother`` (last, each
-numbered image path smoothed as much as the pass's residuals say), ``state`` (the tracker's state, one record), ``held_line``
+numbered image path smoothed as much as the pass's residuals say), ``state`` (the tracker's
+state, one record), ``held_line``
 (whether two tracks held on each other's epipolar line over their common frames),
 ``link_guide`` (the
 other camera inside the 2D link: links barred off the epipolar line, spots that may hold two
