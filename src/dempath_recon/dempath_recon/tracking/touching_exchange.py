@@ -22,6 +22,14 @@ tells them apart. Else (the exchange fits as well, or the other camera gives nei
 then) both numbers are withheld on the two tracks from the closest approach on: a wrong number
 is worse than none (issue 28). A contact with a marker the other camera never numbers is left
 as it is (nothing to compare with).
+
+Two refinements (session 25, ``StereoTrackConfig.touch_wait`` and ``touch_swap``): the contact
+is judged on every run of ``AFTER_FRAMES`` frames where the other camera gives a point, while
+both numbers stay on the two tracks that left it, not only on the first frames (two markers
+parting along the other camera's epipolar line fit both pairings until they are far apart:
+heldout26's S231_asis, 9 and 14, told apart 20 frames on); and the two hypotheses are compared
+once, the same margin both ways, so that tracks the other camera tells apart exchanged take
+each other's number instead of being withheld.
 """
 
 from __future__ import annotations
