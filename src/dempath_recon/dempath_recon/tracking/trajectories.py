@@ -20,16 +20,29 @@ FloatArray = NDArray[np.float64]
 
 def marker_histories(frames: list[PixelFrame], camera: str,
                      ) -> dict[int, tuple[FloatArray, FloatArray]]:
-    """``{marker: (times (k,) s, uv (k, 2) px)}`` of one camera's numbered points."""
-    out: dict[int, list[tuple[float, float, float]]] = {}
-    for f in frames:
-        if f.camera != camera:
-            continue
-        for m, p in zip(f.markers, f.uv, strict=True):
-            if m >= 0:
-                out.setdefault(int(m), []).append((f.stamp_s, float(p[0]), float(p[1])))
-    return {m: (np.array([r[0] for r in rows]), np.array([r[1:] for r in rows]))
-            for m, rows in out.items()}
+    """``{marker: (times (k,) s, uv (k, 2) px)}`` of one camera's numbered points, markers in
+    the order they first appear, each one's points in the frames' order.
+
+    One grouping of all the camera's points at once (a stable sort by number): the whole
+    pass's steps ask for these histories about 25 times a pass, and a loop over every point
+    cost 0.4 ms a call (session 25)."""
+    mine = [f for f in frames if f.camera == camera]
+    if not mine:
+        return {}
+    markers = np.concatenate([np.asarray(f.markers, np.int64).reshape(-1) for f in mine])
+    numbered = markers >= 0
+    if not numbered.any():
+        return {}
+    uv = np.concatenate([np.asarray(f.uv, np.float64).reshape(-1, 2) for f in mine])[numbered]
+    times = np.repeat(np.array([f.stamp_s for f in mine], np.float64),
+                      [len(f.markers) for f in mine])[numbered]
+    markers = markers[numbered]
+    order = np.argsort(markers, kind='stable')  # by number, each one's points in frame order
+    numbers, starts = np.unique(markers[order], return_index=True)
+    ends = np.append(starts[1:], len(order))
+    first = order[starts]  # where each number first appears
+    return {int(numbers[j]): (times[order[starts[j]:ends[j]]], uv[order[starts[j]:ends[j]]])
+            for j in np.argsort(first, kind='stable').tolist()}
 
 
 def interpolate_history(hist: tuple[FloatArray, FloatArray], t: FloatArray, max_gap_s: float,

@@ -32,6 +32,7 @@ never to a frame that gives the number out already: withholding is better than a
 from __future__ import annotations
 
 import logging
+import math
 from collections.abc import Sequence
 from itertools import pairwise
 from typing import NamedTuple
@@ -156,15 +157,18 @@ def smooth_pieces(times: FloatArray, uv: FloatArray, fps: float) -> list[NDArray
     where its two predecessors in the piece carried it (constant velocity over their time
     steps): a link that jumped, often onto a neighbour (a marker cannot jump)."""
     cuts = [0]
-    for k in range(1, len(times)):
-        if times[k] - times[k - 1] > 1.5 / fps:
+    t, u, v = times.tolist(), uv[:, 0].tolist(), uv[:, 1].tolist()  # floats: a loop per point
+    for k in range(1, len(t)):
+        if t[k] - t[k - 1] > 1.5 / fps:
             cuts.append(k)
             continue
         if k - cuts[-1] < 2:
             continue
-        step = (uv[k - 1] - uv[k - 2]) / (times[k - 1] - times[k - 2])
-        carried = uv[k - 1] + step * (times[k] - times[k - 1])
-        if float(np.linalg.norm(uv[k] - carried)) > JUMP_PX:
+        dt = t[k - 1] - t[k - 2]
+        ahead = t[k] - t[k - 1]
+        du = u[k] - (u[k - 1] + (u[k - 1] - u[k - 2]) / dt * ahead)
+        dv = v[k] - (v[k - 1] + (v[k - 1] - v[k - 2]) / dt * ahead)
+        if math.sqrt(du * du + dv * dv) > JUMP_PX:
             cuts.append(k)
     cuts.append(len(times))
     return [np.arange(a, b) for a, b in pairwise(cuts)]
