@@ -249,6 +249,9 @@ RULE_SWITCHES = (  # (flag, StereoTrackConfig field, help): the numbering rules 
     ('--piece-numbering', 'piece_numbering', 'number the unnumbered stretches of 2D tracks '
      "at the pass's end by how well they continue each marker's path "
      '(StereoTrackConfig.piece_numbering; off by default)'),
+    ('--bed-numbering', 'bed_numbering', "number the unnumbered stretches of 2D tracks at the "
+     "pass's end by where the bed's motion carried each marker "
+     '(StereoTrackConfig.bed_numbering; off by default)'),
     ('--dim-spots', 'dim_spots', "search a dim frame's markers again on the chroma floored at "
      "the frame's own light (StereoTrackConfig.dim_spots; off by default)"),
     ('--no-band-pass', 'band_pass', 'find spots on the matched filter alone, not less the local '

@@ -16,6 +16,7 @@ ORDER = ('merge', 'centroid_kernel', 'cut_discs_kernel', 'cut_discs', 'split', '
          'half_ghost',
          'records', 'release',
          'publish_gate', 'trajectories', 'whole_pass', 'joint_fill', 'piece_numbering',
+         'bed_field', 'bed_numbering',
          'pass_audit', 'carried_numbers', 'touching_exchange',
          'path_smoother',
          'number_record', 'state',

@@ -17,7 +17,10 @@ camera's tracks), ``two_view_kernel`` (two views' linear triangulation, compiled
 (numbered tracks to 3D), ``whole_pass`` and ``joint_fill`` (at the pass's end:
 never-numbered tracks numbered by one assignment, then unnumbered spots filled from each
 marker's 3D path), ``piece_numbering`` (every unnumbered stretch of a 2D track numbered by one
-assignment on how well it continues each marker's path), ``pass_audit`` (then every number
+assignment on how well it continues each marker's path), ``bed_field`` (the bed's
+displacement field over the pass: where the sand carried a marker no numbered path places),
+``bed_numbering`` (unnumbered stretches numbered by that field, one assignment with a
+refusal margin), ``pass_audit`` (then every number
 against each marker's smooth 3D path: swaps taken out or renumbered), ``carried_numbers``
 (then numbers a track carried over a break withheld unless the other camera confirms them),
 ``touching_exchange`` (and the numbers of two markers that touched in one camera: kept or

@@ -156,6 +156,14 @@ class StereoTrackConfig:
             apart seed-247 looks unchanged; the variation set's held-out pool 94.73 -> 95.19 %,
             0 switches and 0 wrong pairs kept (docs/figures.md). False: only tracks no frame
             numbered are numbered from the whole pass.
+        bed_numbering: with ``whole_pass``, after ``piece_numbering`` and before
+            ``joint_fill``, number the unnumbered stretches of 2D tracks (in either camera;
+            paired in 3D where both have one) by where the bed's motion carried each marker
+            the cameras lack: its rest point (or own nearest numbered 3D point) moved as its
+            numbered neighbours moved, Gaussian-weighted by their rest distance, gated by
+            the neighbours' spread, one assignment with a refusal margin in odds
+            (:mod:`~dempath_recon.tracking.bed_numbering`). Off by default: safe but small
+            (docs/figures.md, session 25, number25). False: no such step.
         dim_spots: each camera's detector searches a dim frame's markers again on the chroma
             floored at the frame's own light (``DetectorConfig.dim_spots``; it must also be on
             there): at dusk the fixed floor divides a shaded or half-buried marker's chroma
@@ -256,6 +264,7 @@ class StereoTrackConfig:
     whole_pass: bool = True
     joint_fill: bool = True
     piece_numbering: bool = False
+    bed_numbering: bool = False
     dim_spots: bool = False
     band_pass: bool = True
     smooth_centres: bool = False
@@ -328,6 +337,7 @@ class CameraCounts:
     numbered_whole_pass: int = 0  # points numbered at the end from the whole pass (whole_pass)
     numbered_joint_fill: int = 0  # points numbered at the end from the 3D paths (joint_fill)
     numbered_pieces: int = 0  # points numbered at the end by their piece of track (pieces)
+    numbered_by_bed: int = 0  # points numbered at the end by the bed's motion (bed_numbering)
     audit_renumbered: int = 0  # points the pass audit gave another marker's number (pass_audit)
     audit_withheld: int = 0  # numbered points the pass audit took out: off their 3D path
     carried_withheld: int = 0  # numbers carried over a break of a track, never confirmed by

@@ -37,6 +37,7 @@ from numpy.typing import NDArray
 
 from dempath_recon.methods.triangulate import Camera
 from dempath_recon.tracking.associate import forget_pixels, marker_diameter_px, view_of_up
+from dempath_recon.tracking.bed_numbering import number_by_bed
 from dempath_recon.tracking.carried_numbers import withhold_carried
 from dempath_recon.tracking.coming_out import number_coming_out
 from dempath_recon.tracking.crowded_pair import give_back
@@ -374,6 +375,8 @@ class StereoMarkerTracker:
         for before, after in zip(frames, out, strict=True):
             state.counts[after.camera].numbered_whole_pass += int(
                 (after.markers != before.markers).sum())
+        ids, xyz = state.config.grid.points()
+        layout = dict(zip(ids.tolist(), xyz, strict=True))
         if state.config.piece_numbering:
             pieces, _ = number_pieces(out, [h.track_ids for h in held], self.cameras,
                                       state.grid_uv, self._diameters(),
@@ -382,6 +385,15 @@ class StereoMarkerTracker:
                 state.counts[after.camera].numbered_pieces += int(
                     (after.markers != before.markers).sum())
             out = pieces
+        if state.config.bed_numbering:
+            bed, _ = number_by_bed(out, [h.track_ids for h in held], self.cameras,
+                                   state.grid_uv, layout,
+                                   self._diameters(), state.config.epipolar_px,
+                                   state.config.fps)
+            for before, after in zip(out, bed, strict=True):
+                state.counts[after.camera].numbered_by_bed += int(
+                    (after.markers != before.markers).sum())
+            out = bed
         if state.config.joint_fill:
             filled, _ = fill_jointly(out, [h.track_ids for h in held], self.cameras,
                                      state.config.epipolar_px, state.config.fps)
