@@ -17,9 +17,12 @@ sys.path.insert(0, str(Path(__file__).parent))
 from projected import DT, GRID15
 from test_joint_fill import EPIPOLAR_PX, FPS, FRAMES, _frames, _grid, _numbers
 
-from dempath_recon.tracking.bed_field import FLOOR_M, BedField
+from dempath_recon.tracking.bed_field import FLOOR_M, BedField, nearest_given, rest_points
 from dempath_recon.tracking.bed_numbering import number_by_bed
+from dempath_recon.tracking.piece_numbering import unnumbered_pieces
 from dempath_recon.tracking.records import PixelFrame
+from dempath_recon.tracking.trajectories import marker_histories
+from dempath_recon.tracking.whole_pass import Pass, marker_points_3d
 
 DIAMETER_PX = 8.0  # a marker's diameter in both images [px]
 OUT = range(6, FRAMES)  # the frames where a covered marker has come out of the sand
@@ -119,3 +122,33 @@ def test_two_covered_markers_between_their_places_are_refused(rig) -> None:
     assert given == 0
     for m in (8, 13):
         assert set(_numbers(out, track_ids, 'cam_front', m)) == {-2, -1}
+
+
+def _front_piece_nearest_given(rig, side_gives_eight: bool) -> float:
+    """:func:`nearest_given` of the front's unnumbered piece of marker 8 (out from ``OUT``),
+    the side giving 8 out throughout or hiding it."""
+    cams = {c.name: c for c in rig.cameras}
+    grid_uv = {c.name: dict(zip(range(1, 16), c.project(np.array(GRID15)), strict=True))
+               for c in rig.cameras}
+
+    def numbered(cam: str, k: int, m: int) -> int:
+        return -1 if (m == 8 and cam == 'cam_front') else m
+
+    def seen(cam: str, k: int, m: int) -> bool:
+        return m != 8 or (cam == 'cam_front' and k in OUT) or (cam == 'cam_side'
+                                                               and side_gives_eight)
+    frames, track_ids = _frames(rig, [_grid(k) for k in range(FRAMES)], numbered, seen)
+    ps = Pass(cams, {c: marker_histories(frames, c) for c in sorted(cams)},
+              marker_points_3d(frames, cams, FPS), grid_uv, 0.0, EPIPOLAR_PX, FPS)
+    field = BedField(ps.own_3d, rest_points(grid_uv, cams, LAYOUT), FPS, 0.0)
+    piece = unnumbered_pieces(frames, track_ids, 'cam_front', FPS)
+    assert [p.track_id for p in piece] == [108]
+    return nearest_given(ps, field, (piece[0],))
+
+
+def test_a_piece_on_the_lines_of_a_marker_its_camera_lacks_has_a_certain_rival(rig) -> None:
+    """The front's unnumbered piece of 8 lies on the side's lines of 8, which the front does
+    not give out: it may be 8, so the field's rivals include it at distance 0; with the side
+    hiding 8 the nearest marker given out is a neighbour, several spreads away."""
+    assert _front_piece_nearest_given(rig, True) == 0.0
+    assert _front_piece_nearest_given(rig, False) > 3.0

@@ -29,6 +29,7 @@ from dempath_recon.methods.triangulate import Camera
 from dempath_recon.tracking.associate import project, triangulate_pairs
 from dempath_recon.tracking.trajectories import interpolate_history
 from dempath_recon.tracking.whole_pass import (
+    MEDIAN_SHARE,
     MIN_SHARED,
     START_FRAMES,
     PairFit,
@@ -257,3 +258,37 @@ def prefers_other(ps: Pass, field: BedField, pieces: tuple[Track, ...],
         return True
     return any(spreads_off(ps, field, pieces, shared, fit, m)[0] < own
                for m in markers if m != marker)
+
+
+def nearest_given(ps: Pass, field: BedField, pieces: tuple[Track, ...]) -> float:
+    """How near a unit lies to a marker its cameras give out at its stamps, in spreads: the
+    least, over such markers, of the median distance between a piece and its camera's
+    numbered points of the marker (interpolated to its stamps) over ``FLOOR_M`` at the
+    marker's rest depth (a measured point: the floor is its spread); 0 when a piece alone
+    lies on the other camera's epipolar lines of a marker that camera gives out and its
+    own does not (median within ``MEDIAN_SHARE * epipolar_px``, even if a frame strays);
+    inf: none. Such a piece
+    may be that marker (its number on a spot beside it, one marker seen twice, a pair
+    check failed by one frame), which the field cannot tell from a missing marker it places
+    there (on a tuning look at dusk the front's piece of marker 7, on the side's lines of 7
+    but for a frame, took buried 12: 10 switches)."""
+    best = np.inf
+    for p in pieces:
+        cam = ps.cameras[p.camera]
+        for m, hist in ps.own_2d[p.camera].items():
+            at = interpolate_history(hist, p.times, 1.5 / ps.fps)
+            have = np.isfinite(at).all(axis=1)
+            if not have.any() or m not in field.rest:
+                continue
+            floor_px = FLOOR_M * float(_px_per_m(cam, field.rest[m][None])[0])
+            d = float(np.median(np.linalg.norm(p.uv[have] - at[have], axis=1)))
+            best = min(best, d / floor_px)
+        if len(pieces) > 1:
+            continue
+        for m, hist in ps.own_2d[ps.other(p.camera)].items():
+            if not lacks(ps.own_2d[p.camera], m, p.times, ps.fps):
+                continue  # this camera gives it out elsewhere then: not this piece
+            fit = ps.fit(p, interpolate_history(hist, p.times, 1.5 / ps.fps))
+            if fit is not None and fit.median_px <= MEDIAN_SHARE * ps.epipolar_px:
+                return 0.0
+    return best

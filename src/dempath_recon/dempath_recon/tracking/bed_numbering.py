@@ -49,7 +49,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dempath_recon.methods.triangulate import Camera
-from dempath_recon.tracking.bed_field import GATE_SPREADS, BedField, rest_points, spreads_off
+from dempath_recon.tracking.bed_field import (
+    GATE_SPREADS,
+    BedField,
+    nearest_given,
+    rest_points,
+    spreads_off,
+)
 from dempath_recon.tracking.joint_fill import withheld
 from dempath_recon.tracking.piece_numbering import (
     pair_pieces,
@@ -96,22 +102,25 @@ def by_bed(ps: Pass, field: BedField, frames: Sequence[PixelFrame],
         return []
     rows, cols = linear_sum_assignment(np.where(allowed, cost, 1e6))
     spans = [u.span() for u in units]
+    given = {r: nearest_given(ps, field, units[r].pieces) for r in rows.tolist()}
     return [Assignment(markers[c], units[r].pieces, takes[r, c], 'bed')
             for r, c in zip(rows.tolist(), cols.tolist(), strict=True)
-            if allowed[r, c] and odds_clear(cost, spans, r, c)]
+            if allowed[r, c] and odds_clear(cost, spans, r, c, given[r])]
 
 
-def odds_clear(z: FloatArray, spans: list[tuple[float, float]], row: int, col: int) -> bool:
+def odds_clear(z: FloatArray, spans: list[tuple[float, float]], row: int, col: int,
+               given: float) -> bool:
     """Whether unit ``row`` is clearly marker ``col``: every other marker's distance for it,
-    and every other time-overlapping unit's for that marker (``z``: in spreads), is at least
-    ``ODDS`` times less likely, the spread taken as a Gaussian's sigma (z2^2 - z^2 >= 2 ln
-    ``ODDS``). A ratio of distances is no margin when both lie well within the spread (on a
-    tuning look a piece 0.5 spreads from one marker and 1.1 from its neighbour was the
-    neighbour)."""
+    every other time-overlapping unit's for that marker (``z``: in spreads), and the unit's
+    distance from the markers its cameras give out then (``given``:
+    :func:`~dempath_recon.tracking.bed_field.nearest_given`) is at least ``ODDS`` times less
+    likely, the spread taken as a Gaussian's sigma (z2^2 - z^2 >= 2 ln ``ODDS``). A ratio of
+    distances is no margin when both lie well within the spread (on a tuning look a piece
+    0.5 spreads from one marker and 1.1 from its neighbour was the neighbour)."""
     best = z[row, col]
     t0, t1 = spans[row]
     over = [r for r, (a, b) in enumerate(spans) if r != row and a <= t1 and b >= t0]
-    others = np.concatenate([np.delete(z[row], col), z[over, col]])
+    others = np.concatenate([np.delete(z[row], col), z[over, col], [given]])
     others = others[np.isfinite(others)]
     return not len(others) or bool(others.min() ** 2 - best ** 2 >= 2 * np.log(ODDS))
 

@@ -163,7 +163,10 @@ class StereoTrackConfig:
             numbered neighbours moved, Gaussian-weighted by their rest distance, gated by
             the neighbours' spread, one assignment with a refusal margin in odds
             (:mod:`~dempath_recon.tracking.bed_numbering`). Off by default: safe but small
-            (docs/figures.md, session 25, number25). False: no such step.
+            and not cheap (session 25, number25: 41 tuning looks and 11 tuned variations
+            91.19 -> 91.21 % numbered right, switches 174 and wrong-pair points 53 kept;
+            held-apart seed 307 91.91 -> 92.06 %, 13 and 5 kept; about 0.9 ms of CPU a
+            frame; docs/figures.md). False: no such step.
         dim_spots: each camera's detector searches a dim frame's markers again on the chroma
             floored at the frame's own light (``DetectorConfig.dim_spots``; it must also be on
             there): at dusk the fixed floor divides a shaded or half-buried marker's chroma
