@@ -10,27 +10,20 @@ belong to a marker that camera never numbered in the whole pass, most of them co
 grid fit and coming out mid-pass in the tool's column. Sand moves as a continuum: a covered
 marker goes where the markers around it go. So, at the pass's end:
 
-1. **The bed's displacement field** (:class:`BedField`): each numbered marker's displacement
-   from its rest point (the fitted grid triangulated, :func:`rest_points`) at each instant,
-   from its numbered 3D path; a marker's predicted point is its rest point (or its own
-   nearest numbered 3D point, an anchor) moved by the Gaussian-weighted mean of its
-   neighbours' displacements (weights by the distance between rest points, ``SIGMA_PITCH``
-   grid pitches), and the field's own spread there (the weighted standard deviation of those
-   displacements, plus ``FLOOR_M``) says how far it may lie from that point. Nearer
-   neighbours move more alike: on 8 tuning looks' true paths the spread covered the error
-   (error within 2.5 spreads) nine times in ten.
+1. **The bed's displacement field** (:class:`~dempath_recon.tracking.bed_field.BedField`):
+   each marker placed at each instant from its neighbours' numbered 3D paths, with the
+   field's spread there.
 2. **Units**: each camera's unnumbered pieces of track (as
    :func:`~dempath_recon.tracking.piece_numbering.unnumbered_pieces`), paired into 3D pieces
    where both cameras have one (one assignment on the epipolar distance, with its margin).
 3. **One assignment** of units to the markers none of the unit's cameras gives out over its
-   stretch, on the median over its points of the distance from the marker's predicted point
-   as a share of ``GATE_SPREADS`` spreads (in 3D for a 3D piece; projected into its camera
-   for a piece alone, the spread at the predicted point's depth; a piece alone whose stretch
-   the other camera's numbered points of the marker cover must lie on their epipolar lines,
-   and its 3D points are then scored). A unit takes a marker only when its share is at most
-   1, every other marker's share for it and every other time-overlapping unit's for that
-   marker is ``MARGIN_SHARE`` (2) times worse (one refusal margin: two fits, no number), its own
-   2D track carries no other number right beside it
+   stretch, on the median distance in spreads of its points from the marker's predicted
+   points (:func:`~dempath_recon.tracking.bed_field.spreads_off`). A unit takes a marker only
+   within ``GATE_SPREADS`` spreads, when every rival is ``ODDS`` times less likely
+   (:func:`odds_clear`: every other marker for it, every other time-overlapping unit for
+   that marker, and the markers its cameras give out then,
+   :func:`~dempath_recon.tracking.bed_field.nearest_given`), its own 2D track carries no
+   other number right beside it
    (:func:`~dempath_recon.tracking.piece_numbering.track_bounds`), and, a piece alone, no
    other marker's own point lies within a diameter of it
    (:func:`~dempath_recon.tracking.piece_numbering.touched`: one camera cannot tell two
@@ -38,6 +31,9 @@ marker goes where the markers around it go. So, at the pass's end:
 4. Never a number its frame gives out, nor one a rule withheld there on evidence
    (:func:`~dempath_recon.tracking.joint_fill.withheld`); ``ROUNDS`` rounds, each with the
    field of the numbers the round before gave.
+
+Off by default (``StereoTrackConfig.bed_numbering``): on 52 tuning looks it numbered 0.02
+points more right, no switch added; on the held-apart seed 0.15 (docs/figures.md, session 25).
 """
 
 from __future__ import annotations
