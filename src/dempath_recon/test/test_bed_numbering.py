@@ -15,6 +15,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
 from projected import DT, GRID15
+from test_crowded_pair import replay
 from test_joint_fill import EPIPOLAR_PX, FPS, FRAMES, _frames, _grid, _numbers
 
 from dempath_recon.tracking.bed_field import FLOOR_M, BedField, nearest_given, rest_points
@@ -27,6 +28,7 @@ from dempath_recon.tracking.whole_pass import Pass, marker_points_3d
 DIAMETER_PX = 8.0  # a marker's diameter in both images [px]
 OUT = range(6, FRAMES)  # the frames where a covered marker has come out of the sand
 LAYOUT = {m: np.array(p) for m, p in enumerate(GRID15, 1)}
+STORED = Path(__file__).parent / 'data' / 'crowded_pair_frames.json'
 
 
 def _run(rig, frames, track_ids) -> tuple[list[PixelFrame], int]:
@@ -152,3 +154,31 @@ def test_a_piece_on_the_lines_of_a_marker_its_camera_lacks_has_a_certain_rival(r
     hiding 8 the nearest marker given out is a neighbour, several spreads away."""
     assert _front_piece_nearest_given(rig, True) == 0.0
     assert _front_piece_nearest_given(rig, False) > 3.0
+
+
+def _right_and_wrong(bed: bool) -> tuple[set[tuple[str, float, int]], set[tuple[str, float, int]]]:
+    """A stored tuning look (``crowded_pair_frames.json``) through the whole tracker with the
+    step on or off: the points given out on their own marker's spot and on another's."""
+    data, frames = replay(STORED, bed_numbering=bed)
+    ids: list[int] = data['marker_ids']
+    truth = {(f['camera'], round(f['stamp_s'] * 1e6)): np.array(f['true_uv'])
+             for f in data['frames']}
+    right, wrong = set(), set()
+    for frame in frames:
+        true_uv = truth[(frame.camera, round(frame.stamp_s * 1e6))]
+        for m, p in zip(frame.markers.tolist(), frame.uv, strict=True):
+            if m >= 0:
+                ok = float(np.linalg.norm(true_uv[ids.index(m)] - p)) <= 3.0
+                (right if ok else wrong).add((frame.camera, round(frame.stamp_s, 3), m))
+    return right, wrong
+
+
+def test_the_pipeline_with_the_step_keeps_every_right_number_and_adds_no_wrong_one() -> None:
+    """Through the whole tracker (``StereoTrackConfig.bed_numbering``) on a stored look: every
+    point numbered right without the step is numbered right with it, and no point goes out
+    with another marker's number that did not without it."""
+    right_on, wrong_on = _right_and_wrong(True)
+    right_off, wrong_off = _right_and_wrong(False)
+    assert right_off <= right_on
+    assert wrong_on <= wrong_off
+    assert right_off  # the look is numbered at all
