@@ -78,7 +78,7 @@ from dempath_recon.tracking.covered import MAX_ELEVATION_DEG, seen_share, uncove
 from dempath_recon.tracking.cut_discs import fit_cut_discs
 from dempath_recon.tracking.cut_discs_kernel import warm as warm_cut_discs
 from dempath_recon.tracking.shaded import lit_centroids, shade_floor
-from dempath_recon.tracking.split import split_touching
+from dempath_recon.tracking.split import GAIN, split_touching
 from dempath_recon.tracking.streak import STREAK_MIN_PX, find_streak
 
 LOG = logging.getLogger(__name__)
@@ -358,6 +358,10 @@ class DetectorConfig:
             chroma's noise (JPEG, read noise) in them. The spots, their ``uv`` and so the
             trackers are unchanged. Needs ``marker_diameter_px``. False: the centroids of
             the chroma as measured.
+        split_gain: a blob is split into ``k + 1`` touching markers only where their fit's
+            squared residual is this many times lower than ``k``'s (``split.GAIN``, 2, as
+            tuned in session 16; ``split.EAGER_GAIN`` with ``StereoTrackConfig.
+            eager_split``).
     """
 
     downscale: int = 2
@@ -381,6 +385,7 @@ class DetectorConfig:
     dim_spots: bool = False
     band_pass: bool = True
     smooth_centres: bool = False
+    split_gain: float = GAIN
 
     def __post_init__(self) -> None:
         checks = {'downscale': self.downscale in (1, 2), 'threshold': 0 < self.threshold < 1,
@@ -393,7 +398,8 @@ class DetectorConfig:
                   and (tuple(self.up_px) == (0.0, 0.0)
                        or abs(float(np.hypot(*self.up_px)) - 1) < 1e-6),
                   'view_elevation_deg': 0 <= self.view_elevation_deg <= 90,
-                  'exposure_floor': self.exposure_floor in ('off', 'faint')}
+                  'exposure_floor': self.exposure_floor in ('off', 'faint'),
+                  'split_gain': 1 < self.split_gain < 100}
         for name, ok in checks.items():
             if not ok:
                 msg = f'{name}: out of range, got {getattr(self, name)!r}'
@@ -620,7 +626,8 @@ class MarkerDetector:
             base = 0.5 * self.config.threshold
             if away is None:
                 uv, source, parted, disc = split_touching(c, uv, base, radius, self._cut_up,
-                                                          self.config.split_wide)
+                                                          self.config.split_wide,
+                                                          self.config.split_gain)
             else:  # the dim pass: each spot one marker
                 source, parted, disc = np.arange(len(uv)), np.zeros(len(uv), np.bool_), uv.copy()
             # a fitted marker's size is one disc's radius of gyration, not its blob's

@@ -184,6 +184,12 @@ class StereoTrackConfig:
             smoothed by a light Gaussian (``DetectorConfig.smooth_centres``, which this sets):
             less of JPEG's and the sensor's noise in the 3D points; detections and numbers
             unchanged (session 24, detect24: docs/figures.md). False: the raw chroma's.
+        eager_split: each camera's detector splits a blob into touching markers where one
+            more disc lowers the fit's squared residual ``split.EAGER_GAIN`` (1.7) times
+            rather than ``split.GAIN`` (2) (``DetectorConfig.split_gain``, which this sets,
+            unless the detector's settings give another): half the merged marker-frames of
+            the burnt looks were pairs about a diameter apart whose two-disc fit was 1.6-2
+            times better (session 25, detect25: docs/figures.md). False: ``split.GAIN``.
         pass_audit: with ``whole_pass``, after its numbering, audit every number given
             (:mod:`~dempath_recon.tracking.pass_audit`): a piece of 2D track that carries two
             numbers keeps the one it carried longest, and a stretch of track its marker's
@@ -271,6 +277,7 @@ class StereoTrackConfig:
     dim_spots: bool = False
     band_pass: bool = True
     smooth_centres: bool = False
+    eager_split: bool = True
     pass_audit: bool = True
     carried_confirm: bool = False
     touch_confirm: bool = True

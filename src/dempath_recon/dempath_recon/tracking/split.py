@@ -48,6 +48,12 @@ from dempath_recon.tracking.cut_discs import BlobFit, fit_cut_discs, pixel_grid
 FloatArray = NDArray[np.float64]
 AREA_RATIO = 1.45  # a blob larger than this many single-marker footprints is tried as several
 GAIN = 2.0  # k + 1 discs must lower the squared residual this many times to be believed
+EAGER_GAIN = 1.7  # the same with ``StereoTrackConfig.eager_split`` (session 25): blobs of two
+# touching markers 0.85-1.1 diameters apart (census of 15 burnt looks: half the merged
+# marker-frames) were fitted 1.6-1.97 times better by two discs a diameter apart, each
+# showing 0.4-0.65 of a disc of its own, and left whole; lone markers on the tuned variations
+# (whole or covered, cut-disc fits) stay one at 1.7 (unchanged), 1.5 split pairs at dusk that
+# then swapped (tuning looks Q193_dusk, Q197_lowsun)
 MIN_SEPARATION = 0.9  # fitted centres closer than this many radii are one marker
 MIN_OWN_SHARE = 0.2  # each fitted disc must show this share of a disc that no other disc covers
 MAX_MARKERS = 3  # most markers one blob is split into
@@ -80,11 +86,12 @@ def _own_share(fit: BlobFit, xy: FloatArray, up: FloatArray | None) -> float:
 
 
 def _accept(fit: BlobFit, better: BlobFit, xy: FloatArray, radius: float,
-            up: FloatArray | None) -> bool:
-    """Whether ``better`` (one disc more) is believed over ``fit``."""
+            up: FloatArray | None, gain: float = GAIN) -> bool:
+    """Whether ``better`` (one disc more) is believed over ``fit``: its squared residual
+    ``gain`` times lower, its centres apart, each marker seen enough of its own."""
     c = better.centres
     gaps = np.linalg.norm(c[:, None] - c[None], axis=2)[np.triu_indices(len(c), 1)]
-    return bool(better.cost * GAIN < fit.cost and gaps.min() >= MIN_SEPARATION * radius
+    return bool(better.cost * gain < fit.cost and gaps.min() >= MIN_SEPARATION * radius
                 and _own_share(better, xy, up) >= MIN_OWN_SHARE)
 
 
@@ -102,7 +109,8 @@ def seen_centroid(fit: BlobFit, up: FloatArray | None) -> FloatArray:
 
 
 def split_blob(patch: NDArray[np.float32], origin: tuple[int, int], base: float,
-               radius: float, up: FloatArray | None = None) -> BlobFit | None:
+               radius: float, up: FloatArray | None = None, gain: float = GAIN,
+               ) -> BlobFit | None:
     """The k >= 2 markers a blob holds, or None when it is one marker.
 
     Args:
@@ -112,6 +120,7 @@ def split_blob(patch: NDArray[np.float32], origin: tuple[int, int], base: float,
         radius: expected marker radius [detector px].
         up: (2,) the image direction of world up: each disc cut by the sand in front of it
             (:mod:`~dempath_recon.tracking.cut_discs`), or None: whole discs.
+        gain: how many times lower one more disc's squared residual must be (``GAIN``).
     """
     xy = pixel_grid(patch.shape, origin)
     wgt = np.maximum(patch.ravel().astype(np.float64) - base, 0.0)
@@ -125,7 +134,7 @@ def split_blob(patch: NDArray[np.float32], origin: tuple[int, int], base: float,
         if area < (k - 1 - (0.5 if up is not None and k == 2 else 0.0)) * np.pi * radius ** 2:
             break  # no room for another marker (a covered pair may show one marker's area)
         trial = fit_cut_discs(patch, origin, _along_axis(xy, wgt, k), radius, up)
-        if not _accept(best, trial, xy[wgt > 0], radius, up):
+        if not _accept(best, trial, xy[wgt > 0], radius, up, gain):
             break
         best, chosen = trial, trial
     return chosen
@@ -183,7 +192,7 @@ def blob_labels(chroma: NDArray[np.float32], base: float, rows: NDArray[np.intp]
 
 
 def split_touching(chroma: NDArray[np.float32], uv: FloatArray, base: float, radius: float,
-                   up: FloatArray | None = None, wide: bool = False,
+                   up: FloatArray | None = None, wide: bool = False, gain: float = GAIN,
                    ) -> tuple[FloatArray, NDArray[np.intp], NDArray[np.bool_], FloatArray]:
     """Markers of a chroma window with touching ones split apart.
 
@@ -195,6 +204,8 @@ def split_touching(chroma: NDArray[np.float32], uv: FloatArray, base: float, rad
         up: (2,) the image direction of world up (each marker's disc cut by the sand in front
             of it), or None: whole discs.
         wide: also try blobs wider than one marker (``WIDE_SIZE``), not only large ones.
+        gain: how many times lower one more disc's squared residual must be (``GAIN``;
+            ``EAGER_GAIN`` with ``StereoTrackConfig.eager_split``).
 
     Returns:
         ``(uv, source, split, centre)``: (m, 2) centres with each split blob's detections
@@ -230,7 +241,7 @@ def split_touching(chroma: NDArray[np.float32], uv: FloatArray, base: float, rad
                       partial(_gyration, chroma[y0:y1, x0:x1], inside, base), radius, wide):
                 patch = np.where(inside, chroma[y0:y1, x0:x1],
                                  np.minimum(chroma[y0:y1, x0:x1], base))
-                fit = split_blob(patch, (x0, y0), base, radius, up)
+                fit = split_blob(patch, (x0, y0), base, radius, up, gain)
             if fit is not None:
                 out += list(seen_centroid(fit, up))
                 centre += list(fit.centres)

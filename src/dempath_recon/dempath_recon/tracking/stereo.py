@@ -79,6 +79,7 @@ from dempath_recon.tracking.records import CameraCounts, PixelFrame, StereoTrack
 from dempath_recon.tracking.regain import number_regained
 from dempath_recon.tracking.release import HeldFrame, fill_confirmed, renumber
 from dempath_recon.tracking.shake import ShakeEstimate, ShakeEstimator, remove_shake
+from dempath_recon.tracking.split import EAGER_GAIN, GAIN
 from dempath_recon.tracking.state import (
     Sighting,
     StereoState,
@@ -570,7 +571,8 @@ def camera_detectors(cameras: dict[str, Camera], config: StereoTrackConfig,
     covered markers' centres, unless ``config.uncover`` is off or the detector's settings give
     an up direction), without the dim pass where ``config.dim_spots`` is off, and with the
     band-pass and the smoothed centres as ``config.band_pass`` and ``config.smooth_centres``
-    say."""
+    say, and the splitting's gain ``split.EAGER_GAIN`` where ``config.eager_split`` says so
+    (unless the detector's settings give another)."""
     out = {}
     for name, cam in cameras.items():
         det = config.detector
@@ -578,6 +580,8 @@ def camera_detectors(cameras: dict[str, Camera], config: StereoTrackConfig,
             det = replace(det, dim_spots=False)
         if (det.band_pass, det.smooth_centres) != (config.band_pass, config.smooth_centres):
             det = replace(det, band_pass=config.band_pass, smooth_centres=config.smooth_centres)
+        if config.eager_split and det.split_gain == GAIN:
+            det = replace(det, split_gain=EAGER_GAIN)
         if det.marker_diameter_px == 0 and config.marker_diameter_m > 0:
             det = replace(det, marker_diameter_px=marker_diameter_px(
                 cam, config.grid, config.marker_diameter_m))
