@@ -256,8 +256,8 @@ RULE_SWITCHES = (  # (flag, StereoTrackConfig field, help): the numbering rules 
      "the frame's own light (StereoTrackConfig.dim_spots; off by default)"),
     ('--no-band-pass', 'band_pass', 'find spots on the matched filter alone, not less the local '
      'background (StereoTrackConfig.band_pass; on by default)'),
-    ('--no-eager-split', 'eager_split', 'split touching markers only where one more disc '
-     'fits twice as well, not 1.7 times (StereoTrackConfig.eager_split; on by default)'),
+    ('--eager-split', 'eager_split', 'split touching markers where one more disc fits 1.7 '
+     'times as well, not twice (StereoTrackConfig.eager_split; off by default)'),
     ('--smooth-centres', 'smooth_centres', 'publish centres measured on the lightly smoothed '
      'chroma (StereoTrackConfig.smooth_centres; off by default)'),
     ('--no-pass-audit', 'pass_audit', 'give the whole pass out without auditing its numbers '

@@ -189,7 +189,10 @@ class StereoTrackConfig:
             rather than ``split.GAIN`` (2) (``DetectorConfig.split_gain``, which this sets,
             unless the detector's settings give another): half the merged marker-frames of
             the burnt looks were pairs about a diameter apart whose two-disc fit was 1.6-2
-            times better (session 25, detect25: docs/figures.md). False: ``split.GAIN``.
+            times better. Off by default (session 25, detect25: on 21 tuning looks numbered
+            right 82.96 -> 83.89 %, switches 88 -> 63, wrong pairs 17 -> 10; on the seed held
+            apart 86.79 -> 86.74 %, switches 43 -> 46: docs/figures.md). False:
+            ``split.GAIN``.
         pass_audit: with ``whole_pass``, after its numbering, audit every number given
             (:mod:`~dempath_recon.tracking.pass_audit`): a piece of 2D track that carries two
             numbers keeps the one it carried longest, and a stretch of track its marker's
@@ -277,7 +280,7 @@ class StereoTrackConfig:
     dim_spots: bool = False
     band_pass: bool = True
     smooth_centres: bool = False
-    eager_split: bool = True
+    eager_split: bool = False
     pass_audit: bool = True
     carried_confirm: bool = False
     touch_confirm: bool = True

@@ -48,7 +48,7 @@ from dempath_recon.tracking.cut_discs import BlobFit, fit_cut_discs, pixel_grid
 FloatArray = NDArray[np.float64]
 AREA_RATIO = 1.45  # a blob larger than this many single-marker footprints is tried as several
 GAIN = 2.0  # k + 1 discs must lower the squared residual this many times to be believed
-EAGER_GAIN = 1.7  # the same with ``StereoTrackConfig.eager_split`` (session 25): blobs of two
+EAGER_GAIN = 1.7  # the same with ``StereoTrackConfig.eager_split`` (off; session 25): blobs of
 # touching markers 0.85-1.1 diameters apart (census of 15 burnt looks: half the merged
 # marker-frames) were fitted 1.6-1.97 times better by two discs a diameter apart, each
 # showing 0.4-0.65 of a disc of its own, and left whole; lone markers on the tuned variations
