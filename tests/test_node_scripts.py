@@ -18,7 +18,7 @@ import pytest
 from dempath.nodes.harness import RosHarness
 
 BIN = Path(sys.executable).parent
-SCRIPTS = ['dempath_comparer', 'dempath_calibrator', 'dempath_recorder']  # = node names
+SCRIPTS = ['dempath_comparer', 'dempath_calibrator', 'dempath_recorder']
 START_TIMEOUT_S = 120.0  # imports (numpy, OpenCV, torch) can take long on a busy machine
 
 
@@ -28,11 +28,16 @@ def test_script_starts_and_stops_on_sigint(script: str, tmp_path: Path,
     """The node comes up, and Ctrl-C ends it with status 0 and no traceback."""
     # a crash in C (once: SIGSEGV on Ctrl-C in a fresh-clone CI) prints every thread's stack
     env = {**os.environ, 'ROS_DOMAIN_ID': str(ros_harness.domain_id), 'PYTHONFAULTHANDLER': '1'}
-    args = [str(BIN / script), '--ros-args', '-p', f'output:={tmp_path / "bag"}'] \
-        if script == 'dempath_recorder' else [str(BIN / script)]
+    # a name no other process has: another test's node of the same name in a domain that
+    # happens to be the same (ids are drawn from 100) must not be taken for this one, which
+    # would then get its Ctrl-C before its handler is in place (status -2, seen on a machine
+    # running several suites at once)
+    node_name = f'{script}_{os.getpid()}_{time.monotonic_ns()}'
+    args = [str(BIN / script), '--ros-args', '-r', f'__node:={node_name}']
+    if script == 'dempath_recorder':
+        args += ['-p', f'output:={tmp_path / "bag"}']
     proc = subprocess.Popen(args, cwd=tmp_path, env=env, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
-    node_name = script
     up = ros_harness.spin_until(
         lambda: proc.poll() is not None or node_name in ros_harness.probe.get_node_names(),
         timeout_s=START_TIMEOUT_S)
