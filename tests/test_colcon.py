@@ -87,16 +87,17 @@ def test_installed_node_runs_from_the_install(install: Path, tmp_path: Path) -> 
     script = install / PACKAGE / 'lib' / PACKAGE / NODE
     with RosHarness() as harness:
         env['ROS_DOMAIN_ID'] = str(harness.domain_id)
+        name = f'{NODE}_{os.getpid()}_{time.monotonic_ns()}'  # no other test's node has it
         proc = subprocess.Popen(
-            [str(script), '--ros-args', '-p', 'camera:=cam_side', '-p',
-             f'calibration_file:={calib}'], env=env, stdout=subprocess.PIPE,
+            [str(script), '--ros-args', '-r', f'__node:={name}', '-p', 'camera:=cam_side',
+             '-p', f'calibration_file:={calib}'], env=env, stdout=subprocess.PIPE,
             stderr=subprocess.STDOUT, text=True)
         try:
             def joined() -> bool:
                 names = harness.probe.get_node_names()
-                return NODE in names and any(
+                return name in names and any(
                     t == '/cam_side/pixel_points' for t, _ in
-                    harness.probe.get_publisher_names_and_types_by_node(NODE, '/'))
+                    harness.probe.get_publisher_names_and_types_by_node(name, '/'))
 
             assert harness.spin_until(joined, timeout_s=30.0), 'the node never joined the graph'
         finally:
