@@ -260,6 +260,9 @@ RULE_SWITCHES = (  # (flag, StereoTrackConfig field, help): the numbering rules 
      'times as well, not twice (StereoTrackConfig.eager_split; off by default)'),
     ('--smooth-centres', 'smooth_centres', 'publish centres measured on the lightly smoothed '
      'chroma (StereoTrackConfig.smooth_centres; off by default)'),
+    ('--no-flux-share', 'flux_share', "place partly covered markers' published centres by "
+     'their centroid mass, not their chroma flux over the local sand '
+     '(StereoTrackConfig.flux_share; on)'),
     ('--no-pass-audit', 'pass_audit', 'give the whole pass out without auditing its numbers '
      "against the markers' 3D paths (StereoTrackConfig.pass_audit; on)"),
     ('--no-smooth-paths', 'smooth_paths', "give the numbered centres out as detected, not "

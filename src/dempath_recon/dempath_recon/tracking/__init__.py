@@ -5,8 +5,9 @@ Bottom to top (a module imports only the ones before it): ``merge`` (two cameras
 stamp order), ``centroid_kernel`` (a spot's iterated centroid, compiled), ``cut_discs`` (the
 image model of touching, partly covered markers),
 ``split`` (touching markers fitted apart), ``covered`` (partly covered markers' centres),
-``streak`` (a smeared marker along its motion), ``band_pass`` (a spot's chroma over its
-local background, and how much of a marker its excess chroma says is seen), ``colour_model``
+``seen_flux`` (how much of a marker a spot shows), ``streak`` (a smeared marker along its
+motion), ``band_pass`` (a spot's chroma over its local background, and how much of a marker
+its excess chroma says is seen), ``colour_model``
 (the clay's colour axis and the frame's chroma floor), ``detect`` (marker spots in one
 image), ``shake`` (each frame's image motion from the view's fixed parts), ``linker`` (one
 camera's tracks), ``two_view_kernel`` (two views' linear triangulation, compiled),

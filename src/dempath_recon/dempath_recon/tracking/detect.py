@@ -77,6 +77,7 @@ from dempath_recon.tracking.colour_model import (
 from dempath_recon.tracking.covered import MAX_ELEVATION_DEG, seen_share, uncover
 from dempath_recon.tracking.cut_discs import fit_cut_discs
 from dempath_recon.tracking.cut_discs_kernel import warm as warm_cut_discs
+from dempath_recon.tracking.seen_flux import spot_flux
 from dempath_recon.tracking.shaded import lit_centroids, shade_floor
 from dempath_recon.tracking.split import GAIN, split_touching
 from dempath_recon.tracking.streak import STREAK_MIN_PX, find_streak
@@ -230,6 +231,9 @@ class Detections(NamedTuple):
             [detector px]; or None (not kept). The two-camera tracker refits a spot there
             where its tracks say it holds two markers (:mod:`~dempath_recon.tracking.
             track_split`); computed only when asked.
+        flux_shift: (n, 2) how far each spot's ``centre`` moves with its seen share read from
+            its chroma flux (``DetectorConfig.flux_share``) [px], or None (not given); the
+            tracker applies it to the published points after the whole pass's numbering.
     """
 
     uv: FloatArray
@@ -241,6 +245,7 @@ class Detections(NamedTuple):
     parted: NDArray[np.bool_] | None = None
     patch: ChromaPatch | None = None
     mass: FloatArray | None = None
+    flux_shift: FloatArray | None = None
 
     @classmethod
     def empty(cls) -> Detections:
@@ -362,6 +367,12 @@ class DetectorConfig:
             squared residual is this many times lower than ``k``'s (``split.GAIN``, 2, as
             tuned in session 16; ``split.EAGER_GAIN`` with ``StereoTrackConfig.
             eager_split``).
+        flux_share: also give each partly covered marker's centre with its seen share read
+            from its chroma flux over the local sand (:func:`~dempath_recon.tracking.
+            seen_flux.spot_flux`, linear in the area seen) instead of its centroid mass (the
+            chroma above the core level, which drops the blurred rim), as the change it makes
+            (``Detections.flux_shift``); ``centre`` stays the mass's. Needs ``up_px``.
+            False: not given.
     """
 
     downscale: int = 2
@@ -386,6 +397,7 @@ class DetectorConfig:
     band_pass: bool = True
     smooth_centres: bool = False
     split_gain: float = GAIN
+    flux_share: bool = False
 
     def __post_init__(self) -> None:
         checks = {'downscale': self.downscale in (1, 2), 'threshold': 0 < self.threshold < 1,
@@ -567,7 +579,10 @@ class MarkerDetector:
             crowded=None if found.crowded is None else joined(
                 found.crowded, dim.crowded, found.crowded, np.zeros(len(dim.uv), np.bool_)),
             parted=None if found.parted is None else joined(
-                found.parted, dim.parted, found.parted, np.zeros(len(dim.uv), np.bool_)))
+                found.parted, dim.parted, found.parted, np.zeros(len(dim.uv), np.bool_)),
+            flux_shift=None if found.flux_shift is None and dim.flux_shift is None else joined(
+                found.flux_shift, dim.flux_shift, np.zeros((len(found.uv), 2)),
+                np.zeros((len(dim.uv), 2))))
 
     def _patch(self, image: NDArray[np.uint8], axis: NDArray[np.float32], point: FloatArray,
                half_px: float) -> tuple[NDArray[np.float32], tuple[int, int]]:
@@ -619,7 +634,7 @@ class MarkerDetector:
             return Detections.empty()
         uv, size, strength, mass = self._refine(c, rows, cols, thr)
         own_mass = mass
-        centre, parted = None, None
+        centre, parted, flux_shift = None, None, None
         diameter = self.marker_size(size * s)
         if diameter > 0:
             radius = 0.5 * diameter / s
@@ -656,6 +671,12 @@ class MarkerDetector:
                 centre = disc if share is None else uncover(
                     seen_uv, share, radius, self.config.up_px, ~parted,
                     self.config.view_elevation_deg)[0]
+                if self.config.flux_share:
+                    flux = seen_share(spot_flux(c, uv, radius), None)
+                    flux_shift = np.zeros_like(uv) if flux is None else np.where(
+                        parted[:, None], 0.0, uncover(seen_uv, flux, radius, self.config.up_px,
+                                                      ~parted, self.config.view_elevation_deg,
+                                                      )[0] - centre)
                 centre = np.where(parted[:, None], disc, centre) + np.array([ox, oy], np.float64)
             elif dim_floor is not None or self.config.smooth_centres:
                 centre = np.where(parted[:, None], uv, seen_uv) + np.array([ox, oy], np.float64)
@@ -668,7 +689,8 @@ class MarkerDetector:
         if centre is not None:
             centre = (centre[ok] + 0.5) * s - 0.5
         return Detections(full, conf[ok], size, crowded, None, centre,
-                          None if parted is None else parted[ok], mass=own_mass[ok] * s * s)
+                          None if parted is None else parted[ok], mass=own_mass[ok] * s * s,
+                          flux_shift=None if flux_shift is None else flux_shift[ok] * s)
 
     def _smooth_centroids(self, c: NDArray[np.float32], uv: FloatArray,
                           parted: NDArray[np.bool_], thr: float) -> FloatArray:

@@ -193,6 +193,13 @@ class StereoTrackConfig:
             right 82.96 -> 83.89 %, switches 88 -> 63, wrong pairs 17 -> 10; on the seed held
             apart 86.79 -> 86.74 %, switches 43 -> 46: docs/figures.md). False:
             ``split.GAIN``.
+        flux_share: with ``whole_pass``, a partly covered marker's published centre placed by
+            the seen share its chroma flux over the local sand gives (``DetectorConfig.
+            flux_share``, which this sets; :mod:`~dempath_recon.tracking.seen_flux`), not its
+            centroid mass; only after every number and withholding is decided on the mass's
+            centres, so numbers are unchanged. On by default (session 25, rms25: 3D RMS of
+            the right pairs lower on 12 of 14 tuning looks, 3 of 3 low views of the held-apart
+            seed; docs/figures.md). False: the centroid mass's centres.
         pass_audit: with ``whole_pass``, after its numbering, audit every number given
             (:mod:`~dempath_recon.tracking.pass_audit`): a piece of 2D track that carries two
             numbers keeps the one it carried longest, and a stretch of track its marker's
@@ -281,6 +288,7 @@ class StereoTrackConfig:
     band_pass: bool = True
     smooth_centres: bool = False
     eager_split: bool = False
+    flux_share: bool = True
     pass_audit: bool = True
     carried_confirm: bool = False
     touch_confirm: bool = True

@@ -126,6 +126,12 @@ class StereoMarkerTracker:
         self._relative: dict[str, dict[float, FloatArray]] = {c: {} for c in self.shakers}
         # with config.whole_pass: the frames due so far, numbered as due, kept till flush
         self._pass: list[tuple[HeldFrame, PixelFrame]] = []
+        # (camera, stamp) -> (k, 2) how far the flux's seen share moves each point of the
+        # frame (``config.flux_share``), applied after the whole pass's numbering [px]
+        self._flux_shift: dict[tuple[str, float], FloatArray] = {}
+        # the whole pass's frames with those centres (smoothed as the published ones), given
+        # out in their place with the numbers the publication gate left on the mass's centres
+        self._moved: list[PixelFrame] | None = None
 
     @property
     def cameras(self) -> dict[str, Camera]:
@@ -321,7 +327,12 @@ class StereoMarkerTracker:
         if record is not None:
             record.frame_done(camera, stamp_s, tf.track_ids, markers)
         size_px, mass = spot_measures(det, tf.uv)
-        frame = PixelFrame(camera, stamp_s, markers, published_centres(det, tf.uv),
+        published = published_centres(det, tf.uv)
+        if self.config.flux_share and self.config.whole_pass:
+            moved = flux_moved(det, tf.uv)
+            if moved is not None:
+                self._flux_shift[(camera, stamp_s)] = moved - published
+        frame = PixelFrame(camera, stamp_s, markers, published,
                            tf.confidence, tuple(events) + tf.events, shake_px, size_px, mass)
         state.queue.hold(frame, tf.track_ids, free_mask, waiting)
         return frame
@@ -366,7 +377,13 @@ class StereoMarkerTracker:
             # the calibration's view placed by the mean shift of the whole pass, not of the
             # frames till each was due (shake_3px: 3D RMS 2.89 -> 2.24 mm)
             frames = self._whole_pass([h for h, _ in held], [self._reanchor(f) for f in frames])
-        return [self._gated(h, f) for (h, _), f in zip(held, frames, strict=True)]
+        out = [self._gated(h, f) for (h, _), f in zip(held, frames, strict=True)]
+        moved, self._moved = self._moved, None
+        if moved is None:
+            return out
+        # the flux's centres go out with the numbers and withholdings decided on the mass's
+        return [m._replace(markers=f.markers, events=f.events)
+                for f, m in zip(out, moved, strict=True)]
 
     def _whole_pass(self, held: list[HeldFrame], frames: list[PixelFrame]) -> list[PixelFrame]:
         """``frames`` numbered from the whole pass, the points it numbered counted."""
@@ -424,8 +441,14 @@ class StereoMarkerTracker:
             for cam, n in touched.withheld.items():
                 state.counts[cam].touch_withheld += n
                 state.counts[cam].touch_swapped += touched.swapped[cam]
+        shifts, self._flux_shift = self._flux_shift, {}
+        moved = None if not shifts else [  # the flux's centres, once every number is given
+            f._replace(uv=f.uv + shift) if (shift := shifts.get((f.camera, f.stamp_s)))
+            is not None and shift.shape == f.uv.shape else f for f in out]
         if state.config.smooth_paths:
             out = smooth_paths(out, state.config.fps)
+            moved = None if moved is None else smooth_paths(moved, state.config.fps)
+        self._moved = moved
         return out
 
     def _diameters(self) -> dict[str, float]:
@@ -549,6 +572,24 @@ def published_centres(det: Detections, uv: FloatArray) -> FloatArray:
     return out
 
 
+def flux_moved(det: Detections, uv: FloatArray) -> FloatArray | None:
+    """(k, 2) the points a frame gives out (``published_centres``) with each partly covered
+    marker's centre placed by the seen share its chroma flux gives (``Detections.flux_shift``,
+    :mod:`~dempath_recon.tracking.seen_flux`), or None where the detections carry no such
+    shift for each of their spots (off, or spots split again by the tracks).
+
+    Why apart from ``centre``: the whole pass's numbering and the publication gate decide on
+    the published points, and their margins were tuned on the centroid mass's centres; a
+    change of centres flips some of their decisions (on 14 tuning looks: one look gained a
+    wrong pair, another lost one; with the numbering kept, the gate let one more switch out),
+    so the flux's centres take the place of those only after every number and withholding is
+    decided (``flush``)."""
+    shift = det.flux_shift
+    if shift is None or det.centre is None or len(shift) != len(det.uv):
+        return None
+    return published_centres(det._replace(centre=det.centre + shift), uv)
+
+
 def withhold_crowded(det: Detections, uv: FloatArray, markers: NDArray[np.int32],
                      ) -> NDArray[np.int32]:
     """``markers`` with the points of crowded spots (``Detections.crowded``: two touching
@@ -570,16 +611,19 @@ def camera_detectors(cameras: dict[str, Camera], config: StereoTrackConfig,
     direction of world up there and the line of sight's elevation (``view_of_up``, for partly
     covered markers' centres, unless ``config.uncover`` is off or the detector's settings give
     an up direction), without the dim pass where ``config.dim_spots`` is off, and with the
-    band-pass and the smoothed centres as ``config.band_pass`` and ``config.smooth_centres``
-    say, and the splitting's gain ``split.EAGER_GAIN`` where ``config.eager_split`` says so
-    (unless the detector's settings give another)."""
+    band-pass, the smoothed centres and the flux's seen share as ``config.band_pass``,
+    ``config.smooth_centres`` and ``config.flux_share`` say, and the splitting's gain
+    ``split.EAGER_GAIN`` where ``config.eager_split`` says so (unless the detector's settings
+    give another)."""
     out = {}
     for name, cam in cameras.items():
         det = config.detector
         if not config.dim_spots:
             det = replace(det, dim_spots=False)
-        if (det.band_pass, det.smooth_centres) != (config.band_pass, config.smooth_centres):
-            det = replace(det, band_pass=config.band_pass, smooth_centres=config.smooth_centres)
+        if (det.band_pass, det.smooth_centres, det.flux_share) != (
+                config.band_pass, config.smooth_centres, config.flux_share):
+            det = replace(det, band_pass=config.band_pass, smooth_centres=config.smooth_centres,
+                          flux_share=config.flux_share)
         if config.eager_split and det.split_gain == GAIN:
             det = replace(det, split_gain=EAGER_GAIN)
         if det.marker_diameter_px == 0 and config.marker_diameter_m > 0:
