@@ -208,6 +208,7 @@ def score(out: list[PixelFrame], truth: dict[str, Any], cams: dict[str, CameraMo
     true3d = {round(f['stamp_ns'] * 1e-3): np.array(f['xyz']) for f in truth['frames']
               if f['camera'] == side}
     d3, wrong_pairs = [], 0
+    d3_right: list[float] = []  # the points not counted as wrong pairs
     for k, t_s in enumerate(times):
         us = round(t_s * 1e6)
         ref = true3d.get(us)
@@ -222,11 +223,14 @@ def score(out: list[PixelFrame], truth: dict[str, Any], cams: dict[str, CameraMo
             bad = (side, us, int(m)) in wrong or any((front, int(f), int(m)) in wrong
                                                      for f in near)
             wrong_pairs += int(bad and err * 1e3 > WRONG_PAIR_MM)
+            if not (bad and err * 1e3 > WRONG_PAIR_MM):
+                d3_right.append(err)
     return {'want': want, 'found': found, 'right': right, 'id_switches': switches,
             'id_switches_nearest': switches_nearest,
             'spurious_numbers': spurious,
             'wrong_pair_points': wrong_pairs, 'sq3d': float(np.sum(np.square(d3))),
-            'n3d': len(d3), 'max3d_mm': 1e3 * max(d3) if d3 else float('nan')}
+            'n3d': len(d3), 'max3d_mm': 1e3 * max(d3) if d3 else float('nan'),
+            'sq3d_right': float(np.sum(np.square(d3_right))), 'n3d_right': len(d3_right)}
 
 
 def offline(frames: Frames, cams: dict[str, CameraModel], config: StereoTrackConfig,
@@ -360,6 +364,7 @@ def summary(scores: list[dict[str, Any]]) -> dict[str, Any]:
     """Pooled figures of several variations."""
     want = sum(s['want'] for s in scores)
     n3d = sum(s['n3d'] for s in scores)
+    n_right = sum(s['n3d_right'] for s in scores)
     return {'recall': sum(s['found'] for s in scores) / max(want, 1),
             'numbered_right': sum(s['right'] for s in scores) / max(want, 1),
             'id_switches': sum(s['id_switches'] for s in scores),
@@ -369,6 +374,9 @@ def summary(scores: list[dict[str, Any]]) -> dict[str, Any]:
             'traj_rms_mm': 1e3 * float(np.sqrt(sum(s['sq3d'] for s in scores) / n3d))
             if n3d else float('nan'),
             'traj_max_mm': max((s['max3d_mm'] for s in scores), default=float('nan')),
+            # the same without the wrong-pair points: the centres' accuracy apart from identity
+            'traj_rms_right_mm': 1e3 * float(np.sqrt(sum(s['sq3d_right'] for s in scores)
+                                                     / n_right)) if n_right else float('nan'),
             'visible_markers': want}
 
 
