@@ -388,53 +388,40 @@ class StereoMarkerTracker:
     def _whole_pass(self, held: list[HeldFrame], frames: list[PixelFrame]) -> list[PixelFrame]:
         """``frames`` numbered from the whole pass, the points it numbered counted."""
         state = self.state
-        out, _ = number_whole_pass(frames, [h.track_ids for h in held], self.cameras,
-                                   state.grid_uv, state.config.epipolar_px, state.config.fps)
-        for before, after in zip(frames, out, strict=True):
-            state.counts[after.camera].numbered_whole_pass += int(
-                (after.markers != before.markers).sum())
-        ids, xyz = state.config.grid.points()
-        layout = dict(zip(ids.tolist(), xyz, strict=True))
-        if state.config.piece_numbering:
-            pieces, _ = number_pieces(out, [h.track_ids for h in held], self.cameras,
-                                      state.grid_uv, self._diameters(),
-                                      state.config.epipolar_px, state.config.fps)
-            for before, after in zip(out, pieces, strict=True):
-                state.counts[after.camera].numbered_pieces += int(
-                    (after.markers != before.markers).sum())
-            out = pieces
-        if state.config.bed_numbering:
-            bed, _ = number_by_bed(out, [h.track_ids for h in held], self.cameras,
-                                   state.grid_uv, layout,
-                                   self._diameters(), state.config.epipolar_px,
-                                   state.config.fps)
-            for before, after in zip(out, bed, strict=True):
-                state.counts[after.camera].numbered_by_bed += int(
-                    (after.markers != before.markers).sum())
-            out = bed
-        if state.config.joint_fill:
-            filled, _ = fill_jointly(out, [h.track_ids for h in held], self.cameras,
-                                     state.config.epipolar_px, state.config.fps)
-            for before, after in zip(out, filled, strict=True):
-                state.counts[after.camera].numbered_joint_fill += int(
-                    (after.markers != before.markers).sum())
-            out = filled
+        track_ids = [h.track_ids for h in held]
         sizes = self._diameters()
+        out, _ = number_whole_pass(frames, track_ids, self.cameras,
+                                   state.grid_uv, state.config.epipolar_px, state.config.fps)
+        self._count_renumbered(frames, out, 'numbered_whole_pass')
+        if state.config.piece_numbering:
+            pieces, _ = number_pieces(out, track_ids, self.cameras, state.grid_uv, sizes,
+                                      state.config.epipolar_px, state.config.fps)
+            out = self._count_renumbered(out, pieces, 'numbered_pieces')
+        if state.config.bed_numbering:
+            ids, xyz = state.config.grid.points()
+            bed, _ = number_by_bed(out, track_ids, self.cameras, state.grid_uv,
+                                   dict(zip(ids.tolist(), xyz, strict=True)), sizes,
+                                   state.config.epipolar_px, state.config.fps)
+            out = self._count_renumbered(out, bed, 'numbered_by_bed')
+        if state.config.joint_fill:
+            filled, _ = fill_jointly(out, track_ids, self.cameras,
+                                     state.config.epipolar_px, state.config.fps)
+            out = self._count_renumbered(out, filled, 'numbered_joint_fill')
         if state.config.pass_audit:
-            audit = audit_pass(out, [h.track_ids for h in held], self.cameras, sizes,
+            audit = audit_pass(out, track_ids, self.cameras, sizes,
                                state.config.fps)
             out = audit.frames
             for cam, n in audit.renumbered.items():
                 state.counts[cam].audit_renumbered += n
                 state.counts[cam].audit_withheld += audit.withheld[cam]
         if state.config.carried_confirm:  # numbers carried over a break checked
-            carried = withhold_carried(out, [h.track_ids for h in held], self.cameras, sizes,
+            carried = withhold_carried(out, track_ids, self.cameras, sizes,
                                        state.config.fps)
             out = carried.frames
             for cam, n in carried.withheld.items():
                 state.counts[cam].carried_withheld += n
         if state.config.touch_confirm:  # then those of touching markers
-            touched = withhold_exchanged(out, [h.track_ids for h in held], self.cameras, sizes,
+            touched = withhold_exchanged(out, track_ids, self.cameras, sizes,
                                          state.config.fps, wait=state.config.touch_wait,
                                          swap=state.config.touch_swap)
             out = touched.frames
@@ -450,6 +437,16 @@ class StereoMarkerTracker:
             moved = None if moved is None else smooth_paths(moved, state.config.fps)
         self._moved = moved
         return out
+
+    def _count_renumbered(self, before: list[PixelFrame], after: list[PixelFrame],
+                          counter: str) -> list[PixelFrame]:
+        """``after``, with the points whose number a whole-pass step changed from ``before``
+        added to each camera's ``counter`` (a :class:`CameraCounts` field)."""
+        for old, new in zip(before, after, strict=True):
+            counts = self.state.counts[new.camera]
+            setattr(counts, counter,
+                    getattr(counts, counter) + int((new.markers != old.markers).sum()))
+        return after
 
     def _diameters(self) -> dict[str, float]:
         """Camera -> a marker's diameter in its images [px] (its detector's)."""
