@@ -196,8 +196,29 @@ def pitch_steps(proj: FloatArray, xyz: FloatArray) -> list[FloatArray]:
     return sorted(out, key=lambda v: (float(v[0]), float(v[1])))
 
 
+_ESSENTIAL: dict[tuple[int, int], tuple[Camera, Camera, bytes, FloatArray]] = {}
+
+
 def essential(cam_a: Camera, cam_b: Camera) -> FloatArray:
-    """(3, 3) essential matrix with ``x_b^T E x_a = 0`` for normalised points of the two."""
+    """(3, 3) essential matrix with ``x_b^T E x_a = 0`` for normalised points of the two.
+
+    Remembered per pair of camera objects and their poses (the epipolar checks ask it
+    hundreds of times a frame for the same two cameras); a changed pose computes it anew."""
+    sign = b''.join(np.asarray(a, np.float64).tobytes()
+                    for a in (cam_a.R, cam_a.t, cam_b.R, cam_b.t))
+    entry = _ESSENTIAL.get((id(cam_a), id(cam_b)))
+    if entry is not None and entry[0] is cam_a and entry[1] is cam_b and entry[2] == sign:
+        return entry[3]
+    if len(_ESSENTIAL) >= 16:  # cameras of finished trackers
+        _ESSENTIAL.clear()
+    e = _essential(cam_a, cam_b)
+    e.setflags(write=False)
+    _ESSENTIAL[(id(cam_a), id(cam_b))] = (cam_a, cam_b, sign, e)
+    return e
+
+
+def _essential(cam_a: Camera, cam_b: Camera) -> FloatArray:
+    """:func:`essential`, computed."""
     r_ab = cam_b.R @ cam_a.R.T
     t_ab = cam_b.t - r_ab @ cam_a.t
     tx = np.array([[0, -t_ab[2], t_ab[1]], [t_ab[2], 0, -t_ab[0]], [-t_ab[1], t_ab[0], 0]])
@@ -361,6 +382,10 @@ def _two_view_linear(cam_a: Camera, cam_b: Camera, xa: FloatArray, xb: FloatArra
         np.ascontiguousarray(xb, np.float64).reshape(-1, 2), reweight), np.float64)
 
 
+CARRIED_MEMO = 4096  # answers of ``MarkerPositions.carried`` kept between two accepted positions
+# (a frame asks a few hundred; a long stretch with no marker triangulated starts again)
+
+
 class MarkerPositions:
     """Each marker's last accepted 3D position, and how far it can have moved since.
 
@@ -385,6 +410,9 @@ class MarkerPositions:
         self.history: dict[int, list[tuple[float, FloatArray]]] = {}  # the last HISTORY each
         self._times: dict[int, list[float]] = {}  # each history's stamps [s], in its order
         self._ordered: dict[int, bool] = {}  # whether those stamps never go back
+        # :meth:`carried`'s answers since the last :meth:`accept` (the numbering rules ask it of
+        # every missing marker, for each candidate pair, a dozen times a frame for one stamp)
+        self._carried: dict[tuple[object, ...], FloatArray | None] = {}
 
     def distance(self, marker: int, stamp_s: float, xyz: FloatArray) -> tuple[float, float]:
         """``(distance, allowed)`` [m] of ``xyz`` (3,) from the marker's last position."""
@@ -402,6 +430,7 @@ class MarkerPositions:
     def accept(self, marker: int, stamp_s: float, xyz: FloatArray) -> None:
         """Record ``xyz`` (3,) m as the marker's position at ``stamp_s``."""
         if np.isfinite(xyz).all():
+            self._carried.clear()
             self.known[marker] = (stamp_s, np.asarray(xyz, np.float64).copy())
             past = self.history.setdefault(marker, [])
             times = self._times.setdefault(marker, [])
@@ -440,6 +469,19 @@ class MarkerPositions:
         from ``anchor`` ``(stamp s, (3,) m)`` if given. None when it has no position or no
         such neighbour.
         """
+        key = (marker, stamp_s, near_s, recent_s, neighbours,
+               None if anchor is None else (anchor[0], anchor[1].tobytes()))
+        if key not in self._carried:
+            if len(self._carried) >= CARRIED_MEMO:
+                self._carried.clear()
+            self._carried[key] = self._carry(marker, stamp_s, near_s, recent_s, anchor,
+                                             neighbours)
+        at = self._carried[key]
+        return None if at is None else at.copy()
+
+    def _carry(self, marker: int, stamp_s: float, near_s: float, recent_s: float,
+               anchor: tuple[float, FloatArray] | None, neighbours: int) -> FloatArray | None:
+        """:meth:`carried`, computed."""
         start = self.known.get(marker, anchor)
         if start is None:
             return None
