@@ -30,6 +30,12 @@ detection, tracking, numbering) over the run's frames, and compares with the tru
   and ``markers_reconstructed``: markers with a 3D point in at least 80 % of the frames in
   which they are on the surface (the truth's ``on_surface``; issue 26 asks for 13 of 15).
 
+With ``--variations`` it scores the bundled render's field-condition variations instead
+(``detect_track_variations.py``), with ``--rendered`` / ``--rendered-tuning`` other rendered
+bags, and with ``--looks SPEC`` / ``--looks-tuning SPEC`` the looks a spec file lists
+(``bench/looks/*.txt``: independent packings, tool speeds and cohesion, rendered on first use
+and cached, ``rendered_looks.py``); held-out and tuned pools apart.
+
 Prints one JSON object as the last line, with the machine's load average.
 """
 
@@ -298,13 +304,22 @@ def main(argv: list[str]) -> int:
                    help='score these re-rendered bags (held out; with --variations: as well)')
     p.add_argument('--rendered-tuning', type=Path, nargs='*', default=[],
                    help='re-rendered bags a change was tuned on: labelled tuned, pooled apart')
+    p.add_argument('--looks', type=Path, nargs='*', default=[], metavar='SPEC',
+                   help='rendered looks listed in these spec files (bench/looks/*.txt), rendered '
+                        'on first use and scored held out (as --rendered)')
+    p.add_argument('--looks-tuning', type=Path, nargs='*', default=[], metavar='SPEC',
+                   help='rendered looks a change was tuned on (bench/looks/burnt.txt): as '
+                        '--rendered-tuning')
+    p.add_argument('--looks-cache', type=Path, default=None,
+                   help='where the looks are rendered (default ~/.cache/dempath/bench_looks)')
     p.add_argument('--cache', type=Path, default=HERE.parent / 'out' / 'bench_variations',
                    help='where the varied frames are kept between runs')
     p.add_argument('--exposure-unknown', action='store_true',
                    help='do not tell the trackers the exposure (no streak search)')
-    p.add_argument('--marker-colour', choices=('blue', 'look'), default='blue',
+    p.add_argument('--marker-colour', choices=('blue', 'look'), default=None,
                    help="'look': tell the detectors each recording's clay colour when it is not "
-                        "blue (DetectorConfig.marker_bgr, as a user sets it); 'blue': default")
+                        "blue (DetectorConfig.marker_bgr, as a user sets it; the default with "
+                        "--looks); 'blue': the detector's default clay (the default otherwise)")
     p.add_argument('--tool-speed', type=float, default=0.0, metavar='M_S',
                    help="the tool's speed [m/s] for recordings whose truth does not give it "
                         "(StereoTrackConfig.tool_speed_m_s, as the user knows it; 0: unknown)")
@@ -314,6 +329,14 @@ def main(argv: list[str]) -> int:
     for flag, _, text in RULE_SWITCHES:
         p.add_argument(flag, action='store_true', help=text)
     args = p.parse_args(argv)
+    if args.looks or args.looks_tuning:
+        from rendered_looks import CACHE, rendered_bags
+
+        cache = args.looks_cache or CACHE
+        args.rendered += [b for spec in args.looks for b in rendered_bags(spec, cache)]
+        args.rendered_tuning += [b for spec in args.looks_tuning
+                                 for b in rendered_bags(spec, cache)]
+        args.marker_colour = args.marker_colour or 'look'
     from detect_track_variations import (
         CLAY_SET,
         EXPOSURE_KNOWN,
