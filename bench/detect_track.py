@@ -271,6 +271,9 @@ RULE_SWITCHES = (  # (flag, StereoTrackConfig field, help): the numbering rules 
      '(StereoTrackConfig.flux_share; on)'),
     ('--no-pass-audit', 'pass_audit', 'give the whole pass out without auditing its numbers '
      "against the markers' 3D paths (StereoTrackConfig.pass_audit; on)"),
+    ('--audit-renumber', 'audit_renumber', 'let the pass audit renumber the stretches it '
+     'finds on another marker instead of withholding them (StereoTrackConfig.audit_renumber; '
+     'off)'),
     ('--no-smooth-paths', 'smooth_paths', "give the numbered centres out as detected, not "
      "smoothed along each marker's image path (StereoTrackConfig.smooth_paths; on)"),
     ('--carried-confirm', 'carried_confirm', 'withhold numbers a 2D track carried over a break '

@@ -142,3 +142,22 @@ def test_a_path_follows_a_marker_and_drops_a_stretch_on_a_neighbour(rig) -> None
     side = pts.cam == 1
     err = path.at(pts.times[side], FPS) - np.array([_grid(k)[8] for k in range(FRAMES)])
     assert float(np.abs(err).max()) < 2e-4
+
+
+def test_without_renumbering_the_audit_only_withholds(rig) -> None:
+    """The two cases the audit renumbers (a piece's later number, a track moved onto a
+    neighbour the front no longer gives out), audited as the pipeline does by default
+    (``StereoTrackConfig.audit_renumber`` off): both stretches are withheld, never given the
+    number the audit found, and the points before them keep theirs."""
+    numbered = {'cam_side': lambda k, m: m,
+                'cam_front': lambda k, m: -1 if m == 9 and k >= 14 else (
+                    9 if m == 8 and k >= 14 else m)}
+    frames, track_ids = _frames(rig, numbered, _plain())
+    result = audit_pass(frames, track_ids, _cameras(rig), DIAMETER_PX, FPS, renumber=False)
+    assert _numbers(result.frames, track_ids, 'cam_front', 8, 14) == {-1}
+    assert result.renumbered['cam_front'] == 0 < result.withheld['cam_front']
+    frames, track_ids = _frames(rig, *_moved(numbered_nine=False))
+    result = audit_pass(frames, track_ids, _cameras(rig), DIAMETER_PX, FPS, renumber=False)
+    assert _numbers(result.frames, track_ids, 'cam_front', 8, 10) == {-1}
+    assert _numbers(result.frames, track_ids, 'cam_front', 8, 0) == {8, -1}
+    assert sum(result.renumbered.values()) == 0

@@ -484,7 +484,7 @@ class Evidence(NamedTuple):
 
 def audit_pass(frames: Sequence[PixelFrame], track_ids: Sequence[NDArray[np.int64]],
                cameras: dict[str, Camera], diameter_px: dict[str, float], fps: float,
-               ) -> AuditResult:
+               renumber: bool = True) -> AuditResult:
     """The pass's frames (both cameras, as they would be given out; ``track_ids`` (k,) each
     point's track) with the points of a piece of track that carry another number than the
     piece's taken out, then every swap taken out or renumbered (the module's steps).
@@ -495,6 +495,12 @@ def audit_pass(frames: Sequence[PixelFrame], track_ids: Sequence[NDArray[np.int6
         cameras: ``{name: camera}`` of the two cameras.
         diameter_px: ``{camera: a marker's diameter in its image [px]}``.
         fps: the frame rate [1/s].
+        renumber: give a stretch the number the audit finds for it (the piece's longer one,
+            the other marker's whose path explains a swap); False: only withhold it (the
+            pipeline's default, ``StereoTrackConfig.audit_renumber``: where the stretch's
+            camera does not give that marker out, the marker's path there is placed by the
+            other camera alone, its depth along that camera's ray only extrapolated, and a
+            number given on it makes a pair of two markers' spots).
     """
     names = sorted(cameras)
     result = AuditResult(list(frames), dict.fromkeys(names, 0), dict.fromkeys(names, 0))
@@ -507,7 +513,7 @@ def audit_pass(frames: Sequence[PixelFrame], track_ids: Sequence[NDArray[np.int6
         out = minority(group)
         keep = next((g.marker for g in group if g not in out), UNNUMBERED)
         for s in out:
-            free = all(keep not in result.frames[i].markers for i, _ in s.where)
+            free = renumber and all(keep not in result.frames[i].markers for i, _ in s.where)
             take_out(result, s, range(len(s.where)), keep if free else UNNUMBERED,
                      f'its piece of track carries {keep} longer')
     ev = Evidence.of(result.frames, cameras, diameter_px, fps)
@@ -519,7 +525,7 @@ def audit_pass(frames: Sequence[PixelFrame], track_ids: Sequence[NDArray[np.int6
         if swap is None:
             continue
         run = range(swap.a, swap.b)
-        free = swap.theirs <= OTHER_IN and all(
+        free = renumber and swap.theirs <= OTHER_IN and all(
             swap.other not in result.frames[s.where[j][0]].markers for j in run)
         take_out(result, s, run, swap.other if free else UNNUMBERED,
                  f'{swap.own:.2f} diameters off its path, {swap.theirs:.2f} off '

@@ -210,6 +210,17 @@ class StereoTrackConfig:
             26 -> 21 wrong-pair points, four held-apart seed-215 looks 20 -> 13 and 3 -> 2, no
             right number withheld, the variation set's held-out pool 0/0 unchanged
             (docs/figures.md). False: the numbers given out as numbered.
+        audit_renumber: with ``pass_audit``, give an audited stretch the number the audit
+            finds for it (its piece's longer number, or the marker whose 3D path explains a
+            swap) instead of only withholding it. Off since session 26 (the lead): the
+            marker found is one the stretch's camera does not give out there, so its path at
+            those stamps stands on the other camera's points alone, its depth along that
+            camera's ray extrapolated; the number given made pairs of two markers' spots, 3D
+            points 30-80 mm from every marker (heldout27: 3 of its 4 ghost-pair runs). Off,
+            on the 36 burnt looks of heldout24-27 (offline path, detections cached):
+            200 -> 180 switches, 38 -> 28 wrong-pair points, numbered right 86.36 % both;
+            the lead's decision looks (seeds 331-339, 6 looks): 38 -> 31, 14 -> 9, 3D RMS
+            6.43 -> 1.73 mm, numbered right 85.21 % both. True: session 23-25's audit.
         carried_confirm: with ``whole_pass``, after the audit, withhold every number a 2D
             track carried over a break (a gap or a jump) onto a spot another marker was near
             that the other camera never confirms on the piece after the break
@@ -290,6 +301,7 @@ class StereoTrackConfig:
     eager_split: bool = False
     flux_share: bool = True
     pass_audit: bool = True
+    audit_renumber: bool = False
     carried_confirm: bool = False
     touch_confirm: bool = True
     touch_wait: bool = True

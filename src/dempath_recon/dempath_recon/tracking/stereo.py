@@ -409,7 +409,7 @@ class StereoMarkerTracker:
             out = self._count_renumbered(out, filled, 'numbered_joint_fill')
         if state.config.pass_audit:
             audit = audit_pass(out, track_ids, self.cameras, sizes,
-                               state.config.fps)
+                               state.config.fps, renumber=state.config.audit_renumber)
             out = audit.frames
             for cam, n in audit.renumbered.items():
                 state.counts[cam].audit_renumbered += n
