@@ -236,9 +236,10 @@ def normalised(cam: Camera, uv: FloatArray) -> FloatArray:
     The tracking rules ask the epipolar distance and the 3D point of the same few dozen
     detections many times a frame (45 OpenCV calls a frame on red clay at dusk, 0.5-1 ms,
     session 22); OpenCV undistorts each point on its own, so a remembered point is the value
-    a new call gives. The memo holds ``MEMO_PIXELS`` pixels per camera (then starts again), is
-    keyed by the camera object and its intrinsics (a changed K or distortion starts anew) and
-    is emptied at each frame (:func:`forget_pixels`).
+    a new call gives. The memo holds ``MEMO_PIXELS`` pixels per camera (then starts again: a
+    track's last points are asked again over the next frames, by the rules that follow it),
+    is keyed by the camera object and its intrinsics (a changed K or distortion starts anew)
+    and is emptied when a tracker starts (:func:`forget_pixels`).
     """
     uv = np.asarray(uv, np.float64).reshape(-1, 2)
     sign = np.asarray(cam.K, np.float64).tobytes() + np.asarray(cam.dist, np.float64).tobytes()
@@ -260,9 +261,8 @@ def normalised(cam: Camera, uv: FloatArray) -> FloatArray:
 
 
 def forget_pixels() -> None:
-    """Empty :func:`normalised`'s memo: the tracker does at each frame, so the memo saves the
-    frame's repeated questions only, and a second pass over a recording (the bench's warm
-    figure) pays as much as a running node does."""
+    """Empty :func:`normalised`'s memo: a tracker does when it starts, so a second pass over
+    a recording (the bench's warm figure) pays as much as a running node does."""
     _MEMO.clear()
 
 

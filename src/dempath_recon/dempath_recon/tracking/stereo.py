@@ -114,6 +114,7 @@ class StereoMarkerTracker:
     def __init__(self, cameras: dict[str, Camera], config: StereoTrackConfig | None = None,
                  ) -> None:
         self.state = StereoState.start(cameras, config or StereoTrackConfig())
+        forget_pixels()  # the undistortion memo serves this tracker's frames (not a past run's)
         self.detectors = camera_detectors(cameras, self.state.config)
         self.shakers = {c: ShakeEstimator() for c in cameras} if self.state.config.shake \
             else {}
@@ -212,7 +213,6 @@ class StereoMarkerTracker:
         marker cannot have reached): such a point is withheld, never given out as the marker.
         """
         state = self.state
-        forget_pixels()  # the undistortion memo serves one frame
         counts, tracker = state.counts[camera], state.trackers[camera]
         last = state.last_stamp[camera]
         if last is not None and stamp_s <= last:
