@@ -83,7 +83,8 @@ def number_by_elimination(state: StereoState, camera: str, track_ids: NDArray[np
     beside: dict[int, list[int]] = {}  # row -> the other markers whose grid point is as near
     for k in np.flatnonzero(markers < 0).tolist():
         track = tracks.get(int(track_ids[k]))
-        if track is None or track.reattached is not None or not track.history:
+        if track is None or track.reattached is not None or not track.history \
+                or track.track_id in state.ray_wait.get(camera, {}):  # others on its line
             continue
         born, u0, v0 = track.history[0]
         if born > fit_time + START_WINDOW_S:

@@ -31,6 +31,7 @@ from dempath_recon.tracking.pair_anchor import (
     pair_shift,
     vote_contradicted,
 )
+from dempath_recon.tracking.ray_rivals import hold_rivals
 from dempath_recon.tracking.state import (
     MAX_DEPTH_AGE_S,
     RECENT_S,
@@ -129,8 +130,16 @@ def number_both_by_grid(state: StereoState, camera: str, track_ids: NDArray[np.i
                                for i in np.flatnonzero((nums >= 0) & (left < 0)).tolist()}
     mine, theirs = kept, kept_o
     alone, unsure = one_camera_grid(state, camera, uv, mine, uv_o, theirs, fit.shift)
-    theirs, unsure_o = one_camera_grid(state, other, uv_o, theirs, uv, mine, fit.shift)
-    mine = alone
+    alone_o, unsure_o = one_camera_grid(state, other, uv_o, theirs, uv, mine, fit.shift)
+    if state.config.ray_rivals:  # a number no spot of the other camera shares (its own grid,
+        # or beside the other's merged spot) waits while other markers lie on its line of sight
+        alone = hold_rivals(state, camera, track_ids, uv, alone,
+                            (alone >= 0) & ~np.isin(alone, alone_o), uv_o, alone_o, fit.shift,
+                            events)
+        alone_o = hold_rivals(state, other, ids_o, uv_o, alone_o,
+                              (alone_o >= 0) & ~np.isin(alone_o, alone), uv, alone, fit.shift,
+                              events)
+    mine, theirs = alone, alone_o
     for cam, ids, waits in ((camera, track_ids, unsure), (other, ids_o, unsure_o)):
         state.grid_unsure[cam] = {int(t): int(m) for t, m in zip(ids, waits, strict=True)
                                   if m >= 0}
@@ -312,7 +321,8 @@ def number_new(state: StereoState, camera: str, track_ids: NDArray[np.int64],
         tid = int(track_ids[k])
         cands = lines.for_track(state, camera, tid, seen)
         number = pick(state, camera, tid, uv[k], cands, stamp_s, events)
-        if number < 0 and lines.starts.get(tid) == stamp_s:  # only a track's first frame
+        if number < 0 and lines.starts.get(tid) == stamp_s \
+                and tid not in state.ray_wait.get(camera, {}):  # a first frame, no rivals
             # a marker the other camera sees now is numbered only on its epipolar line
             number = late_grid(state, camera, uv, k, seen | set(lines.recent))
             rival = lost_nearby(state, camera, number, uv[k], sure_numbers(

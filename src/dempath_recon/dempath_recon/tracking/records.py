@@ -262,6 +262,10 @@ class StereoTrackConfig:
             seed 265 5.341 -> 5.335 mm (its wrong pairs); numbers, switches and wrong pairs
             unchanged or fewer on all (docs/figures.md); 0.3 ms of CPU a frame. False: the
             centres as detected.
+        ray_rivals: at the grid fit, a spot one camera alone numbers by its image grid waits
+            unnumbered while another marker no spot holds rests (shifted grid point) within
+            half a pitch of its line of sight, till the pass rules those out
+            (:mod:`~dempath_recon.tracking.ray_rivals`). False: the image grid's number.
     """
 
     detector: DetectorConfig = field(default_factory=DetectorConfig)
@@ -307,6 +311,7 @@ class StereoTrackConfig:
     touch_wait: bool = True
     touch_swap: bool = True
     smooth_paths: bool = True
+    ray_rivals: bool = True
 
     def __post_init__(self) -> None:
         for name in ('fps', 'epipolar_px', 'grid_gate_px', 'position_gate_m',

@@ -12,7 +12,7 @@ in order on every frame.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -89,6 +89,9 @@ class StereoState:
         merge_freed: per camera, the tracks whose number a merge took back, while unnumbered
             (their held points stay unnumbered: ``merge_release.keep_released_free``).
         record: which rule numbered what (``config.record_numbers``; None: not kept).
+        ray_wait: per camera, track id -> the markers it may be, a spot one camera showed at
+            the grid fit with other markers on its line of sight
+            (:mod:`~dempath_recon.tracking.ray_rivals`; numbered once one is left).
     """
 
     cameras: dict[str, Camera]
@@ -117,6 +120,7 @@ class StereoState:
     spot_sizes: dict[str, dict[int, list[float]]]
     merge_freed: dict[str, set[int]]
     record: NumberRecord | None = None
+    ray_wait: dict[str, dict[int, set[int]]] = field(default_factory=dict)
 
     @classmethod
     def start(cls, cameras: dict[str, Camera], config: StereoTrackConfig) -> StereoState:

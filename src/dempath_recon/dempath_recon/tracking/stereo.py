@@ -75,6 +75,7 @@ from dempath_recon.tracking.pass_audit import audit_pass
 from dempath_recon.tracking.path_smoother import smooth_paths
 from dempath_recon.tracking.piece_numbering import number_pieces
 from dempath_recon.tracking.publish_gate import PublicationGate
+from dempath_recon.tracking.ray_rivals import keep_candidates, resolve_waiting
 from dempath_recon.tracking.records import CameraCounts, PixelFrame, StereoTrackConfig
 from dempath_recon.tracking.regain import number_regained
 from dempath_recon.tracking.release import HeldFrame, fill_confirmed, renumber
@@ -281,6 +282,10 @@ class StereoMarkerTracker:
         step('grid_unsure')
         markers = number_grid_unsure(state, camera, tf.track_ids, markers, tf.uv, stamp_s,
                                      events)
+        if state.config.ray_rivals:
+            step('ray_rivals')
+            markers = resolve_waiting(state, camera, tf.track_ids, markers, tf.uv, stamp_s,
+                                      events)
         step('pair_numbering')
         markers = number_pairs(state, camera, tf.track_ids, markers, tf.uv, stamp_s, events)
         step('track_pairs')
@@ -303,6 +308,9 @@ class StereoMarkerTracker:
         if state.config.crowded_pairs and state.config.crowd_give_back:
             step('crowd_give_back')
             markers = give_back(state, camera, tf.track_ids, markers, tf.uv, stamp_s, events)
+        if state.config.ray_rivals:
+            step('ray_rivals')
+            markers = keep_candidates(state, camera, tf.track_ids, markers, events)
         step('pair_checks')
         markers = verify(state, camera, tf.track_ids, markers, tf.uv, stamp_s, events)
         waiting = waiting_points(state, camera, markers, tf.uv, stamp_s)
