@@ -33,7 +33,9 @@ state, one record), ``held_line``
 other camera inside the 2D link: links barred off the epipolar line, spots that may hold two
 markers), ``track_split`` (a spot two numbered tracks predict split where they and the other
 camera place them), ``one_camera``,
-``numbering``, ``pair_checks``, ``pair_numbering``, ``track_pairs`` (an unnumbered track
+``ray_rivals`` (a spot one camera alone shows at the grid fit, left waiting while another
+free marker rests near its line of sight), ``numbering``, ``pair_checks``,
+``pair_numbering``, ``track_pairs`` (an unnumbered track
 decided again by a partner held on its line), ``line_rival`` (whether a spot of the
 other camera on a track's epipolar line may be a marker nobody holds), ``grid_elimination``
 (a marker one camera sees numbered by elimination at the grid fit), ``coming_out`` (a marker

@@ -265,7 +265,11 @@ class StereoTrackConfig:
         ray_rivals: at the grid fit, a spot one camera alone numbers by its image grid waits
             unnumbered while another marker no spot holds rests (shifted grid point) within
             half a pitch of its line of sight, till the pass rules those out
-            (:mod:`~dempath_recon.tracking.ray_rivals`). False: the image grid's number.
+            (:mod:`~dempath_recon.tracking.ray_rivals`). Off by default (session 26,
+            gridfit26: on 36 burnt looks switches 197 -> 172, the grid fit's given-wrong
+            42 -> 1, numbered right 86.21 -> 86.20 %, but wrong-pair points 34 -> 36; on two
+            own renders switches 76 -> 78, wrong pairs 31 -> 35: docs/figures.md). False: the
+            image grid's number.
     """
 
     detector: DetectorConfig = field(default_factory=DetectorConfig)
@@ -311,7 +315,7 @@ class StereoTrackConfig:
     touch_wait: bool = True
     touch_swap: bool = True
     smooth_paths: bool = True
-    ray_rivals: bool = True
+    ray_rivals: bool = False
 
     def __post_init__(self) -> None:
         for name in ('fps', 'epipolar_px', 'grid_gate_px', 'position_gate_m',
