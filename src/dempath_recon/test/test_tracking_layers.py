@@ -22,6 +22,7 @@ ORDER = ('merge', 'centroid_kernel', 'cut_discs_kernel', 'cut_discs', 'split', '
          'number_record', 'state',
          'held_line',
          'link_guide', 'crowded_pair', 'merge_release', 'track_split', 'parted', 'one_camera',
+         'ray_rivals',
          'numbering',
          'pair_checks', 'pair_numbering', 'track_pairs', 'line_rival',
          'grid_elimination', 'regain', 'coming_out', 'stereo')

@@ -103,7 +103,8 @@ def number_both_by_grid(state: StereoState, camera: str, track_ids: NDArray[np.i
         keep = np.array([int(t) not in numbered for t in ids_o], bool)
         ids_o, uv_o = ids_o[keep], uv_o[keep]
     fit = pairs_by_grid(state.cameras[camera], state.cameras[other], uv, uv_o,
-                        state.config.grid, state.config.epipolar_px)
+                        state.config.grid, state.config.epipolar_px,
+                        FIT_MARGIN if state.config.fit_margin else 0.0)
     mine, theirs = fit.a, fit.b
     found = int((mine >= 0).sum())
     if found < need:
@@ -390,6 +391,9 @@ def number_grid_unsure(state: StereoState, camera: str, track_ids: NDArray[np.in
     return out
 
 
+FIT_MARGIN = 0.3  # with ``fit_margin``: the next best assignment of the grid fit must cost
+# this much more (gates: 0.3 of a 10 mm gate is 3 mm in 3D, the pairs' own scatter about their
+# shifted grid points, 2.3-3.6 mm RMS on 36 tuning looks) for a pair to be numbered
 GHOST_RATIO = 1.25  # a pair's spot is nearer another marker's grid point when its own is this
 # many times as far (the fitted grid points sit 3-8 px from markers the bed has moved: a right
 # pair of a seed-65 render sat 7.1 and 7.6 px from its own, 6.9 and 7.0 px from others'; a
