@@ -240,9 +240,9 @@ RULE_SWITCHES = (  # (flag, StereoTrackConfig field, help): the numbering rules 
      'number when the carried point is far (StereoTrackConfig.numbered_partner; on by default)'),
     ('--no-regain', 'regain', 'do not give back a number elimination took back for a jump '
      '(StereoTrackConfig.regain; on by default)'),
-    ('--ray-rivals', 'ray_rivals', 'leave a spot one camera alone shows at the grid fit '
-     'unnumbered while another free marker rests near its line of sight '
-     '(StereoTrackConfig.ray_rivals; off by default)'),
+    ('--no-ray-rivals', 'ray_rivals', "number a spot one camera's image grid numbers alone at "
+     'the grid fit even where another free marker rests near its line of sight '
+     '(StereoTrackConfig.ray_rivals; on by default)'),
     ('--no-half-ghost', 'half_ghost', "number both spots of a grid pair whose spot in one camera "
      "lies nearer an unclaimed marker's grid point (StereoTrackConfig.half_ghost; on)"),
     ('--no-merge-release', 'merge_release', "keep a track's number where a neighbour's blob "

@@ -83,7 +83,7 @@ def number_pairs_by_grid(cam_a: Camera, cam_b: Camera, uv_a: FloatArray, uv_b: F
 
 
 def pairs_by_grid(cam_a: Camera, cam_b: Camera, uv_a: FloatArray, uv_b: FloatArray,
-                  grid: MarkerGrid, epipolar_px: float, refusal: float = 0.0) -> GridPairs:
+                  grid: MarkerGrid, epipolar_px: float) -> GridPairs:
     """Marker numbers of camera a's (n, 2) and camera b's (k, 2) detections (-1: none,
     unsure), and the merged spots left unnumbered (:func:`_two_markers`) with their markers.
 
@@ -92,9 +92,6 @@ def pairs_by_grid(cam_a: Camera, cam_b: Camera, uv_a: FloatArray, uv_b: FloatArr
         uv_a, uv_b: the detections of one frame of each camera [px].
         grid: the marker grid (world frame, up to an unknown shift).
         epipolar_px: largest distance of a pair from the epipolar line [px].
-        refusal: a marker's pair is numbered only when the best assignment that gives it
-            another detection of either camera costs at least this much more (in the cost's
-            units: gates); 0 numbers every assigned pair (:func:`_contested`).
     """
     out_a = np.full(len(uv_a), -1, np.int32)
     out_b = np.full(len(uv_b), -1, np.int32)
@@ -119,18 +116,13 @@ def pairs_by_grid(cam_a: Camera, cam_b: Camera, uv_a: FloatArray, uv_b: FloatArr
     via = sure & (merged_a[ia] | merged_b[ib])[None]  # pairs through a merged spot
     cost = np.where(sure & ~via, dist / gate + epi[ia, ib][None] / epipolar_px, np.inf)
     # camera a's detections first (each marker's cheapest pair through each), then b's given a's
-    first = np.stack([_cheapest(cost, ia == i) for i in range(len(uv_a))], axis=1)
-    side = _assign(first)
+    side = _assign(np.stack([_cheapest(cost, ia == i) for i in range(len(uv_a))], axis=1))
     cost_b = np.full((len(g), len(uv_b)), np.inf)
     for m, i in side.items():
         through = np.flatnonzero(ia == i)
         cost_b[m, ib[through]] = cost[m, through]
-    paired = _assign(cost_b)
-    doubt = _contested(first, side, refusal) | _contested(cost_b, paired, refusal) \
-        if refusal > 0 else set()
-    for m, j in paired.items():
-        if m not in doubt:
-            out_a[side[m]], out_b[j] = numbers[m], numbers[m]
+    for m, j in _assign(cost_b).items():
+        out_a[side[m]], out_b[j] = numbers[m], numbers[m]
     _number_beside_merged(via, ib, merged_b, sure, numbers, out_a, out_b)
     _number_beside_merged(via, ia, merged_a, sure, numbers, out_b, out_a)
     return GridPairs(out_a, out_b, _holds(held_a, ia, merged_a, numbers),
@@ -219,28 +211,6 @@ def _assign(cost: FloatArray) -> dict[int, int]:
     rows, cols = linear_sum_assignment(np.where(np.isfinite(full), full, 1e6))
     return {int(r): int(c) for r, c in zip(rows, cols, strict=True)
             if c < k and np.isfinite(cost[r, c])}
-
-
-def _total(cost: FloatArray, chosen: dict[int, int]) -> float:
-    """The cost of an assignment ``chosen`` (marker row -> column) of ``cost`` (markers,
-    columns), a marker left out costing ``LEAVE``."""
-    return float(sum(cost[r, c] for r, c in chosen.items())) + LEAVE * (len(cost) - len(chosen))
-
-
-def _contested(cost: FloatArray, chosen: dict[int, int], margin: float) -> set[int]:
-    """The marker rows of ``chosen`` (``_assign(cost)``) whose detection the next best
-    assignment that refuses them it takes within ``margin`` of the best: one assignment with a
-    refusal margin, so a marker whose place two detections fit about as well waits for frames
-    that tell them apart (a front spot of marker 10 took 9 at 5.3 mm from its grid point
-    while 9's own spot, 6.6 px beside it on the same line of sight, paired at 6.0 mm)."""
-    best = _total(cost, chosen)
-    out = set()
-    for r, c in chosen.items():
-        barred = cost.copy()
-        barred[r, c] = np.inf
-        if _total(barred, _assign(barred)) < best + margin:
-            out.add(r)
-    return out
 
 
 def _shift(xyz: FloatArray, grid_xyz: FloatArray, gate: float, pitch: float) -> FloatArray:

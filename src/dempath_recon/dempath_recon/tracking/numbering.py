@@ -103,8 +103,7 @@ def number_both_by_grid(state: StereoState, camera: str, track_ids: NDArray[np.i
         keep = np.array([int(t) not in numbered for t in ids_o], bool)
         ids_o, uv_o = ids_o[keep], uv_o[keep]
     fit = pairs_by_grid(state.cameras[camera], state.cameras[other], uv, uv_o,
-                        state.config.grid, state.config.epipolar_px,
-                        FIT_MARGIN if state.config.fit_margin else 0.0)
+                        state.config.grid, state.config.epipolar_px)
     mine, theirs = fit.a, fit.b
     found = int((mine >= 0).sum())
     if found < need:
@@ -132,14 +131,12 @@ def number_both_by_grid(state: StereoState, camera: str, track_ids: NDArray[np.i
     mine, theirs = kept, kept_o
     alone, unsure = one_camera_grid(state, camera, uv, mine, uv_o, theirs, fit.shift)
     alone_o, unsure_o = one_camera_grid(state, other, uv_o, theirs, uv, mine, fit.shift)
-    if state.config.ray_rivals:  # a number no spot of the other camera shares (its own grid,
-        # or beside the other's merged spot) waits while other markers lie on its line of sight
-        alone = hold_rivals(state, camera, track_ids, uv, alone,
-                            (alone >= 0) & ~np.isin(alone, alone_o), uv_o, alone_o, fit.shift,
-                            events)
+    if state.config.ray_rivals:  # a number a camera's own image grid gave (no pair) waits
+        # while other markers rest near its line of sight
+        alone = hold_rivals(state, camera, track_ids, uv, alone, (alone >= 0) & (mine < 0),
+                            uv_o, alone_o, fit.shift, events)
         alone_o = hold_rivals(state, other, ids_o, uv_o, alone_o,
-                              (alone_o >= 0) & ~np.isin(alone_o, alone), uv, alone, fit.shift,
-                              events)
+                              (alone_o >= 0) & (theirs < 0), uv, alone, fit.shift, events)
     mine, theirs = alone, alone_o
     for cam, ids, waits in ((camera, track_ids, unsure), (other, ids_o, unsure_o)):
         state.grid_unsure[cam] = {int(t): int(m) for t, m in zip(ids, waits, strict=True)
@@ -391,9 +388,6 @@ def number_grid_unsure(state: StereoState, camera: str, track_ids: NDArray[np.in
     return out
 
 
-FIT_MARGIN = 0.3  # with ``fit_margin``: the next best assignment of the grid fit must cost
-# this much more (gates: 0.3 of a 10 mm gate is 3 mm in 3D, the pairs' own scatter about their
-# shifted grid points, 2.3-3.6 mm RMS on 36 tuning looks) for a pair to be numbered
 GHOST_RATIO = 1.25  # a pair's spot is nearer another marker's grid point when its own is this
 # many times as far (the fitted grid points sit 3-8 px from markers the bed has moved: a right
 # pair of a seed-65 render sat 7.1 and 7.6 px from its own, 6.9 and 7.0 px from others'; a

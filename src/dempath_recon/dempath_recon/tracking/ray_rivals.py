@@ -9,19 +9,24 @@ are elsewhere; so a spot's *rivals* are the other markers no spot of its camera 
 shifted grid point lies within ``RIVAL_SHARE`` of the grid's pitch of the spot's line of sight,
 except those the other camera gives out off the spot's epipolar line (it sees them elsewhere).
 
-Why a reach and not odds: markers only one camera shows are the displaced and half-buried ones
-(on 36 tuning looks, their true places lay 1-12 mm from their shifted grid points, at rest
-heights 4-9 mm below the pairs'), so the pairs' own scatter (2.5-3.5 mm RMS) says nothing of
-them. On a low view a marker sunk 9 mm lies on the line of sight of its neighbour's grid point
-behind it (heldout27 ``T287_asis``: the front's spot of marker 12, its side view buried, passed
-2.5 mm from 13's grid point and 11.5 mm from its own; numbered 13, 18 switches). Half a pitch
-is where a line of sight passes nearer the rival's grid point than the midway point between two
-grid points: within it, the rival cannot be told apart by where it rests.
+Why a reach and not odds: markers only one camera shows are the displaced and half-buried ones,
+so the pairs' own scatter about their grid points (2.3-3.6 mm RMS on 36 tuning looks) says
+little of them. On a low view a marker sunk a few mm lies on the line of sight of its
+neighbour's grid point behind it (heldout27 ``T287_asis``: the front's spot of marker 12, 8.8
+mm below the pairs' height and 7 mm forward, its side view buried, passed 2.5 mm from 13's grid
+point and 11.5 mm from its own; numbered 13, 18 switches): odds from the pairs' scatter put 13
+700 times likelier. Where this kind of number was right on those looks, the line of sight
+passed 0.5-7.7 mm from the marker's own grid point. Half a pitch is the largest displacement
+the grid can still attribute to a marker (beyond it the marker is nearer a neighbour's grid
+point): a rival within it cannot be told apart by where it rests.
 
 A spot with rivals is left unnumbered and its track waits with its candidates (the grid
 number and the rivals; ``StereoState.ray_wait``); each frame, :func:`resolve_waiting` rules a
 candidate out when this camera holds it on another track or the other camera gives it out off
 the track's epipolar line, and numbers the track when one candidate is left that nobody holds.
+Meanwhile the rules that number by one camera's grid alone (the late grid point, elimination)
+pass it by, and a number outside its candidates that a pair rule gives it is taken back and
+refused (:func:`keep_candidates`).
 """
 
 from __future__ import annotations

@@ -262,14 +262,14 @@ class StereoTrackConfig:
             seed 265 5.341 -> 5.335 mm (its wrong pairs); numbers, switches and wrong pairs
             unchanged or fewer on all (docs/figures.md); 0.3 ms of CPU a frame. False: the
             centres as detected.
-        ray_rivals: at the grid fit, a spot one camera alone numbers by its image grid waits
-            unnumbered while another marker no spot holds rests (shifted grid point) within
-            half a pitch of its line of sight, till the pass rules those out
-            (:mod:`~dempath_recon.tracking.ray_rivals`). Off by default (session 26,
-            gridfit26: on 36 burnt looks switches 197 -> 172, the grid fit's given-wrong
-            42 -> 1, numbered right 86.21 -> 86.20 %, but wrong-pair points 34 -> 36; on two
-            own renders switches 76 -> 78, wrong pairs 31 -> 35: docs/figures.md). False: the
-            image grid's number.
+        ray_rivals: at the grid fit, a spot one camera's image grid numbers alone (no pair)
+            waits unnumbered while another marker no spot of its camera holds rests (its
+            shifted grid point) within half a pitch of its line of sight, till the pass rules
+            those out (:mod:`~dempath_recon.tracking.ray_rivals`). On since session 26
+            (gridfit26: 36 burnt looks and two own renders, switches 273 -> 250, wrong-pair
+            points 65 -> 65, numbered right 85.09 -> 84.97 %, no look with a switch added;
+            the held-apart seed 367 and the tuned variations unchanged: docs/figures.md).
+            False: the image grid's number.
     """
 
     detector: DetectorConfig = field(default_factory=DetectorConfig)
@@ -315,8 +315,7 @@ class StereoTrackConfig:
     touch_wait: bool = True
     touch_swap: bool = True
     smooth_paths: bool = True
-    ray_rivals: bool = False
-    fit_margin: bool = False
+    ray_rivals: bool = True
 
     def __post_init__(self) -> None:
         for name in ('fps', 'epipolar_px', 'grid_gate_px', 'position_gate_m',
