@@ -266,8 +266,8 @@ class StereoTrackConfig:
             waits unnumbered while another marker no spot of its camera holds rests (its
             shifted grid point) within half a pitch of its line of sight, till the pass rules
             those out (:mod:`~dempath_recon.tracking.ray_rivals`). On since session 26
-            (gridfit26: 36 burnt looks and two own renders, switches 273 -> 250, wrong-pair
-            points 65 -> 65, numbered right 85.09 -> 84.97 %, no look with a switch added;
+            (gridfit26: 36 burnt looks and four own renders, switches 258 -> 235, wrong-pair
+            points 55 -> 55, numbered right 84.93 -> 84.83 %, no look with a switch added;
             the held-apart seed 367 and the tuned variations unchanged: docs/figures.md).
             False: the image grid's number.
     """
