@@ -37,6 +37,7 @@ from numpy.typing import NDArray
 from dempath_recon.methods.triangulate import Camera
 from dempath_recon.tracking.associate import epipolar_distance, normalised
 from dempath_recon.tracking.grid_pairs import grid_pitch
+from dempath_recon.tracking.linker import UNNUMBERED
 from dempath_recon.tracking.state import RECENT_S, StereoState, at_stamp
 
 FloatArray = NDArray[np.float64]
@@ -89,7 +90,7 @@ def hold_rivals(state: StereoState, camera: str, track_ids: NDArray[np.int64],
                       if m != out[i] and m not in held and m not in seen_off}
             if rivals:
                 waits[i] = rivals | {int(out[i])}
-                out[i] = -1
+                out[i] = UNNUMBERED
                 changed = True
     wait = state.ray_wait.setdefault(camera, {})
     for i, cands in waits.items():
@@ -105,8 +106,10 @@ def resolve_waiting(state: StereoState, camera: str, track_ids: NDArray[np.int64
     """``markers`` (k,) of this frame's spots ``uv`` (k, 2) px with each waiting track
     (``state.ray_wait``) numbered once one candidate is left: a candidate is ruled out when
     this camera holds it on another track, or the other camera gave it out within
-    ``RECENT_S`` at a point (moved to this stamp) off the track's epipolar line. A track
-    numbered meanwhile, gone, or with no candidate left stops waiting."""
+    ``RECENT_S`` at a point (moved to this stamp) off the track's epipolar line. A track gone,
+    or with no candidate left, stops waiting; one numbered meanwhile (by a rule of both
+    cameras) or re-attached keeps its candidates (:func:`keep_candidates`) but is not numbered
+    here."""
     wait = state.ray_wait.get(camera)
     if not wait:
         return markers
@@ -173,9 +176,9 @@ def keep_candidates(state: StereoState, camera: str, track_ids: NDArray[np.int64
         m = int(out[k])
         if cands is None or m < 0 or m in cands:
             continue
-        state.trackers[camera].number(int(tid), -1)
+        state.trackers[camera].number(int(tid), UNNUMBERED)
         state.refused[camera].add((int(tid), m))
-        out[k] = -1
+        out[k] = UNNUMBERED
         events.append(f'{camera}: track {tid} not marker {m}: at the grid fit its line of sight '
                       f'passed only markers {sorted(cands)}')
     return out
