@@ -261,6 +261,11 @@ RULE_SWITCHES = (  # (flag, StereoTrackConfig field, help): the numbering rules 
     ('--bed-numbering', 'bed_numbering', "number the unnumbered stretches of 2D tracks at the "
      "pass's end by where the bed's motion carried each marker "
      '(StereoTrackConfig.bed_numbering; off by default)'),
+    ('--no-bed-sheared', 'bed_sheared', "weigh the bed field's neighbours by their rest "
+     'distance, not by their gaps across and along the travel (StereoTrackConfig.bed_sheared; '
+     'on by default)'),
+    ('--no-bed-after-fill', 'bed_after_fill', 'run bed numbering before the joint fill, not '
+     'after it (StereoTrackConfig.bed_after_fill; on by default)'),
     ('--dim-spots', 'dim_spots', "search a dim frame's markers again on the chroma floored at "
      "the frame's own light (StereoTrackConfig.dim_spots; off by default)"),
     ('--no-band-pass', 'band_pass', 'find spots on the matched filter alone, not less the local '

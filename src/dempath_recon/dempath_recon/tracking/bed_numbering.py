@@ -47,6 +47,9 @@ from numpy.typing import NDArray
 from dempath_recon.methods.triangulate import Camera
 from dempath_recon.tracking.bed_field import (
     GATE_SPREADS,
+    SHEAR_ACROSS,
+    SHEAR_ALONG,
+    SIGMA_PITCH,
     BedField,
     nearest_given,
     rest_points,
@@ -98,10 +101,10 @@ def by_bed(ps: Pass, field: BedField, frames: Sequence[PixelFrame],
         return []
     rows, cols = linear_sum_assignment(np.where(allowed, cost, 1e6))
     spans = [u.span() for u in units]
-    given = {r: nearest_given(ps, field, units[r].pieces) for r in rows.tolist()}
     return [Assignment(markers[c], units[r].pieces, takes[r, c], 'bed')
             for r, c in zip(rows.tolist(), cols.tolist(), strict=True)
-            if allowed[r, c] and odds_clear(cost, spans, r, c, given[r])]
+            if allowed[r, c] and odds_clear(cost, spans, r, c, np.inf)
+            and odds_clear(cost, spans, r, c, nearest_given(ps, field, units[r].pieces))]
 
 
 def odds_clear(z: FloatArray, spans: list[tuple[float, float]], row: int, col: int,
@@ -124,7 +127,8 @@ def odds_clear(z: FloatArray, spans: list[tuple[float, float]], row: int, col: i
 def number_by_bed(frames: Sequence[PixelFrame], track_ids: Sequence[NDArray[np.int64]],
                   cameras: dict[str, Camera], grid_uv: dict[str, dict[int, FloatArray]],
                   layout: dict[int, FloatArray], diameter_px: dict[str, float],
-                  epipolar_px: float, fps: float) -> tuple[list[PixelFrame], int]:
+                  epipolar_px: float, fps: float, sheared: bool = False,
+                  ) -> tuple[list[PixelFrame], int]:
     """The pass's frames (both cameras, as they would be given out; ``track_ids`` (k,) each
     point's 2D track) with unnumbered pieces of track numbered by the bed's motion (module
     docstring), and how many points got a number.
@@ -138,8 +142,11 @@ def number_by_bed(frames: Sequence[PixelFrame], track_ids: Sequence[NDArray[np.i
         diameter_px: camera -> a marker's diameter in its images [px].
         epipolar_px: the pipeline's ``epipolar_px``: a pair's line distance gate [px].
         fps: the frame rate [1/s].
+        sheared: weigh the field's neighbours by their rest gaps across and along the travel
+            (``SHEAR_ACROSS``, ``SHEAR_ALONG`` pitches), not by their rest distance.
     """
     out, given = list(frames), 0
+    across, along = (SHEAR_ACROSS, SHEAR_ALONG) if sheared else (SIGMA_PITCH, SIGMA_PITCH)
     if not out or len(cameras) != 2:
         return out, 0
     names = sorted(cameras)
@@ -149,7 +156,7 @@ def number_by_bed(frames: Sequence[PixelFrame], track_ids: Sequence[NDArray[np.i
         ps = Pass(cameras, {c: marker_histories(out, c) for c in names},
                   marker_points_3d(out, cameras, fps), grid_uv,
                   min(f.stamp_s for f in out), epipolar_px, fps)
-        field = BedField(ps.own_3d, rest, fps, ps.start_s)
+        field = BedField(ps.own_3d, rest, fps, ps.start_s, across, along)
         found = by_bed(ps, field, out, track_ids, diameter_px, markers)
         out, n = _give(out, found)
         given += n

@@ -156,17 +156,30 @@ class StereoTrackConfig:
             apart seed-247 looks unchanged; the variation set's held-out pool 94.73 -> 95.19 %,
             0 switches and 0 wrong pairs kept (docs/figures.md). False: only tracks no frame
             numbered are numbered from the whole pass.
-        bed_numbering: with ``whole_pass``, after ``piece_numbering`` and before
-            ``joint_fill``, number the unnumbered stretches of 2D tracks (in either camera;
-            paired in 3D where both have one) by where the bed's motion carried each marker
-            the cameras lack: its rest point (or own nearest numbered 3D point) moved as its
-            numbered neighbours moved, Gaussian-weighted by their rest distance, gated by
-            the neighbours' spread, one assignment with a refusal margin in odds
+        bed_numbering: with ``whole_pass``, after ``piece_numbering`` and ``joint_fill``
+            (before it without ``bed_after_fill``), number the unnumbered stretches of 2D
+            tracks (in either camera; paired in 3D where both have one) by where the bed's
+            motion carried each marker the cameras lack: its rest point (or own nearest
+            numbered 3D point) moved as its numbered neighbours moved, Gaussian-weighted by
+            their rest distance (or gaps, ``bed_sheared``), gated by the neighbours' spread,
+            one assignment with a refusal margin in odds
             (:mod:`~dempath_recon.tracking.bed_numbering`). Off by default: safe but small
             and not cheap (session 25, number25: 41 tuning looks and 11 tuned variations
             91.19 -> 91.21 % numbered right, switches 174 and wrong-pair points 53 kept;
             held-apart seed 307 91.91 -> 92.06 %, 13 and 5 kept; about 0.9 ms of CPU a
             frame; docs/figures.md). False: no such step.
+        bed_sheared: with ``bed_numbering``, the bed's field weighs a marker's neighbours by
+            their rest gaps across the travel (sigma 0.35 grid pitch) and along it (2.0), not
+            by their rest distance (1.0): the tool pushes its own column 50-140 mm and the
+            next 5-60, the whole column alike (:mod:`~dempath_recon.tracking.bed_field`). On
+            by default (session 26, alone26: with ``bed_after_fill``, 79 tuning looks
+            88.51 -> 88.73 % numbered right against 88.53 % without it; docs/figures.md).
+            False: the rest distance.
+        bed_after_fill: with ``bed_numbering``, the step runs after ``joint_fill``, not
+            before: a spot its marker's own 3D path fills is that marker's, and the field
+            (a marker placed by its neighbours) numbers only what is left (on a tuning look
+            a ghost pair of two pieces took a buried marker the field placed there before the
+            fill gave each piece its own marker: 10 switches). On by default. False: before.
         dim_spots: each camera's detector searches a dim frame's markers again on the chroma
             floored at the frame's own light (``DetectorConfig.dim_spots``; it must also be on
             there): at dusk the fixed floor divides a shaded or half-buried marker's chroma
@@ -303,6 +316,8 @@ class StereoTrackConfig:
     joint_fill: bool = True
     piece_numbering: bool = False
     bed_numbering: bool = False
+    bed_sheared: bool = True
+    bed_after_fill: bool = True
     dim_spots: bool = False
     band_pass: bool = True
     smooth_centres: bool = False

@@ -405,16 +405,15 @@ class StereoMarkerTracker:
             pieces, _ = number_pieces(out, track_ids, self.cameras, state.grid_uv, sizes,
                                       state.config.epipolar_px, state.config.fps)
             out = self._count_renumbered(out, pieces, 'numbered_pieces')
-        if state.config.bed_numbering:
-            ids, xyz = state.config.grid.points()
-            bed, _ = number_by_bed(out, track_ids, self.cameras, state.grid_uv,
-                                   dict(zip(ids.tolist(), xyz, strict=True)), sizes,
-                                   state.config.epipolar_px, state.config.fps)
-            out = self._count_renumbered(out, bed, 'numbered_by_bed')
+        late = state.config.bed_after_fill
+        if state.config.bed_numbering and not late:
+            out = self._by_bed(out, track_ids, sizes)
         if state.config.joint_fill:
             filled, _ = fill_jointly(out, track_ids, self.cameras,
                                      state.config.epipolar_px, state.config.fps)
             out = self._count_renumbered(out, filled, 'numbered_joint_fill')
+        if state.config.bed_numbering and late:
+            out = self._by_bed(out, track_ids, sizes)
         if state.config.pass_audit:
             audit = audit_pass(out, track_ids, self.cameras, sizes,
                                state.config.fps, renumber=state.config.audit_renumber)
@@ -445,6 +444,18 @@ class StereoMarkerTracker:
             moved = None if moved is None else smooth_paths(moved, state.config.fps)
         self._moved = moved
         return out
+
+    def _by_bed(self, out: list[PixelFrame], track_ids: list[NDArray[np.int64]],
+                sizes: dict[str, float]) -> list[PixelFrame]:
+        """``out`` with unnumbered pieces numbered by the bed's motion
+        (:func:`~dempath_recon.tracking.bed_numbering.number_by_bed`), counted."""
+        state = self.state
+        ids, xyz = state.config.grid.points()
+        bed, _ = number_by_bed(out, track_ids, self.cameras, state.grid_uv,
+                               dict(zip(ids.tolist(), xyz, strict=True)), sizes,
+                               state.config.epipolar_px, state.config.fps,
+                               sheared=state.config.bed_sheared)
+        return self._count_renumbered(out, bed, 'numbered_by_bed')
 
     def _count_renumbered(self, before: list[PixelFrame], after: list[PixelFrame],
                           counter: str) -> list[PixelFrame]:
