@@ -18,7 +18,15 @@ from projected import DT, GRID15
 from test_crowded_pair import replay
 from test_joint_fill import EPIPOLAR_PX, FPS, FRAMES, _frames, _grid, _numbers
 
-from dempath_recon.tracking.bed_field import FLOOR_M, BedField, nearest_given, rest_points
+from dempath_recon.tracking.bed_field import (
+    FLOOR_M,
+    SHEAR_ACROSS,
+    SHEAR_ALONG,
+    SIGMA_PITCH,
+    BedField,
+    nearest_given,
+    rest_points,
+)
 from dempath_recon.tracking.bed_numbering import number_by_bed
 from dempath_recon.tracking.piece_numbering import unnumbered_pieces
 from dempath_recon.tracking.records import PixelFrame
@@ -68,6 +76,34 @@ def test_the_field_places_a_marker_where_its_neighbours_went() -> None:
     assert np.all(placed.spread >= FLOOR_M)
     assert np.all(err <= placed.spread)
     assert err[-1] < 0.005  # half the push's 15 mm at the middle column, within 5 mm
+
+
+def _column_pushed(sheared: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Marker 3's error and spread [m] at the last instant, never numbered, when the tool's
+    column (markers 1-5, x = -25 mm) is pushed 60 mm along the travel and the other columns
+    stay (a tine's step across the bed), placed by the sheared or the isotropic field."""
+    rest = dict(LAYOUT)
+    times = np.arange(10) * DT
+    push = np.array([0.0, 0.0, 0.06])
+
+    def at(m: int, t: float) -> np.ndarray:
+        return rest[m] + (m <= 5) * push * t / times[-1]
+    own = {m: (times, np.array([at(m, t) for t in times])) for m in rest if m != 3}
+    across, along = (SHEAR_ACROSS, SHEAR_ALONG) if sheared else (SIGMA_PITCH, SIGMA_PITCH)
+    placed = BedField(own, rest, FPS, across=across, along=along).place(3, times)
+    return np.linalg.norm(placed.xyz[-1] - at(3, times[-1])), placed.spread[-1]
+
+
+def test_the_sheared_field_carries_a_marker_with_its_own_column() -> None:
+    """The tool's column pushed 60 mm, the next column still: weighed by the rest distance the
+    middle column's markers, as near as the column's own, pull the covered marker 3 back by
+    half the push; weighed across and along the travel (``SHEAR_ACROSS``, ``SHEAR_ALONG``) it
+    goes with its column, within 5 mm, and its spread shrinks."""
+    err_iso, spread_iso = _column_pushed(False)
+    err_shear, spread_shear = _column_pushed(True)
+    assert err_iso > 0.02
+    assert err_shear < 0.005
+    assert err_shear <= spread_shear < spread_iso
 
 
 def test_a_marker_no_camera_numbered_is_numbered_where_the_bed_carried_it(rig) -> None:
