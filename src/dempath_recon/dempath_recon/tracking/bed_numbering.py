@@ -34,6 +34,11 @@ marker goes where the markers around it go. So, at the pass's end:
 
 Off by default (``StereoTrackConfig.bed_numbering``): on 52 tuning looks it numbered 0.02
 points more right, no switch added; on the held-apart seed 0.15 (docs/figures.md, session 25).
+Since session 26 it runs after the joint fill (a spot its marker's own 3D path fills is that
+marker's) on a sheared field (``sheared``:
+:data:`~dempath_recon.tracking.bed_field.SHEAR_ACROSS`): 79 tuning looks 88.51 -> 88.73 %
+(number25's form 88.53), but one switch added on a tuning look and one on the held-apart
+seed, and 0.6 ms of CPU a frame: still off.
 """
 
 from __future__ import annotations

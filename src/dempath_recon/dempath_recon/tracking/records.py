@@ -172,14 +172,17 @@ class StereoTrackConfig:
             their rest gaps across the travel (sigma 0.35 grid pitch) and along it (2.0), not
             by their rest distance (1.0): the tool pushes its own column 50-140 mm and the
             next 5-60, the whole column alike (:mod:`~dempath_recon.tracking.bed_field`). On
-            by default (session 26, alone26: with ``bed_after_fill``, 79 tuning looks
-            88.51 -> 88.73 % numbered right against 88.53 % without it; docs/figures.md).
+            by default (session 26, alone26: with ``bed_after_fill`` the step numbers 79
+            tuning looks 88.51 -> 88.73 % right, against 88.53 % without both, heldout27
+            83.29 -> 84.22 % against 83.29; the held-apart seed as without both;
+            docs/figures.md).
             False: the rest distance.
         bed_after_fill: with ``bed_numbering``, the step runs after ``joint_fill``, not
             before: a spot its marker's own 3D path fills is that marker's, and the field
-            (a marker placed by its neighbours) numbers only what is left (on a tuning look
-            a ghost pair of two pieces took a buried marker the field placed there before the
-            fill gave each piece its own marker: 10 switches). On by default. False: before.
+            (a marker placed by its neighbours) numbers only what is left (the sheared field
+            before the fill: on a tuning look a ghost pair of two pieces took a buried marker
+            the field placed there before the fill gave each piece its own marker: 10
+            switches). On by default. False: before.
         dim_spots: each camera's detector searches a dim frame's markers again on the chroma
             floored at the frame's own light (``DetectorConfig.dim_spots``; it must also be on
             there): at dusk the fixed floor divides a shaded or half-buried marker's chroma
