@@ -18,15 +18,8 @@ from projected import DT, GRID15
 from test_crowded_pair import replay
 from test_joint_fill import EPIPOLAR_PX, FPS, FRAMES, _frames, _grid, _numbers
 
-from dempath_recon.tracking.bed_field import (
-    FLOOR_M,
-    SHEAR_ACROSS,
-    SHEAR_ALONG,
-    SIGMA_PITCH,
-    BedField,
-    nearest_given,
-    rest_points,
-)
+from dempath_recon.tracking import bed_field
+from dempath_recon.tracking.bed_field import FLOOR_M, BedField, nearest_given, rest_points
 from dempath_recon.tracking.bed_numbering import number_by_bed
 from dempath_recon.tracking.piece_numbering import unnumbered_pieces
 from dempath_recon.tracking.records import PixelFrame
@@ -89,7 +82,8 @@ def _column_pushed(sheared: bool) -> tuple[np.ndarray, np.ndarray]:
     def at(m: int, t: float) -> np.ndarray:
         return rest[m] + (m <= 5) * push * t / times[-1]
     own = {m: (times, np.array([at(m, t) for t in times])) for m in rest if m != 3}
-    across, along = (SHEAR_ACROSS, SHEAR_ALONG) if sheared else (SIGMA_PITCH, SIGMA_PITCH)
+    across, along = ((bed_field.SHEAR_ACROSS, bed_field.SHEAR_ALONG) if sheared
+                     else (bed_field.SIGMA_PITCH, bed_field.SIGMA_PITCH))
     placed = BedField(own, rest, FPS, across=across, along=along).place(3, times)
     return np.linalg.norm(placed.xyz[-1] - at(3, times[-1])), placed.spread[-1]
 
@@ -97,7 +91,7 @@ def _column_pushed(sheared: bool) -> tuple[np.ndarray, np.ndarray]:
 def test_the_sheared_field_carries_a_marker_with_its_own_column() -> None:
     """The tool's column pushed 60 mm, the next column still: weighed by the rest distance the
     middle column's markers, as near as the column's own, pull the covered marker 3 back by
-    half the push; weighed across and along the travel (``SHEAR_ACROSS``, ``SHEAR_ALONG``) it
+    half the push; weighed across and along the travel (``bed_field.SHEAR_ACROSS``, ``_ALONG``) it
     goes with its column, within 5 mm, and its spread shrinks."""
     err_iso, spread_iso = _column_pushed(False)
     err_shear, spread_shear = _column_pushed(True)
