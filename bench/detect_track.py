@@ -282,6 +282,13 @@ RULE_SWITCHES = (  # (flag, StereoTrackConfig field, help): the numbering rules 
     ('--audit-renumber', 'audit_renumber', 'let the pass audit renumber the stretches it '
      'finds on another marker instead of withholding them (StereoTrackConfig.audit_renumber; '
      'off)'),
+    ('--no-shake-reference', 'shake_reference', 'place the shake by its mean over the pass, '
+     "not against the calibration's frames (StereoTrackConfig.shake_reference; on)"),
+    ('--no-shake-shrink', 'shake_shrink', "take each frame's shake as estimated, not scaled "
+     "by the share of the pass's scatter that is not the estimate's noise "
+     '(StereoTrackConfig.shake_shrink; on)'),
+    ('--no-shake-align', 'shake_align', "register each frame's shake once, its tiles where the "
+     "reference's were (StereoTrackConfig.shake_align; on)"),
     ('--no-smooth-paths', 'smooth_paths', "give the numbered centres out as detected, not "
      "smoothed along each marker's image path (StereoTrackConfig.smooth_paths; on)"),
     ('--carried-confirm', 'carried_confirm', 'withhold numbers a 2D track carried over a break '
@@ -394,7 +401,9 @@ def main(argv: list[str]) -> int:
     if args.variations:
         from detect_track_variations import run_all, run_rendered
 
-        found = run_all(frames, truth, cams, config, args.cache, args.tuned_only)
+        start = truth['calibration_segment']['field_start_ns']
+        calib = [f for f in read_frames(args.bag, 0, list(cams)) if f[1] < start]
+        found = run_all(frames, truth, cams, config, args.cache, args.tuned_only, calib)
         if args.rendered:
             found['rendered_held_out'] = run_rendered(args.rendered, read_frames)
         if args.rendered_tuning:

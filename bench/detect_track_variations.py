@@ -233,10 +233,20 @@ def score(out: list[PixelFrame], truth: dict[str, Any], cams: dict[str, CameraMo
             'sq3d_right': float(np.sum(np.square(d3_right))), 'n3d_right': len(d3_right)}
 
 
-def offline(frames: Frames, cams: dict[str, CameraModel], config: StereoTrackConfig,
-            ) -> list[PixelFrame]:
-    """The offline path (one tracker for both cameras, the publication delay)."""
+def calibrated(cams: dict[str, CameraModel], config: StereoTrackConfig,
+               calib: Frames | None) -> StereoMarkerTracker:
+    """A tracker given the frames the calibration was made on (the bag's board segment, as
+    recorded: the shake's anchor, ``StereoMarkerTracker.add_reference``)."""
     tracker = StereoMarkerTracker(cams, config)
+    for cam, _, data in calib or []:
+        tracker.add_reference(cam, data)
+    return tracker
+
+
+def offline(frames: Frames, cams: dict[str, CameraModel], config: StereoTrackConfig,
+            calib: Frames | None = None) -> list[PixelFrame]:
+    """The offline path (one tracker for both cameras, the publication delay)."""
+    tracker = calibrated(cams, config, calib)
     out: list[PixelFrame] = []
     for cam, stamp, data in frames:
         tracker.update(cam, stamp * 1e-9, data)
@@ -245,7 +255,7 @@ def offline(frames: Frames, cams: dict[str, CameraModel], config: StereoTrackCon
 
 
 def lossless_graph(frames: Frames, cams: dict[str, CameraModel], config: StereoTrackConfig,
-                   front_first: bool) -> list[PixelFrame]:
+                   front_first: bool, calib: Frames | None = None) -> list[PixelFrame]:
     """What the detector nodes publish playing a bag (``lossless``): each tracks both cameras
     in stamp order (``StampMerge``) and gives out its own camera's frames; the images arrive
     in stamp order, or every front image before the first side image (``front_first``)."""
@@ -254,7 +264,7 @@ def lossless_graph(frames: Frames, cams: dict[str, CameraModel], config: StereoT
         else sorted(frames, key=lambda f: f[1])
     out: list[PixelFrame] = []
     for own in names:
-        tracker = StereoMarkerTracker(cams, config)
+        tracker = calibrated(cams, config, calib)
         merge: StampMerge[bytes] = StampMerge(names)
         mine: list[PixelFrame] = []
         for cam, stamp, data in order:
@@ -269,11 +279,11 @@ def lossless_graph(frames: Frames, cams: dict[str, CameraModel], config: StereoT
 
 
 def live_nodes(frames: Frames, cams: dict[str, CameraModel], config: StereoTrackConfig,
-               lag: int) -> list[PixelFrame]:
+               lag: int, calib: Frames | None = None) -> list[PixelFrame]:
     """The detector nodes live (not ``lossless``): one tracker per camera, each hearing the
     other's numbered points ``lag`` frames of the other camera late (0: at once)."""
     names = list(cams)
-    cores = {c: StereoMarkerTracker(cams, config) for c in names}
+    cores = {c: calibrated(cams, config, calib) for c in names}
     waiting: dict[str, list[PixelFrame]] = {c: [] for c in names}
     out = []
     for cam, stamp, data in sorted(frames, key=lambda f: f[1]):
@@ -297,29 +307,33 @@ def same(a: list[PixelFrame], b: list[PixelFrame]) -> bool:
 
 
 def run_variation(frames: Frames, truth: dict[str, Any], cams: dict[str, CameraModel],
-                  config: StereoTrackConfig, cond: Condition, cache: Path) -> dict[str, Any]:
-    """One variation's figures (raw sums kept for the summaries)."""
+                  config: StereoTrackConfig, cond: Condition, cache: Path,
+                  calib: Frames | None = None) -> dict[str, Any]:
+    """One variation's figures (raw sums kept for the summaries). ``calib``: the frames the
+    calibration was made on, as recorded (the condition varies the pass's frames: the camera
+    shakes, the light changes after the calibration)."""
     varied, moved = vary(frames, truth, cond, cache)
     config = with_exposure(config, 1e-3 * cond.shutter_ms)
     return {'variation': cond.name, 'held_out': cond.held_out,
-            **figures(varied, moved, cams, config), 'condition': asdict(cond)}
+            **figures(varied, moved, cams, config, calib), 'condition': asdict(cond)}
 
 
 def figures(frames: Frames, truth: dict[str, Any], cams: dict[str, CameraModel],
-            config: StereoTrackConfig) -> dict[str, Any]:
+            config: StereoTrackConfig, calib: Frames | None = None) -> dict[str, Any]:
     """A recording's figures: scores, speed, and whether the offline path, the lossless graph
-    and the live nodes agree."""
+    and the live nodes agree (each given the calibration's frames ``calib`` first)."""
     t0, c0 = time.perf_counter(), time.process_time()
-    out = offline(frames, cams, config)
+    out = offline(frames, cams, config, calib)
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     c1 = time.process_time()
-    again = offline(frames, cams, config)
+    again = offline(frames, cams, config, calib)
     warm = time.process_time() - c1
     s = score(out, truth, cams)
     by_stamp = sorted(out, key=lambda f: f.stamp_s)
-    graph = all(same(lossless_graph(frames, cams, config, first), by_stamp)
+    graph = all(same(lossless_graph(frames, cams, config, first, calib), by_stamp)
                 for first in (False, True))
-    live = same(live_nodes(frames, cams, config, 0), live_nodes(frames, cams, config, 1))
+    live = same(live_nodes(frames, cams, config, 0, calib),
+                live_nodes(frames, cams, config, 1, calib))
     return {**summary([s]), 'fps': len(frames) / wall,
             'cpu_ms_per_frame': 1e3 * cpu / len(frames),
             'fps_two_free_cores': 2 * len(frames) / cpu,
@@ -342,14 +356,16 @@ def run_rendered(bags: list[Path], read: Any, held_out: bool = True) -> dict[str
     for bag in bags:
         truth = _json.loads(bag.with_name(bag.name + '.truth.json').read_text())
         cams = {c['name']: CameraModel.from_dict(c) for c in truth['cameras']}
-        frames = read(bag, truth['calibration_segment']['field_start_ns'], list(cams))
+        start = truth['calibration_segment']['field_start_ns']
+        frames = read(bag, start, list(cams))
+        calib = [f for f in read(bag, 0, list(cams)) if f[1] < start]
         grid = MarkerGrid(layout_m=tuple(tuple(p) for p in truth['marker_grid_m']))
         row = {'variation': bag.name, 'held_out': held_out, 'rendered': True,
                'look': truth['config']['look'], 'jpeg_quality': truth['config']['jpeg_quality'],
                **figures(frames, truth, cams,
                          with_floor(with_rules(with_tool_speed(with_clay(with_exposure(
                              StereoTrackConfig(grid=grid), look_exposure(truth)),
-                             truth), truth))))}
+                             truth), truth))), calib)}
         rows.append(row)
         print(json.dumps({k: v for k, v in row.items() if k != 'raw'}), flush=True)
     return {**summary([r['raw'] for r in rows]),
@@ -382,14 +398,14 @@ def summary(scores: list[dict[str, Any]]) -> dict[str, Any]:
 
 def run_all(frames: Frames, truth: dict[str, Any], cams: dict[str, CameraModel],
             config: StereoTrackConfig, cache: Path, tuned_only: bool = False,
-            ) -> dict[str, Any]:
+            calib: Frames | None = None) -> dict[str, Any]:
     """Every variation (one JSON line each, the held-out ones first), then the held-out and
     tuned summaries; the held-out variations no decision has seen yet (``FRESH_PREFIX``) are
     also pooled apart. ``tuned_only``: the tuned variations alone (what a change is tuned on)."""
     rows = []
     pool = [c for c in VARIATIONS if not (tuned_only and c.held_out)]
     for cond in sorted(pool, key=lambda c: not c.held_out):  # the held-out set first
-        row = run_variation(frames, truth, cams, config, cond, cache)
+        row = run_variation(frames, truth, cams, config, cond, cache, calib)
         rows.append(row)
         print(json.dumps({k: v for k, v in row.items() if k not in ('raw', 'condition')}),
               flush=True)

@@ -59,6 +59,18 @@ class StereoTrackConfig:
         shake: estimate each camera's image motion per frame from the parts of the view that
             do not move and move the detections back by it (``shake``) before anything else
             uses them; off: the detections are taken where they are seen.
+        shake_reference: place the shake against the view of the frames the calibration was
+            made on, when given (``StereoMarkerTracker.add_reference``), rather than take its
+            mean over the pass as zero: a pass seen off the calibration as a whole (a camera
+            knocked, or a few frames' shake that does not average out) is corrected too.
+        shake_shrink: as frames are given out, scale each frame's shake about the pass's mean
+            by the share of the shifts' scatter that is not the estimate's own noise (a Wiener
+            gain, :meth:`~dempath_recon.tracking.shake.ShakeEstimator.placed`): a camera that
+            does not shake is not moved by the estimate's noise.
+        shake_align: register each frame twice, its tiles cut again where the reference's
+            content went (whole pixels of the registered image) after the first: the fixed
+            window pulls the estimate toward zero by about 6 % of the shift
+            (:meth:`~dempath_recon.tracking.shake.ShakeEstimator.update`).
         uncover: give each camera's detector the image direction of world up from the
             calibration (``DetectorConfig.up_px``, unless that is set), so a partly covered
             marker's centre is its disc's, not the middle of its visible part
@@ -302,6 +314,9 @@ class StereoTrackConfig:
     number_delay_frames: int = 5
     marker_diameter_m: float = 0.008
     shake: bool = True
+    shake_reference: bool = True
+    shake_shrink: bool = True
+    shake_align: bool = True
     uncover: bool = True
     publish_gate: bool = True
     elimination: bool = True
@@ -423,4 +438,6 @@ class CameraCounts:
     shake_frames: int = 0  # frames whose image moved by more than 0.5 px (corrected)
     shake_max_px: float = 0.0  # largest estimated image shift [px]
     shake_unknown: int = 0  # frames whose image motion could not be estimated (not corrected)
+    view_offset_px: float = 0.0  # the pass's mean image position off the calibration's view
+    # [px] (its frames given: ``StereoMarkerTracker.add_reference``; 0: not measured)
     gaps_s: list[tuple[float, float]] = field(default_factory=list)

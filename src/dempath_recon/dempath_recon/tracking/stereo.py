@@ -99,6 +99,8 @@ __all__ = ['CameraCounts', 'PixelFrame', 'StereoMarkerTracker', 'StereoTrackConf
 LOG = logging.getLogger(__name__)
 FloatArray = NDArray[np.float64]
 
+VIEW_MOVED_PX = 1.0  # a pass whose mean image position is this far off the calibration's
+# view is said to have moved [px] (the shake's own estimate: a few hundredths of a pixel)
 BLIND_FRAMES = 10  # frames of a camera without any marker before it is said once (0.2 s at 50 FPS)
 
 
@@ -117,7 +119,8 @@ class StereoMarkerTracker:
         self.state = StereoState.start(cameras, config or StereoTrackConfig())
         forget_pixels()  # the undistortion memo serves this tracker's frames (not a past run's)
         self.detectors = camera_detectors(cameras, self.state.config)
-        self.shakers = {c: ShakeEstimator() for c in cameras} if self.state.config.shake \
+        self.shakers = {c: ShakeEstimator(self.state.config.shake_align) for c in cameras} \
+            if self.state.config.shake \
             else {}
         self.gate = PublicationGate(cameras, self.state.config.fps) \
             if self.state.config.publish_gate else None
@@ -189,6 +192,23 @@ class StereoMarkerTracker:
                                       self._shake(camera, stamp_s, image,
                                                   detector.config.downscale))
 
+    def add_reference(self, camera: str, jpeg: bytes | NDArray[np.uint8]) -> None:
+        """One of the frames ``camera``'s calibration was made on (before the pass's first
+        frame; ``config.shake_reference``): the shake is placed against their view, so that a
+        pass seen off the calibration as a whole is corrected too."""
+        shaker = self.shakers.get(camera)
+        if shaker is None or not self.config.shake_reference:
+            return
+        try:
+            image = decode_jpeg(jpeg, self.detectors[camera].config.downscale)
+        except ImageDecodeError as err:
+            LOG.warning('%s calibration frame: %s; not used', camera, err)
+            return
+        try:
+            shaker.add_reference(image, self.detectors[camera].config.downscale)
+        except ValueError as err:  # the pass has started: its anchor is set
+            LOG.warning('%s calibration frame: %s; not used', camera, err)
+
     def update_image(self, camera: str, stamp_s: float, image: NDArray[np.uint8]) -> PixelFrame:
         """One decoded BGR frame (full size) of ``camera``."""
         return self.update_detections(camera, stamp_s, self.detectors[camera].detect(image),
@@ -200,7 +220,11 @@ class StereoMarkerTracker:
         shaker, last = self.shakers.get(camera), self.state.last_stamp[camera]
         if shaker is None or (last is not None and stamp_s <= last):  # off, or skipped
             return None
-        return shaker.update(image, full_per_px)
+        shake = shaker.update(image, full_per_px)
+        offset = shaker.view_offset_px
+        if offset is not None:
+            note_view_offset(self.counts[camera], camera, offset)
+        return shake
 
     def update_detections(self, camera: str, stamp_s: float, det: Detections,
                           shake: ShakeEstimate | None = None) -> PixelFrame:
@@ -513,7 +537,7 @@ class StereoMarkerTracker:
         rel = self._relative.get(frame.camera, {}).get(frame.stamp_s)
         if rel is None or frame.shake_px is None:
             return frame
-        now = rel - self.shakers[frame.camera].anchor_px
+        now = self.shakers[frame.camera].placed(rel, self.config.shake_shrink)
         return frame._replace(uv=frame.uv + frame.shake_px - now, shake_px=now)
 
 
@@ -526,6 +550,17 @@ def join_bars(a: dict[int, NDArray[np.bool_]], b: dict[int, NDArray[np.bool_]],
     for tid, bar in b.items():
         out[tid] = bar | out[tid] if tid in out else bar
     return out
+
+
+def note_view_offset(counts: CameraCounts, camera: str, offset_px: FloatArray) -> None:
+    """Keep the pass's mean image position against the calibration's view (a camera moved
+    since it was calibrated), and say it once when it passes ``VIEW_MOVED_PX``."""
+    size = float(np.linalg.norm(offset_px))
+    if size > VIEW_MOVED_PX and counts.view_offset_px <= VIEW_MOVED_PX:
+        LOG.warning('%s: the image sits (%.1f, %.1f) px off the view the calibration was made '
+                    'on (the pass so far): the camera moved since; its points are corrected',
+                    camera, offset_px[0], offset_px[1])
+    counts.view_offset_px = size
 
 
 def note_shake(counts: CameraCounts, camera: str, stamp_s: float, shake: ShakeEstimate | None,
