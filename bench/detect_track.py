@@ -282,13 +282,14 @@ RULE_SWITCHES = (  # (flag, StereoTrackConfig field, help): the numbering rules 
     ('--audit-renumber', 'audit_renumber', 'let the pass audit renumber the stretches it '
      'finds on another marker instead of withholding them (StereoTrackConfig.audit_renumber; '
      'off)'),
-    ('--no-shake-reference', 'shake_reference', 'place the shake by its mean over the pass, '
-     "not against the calibration's frames (StereoTrackConfig.shake_reference; on)"),
+    ('--shake-reference', 'shake_reference', "place the shake against the calibration's "
+     "frames (the bag's board segment), not by its mean over the pass "
+     '(StereoTrackConfig.shake_reference; off by default)'),
     ('--no-shake-shrink', 'shake_shrink', "take each frame's shake as estimated, not scaled "
      "by the share of the pass's scatter that is not the estimate's noise "
      '(StereoTrackConfig.shake_shrink; on)'),
-    ('--no-shake-align', 'shake_align', "register each frame's shake once, its tiles where the "
-     "reference's were (StereoTrackConfig.shake_align; on)"),
+    ('--shake-align', 'shake_align', "register each frame's shake again, its tiles cut where "
+     "the reference's content went (StereoTrackConfig.shake_align; off by default)"),
     ('--no-smooth-paths', 'smooth_paths', "give the numbered centres out as detected, not "
      "smoothed along each marker's image path (StereoTrackConfig.smooth_paths; on)"),
     ('--carried-confirm', 'carried_confirm', 'withhold numbers a 2D track carried over a break '

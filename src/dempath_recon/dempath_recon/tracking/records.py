@@ -63,10 +63,12 @@ class StereoTrackConfig:
             made on, when given (``StereoMarkerTracker.add_reference``), rather than take its
             mean over the pass as zero: a pass seen off the calibration as a whole (a camera
             knocked, or a few frames' shake that does not average out) is corrected too.
-        shake_shrink: as frames are given out, scale each frame's shake about the pass's mean
-            by the share of the shifts' scatter that is not the estimate's own noise (a Wiener
-            gain, :meth:`~dempath_recon.tracking.shake.ShakeEstimator.placed`): a camera that
-            does not shake is not moved by the estimate's noise.
+        shake_shrink: with ``whole_pass``, once the pass is numbered, scale each frame's
+            shake about the pass's mean by the share of the shifts' scatter that is not the
+            estimate's own noise (a Wiener gain,
+            :meth:`~dempath_recon.tracking.shake.ShakeEstimator.placed`): a camera that does
+            not shake is not moved by the estimate's noise; the numbers stay those decided on
+            the shake as estimated.
         shake_align: register each frame twice, its tiles cut again where the reference's
             content went (whole pixels of the registered image) after the first: the fixed
             window pulls the estimate toward zero by about 6 % of the shift
@@ -314,9 +316,9 @@ class StereoTrackConfig:
     number_delay_frames: int = 5
     marker_diameter_m: float = 0.008
     shake: bool = True
-    shake_reference: bool = True
+    shake_reference: bool = False
     shake_shrink: bool = True
-    shake_align: bool = True
+    shake_align: bool = False
     uncover: bool = True
     publish_gate: bool = True
     elimination: bool = True

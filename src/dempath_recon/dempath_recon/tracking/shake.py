@@ -36,8 +36,24 @@ against the true shifts at arrival, 1.0 and 0.8 after a 5-frame delay, 0.7 and 0
 whole pass; the variation's 3D RMS 2.89 -> 2.24 mm). Streaming, one
 camera's frames in order: the same frames give the same corrections whatever the other camera
 does (the lossless node graph equals the offline path). Only a translation: a rotation of the
-image (roll) or a slow drift away from the calibration and back is not modelled, and a drift
-that stays is averaged in.
+image (roll) or a slow drift away from the calibration and back is not modelled.
+
+The pass's mean is only the calibration's view if the shake averages out over the pass: a
+camera knocked since its calibration, or a short pass (``shake_3px``'s 31 frames left 0.7 px
+in one axis, 1.7 of its 2.2 mm), is not. Given the frames the calibration was made on
+(:meth:`ShakeEstimator.add_reference`, ``StereoTrackConfig.shake_reference``), their per-pixel
+median (a board moved between the views leaves it) is the view, and the pass's first
+``ANCHOR_FRAMES`` frames are registered against it too: the view is placed by measurement, and
+:attr:`ShakeEstimator.view_offset_px` says how far the pass sits off it. The pairs' epipolar
+residuals do not replace it: they see one of the four offsets of a camera pair, and that one
+is the one triangulation drops (session 26: on ``shake_3px`` the residual gave that component
+to 0.03 px and the 3D RMS stayed 2.16 mm).
+
+Each frame's estimate carries its own noise (about 0.1 px under noise 6 and JPEG 60, on a
+camera that does not shake at all). With ``StereoTrackConfig.shake_shrink`` a frame's departure
+from the pass's mean is scaled by :attr:`ShakeEstimator.gain`, the share of the departures'
+variance that is not that noise (the Wiener gain of a white signal in white noise), the noise
+measured on each frame by splitting its agreeing tiles in two (``ShakeEstimate.split_px``).
 """
 
 from __future__ import annotations
@@ -104,7 +120,7 @@ class ShakeEstimator:
     # view (``add_reference``); their mean places that view (one registration's error is about
     # 0.1-0.2 px: ten give a few hundredths; the view seen later holds more moved sand)
 
-    def __init__(self, align: bool = True) -> None:
+    def __init__(self, align: bool = False) -> None:
         """Args:
             align: cut the frame's tiles again where the reference's content went (whole
                 small px) after the first registration (:meth:`_measure`).

@@ -460,6 +460,8 @@ class StereoMarkerTracker:
                 state.counts[cam].touch_withheld += n
                 state.counts[cam].touch_swapped += touched.swapped[cam]
         shifts, self._flux_shift = self._flux_shift, {}
+        if state.config.shake_shrink:
+            shifts = self._shrunk_shake(out, shifts)
         moved = None if not shifts else [  # the flux's centres, once every number is given
             f._replace(uv=f.uv + shift) if (shift := shifts.get((f.camera, f.stamp_s)))
             is not None and shift.shape == f.uv.shape else f for f in out]
@@ -480,6 +482,26 @@ class StereoMarkerTracker:
                                state.config.epipolar_px, state.config.fps,
                                sheared=state.config.bed_sheared)
         return self._count_renumbered(out, bed, 'numbered_by_bed')
+
+    def _shrunk_shake(self, frames: list[PixelFrame],
+                      shifts: dict[tuple[str, float], FloatArray],
+                      ) -> dict[tuple[str, float], FloatArray]:
+        """``shifts`` (each frame's points' moves after the numbering, :meth:`_whole_pass`)
+        with each frame's shake scaled about the pass's mean by the share that is not the
+        estimate's noise (``config.shake_shrink``, :meth:`ShakeEstimator.placed`): the
+        numbers, decided on the shake as estimated, stay."""
+        out = dict(shifts)
+        for f in frames:
+            shaker, rel = self.shakers.get(f.camera), self._relative.get(f.camera, {})
+            if shaker is None or f.shake_px is None or f.stamp_s not in rel:
+                continue
+            r = rel[f.stamp_s]
+            step = shaker.placed(r, shrink=False) - shaker.placed(r, shrink=True)
+            key = (f.camera, f.stamp_s)
+            known = out.get(key)
+            out[key] = (known if known is not None and known.shape == f.uv.shape
+                        else np.zeros_like(f.uv)) + step
+        return out
 
     def _count_renumbered(self, before: list[PixelFrame], after: list[PixelFrame],
                           counter: str) -> list[PixelFrame]:
@@ -537,7 +559,7 @@ class StereoMarkerTracker:
         rel = self._relative.get(frame.camera, {}).get(frame.stamp_s)
         if rel is None or frame.shake_px is None:
             return frame
-        now = self.shakers[frame.camera].placed(rel, self.config.shake_shrink)
+        now = self.shakers[frame.camera].placed(rel, shrink=False)
         return frame._replace(uv=frame.uv + frame.shake_px - now, shake_px=now)
 
 
