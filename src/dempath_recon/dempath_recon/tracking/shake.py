@@ -268,14 +268,16 @@ class ShakeEstimator:
         camera knocked by 3 px; on ``shake_3px``, whose shifts are bilinear warps, the error
         that stays follows the shift's fraction of a pixel)."""
         shift: FloatArray = np.zeros(2)
-        agreeing, split = 0, np.full(2, np.nan)
+        agreeing = 0
+        split: FloatArray = np.full(2, np.nan)
         cut: FloatArray = np.zeros(2)  # where the frame's tiles are cut [whole small px]
+        found: FloatArray | None
         cross = _normalised(spectra * ref.conj())
         for k in range(self.PASSES):
-            step, agreeing, split = self._register(cross, shift - cut)
-            if step is None:
+            found, agreeing, split = self._register(cross, shift - cut)
+            if found is None:
                 return None, agreeing, split
-            shift = shift + step
+            shift = shift + found
             if k == 0 and self.align:
                 cut = np.clip(np.round(shift), -self.MARGIN, self.MARGIN)
                 if cut.any():
@@ -290,7 +292,8 @@ class ShakeEstimator:
         ny, nx = small.shape[0] // t, small.shape[1] // t
         if at is not None and at.any():
             m, (du, dv) = self.MARGIN, at.astype(int)
-            padded = cv2.copyMakeBorder(small, m, m, m, m, cv2.BORDER_REFLECT)
+            padded = np.asarray(cv2.copyMakeBorder(small, m, m, m, m, cv2.BORDER_REFLECT),
+                                np.float32)
             small = padded[m + dv:m + dv + ny * t, m + du:m + du + nx * t]
         tiles = small[:ny * t, :nx * t].reshape(ny, t, nx, t).swapaxes(1, 2).reshape(-1, t, t)
         tiles = tiles - tiles.mean(axis=(1, 2), keepdims=True)
