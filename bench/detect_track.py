@@ -277,6 +277,9 @@ RULE_SWITCHES = (  # (flag, StereoTrackConfig field, help): the numbering rules 
     ('--no-flux-share', 'flux_share', "place partly covered markers' published centres by "
      'their centroid mass, not their chroma flux over the local sand '
      '(StereoTrackConfig.flux_share; on)'),
+    ('--contrast-faint', 'contrast_faint', "look beside a numbered track's prediction for a "
+     "faint marker by its contrast to the window's own sand, kept where it shows at least half "
+     'a marker (StereoTrackConfig.contrast_faint; off by default)'),
     ('--no-pass-audit', 'pass_audit', 'give the whole pass out without auditing its numbers '
      "against the markers' 3D paths (StereoTrackConfig.pass_audit; on)"),
     ('--audit-renumber', 'audit_renumber', 'let the pass audit renumber the stretches it '

@@ -37,6 +37,7 @@ studies", J. Colloid Interface Sci. 179 (1996) 298-310.
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cache, partial
 from typing import Any, NamedTuple, Protocol
@@ -74,6 +75,7 @@ from dempath_recon.tracking.colour_model import (
     is_blue,
     lit_peaks,
 )
+from dempath_recon.tracking.contrast_faint import ISOLATION, contrast_spot, whole_excess
 from dempath_recon.tracking.covered import MAX_ELEVATION_DEG, seen_share, uncover
 from dempath_recon.tracking.cut_discs import fit_cut_discs
 from dempath_recon.tracking.cut_discs_kernel import warm as warm_cut_discs
@@ -398,6 +400,7 @@ class DetectorConfig:
     smooth_centres: bool = False
     split_gain: float = GAIN
     flux_share: bool = False
+    contrast_faint: bool = False
 
     def __post_init__(self) -> None:
         checks = {'downscale': self.downscale in (1, 2), 'threshold': 0 < self.threshold < 1,
@@ -501,6 +504,12 @@ class MarkerDetector:
         self._band = band_square(max(self.config.marker_diameter_px,
                                      self.config.min_separation_px) / s) \
             if self.config.band_pass else 0
+        self._diameter = max(self.config.marker_diameter_px,
+                             self.config.min_separation_px) / s  # [detector px]
+        # the faint search's contrast spots (``contrast_faint``): needs the band-pass's square
+        # and a marker size for the share of a whole marker
+        self._contrast = (self.config.contrast_faint and self.config.band_pass
+                          and self.config.marker_diameter_px > 0)
         self._pad = (int(np.ceil(4 * self._sigma)) + self._kernel.shape[0] // 2
                      + 2 * r + 4 + self._band // 2)
         # the up direction the split's discs are cut along (low views only, as ``covered``)
@@ -537,8 +546,9 @@ class MarkerDetector:
         low = min(self.config.faint_threshold, thr)
         if low <= 0:
             return found
+        whole = cache(partial(self._whole_excess, image, axis, found.uv))
         return found._replace(faint=partial(self._faint, image, low, (frame_floor, axis),
-                                            found.uv))
+                                            found.uv, whole=whole))
 
     def _dim_spots(self, image: NDArray[np.uint8], found: Detections, floor: float,
                    axis: NDArray[np.float32]) -> Detections:
@@ -781,7 +791,8 @@ class MarkerDetector:
     def _faint(self, image: NDArray[np.uint8], low: float,
                colour: tuple[float, NDArray[np.float32]], strong: FloatArray,
                points: FloatArray, radius_px: float,
-               steps: FloatArray | None = None) -> FloatArray:
+               steps: FloatArray | None = None, *,
+               whole: Callable[[], float] | None = None) -> FloatArray:
         """(k, 2) full-size centre of the strongest spot above ``low`` (the chroma of the
         frame's ``colour``: its floor [DN] and axis (3,)) (or of the streak along
         ``steps`` (k, 2) [full-size px] where one is at least ``STREAK_MIN_PX`` long) within
@@ -808,18 +819,54 @@ class MarkerDetector:
             if x1 - x0 < 3 or y1 - y0 < 3:
                 continue
             window = np.ascontiguousarray(image[y0:y1, x0:x1])
-            if not streak:
-                out[k] = self._faint_spot(chroma(window, floor, axis), (x0, y0), q,
-                                          reach, low, strong)
+            corner = np.array([x0, y0], np.float64)
+            c = chroma(window, floor, axis) if not streak else None
+            if c is not None:
+                out[k] = self._faint_spot(c, (x0, y0), q, reach, low, strong)
             if streak or (self.config.local_bar and not np.isfinite(out[k]).all()
                           and dim(window)):
                 c = chroma(window, DARK_SUM_DN, axis)
                 if self.config.floor_sand:
                     c = np.maximum(c, np.float32(FILTER_FLOOR))
-                corner = np.array([x0, y0], np.float64)
                 out[k] = self._own(corner + find_streak(c, q - corner, moves[k] / s, self._sigma,
                                                         reach, self._radius), strong)
+            elif (c is not None and whole is not None and self._contrast
+                  and not np.isfinite(out[k]).all()
+                  and self._isolated(p, strong, ISOLATION * self._diameter * s - radius_px)):
+                out[k] = self._own(corner + contrast_spot(
+                    np.maximum(c, np.float32(FILTER_FLOOR)), q - corner,
+                    (strong + 0.5) / s - 0.5 - corner, whole, sigma=self._sigma, reach=reach,
+                    radius=self._radius, diameter=self._diameter), strong)
         return out
+
+    @staticmethod
+    def _isolated(point: FloatArray, strong: FloatArray, distance: float) -> bool:
+        """Whether ``point`` (2,) [full-size px] lies farther than ``distance`` [full-size px]
+        from every one of the frame's spots ``strong`` (n, 2) [px] (a contrast spot within
+        the gate of it could lie farther than ``ISOLATION`` diameters from them all)."""
+        return not len(strong) or bool(np.hypot(*(strong - point).T).min() > distance)
+
+    def _whole_excess(self, image: NDArray[np.uint8], axis: NDArray[np.float32],
+                      strong: FloatArray) -> float:
+        """A whole marker's excess chroma in ``image`` (at the detector's scale) on ``axis``
+        (3,): :func:`~dempath_recon.tracking.contrast_faint.whole_excess` of the frame's spots
+        ``strong`` (n, 2) [full-size px], each measured in a window of its own (the chroma
+        floored at ``MIN_SUM_DN`` and the sand, as the faint spot is)."""
+        s = self.config.downscale
+        half = self._band // 2 + int(np.ceil(MASS_REACH * self._diameter)) + 2
+        h, w = image.shape[:2]
+        masses = np.full(len(strong), np.nan)
+        for k, p in enumerate(np.asarray(strong, np.float64).reshape(-1, 2)):
+            q = np.rint((p + 0.5) / s - 0.5).astype(np.intp)
+            x0, y0 = max(int(q[0]) - half, 0), max(int(q[1]) - half, 0)
+            x1, y1 = min(int(q[0]) + half + 1, w), min(int(q[1]) + half + 1, h)
+            if not (x0 <= q[0] < x1 and y0 <= q[1] < y1):
+                continue
+            part = np.maximum(chroma(np.ascontiguousarray(image[y0:y1, x0:x1]), MIN_SUM_DN,
+                                     axis), np.float32(FILTER_FLOOR))
+            masses[k] = excess_mass(part, np.array([q[1] - y0]), np.array([q[0] - x0]),
+                                    self._band, MASS_REACH * self._diameter)[0]
+        return whole_excess(masses)
 
     def _faint_spot(self, c: NDArray[np.float32], corner: tuple[int, int], q: FloatArray,
                     reach: float, low: float, strong: FloatArray) -> FloatArray:

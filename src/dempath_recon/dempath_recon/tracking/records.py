@@ -351,6 +351,7 @@ class StereoTrackConfig:
     touch_swap: bool = True
     smooth_paths: bool = True
     ray_rivals: bool = True
+    contrast_faint: bool = False
 
     def __post_init__(self) -> None:
         for name in ('fps', 'epipolar_px', 'grid_gate_px', 'position_gate_m',
