@@ -277,6 +277,8 @@ RULE_SWITCHES = (  # (flag, StereoTrackConfig field, help): the numbering rules 
     ('--no-flux-share', 'flux_share', "place partly covered markers' published centres by "
      'their centroid mass, not their chroma flux over the local sand '
      '(StereoTrackConfig.flux_share; on)'),
+    ('--band-adds-only', 'band_adds_only', 'keep every spot the fixed rule passes, the '
+     'band-pass only adding spots (StereoTrackConfig.band_adds_only; off by default)'),
     ('--contrast-faint', 'contrast_faint', "look beside a numbered track's prediction for a "
      "faint marker by its contrast to the window's own sand, kept where it shows at least half "
      'a marker (StereoTrackConfig.contrast_faint; off by default)'),

@@ -375,6 +375,23 @@ class DetectorConfig:
             chroma above the core level, which drops the blurred rim), as the change it makes
             (``Detections.flux_shift``); ``centre`` stays the mass's. Needs ``up_px``.
             False: not given.
+        band_adds_only: with ``band_pass``, a local maximum the fixed rule passes (the
+            filter alone over half the threshold) is kept whatever its band-passed value: the
+            band-pass adds spots, never takes one of the fixed rule's away. Bunched markers
+            raise each other's local background (the square of ``band_pass.BAND_WIDTH``
+            diameters holds their clay), and a half-covered one beside them fell under
+            ``BAND_THRESHOLD`` where the fixed rule kept it (a grey-sand look, another clay:
+            filtered 0.15-0.17, band-passed 0.12-0.14, a neighbour one diameter away). False:
+            the band-pass's bar for every spot (as in session 24).
+        contrast_faint: the faint search beside a numbered track's prediction, in a window in
+            normal light where the fixed bars found nothing, finds a marker by its contrast to
+            the window's own sand (a constant false-alarm bar on the matched filter, as
+            ``local_bar`` in a dim window), kept only farther than ``contrast_faint.
+            ISOLATION`` diameters from the frame's spots and showing ``contrast_faint.
+            FAINT_SHARE`` of a whole marker's excess chroma
+            (:mod:`~dempath_recon.tracking.contrast_faint`): JPEG and noise flatten a marker
+            under any absolute bar, not its contrast to the sand around it. Needs
+            ``band_pass`` and ``marker_diameter_px``. False: the fixed bars only there.
     """
 
     downscale: int = 2
@@ -400,6 +417,7 @@ class DetectorConfig:
     smooth_centres: bool = False
     split_gain: float = GAIN
     flux_share: bool = False
+    band_adds_only: bool = False
     contrast_faint: bool = False
 
     def __post_init__(self) -> None:
@@ -778,7 +796,8 @@ class MarkerDetector:
             peak[group] = local[group] >= neighbourhood_max(smooth, r - y0, q - x0, self._reach)
         if band:
             fixed = alone > 0.5 * thr
-            peak &= local > BAND_THRESHOLD
+            passed = local > BAND_THRESHOLD
+            peak &= passed | fixed if self.config.band_adds_only else passed
         else:
             fixed = np.ones(len(cand), np.bool_)
             peak &= local > 0.5 * thr

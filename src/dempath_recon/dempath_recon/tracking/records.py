@@ -300,6 +300,18 @@ class StereoTrackConfig:
             points 55 -> 55, numbered right 84.93 -> 84.83 %, no look with a switch added;
             the held-apart seed 367 and the tuned variations unchanged: docs/figures.md).
             False: the image grid's number.
+        band_adds_only: each camera's detector keeps every spot its fixed rule passes, the
+            band-pass only adding spots (``DetectorConfig.band_adds_only``, which this sets):
+            bunched markers raise each other's local background, and a half-covered one beside
+            them fell under the band-pass's bar (session 26, detect26: docs/figures.md).
+            False: the band-pass's bar for every spot.
+        contrast_faint: each camera's detector looks beside a numbered track's prediction,
+            in normal light, for a faint marker by its contrast to the window's own sand, kept
+            where it lies apart from the frame's spots and shows a share of a whole marker
+            (``DetectorConfig.contrast_faint``, which this sets;
+            :mod:`~dempath_recon.tracking.contrast_faint`): JPEG and noise flatten a marker
+            under the faint search's absolute bars (session 26, detect26: docs/figures.md).
+            False: the absolute bars only.
     """
 
     detector: DetectorConfig = field(default_factory=DetectorConfig)
@@ -351,6 +363,7 @@ class StereoTrackConfig:
     touch_swap: bool = True
     smooth_paths: bool = True
     ray_rivals: bool = True
+    band_adds_only: bool = False
     contrast_faint: bool = False
 
     def __post_init__(self) -> None:

@@ -687,7 +687,8 @@ def camera_detectors(cameras: dict[str, Camera], config: StereoTrackConfig,
     band-pass, the smoothed centres and the flux's seen share as ``config.band_pass``,
     ``config.smooth_centres`` and ``config.flux_share`` say, and the splitting's gain
     ``split.EAGER_GAIN`` where ``config.eager_split`` says so (unless the detector's settings
-    give another)."""
+    give another), and the band-pass adding spots only and the faint search's contrast spots
+    where ``config.band_adds_only`` and ``config.contrast_faint`` say so."""
     out = {}
     for name, cam in cameras.items():
         det = config.detector
@@ -699,6 +700,8 @@ def camera_detectors(cameras: dict[str, Camera], config: StereoTrackConfig,
                           flux_share=config.flux_share)
         if config.contrast_faint and not det.contrast_faint:
             det = replace(det, contrast_faint=True)
+        if config.band_adds_only and not det.band_adds_only:
+            det = replace(det, band_adds_only=True)
         if config.eager_split and det.split_gain == GAIN:
             det = replace(det, split_gain=EAGER_GAIN)
         if det.marker_diameter_px == 0 and config.marker_diameter_m > 0:
