@@ -32,12 +32,13 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+import cv2
 import numpy as np
 from numpy.typing import NDArray
 
 from dempath_recon.tracking.band_pass import MASS_REACH, band_square, excess_mass
 from dempath_recon.tracking.covered import MIN_SPOTS, WHOLE_QUANTILE
-from dempath_recon.tracking.streak import find_streak
+from dempath_recon.tracking.streak import CENTROID_ITERATIONS, STREAK_MIN_CONTRAST, STREAK_NOISE_K
 
 FloatArray = NDArray[np.float64]
 FAINT_SHARE = 0.25  # least share of a whole marker's excess chroma a contrast spot shows [-]:
@@ -80,7 +81,7 @@ def contrast_spot(part: NDArray[np.float32], centre: FloatArray, others: FloatAr
         radius: the centroid's capsule [px] (the detector's centroid window).
         diameter: a marker's image diameter [px].
     """
-    spot = find_streak(part, np.asarray(centre, np.float64), np.zeros(2), sigma, reach, radius)
+    spot = contrast_peak(part, np.asarray(centre, np.float64), sigma, reach, radius)
     if not np.isfinite(spot).all() or np.hypot(*(spot - centre)) > reach:
         return np.full(2, np.nan)  # none, or its centroid drew off the gate: another's spot
     others = np.asarray(others, np.float64).reshape(-1, 2)
@@ -95,3 +96,60 @@ def contrast_spot(part: NDArray[np.float32], centre: FloatArray, others: FloatAr
         return np.full(2, np.nan)
     return spot if mass >= FAINT_SHARE * reference else np.full(2, np.nan)
 
+
+
+def contrast_peak(part: NDArray[np.float32], centre: FloatArray, sigma: float, reach: float,
+                  radius: float) -> FloatArray:
+    """(2,) the centre [window px] of the spot whose matched-filter peak lies within ``reach``
+    [px] of ``centre`` (2,) [window px] in the chroma window ``part`` (h, w) and exceeds the
+    window's sand (its median) by ``STREAK_NOISE_K`` robust standard deviations of the filtered
+    window and ``STREAK_MIN_CONTRAST`` at least (both from every other pixel of every other
+    row); NaN where none.
+
+    The bar and the centre are :func:`~dempath_recon.tracking.streak.find_streak`'s with no
+    motion (the weighted centroid of the chroma above half the peak's contrast, in a disc of
+    ``radius`` [px] about it, iterated): that function sweeps a kernel it builds per call and
+    weighs the whole window at each step (0.85 ms a call), where a marker's disc needs a
+    Gaussian and a few pixels (0.1 ms).
+    """
+    resp = np.asarray(cv2.GaussianBlur(part, (0, 0), sigma, borderType=cv2.BORDER_REPLICATE),
+                      np.float32)
+    h, w = part.shape
+    r = int(np.ceil(reach))
+    x0, y0 = max(int(np.floor(centre[0])) - r, 0), max(int(np.floor(centre[1])) - r, 0)
+    x1, y1 = min(int(np.ceil(centre[0])) + r + 1, w), min(int(np.ceil(centre[1])) + r + 1, h)
+    if x1 <= x0 or y1 <= y0:
+        return np.full(2, np.nan)
+    yy, xx = np.mgrid[y0:y1, x0:x1]
+    near = np.hypot(xx - centre[0], yy - centre[1]) <= reach
+    if not near.any():
+        return np.full(2, np.nan)
+    best = np.where(near, resp[y0:y1, x0:x1], -np.inf)
+    iy, ix = np.unravel_index(int(np.argmax(best)), best.shape)
+    peak = float(best[iy, ix])
+    # the window's sand and noise from every other pixel of every other row (the filtered
+    # values are correlated over the Gaussian's sigma: a quarter of them say as much, at a
+    # quarter of the medians' cost)
+    sand = float(np.median(part[::2, ::2]))
+    sample = resp[::2, ::2]
+    spread = 1.4826 * float(np.median(np.abs(sample - np.median(sample))))
+    if peak <= sand + max(STREAK_MIN_CONTRAST, STREAK_NOISE_K * spread):
+        return np.full(2, np.nan)
+    base = sand + 0.5 * (peak - sand)  # the spot's core: above half its contrast
+    spot = np.array([x0 + ix, y0 + iy], np.float64)
+    q = int(np.ceil(radius)) + 1
+    for _ in range(CENTROID_ITERATIONS):
+        cx, cy = int(np.rint(spot[0])), int(np.rint(spot[1]))
+        bx0, by0 = max(cx - q, 0), max(cy - q, 0)
+        gy, gx = np.mgrid[by0:min(cy + q + 1, h), bx0:min(cx + q + 1, w)]
+        inside = np.hypot(gx - spot[0], gy - spot[1]) <= radius
+        weight = np.where(inside, np.maximum(part[gy, gx] - base, 0.0), 0.0)
+        total = float(weight.sum())
+        if total <= 0:
+            return np.full(2, np.nan)
+        new = np.array([(weight * gx).sum() / total, (weight * gy).sum() / total])
+        moved = float(np.abs(new - spot).sum())
+        spot = new
+        if moved < 0.01:
+            break
+    return spot

@@ -869,23 +869,22 @@ class MarkerDetector:
                       strong: FloatArray) -> float:
         """A whole marker's excess chroma in ``image`` (at the detector's scale) on ``axis``
         (3,): :func:`~dempath_recon.tracking.contrast_faint.whole_excess` of the frame's spots
-        ``strong`` (n, 2) [full-size px], each measured in a window of its own (the chroma
-        floored at ``MIN_SUM_DN`` and the sand, as the faint spot is)."""
+        ``strong`` (n, 2) [full-size px], measured on the chroma (floored at ``MIN_SUM_DN``
+        and the sand, as the faint spot's) of the box around them all, in one call."""
         s = self.config.downscale
-        half = self._band // 2 + int(np.ceil(MASS_REACH * self._diameter)) + 2
+        pts = np.rint((np.asarray(strong, np.float64).reshape(-1, 2) + 0.5) / s - 0.5)
         h, w = image.shape[:2]
-        masses = np.full(len(strong), np.nan)
-        for k, p in enumerate(np.asarray(strong, np.float64).reshape(-1, 2)):
-            q = np.rint((p + 0.5) / s - 0.5).astype(np.intp)
-            x0, y0 = max(int(q[0]) - half, 0), max(int(q[1]) - half, 0)
-            x1, y1 = min(int(q[0]) + half + 1, w), min(int(q[1]) + half + 1, h)
-            if not (x0 <= q[0] < x1 and y0 <= q[1] < y1):
-                continue
-            part = np.maximum(chroma(np.ascontiguousarray(image[y0:y1, x0:x1]), MIN_SUM_DN,
-                                     axis), np.float32(FILTER_FLOOR))
-            masses[k] = excess_mass(part, np.array([q[1] - y0]), np.array([q[0] - x0]),
-                                    self._band, MASS_REACH * self._diameter)[0]
-        return whole_excess(masses)
+        pts = pts[(pts[:, 0] >= 0) & (pts[:, 0] < w) & (pts[:, 1] >= 0) & (pts[:, 1] < h)]
+        if not len(pts):
+            return float('nan')
+        half = self._band // 2 + int(np.ceil(MASS_REACH * self._diameter)) + 2
+        x0, y0 = max(int(pts[:, 0].min()) - half, 0), max(int(pts[:, 1].min()) - half, 0)
+        x1, y1 = min(int(pts[:, 0].max()) + half + 1, w), min(int(pts[:, 1].max()) + half + 1, h)
+        part = np.maximum(chroma(np.ascontiguousarray(image[y0:y1, x0:x1]), MIN_SUM_DN, axis),
+                          np.float32(FILTER_FLOOR))
+        cells = pts.astype(np.intp) - np.array([x0, y0], np.intp)
+        return whole_excess(excess_mass(part, cells[:, 1], cells[:, 0], self._band,
+                                        MASS_REACH * self._diameter))
 
     def _faint_spot(self, c: NDArray[np.float32], corner: tuple[int, int], q: FloatArray,
                     reach: float, low: float, strong: FloatArray) -> FloatArray:
