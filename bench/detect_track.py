@@ -279,9 +279,9 @@ RULE_SWITCHES = (  # (flag, StereoTrackConfig field, help): the numbering rules 
      '(StereoTrackConfig.flux_share; on)'),
     ('--band-adds-only', 'band_adds_only', 'keep every spot the fixed rule passes, the '
      'band-pass only adding spots (StereoTrackConfig.band_adds_only; off by default)'),
-    ('--contrast-faint', 'contrast_faint', "look beside a numbered track's prediction for a "
-     "faint marker by its contrast to the window's own sand, kept where it shows at least half "
-     'a marker (StereoTrackConfig.contrast_faint; off by default)'),
+    ('--no-contrast-faint', 'contrast_faint', "do not look beside a numbered track's "
+     "prediction for a faint marker by its contrast to the window's own sand "
+     '(StereoTrackConfig.contrast_faint; on by default)'),
     ('--no-pass-audit', 'pass_audit', 'give the whole pass out without auditing its numbers '
      "against the markers' 3D paths (StereoTrackConfig.pass_audit; on)"),
     ('--audit-renumber', 'audit_renumber', 'let the pass audit renumber the stretches it '

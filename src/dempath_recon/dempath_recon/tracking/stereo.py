@@ -698,10 +698,10 @@ def camera_detectors(cameras: dict[str, Camera], config: StereoTrackConfig,
                 config.band_pass, config.smooth_centres, config.flux_share):
             det = replace(det, band_pass=config.band_pass, smooth_centres=config.smooth_centres,
                           flux_share=config.flux_share)
-        if config.contrast_faint and not det.contrast_faint:
-            det = replace(det, contrast_faint=True)
-        if config.band_adds_only and not det.band_adds_only:
-            det = replace(det, band_adds_only=True)
+        if (det.contrast_faint, det.band_adds_only) != (config.contrast_faint,
+                                                        config.band_adds_only):
+            det = replace(det, contrast_faint=config.contrast_faint,
+                          band_adds_only=config.band_adds_only)
         if config.eager_split and det.split_gain == GAIN:
             det = replace(det, split_gain=EAGER_GAIN)
         if det.marker_diameter_px == 0 and config.marker_diameter_m > 0:
