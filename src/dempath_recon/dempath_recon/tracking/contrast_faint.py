@@ -37,6 +37,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dempath_recon.tracking.band_pass import MASS_REACH, band_square, excess_mass
+from dempath_recon.tracking.centroid_kernel import refine_centroids
 from dempath_recon.tracking.covered import MIN_SPOTS, WHOLE_QUANTILE
 from dempath_recon.tracking.streak import CENTROID_ITERATIONS, STREAK_MIN_CONTRAST, STREAK_NOISE_K
 
@@ -108,9 +109,10 @@ def contrast_peak(part: NDArray[np.float32], centre: FloatArray, sigma: float, r
 
     The bar and the centre are :func:`~dempath_recon.tracking.streak.find_streak`'s with no
     motion (the weighted centroid of the chroma above half the peak's contrast, in a disc of
-    ``radius`` [px] about it, iterated): that function sweeps a kernel it builds per call and
-    weighs the whole window at each step (0.85 ms a call), where a marker's disc needs a
-    Gaussian and a few pixels (0.1 ms).
+    ``radius`` [px] about it, iterated: the detector's compiled
+    :func:`~dempath_recon.tracking.centroid_kernel.refine_centroids`): that function sweeps a
+    kernel it builds per call and weighs the whole window at each step (0.85 ms a call), where
+    a marker's disc needs a Gaussian and a few pixels.
     """
     resp = np.asarray(cv2.GaussianBlur(part, (0, 0), sigma, borderType=cv2.BORDER_REPLICATE),
                       np.float32)
@@ -136,20 +138,8 @@ def contrast_peak(part: NDArray[np.float32], centre: FloatArray, sigma: float, r
     if peak <= sand + max(STREAK_MIN_CONTRAST, STREAK_NOISE_K * spread):
         return np.full(2, np.nan)
     base = sand + 0.5 * (peak - sand)  # the spot's core: above half its contrast
-    spot = np.array([x0 + ix, y0 + iy], np.float64)
-    q = int(np.ceil(radius)) + 1
-    for _ in range(CENTROID_ITERATIONS):
-        cx, cy = int(np.rint(spot[0])), int(np.rint(spot[1]))
-        bx0, by0 = max(cx - q, 0), max(cy - q, 0)
-        gy, gx = np.mgrid[by0:min(cy + q + 1, h), bx0:min(cx + q + 1, w)]
-        inside = np.hypot(gx - spot[0], gy - spot[1]) <= radius
-        weight = np.where(inside, np.maximum(part[gy, gx] - base, 0.0), 0.0)
-        total = float(weight.sum())
-        if total <= 0:
-            return np.full(2, np.nan)
-        new = np.array([(weight * gx).sum() / total, (weight * gy).sum() / total])
-        moved = float(np.abs(new - spot).sum())
-        spot = new
-        if moved < 0.01:
-            break
-    return spot
+    out, size, mass = np.zeros((1, 2)), np.zeros(1), np.zeros(1)
+    refine_centroids(np.ascontiguousarray(part, np.float32), np.array([y0 + iy], np.intp),
+                     np.array([x0 + ix], np.intp), float(radius), int(np.ceil(radius)) + 1,
+                     base, CENTROID_ITERATIONS, 0.01, out, size, mass)
+    return np.asarray(out[0], np.float64)
