@@ -122,8 +122,9 @@ def contrast_peak(part: NDArray[np.float32], centre: FloatArray, sigma: float, r
     x1, y1 = min(int(np.ceil(centre[0])) + r + 1, w), min(int(np.ceil(centre[1])) + r + 1, h)
     if x1 <= x0 or y1 <= y0:
         return np.full(2, np.nan)
-    yy, xx = np.mgrid[y0:y1, x0:x1]
-    near = np.hypot(xx - centre[0], yy - centre[1]) <= reach
+    dy = np.arange(y0, y1, dtype=np.float64)[:, None] - centre[1]
+    dx = np.arange(x0, x1, dtype=np.float64)[None, :] - centre[0]
+    near = dx * dx + dy * dy <= reach * reach
     if not near.any():
         return np.full(2, np.nan)
     best = np.where(near, resp[y0:y1, x0:x1], -np.inf)
@@ -132,9 +133,9 @@ def contrast_peak(part: NDArray[np.float32], centre: FloatArray, sigma: float, r
     # the window's sand and noise from every other pixel of every other row (the filtered
     # values are correlated over the Gaussian's sigma: a quarter of them say as much, at a
     # quarter of the medians' cost)
-    sand = float(np.median(part[::2, ::2]))
+    sand = _middle(part[::2, ::2])
     sample = resp[::2, ::2]
-    spread = 1.4826 * float(np.median(np.abs(sample - np.median(sample))))
+    spread = 1.4826 * _middle(np.abs(sample - _middle(sample)))
     if peak <= sand + max(STREAK_MIN_CONTRAST, STREAK_NOISE_K * spread):
         return np.full(2, np.nan)
     base = sand + 0.5 * (peak - sand)  # the spot's core: above half its contrast
@@ -143,3 +144,12 @@ def contrast_peak(part: NDArray[np.float32], centre: FloatArray, sigma: float, r
                      np.array([x0 + ix], np.intp), float(radius), int(np.ceil(radius)) + 1,
                      base, CENTROID_ITERATIONS, 0.01, out, size, mass)
     return np.asarray(out[0], np.float64)
+
+
+def _middle(values: NDArray[np.float32]) -> float:
+    """The median of ``values`` (any shape; the upper of the two middle values for an even
+    count) by one partial sort: ``np.median``'s checks cost five times the sort on a few
+    hundred values."""
+    flat = np.ravel(values)
+    k = len(flat) // 2
+    return float(np.partition(flat, k)[k])
