@@ -63,7 +63,9 @@ def test_faults_are_counted(run) -> None:
 
 
 def test_identities_survive_the_faults(run) -> None:
-    """Every numbered point is its own marker, in every frame of both cameras."""
+    """Every numbered point is its own marker, in every frame of both cameras; a point given
+    out unnumbered (a faint spot beside a track, its number withheld until the other camera
+    confirms it: the dirt dims markers 2 and 11 too) lies on a marker."""
     cams, _, truth, frames, _ = run
     for f in frames:
         if not len(f.uv):
@@ -71,6 +73,9 @@ def test_identities_survive_the_faults(run) -> None:
         k = round((f.stamp_s - (0.002 if f.camera == 'cam_front' else 0)) / DT)
         uv = cams[f.camera].project(truth[k])
         for m, p in zip(f.markers, f.uv, strict=True):
+            if m < 0:
+                assert np.linalg.norm(uv - p, axis=1).min() < 1.5, (f.camera, k, p)
+                continue
             assert m > 0, f
             assert np.linalg.norm(p - uv[m - 1]) < 1.5, (f.camera, k, m)
 

@@ -11,7 +11,8 @@ import dempath_recon.tracking
 ROOM = Path(dempath_recon.tracking.__file__).parent
 # Bottom to top: a module may import the modules before it, never one after it.
 ORDER = ('merge', 'centroid_kernel', 'cut_discs_kernel', 'cut_discs', 'split', 'covered',
-         'seen_flux', 'streak', 'band_pass', 'colour_model', 'shaded', 'detect', 'shake',
+         'seen_flux', 'streak', 'band_pass', 'contrast_faint', 'colour_model', 'shaded',
+         'detect', 'shake',
          'linker', 'two_view_kernel', 'associate', 'speed_bound', 'grid_pairs', 'pair_anchor',
          'half_ghost',
          'records', 'release',

@@ -7,7 +7,8 @@ image model of touching, partly covered markers),
 ``split`` (touching markers fitted apart), ``covered`` (partly covered markers' centres),
 ``seen_flux`` (how much of a marker a spot shows), ``streak`` (a smeared marker along its
 motion), ``band_pass`` (a spot's chroma over its local background, and how much of a marker
-its excess chroma says is seen), ``colour_model``
+its excess chroma says is seen), ``contrast_faint`` (a faint marker beside a track's
+prediction found by its contrast to the window's own sand), ``colour_model``
 (the clay's colour axis and the frame's chroma floor), ``detect`` (marker spots in one
 image), ``shake`` (each frame's image motion from the view's fixed parts), ``linker`` (one
 camera's tracks), ``two_view_kernel`` (two views' linear triangulation, compiled),
