@@ -519,12 +519,10 @@ class MarkerDetector:
         self._offsets = (xx, yy)
         # how far the window of a frame's candidates reaches past them [detector px]: the
         # local-maximum filter, the Gaussian, the centroid window and its re-centring
-        # the band-pass's background square [detector px] (0: no band-pass)
-        self._band = band_square(max(self.config.marker_diameter_px,
-                                     self.config.min_separation_px) / s) \
-            if self.config.band_pass else 0
         self._diameter = max(self.config.marker_diameter_px,
                              self.config.min_separation_px) / s  # [detector px]
+        # the band-pass's background square [detector px] (0: no band-pass)
+        self._band = band_square(self._diameter) if self.config.band_pass else 0
         # the faint search's contrast spots (``contrast_faint``): needs the band-pass's square
         # and a marker size for the share of a whole marker
         self._contrast = (self.config.contrast_faint and self.config.band_pass
